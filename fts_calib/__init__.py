@@ -1,0 +1,61 @@
+"""fts-calib: in-situ calibration of six-axis strain-gauge force/torque sensors.
+
+The sensor stays on the robot arm; the arm sweeps its last two joints while a calibration
+tool of known mass hangs on the sensor in three centre-of-mass configurations, and an
+online least-squares estimator recovers the 6x8 calibration matrix C and the offsets D
+(see ``paper.md``: W = C Delta + D, C = C_bar P).
+
+Conventions: SI units; wrenches ``[Fx, Fy, Fz, Mx, My, Mz]`` on the sensor, in the sensor
+frame S; sample axis first.
+"""
+
+from ._version import __version__
+from .calibration import Calibration, Quality, load_calibration, save_calibration
+from .estimator import OffsetEstimate, OnlineEstimator, estimate_offsets, information_rank, jig_calibration
+from .exceptions import (
+    FileFormatError,
+    FrameNotFound,
+    FtsCalibError,
+    FtsCalibWarning,
+    InsufficientExcitation,
+    JointError,
+    RecordingError,
+    ShapeError,
+    StructureError,
+    TrajectoryError,
+)
+from .sensor import WRENCH_AXES, P, c_bar_from_c, c_from_c_bar, project, wrench_from_strain
+from .simsensor import SimulatedSensor
+from .wrench import dynamic_wrench, static_wrench
+
+__all__ = [
+    "Calibration",
+    "FileFormatError",
+    "FrameNotFound",
+    "FtsCalibError",
+    "FtsCalibWarning",
+    "InsufficientExcitation",
+    "JointError",
+    "OffsetEstimate",
+    "OnlineEstimator",
+    "P",
+    "Quality",
+    "RecordingError",
+    "ShapeError",
+    "SimulatedSensor",
+    "StructureError",
+    "TrajectoryError",
+    "WRENCH_AXES",
+    "__version__",
+    "c_bar_from_c",
+    "c_from_c_bar",
+    "dynamic_wrench",
+    "estimate_offsets",
+    "information_rank",
+    "jig_calibration",
+    "load_calibration",
+    "project",
+    "save_calibration",
+    "static_wrench",
+    "wrench_from_strain",
+]

@@ -1,0 +1,41 @@
+"""Shape checks shared by the public functions (sample axis first)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .exceptions import ShapeError
+
+
+def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
+    """Return ``value`` as a float array of shape (N, width) and whether it was one sample.
+
+    Args:
+        value: One sample of shape (width,) or a batch of shape (N, width).
+        width: Number of components of one sample.
+        name: Argument name, for the error message.
+
+    Raises:
+        ShapeError: The shape is neither (width,) nor (N, width).
+    """
+    array = np.asarray(value, dtype=float)
+    if array.ndim == 1 and array.shape[0] == width:
+        return array[None, :], True
+    if array.ndim == 2 and array.shape[1] == width:
+        return array, False
+    raise ShapeError(f"{name}.shape={array.shape} but expected ({width},) or (N, {width})")
+
+
+def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
+    """Return ``value`` as a float array of exactly ``shape``, or raise ShapeError."""
+    array = np.asarray(value, dtype=float)
+    if array.shape != shape:
+        raise ShapeError(f"{name}.shape={array.shape} but expected {shape}")
+    return array
+
+
+def frozen(array: np.ndarray) -> np.ndarray:
+    """Return a read-only float copy of ``array`` (for frozen dataclasses)."""
+    out = np.array(array, dtype=float, copy=True)
+    out.setflags(write=False)
+    return out

@@ -1,0 +1,130 @@
+"""Atomic writes and YAML reading shared by every file kind.
+
+A file is written to a temporary file in the same folder, flushed to disk, then renamed
+over the target: a crash leaves either the old file or the new one, never half a file.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .exceptions import FileFormatError
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then rename).
+
+    Args:
+        path: Destination file; its folder is created when missing.
+        text: Content, written as UTF-8.
+
+    Returns:
+        The destination path.
+    """
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically; see :func:`atomic_write_text`."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+class _FlowDumper(yaml.SafeDumper):
+    """YAML dumper that writes lists of scalars on one line (matrix rows stay readable)."""
+
+
+def _represent_list(dumper: yaml.SafeDumper, data: list) -> yaml.Node:
+    flow = all(not isinstance(item, (list, dict, tuple)) for item in data)
+    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flow)
+
+
+_FlowDumper.add_representer(list, _represent_list)
+
+
+def to_plain(value: Any) -> Any:
+    """Convert numpy arrays and scalars, tuples and mappings into plain YAML-safe types."""
+    if isinstance(value, np.ndarray):
+        return to_plain(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Mapping):
+        return {str(k): to_plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_plain(v) for v in value]
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def dump_yaml(data: Mapping[str, Any]) -> str:
+    """Render a mapping as YAML text, with numeric rows in flow style, keys in given order."""
+    return yaml.dump(to_plain(data), Dumper=_FlowDumper, sort_keys=False, allow_unicode=True, width=120)
+
+
+def load_yaml(path: str | Path) -> dict[str, Any]:
+    """Read a YAML file whose top level is a mapping.
+
+    Raises:
+        FileFormatError: The file is missing, is not valid YAML (the message gives line and
+            column), or its top level is not a mapping.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise FileFormatError(path, None, "file not found") from None
+    except OSError as exc:
+        raise FileFormatError(path, None, f"cannot read: {exc.strerror}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise FileFormatError(path, None, f"not valid YAML{where}: {problem}") from None
+    if not isinstance(data, dict):
+        raise FileFormatError(path, None, f"expected a mapping at the top level, got {type(data).__name__}")
+    return data
+
+
+def require(data: Mapping[str, Any], key: str, path: str | Path, prefix: str = "") -> Any:
+    """Return ``data[key]`` or raise FileFormatError naming the missing field."""
+    if key not in data:
+        raise FileFormatError(path, prefix + key, "missing (required)")
+    return data[key]
+
+
+def read_array(value: Any, shape: tuple[int, ...], path: str | Path, field: str) -> np.ndarray:
+    """Convert a YAML value into a finite float array of exactly ``shape``.
+
+    Raises:
+        FileFormatError: Not numeric, wrong shape (received and expected given), or not finite.
+    """
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise FileFormatError(path, field, f"expected numbers of shape {shape}, got {value!r}") from None
+    if array.shape != shape:
+        raise FileFormatError(path, field, f"shape {array.shape} but expected {shape}")
+    if not np.all(np.isfinite(array)):
+        raise FileFormatError(path, field, "contains NaN or inf")
+    return array

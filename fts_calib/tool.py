@@ -1,0 +1,203 @@
+r"""Calibration tools: configurations of known mass and centre of mass, and their wrench.
+
+A tool file (YAML, ``configs/``) holds ``name``, optional ``gravity`` (magnitude in
+[m/s^2], default 9.81) and ``configurations``: a list of ``{name, mass [kg], com [x, y, z]
+[m, in the sensor frame S], inertia (optional 3x3 about the centre of mass, axes of S,
+[kg m^2])}``.
+
+Identifiability (paper eqs 18-20): one centre of mass gives the estimator rank 4, two
+give 6, and the full rank 7 needs three centres of mass that are not on one line.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._arrays import frozen
+from .exceptions import FileFormatError, FtsCalibError, FtsCalibWarning
+from .fileio import load_yaml, read_array, require
+from .wrench import dynamic_wrench, static_wrench
+
+#: Default magnitude of gravity in [m/s^2].
+STANDARD_GRAVITY = 9.81
+
+
+class UnknownToolConfiguration(FtsCalibError, KeyError):
+    """A tool configuration name is not in the tool file.
+
+    Attributes:
+        name: The name asked for.
+        available: The configuration names of the tool.
+    """
+
+    def __init__(self, name: str, available: Sequence[str]):
+        self.name = name
+        self.available = list(available)
+        super().__init__(name)
+
+    def __str__(self) -> str:
+        return f"tool configuration '{self.name}' is not in the tool file; configurations: {', '.join(self.available)}"
+
+
+@dataclass(frozen=True)
+class ToolConfiguration:
+    """One mounting of the calibration tool.
+
+    Attributes:
+        name: Configuration name (e.g. 'A'), as written in recordings.
+        mass: Mass in [kg], > 0.
+        p_sensor_com: Centre of mass in the sensor frame, in [m]. Shape (3,).
+        inertia_com: Inertia about the centre of mass, axes of S, in [kg m^2]. Shape (3, 3),
+            or None when unknown (then only the static wrench is available).
+    """
+
+    name: str
+    mass: float
+    p_sensor_com: np.ndarray
+    inertia_com: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "p_sensor_com", frozen(self.p_sensor_com))
+        if self.inertia_com is not None:
+            object.__setattr__(self, "inertia_com", frozen(self.inertia_com))
+        if not (math.isfinite(self.mass) and self.mass > 0):
+            raise ValueError(f"configuration '{self.name}': mass={self.mass} kg but expected a finite value > 0")
+
+    def static_wrench(self, g_sensor) -> np.ndarray:
+        """Wrench at rest (eqs 17-18), ``[m g, c x m g]`` in [N, N m].
+
+        Args:
+            g_sensor: Gravity in the sensor frame, [m/s^2]. Shape (3,) or (N, 3).
+
+        Returns:
+            Shape (6,) or (N, 6).
+        """
+        return static_wrench(self.mass, self.p_sensor_com, g_sensor)
+
+    def dynamic_wrench(self, g_sensor, omega_sensor, alpha_sensor, a_sensor) -> np.ndarray:
+        """Wrench of the moving tool (Newton-Euler); see :func:`fts_calib.wrench.dynamic_wrench`.
+
+        Without inertia the tool is treated as a point mass at its centre of mass.
+
+        Args:
+            g_sensor: Gravity in S, [m/s^2]. Shape (3,) or (N, 3).
+            omega_sensor: Angular velocity of S in S, [rad/s]. Shape (3,) or (N, 3).
+            alpha_sensor: Angular acceleration of S in S, [rad/s^2]. Shape (3,) or (N, 3).
+            a_sensor: Classical acceleration of the origin of S in S, [m/s^2]. Shape (3,) or (N, 3).
+        """
+        inertia = np.zeros((3, 3)) if self.inertia_com is None else self.inertia_com
+        return dynamic_wrench(self.mass, self.p_sensor_com, inertia, g_sensor, omega_sensor, alpha_sensor, a_sensor)
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A calibration tool and its configurations.
+
+    Attributes:
+        name: Tool name.
+        gravity: Magnitude of gravity in [m/s^2] where the tool is used.
+        configurations: The configurations, in file order.
+        source: The file it was read from, or None.
+    """
+
+    name: str
+    gravity: float
+    configurations: tuple[ToolConfiguration, ...]
+    source: Path | None = None
+
+    @property
+    def names(self) -> list[str]:
+        """Configuration names, in order."""
+        return [c.name for c in self.configurations]
+
+    def configuration(self, name: str) -> ToolConfiguration:
+        """The configuration called ``name``.
+
+        Raises:
+            UnknownToolConfiguration: No such name; lists the names that exist.
+        """
+        for config in self.configurations:
+            if config.name == name:
+                return config
+        raise UnknownToolConfiguration(name, self.names)
+
+    def com_rank(self) -> int:
+        """Affine rank of the centres of mass: 0 (one point), 1 (on a line) or 2 (a plane or more).
+
+        The estimator's full rank 7 needs 2 (paper eqs 18-20).
+        """
+        coms = np.array([c.p_sensor_com for c in self.configurations])
+        if len(coms) < 2:
+            return 0
+        return int(np.linalg.matrix_rank(coms[1:] - coms[0], tol=1e-6))
+
+
+def _read_configuration(raw: object, index: int, path: Path) -> ToolConfiguration:
+    field = f"configurations[{index}]"
+    if not isinstance(raw, Mapping):
+        raise FileFormatError(path, field, "expected a mapping with name, mass and com")
+    name = require(raw, "name", path, field + ".")
+    mass_raw = require(raw, "mass", path, field + ".")
+    try:
+        mass = float(mass_raw)
+    except (TypeError, ValueError):
+        raise FileFormatError(path, field + ".mass", f"expected a number in kg, got {mass_raw!r}") from None
+    if not (math.isfinite(mass) and mass > 0):
+        raise FileFormatError(path, field + ".mass", f"is {mass} kg but expected a finite value > 0")
+    com = read_array(require(raw, "com", path, field + "."), (3,), path, field + ".com")
+    inertia = None
+    if raw.get("inertia") is not None:
+        inertia = read_array(raw["inertia"], (3, 3), path, field + ".inertia")
+        if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12):
+            raise FileFormatError(path, field + ".inertia", "is not symmetric")
+        eig = np.linalg.eigvalsh(inertia)
+        if eig[0] < 0 or eig[2] > eig[0] + eig[1] + 1e-12:
+            raise FileFormatError(
+                path, field + ".inertia", f"principal moments {eig.round(6).tolist()} kg·m² are not physical (>= 0, triangle inequality)"
+            )
+    return ToolConfiguration(name=str(name), mass=mass, p_sensor_com=com, inertia_com=inertia)
+
+
+def load_tool(path: str | Path) -> Tool:
+    """Read a tool file (see the module docstring).
+
+    Warns (:class:`FtsCalibWarning`) when the centres of mass are collinear: the
+    calibration can then reach rank 6 at most.
+
+    Raises:
+        FileFormatError: A missing field, a non-positive mass, a wrong shape, a duplicate
+            configuration name; the message names the file and the field.
+    """
+    path = Path(path)
+    data = load_yaml(path)
+    name = str(require(data, "name", path))
+    gravity_raw = data.get("gravity", STANDARD_GRAVITY)
+    try:
+        gravity = float(gravity_raw)
+    except (TypeError, ValueError):
+        raise FileFormatError(path, "gravity", f"expected a number in m/s², got {gravity_raw!r}") from None
+    if not (math.isfinite(gravity) and gravity > 0):
+        raise FileFormatError(path, "gravity", f"is {gravity} m/s² but expected a finite value > 0")
+    raw_configs = require(data, "configurations", path)
+    if not isinstance(raw_configs, list) or not raw_configs:
+        raise FileFormatError(path, "configurations", "expected a non-empty list")
+    configs = tuple(_read_configuration(raw, i, path) for i, raw in enumerate(raw_configs))
+    names = [c.name for c in configs]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise FileFormatError(path, "configurations", f"duplicate names {duplicates}")
+    tool = Tool(name=name, gravity=gravity, configurations=configs, source=path)
+    if len(configs) >= 3 and tool.com_rank() < 2:
+        warnings.warn(
+            f"{path}: the centres of mass of {names} are collinear; the calibration can reach rank 6 at most "
+            "(paper eqs 19-20). Move one configuration off the line.",
+            FtsCalibWarning,
+            stacklevel=2,
+        )
+    return tool

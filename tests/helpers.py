@@ -1,0 +1,67 @@
+"""Synthetic ground truth shared by the tests (independent of the code under test)."""
+
+import numpy as np
+
+from .paper import TABLE_1
+
+GRAVITY = 9.81  # [m/s^2]
+
+#: The paper's projection (eq 6), typed again so that the truth does not come from the code under test.
+P_PAPER = np.array(
+    [
+        [0, -1, 0, -1, 0, -1, 0, -1],
+        [0, 0, 1, 0, 0, 0, -1, 0],
+        [1, 0, 0, 0, -1, 0, 0, 0],
+        [1, 0, 1, 0, 1, 0, 1, 0],
+        [0, 0, 0, -1, 0, 0, 0, 1],
+        [0, -1, 0, 0, 0, 1, 0, 0],
+    ],
+    dtype=float,
+)
+
+#: True C_bar: Table 1 of the paper projected (C_bar = Table1 @ pinv(P)).
+C_BAR_TRUE = TABLE_1 @ np.linalg.pinv(P_PAPER)
+
+#: Chosen wrench offsets, [N, N, N, N m, N m, N m].
+D_TRUE = np.array([1.5, -2.0, 0.7, 0.12, -0.08, 0.05])
+
+#: Three non-collinear tool centres of mass in the sensor frame, [m], and the mass, [kg].
+TOOL_MASS = 2.0
+COMS = np.array([[0.12, 0.0, 0.0], [0.08, 0.06, 0.0], [0.08, 0.0, 0.06]])
+
+
+def random_gravity(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Gravity vectors of norm 9.81 in uniformly random directions, shape (n, 3)."""
+    v = rng.standard_normal((n, 3))
+    return GRAVITY * v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def tool_wrench(mass: float, com: np.ndarray, g_sensor: np.ndarray) -> np.ndarray:
+    """Eqs 17-18 written out: F = m g, M = c x F, component by component."""
+    F = mass * g_sensor
+    cx, cy, cz = com
+    M = np.stack([cy * F[:, 2] - cz * F[:, 1], cz * F[:, 0] - cx * F[:, 2], cx * F[:, 1] - cy * F[:, 0]], axis=1)
+    return np.hstack([F, M])
+
+
+def strains_eq22(C_bar: np.ndarray, D: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """Strains from wrenches by eq 22 and the minimum-norm lift Delta = pinv(P) Delta_bar."""
+    bar = np.linalg.solve(C_bar, (W - D).T).T
+    return bar @ np.linalg.pinv(P_PAPER).T
+
+
+def paper_simulation(n_per_config: int, rng: np.random.Generator, noise_std: float = 0.0):
+    """Wrenches and strains of the paper's simulation validation, config after config.
+
+    Returns (W (3n, 6), strains (3n, 8), config index (3n,)).
+    """
+    Ws, Ss, idx = [], [], []
+    for k, com in enumerate(COMS):
+        W = tool_wrench(TOOL_MASS, com, random_gravity(n_per_config, rng))
+        S = strains_eq22(C_BAR_TRUE, D_TRUE, W)
+        if noise_std:
+            S = S + noise_std * rng.standard_normal(S.shape)
+        Ws.append(W)
+        Ss.append(S)
+        idx.append(np.full(n_per_config, k))
+    return np.vstack(Ws), np.vstack(Ss), np.concatenate(idx)

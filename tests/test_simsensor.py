@@ -1,0 +1,67 @@
+"""The simulated sensor and the sensor configuration file."""
+
+import numpy as np
+import pytest
+import yaml
+
+from fts_calib import FileFormatError, SimulatedSensor, project
+from fts_calib.resources import resolve
+from fts_calib.sensor_config import load_sensor_config
+
+from .helpers import C_BAR_TRUE, D_TRUE
+from .paper import TABLE_1
+
+
+def test_noiseless_strains_invert_the_model_exactly(rng):
+    sensor = SimulatedSensor(C_BAR_TRUE, D_TRUE, null_coupling=rng.standard_normal((2, 6)) * 1e-3, null_offset=[0.1, -0.2])
+    W = rng.standard_normal((50, 6)) * 10
+    S = sensor.strains(W)
+    np.testing.assert_allclose(project(S) @ C_BAR_TRUE.T + D_TRUE, W, atol=1e-10)
+
+
+def test_null_content_is_invisible_to_the_model_but_present(rng):
+    plain = SimulatedSensor(C_BAR_TRUE, D_TRUE)
+    coupled = SimulatedSensor(C_BAR_TRUE, D_TRUE, null_offset=[0.1, -0.2])
+    W = rng.standard_normal((5, 6))
+    assert np.max(np.abs(coupled.strains(W) - plain.strains(W))) > 0.05
+    np.testing.assert_allclose(project(coupled.strains(W)), project(plain.strains(W)), atol=1e-12)
+
+
+def test_quantization_step_and_saturation():
+    sensor = SimulatedSensor(C_BAR_TRUE, adc_bits=24, adc_full_scale=1000.0 / 128)
+    assert sensor.lsb == pytest.approx(2 * 1000 / 128 / 2**24)
+    S = sensor.strains(np.array([[20.0, 5, -3, 0.5, 0.2, -0.1], [1e6, 0, 0, 0, 0, 0]]))
+    np.testing.assert_allclose(S[0] / sensor.lsb, np.round(S[0] / sensor.lsb), atol=1e-6)
+    assert np.max(np.abs(S[1])) <= sensor.adc_full_scale
+
+
+def test_noise_has_the_configured_spread(rng):
+    sensor = SimulatedSensor(C_BAR_TRUE, noise_std=np.full(8, 1e-3))
+    S = sensor.strains(np.zeros((20000, 6)), rng=rng)
+    # std of a std estimate from 20000 samples: 1/sqrt(40000) = 0.5%
+    np.testing.assert_allclose(S.std(axis=0), 1e-3, rtol=0.03)
+
+
+def test_drift_adds_rate_times_time():
+    sensor = SimulatedSensor(C_BAR_TRUE, drift_rate=np.full(8, 1e-4))
+    S = sensor.strains(np.zeros((2, 6)), time=np.array([0.0, 10.0]))
+    np.testing.assert_allclose(S[1] - S[0], 1e-3)
+
+
+def test_shipped_sensor_config_is_table_1():
+    spec = load_sensor_config(resolve("sensor", "configs"))
+    assert spec.simulated is not None
+    np.testing.assert_allclose(spec.simulated.C, TABLE_1, atol=5e-5)
+    np.testing.assert_array_equal(spec.full_scale, [50, 50, 50, 5, 5, 5])
+    assert spec.simulated.lsb == pytest.approx(9.3132e-7, rel=1e-4)
+
+
+def test_sensor_config_errors_name_the_field(tmp_path):
+    path = tmp_path / "s.yaml"
+    bad_C = (TABLE_1 + np.eye(6, 8) * 0.5).tolist()
+    path.write_text(yaml.safe_dump({"name": "s", "simulation": {"C": bad_C}}))
+    with pytest.raises(FileFormatError, match="field 'simulation.C': C is not of the form C_bar @ P"):
+        load_sensor_config(path)
+    path.write_text(yaml.safe_dump({"name": "s", "full_scale": {"force": -5}}))
+    with pytest.raises(FileFormatError, match="field 'full_scale.force': is -5.0 but expected a finite value > 0"):
+        load_sensor_config(path)

@@ -1,0 +1,67 @@
+"""Tool files and the tool wrench (paper eqs 17-18)."""
+
+import numpy as np
+import pytest
+import yaml
+
+from fts_calib import FileFormatError, FtsCalibWarning
+from fts_calib.resources import resolve
+from fts_calib.tool import UnknownToolConfiguration, load_tool
+
+from .helpers import random_gravity, tool_wrench
+
+
+def test_shipped_paper_tool_has_three_non_collinear_configurations():
+    tool = load_tool(resolve("paper_tool", "configs"))
+    assert tool.names == ["A", "B", "C"] and tool.com_rank() == 2
+    assert all(c.inertia_com is not None for c in tool.configurations)
+
+
+def test_static_wrench_is_eqs_17_18_written_out(rng):
+    tool = load_tool(resolve("paper_tool", "configs"))
+    g = random_gravity(20, rng)
+    for config in tool.configurations:
+        np.testing.assert_allclose(config.static_wrench(g), tool_wrench(config.mass, config.p_sensor_com, g), rtol=1e-14)
+        np.testing.assert_allclose(config.static_wrench(g[0]), tool_wrench(config.mass, config.p_sensor_com, g[:1])[0], rtol=1e-14)
+
+
+def test_unknown_configuration_lists_the_names():
+    tool = load_tool(resolve("paper_tool", "configs"))
+    with pytest.raises(UnknownToolConfiguration, match="'Z' is not in the tool file; configurations: A, B, C"):
+        tool.configuration("Z")
+
+
+def _tool(tmp_path, configurations, **extra):
+    path = tmp_path / "tool.yaml"
+    path.write_text(yaml.safe_dump({"name": "t", "configurations": configurations, **extra}))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("configs", "match"),
+    [
+        ([{"name": "A", "mass": -1.0, "com": [0, 0, 0.1]}], r"configurations\[0\].mass': is -1.0 kg but expected a finite value > 0"),
+        ([{"name": "A", "com": [0, 0, 0.1]}], r"configurations\[0\].mass': missing"),
+        ([{"name": "A", "mass": 1.0}], r"configurations\[0\].com': missing"),
+        ([{"name": "A", "mass": 1.0, "com": [0, 0]}], r"configurations\[0\].com': shape \(2,\) but expected \(3,\)"),
+        ([{"name": "A", "mass": "heavy", "com": [0, 0, 0]}], r"mass': expected a number in kg, got 'heavy'"),
+        ([{"name": "A", "mass": 1, "com": [0, 0, 0]}, {"name": "A", "mass": 1, "com": [0, 0, 1]}], r"duplicate names \['A'\]"),
+        ([{"name": "A", "mass": 1, "com": [0, 0, 0], "inertia": [[1, 0, 0], [0, 1, 0], [0, 0, 3]]}], "not physical"),
+        ([], "expected a non-empty list"),
+    ],
+)
+def test_bad_tool_files_name_the_field(tmp_path, configs, match):
+    with pytest.raises(FileFormatError, match=match):
+        load_tool(_tool(tmp_path, configs))
+
+
+def test_collinear_centres_of_mass_warn(tmp_path):
+    configs = [{"name": n, "mass": 1.0, "com": [0.1 * k, 0, 0]} for k, n in enumerate("ABC", 1)]
+    with pytest.warns(FtsCalibWarning, match="collinear; the calibration can reach rank 6 at most"):
+        tool = load_tool(_tool(tmp_path, configs))
+    assert tool.com_rank() == 1
+
+
+def test_gravity_must_be_positive(tmp_path):
+    with pytest.raises(FileFormatError, match="'gravity': is 0.0 m/s² but expected a finite value > 0"):
+        load_tool(_tool(tmp_path, [{"name": "A", "mass": 1.0, "com": [0, 0, 0]}], gravity=0.0))
