@@ -15,6 +15,20 @@ def _demo(args: argparse.Namespace) -> int:
     return demo.main(Path(args.out), samples=args.samples, seed=args.seed)
 
 
+def _robots(args: argparse.Namespace) -> int:
+    from . import report
+
+    print(report.robot_details(args.name) if args.name else report.robots_list())
+    return 0
+
+
+def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
+    return commands.add_parser(
+        name, help=help_text, description=description, epilog=f"example:\n  {example}",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``fts-calib`` with all its sub-commands."""
     parser = argparse.ArgumentParser(
@@ -27,17 +41,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"fts-calib {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    demo = commands.add_parser(
-        "demo",
-        help="the whole loop in simulation, with printed results",
-        description="Simulate the paper's validation on the shipped sensor and tool and calibrate.",
-        epilog="example: fts-calib demo --out out/",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    demo = _add(commands, "demo", "the whole loop in simulation, with printed results",
+                "Simulate the paper's validation on the shipped sensor and tool and calibrate.", "fts-calib demo --out out/")
     demo.add_argument("--out", default="out", help="folder for the results (default: out/)")
     demo.add_argument("--samples", type=int, default=2000, help="samples per tool configuration (default: 2000)")
     demo.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     demo.set_defaults(handler=_demo)
+
+    robots = _add(commands, "robots", "list the shipped robots, or show one",
+                  "Without NAME: the shipped robot definitions. With NAME (a shipped name or a YAML path): its joints, "
+                  "limits, frames and sensor mount.", "fts-calib robots ur5")
+    robots.add_argument("name", nargs="?", help="shipped robot name (e.g. ur5) or path to a robot YAML file")
+    robots.set_defaults(handler=_robots)
     return parser
 
 

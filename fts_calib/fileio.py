@@ -6,6 +6,7 @@ over the target: a crash leaves either the old file or the new one, never half a
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from collections.abc import Mapping
@@ -128,3 +129,25 @@ def read_array(value: Any, shape: tuple[int, ...], path: str | Path, field: str)
     if not np.all(np.isfinite(array)):
         raise FileFormatError(path, field, "contains NaN or inf")
     return array
+
+
+def read_positive(value: Any, path: str | Path, field: str, unit: str = "") -> float:
+    """Convert a YAML value into a finite number > 0.
+
+    Args:
+        value: The raw value.
+        path: The file, for the message.
+        field: The field, for the message.
+        unit: Unit text for the message (e.g. 'kg'), or empty.
+
+    Raises:
+        FileFormatError: Not a number, or not finite and > 0 (the message shows the value).
+    """
+    suffix = f" {unit}" if unit else ""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise FileFormatError(path, field, f"expected a number{' in ' + unit if unit else ''}, got {value!r}") from None
+    if not (math.isfinite(number) and number > 0):
+        raise FileFormatError(path, field, f"is {number}{suffix} but expected a finite value > 0")
+    return number

@@ -62,3 +62,82 @@ def resolve(name_or_path: str | Path, kind: str) -> Path:
     if path.suffix == "" and candidate.is_file():
         return candidate
     raise ResourceNotFound(str(name_or_path), kind.rstrip("s"), shipped(kind))
+
+
+class RobotDataNotFound(FtsCalibError, FileNotFoundError):
+    """The example-robot-data folder cannot be found; the message says what to install."""
+
+
+#: Environment variable naming the example-robot-data folder (the one holding ``robots/``).
+ROBOT_DATA_ENV = "EXAMPLE_ROBOT_DATA_DIR"
+
+
+def _from_metadata() -> list[Path]:
+    """Candidates from the installed distribution's file list (pip, uv, conda's pip)."""
+    try:
+        from importlib.metadata import PackageNotFoundError, distribution
+    except ImportError:  # pragma: no cover - Python >= 3.8 has it
+        return []
+    try:
+        dist = distribution("example-robot-data")
+    except PackageNotFoundError:
+        return []
+    found = []
+    for entry in dist.files or []:
+        parts = entry.parts
+        if len(parts) >= 3 and parts[-3:] == ("share", "example-robot-data", "package.xml"):
+            found.append(Path(str(dist.locate_file(entry))).parent)
+    return found
+
+
+def _from_python_module() -> list[Path]:
+    """Candidates from the Python loader that example-robot-data 4.x shipped."""
+    try:
+        from example_robot_data.path import EXAMPLE_ROBOT_DATA_MODEL_DIR  # type: ignore[import-not-found]
+    except ImportError:
+        return []
+    return [Path(EXAMPLE_ROBOT_DATA_MODEL_DIR).parent]
+
+
+def _from_prefixes() -> list[Path]:
+    """Candidates from ROS and system install prefixes."""
+    import os
+
+    prefixes = []
+    for var in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH", "CONDA_PREFIX"):
+        prefixes += [p for p in os.environ.get(var, "").split(os.pathsep) if p]
+    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+        if entry:
+            prefixes.append(str(Path(entry).parent))
+    prefixes += ["/opt/openrobots", "/usr/local", "/usr"]
+    return [Path(p) / "share" / "example-robot-data" for p in prefixes]
+
+
+def example_robot_data_dir() -> Path:
+    """The example-robot-data folder, the one that holds ``robots/``.
+
+    Looked up, in order: the environment variable ``EXAMPLE_ROBOT_DATA_DIR``; the installed
+    distribution's file list (example-robot-data 6.x on PyPI ships only data, under
+    ``<prefix>/share/example-robot-data``); the Python module of older releases; ROS and
+    system prefixes (``AMENT_PREFIX_PATH``, ``CMAKE_PREFIX_PATH``, ``CONDA_PREFIX``,
+    ``ROS_PACKAGE_PATH``, /opt/openrobots, /usr/local, /usr). No site-packages path is
+    hard-coded.
+
+    Raises:
+        RobotDataNotFound: None of these holds a ``robots/`` folder; says what to install.
+    """
+    import os
+
+    override = os.environ.get(ROBOT_DATA_ENV)
+    if override:
+        path = Path(override)
+        if (path / "robots").is_dir():
+            return path
+        raise RobotDataNotFound(f"{ROBOT_DATA_ENV}={override} has no robots/ folder: point it at the folder that holds robots/")
+    for candidate in (*_from_metadata(), *_from_python_module(), *_from_prefixes()):
+        if (candidate / "robots").is_dir():
+            return candidate
+    raise RobotDataNotFound(
+        "example-robot-data is not installed: run 'pip install example-robot-data' in this environment "
+        f"(or set {ROBOT_DATA_ENV} to the folder that holds its robots/ folder)"
+    )

@@ -11,7 +11,6 @@ simulated sensor: ``C`` (6x8, must be of the form C_bar P) or ``C_bar`` (6x6), `
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,7 +18,7 @@ import numpy as np
 
 from ._arrays import frozen
 from .exceptions import FileFormatError, StructureError
-from .fileio import load_yaml, read_array, require
+from .fileio import load_yaml, read_array, read_positive, require
 from .sensor import c_bar_from_c
 from .simsensor import SimulatedSensor
 
@@ -46,16 +45,6 @@ class SensorSpec:
         object.__setattr__(self, "full_scale", frozen(self.full_scale))
 
 
-def _positive(value, path: Path, field: str) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise FileFormatError(path, field, f"expected a number, got {value!r}") from None
-    if not (math.isfinite(number) and number > 0):
-        raise FileFormatError(path, field, f"is {number} but expected a finite value > 0")
-    return number
-
-
 def _per_bridge(value, path: Path, field: str) -> np.ndarray:
     array = np.asarray(value, dtype=float) if not isinstance(value, list) else read_array(value, (8,), path, field)
     if array.ndim == 0:
@@ -78,7 +67,7 @@ def _read_simulation(raw, path: Path) -> SimulatedSensor:
             raise FileFormatError(path, "simulation.C", str(exc)) from None
     adc = raw.get("adc") or {}
     bits = int(adc.get("bits", 0))
-    full_scale = _positive(adc.get("reference", 1000.0), path, "simulation.adc.reference") / _positive(
+    full_scale = read_positive(adc.get("reference", 1000.0), path, "simulation.adc.reference") / read_positive(
         adc.get("gain", 128.0), path, "simulation.adc.gain"
     )
     try:
@@ -107,13 +96,13 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     full = data.get("full_scale") or {}
     if not isinstance(full, dict):
         raise FileFormatError(path, "full_scale", "expected {force: N, moment: N·m}")
-    force = _positive(full.get("force", 50.0), path, "full_scale.force")
-    moment = _positive(full.get("moment", 5.0), path, "full_scale.moment")
+    force = read_positive(full.get("force", 50.0), path, "full_scale.force")
+    moment = read_positive(full.get("moment", 5.0), path, "full_scale.moment")
     simulated = _read_simulation(data["simulation"], path) if data.get("simulation") is not None else None
     return SensorSpec(
         name=str(require(data, "name", path)),
         strain_unit=str(data.get("strain_unit", "raw")),
         full_scale=np.array([force] * 3 + [moment] * 3),
-        rate_hz=_positive(data.get("rate_hz", 1000.0), path, "rate_hz"),
+        rate_hz=read_positive(data.get("rate_hz", 1000.0), path, "rate_hz"),
         simulated=simulated,
     )

@@ -14,15 +14,15 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ._arrays import frozen
-from .exceptions import FileFormatError, FtsCalibError, FtsCalibWarning
-from .fileio import load_yaml, read_array, require
-from .wrench import dynamic_wrench, static_wrench
+from ._arrays import as_matrix, frozen
+from .exceptions import FileFormatError, FtsCalibError, FtsCalibWarning, ShapeError
+from .fileio import load_yaml, read_array, read_positive, require
+from .wrench import dynamic_wrench
 
 #: Default magnitude of gravity in [m/s^2].
 STANDARD_GRAVITY = 9.81
@@ -63,11 +63,18 @@ class ToolConfiguration:
     inertia_com: np.ndarray | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "p_sensor_com", frozen(self.p_sensor_com))
+        object.__setattr__(self, "p_sensor_com", frozen(as_matrix(self.p_sensor_com, (3,), "p_sensor_com")))
         if self.inertia_com is not None:
-            object.__setattr__(self, "inertia_com", frozen(self.inertia_com))
+            object.__setattr__(self, "inertia_com", frozen(as_matrix(self.inertia_com, (3, 3), "inertia_com")))
         if not (math.isfinite(self.mass) and self.mass > 0):
             raise ValueError(f"configuration '{self.name}': mass={self.mass} kg but expected a finite value > 0")
+        # eqs 17-18 are linear in g: W = [m I; m [c]x] g, one product per sample
+        cx, cy, cz = self.p_sensor_com
+        skew = np.array([[0.0, -cz, cy], [cz, 0.0, -cx], [-cy, cx, 0.0]])
+        object.__setattr__(self, "wrench_matrix", frozen(self.mass * np.vstack([np.eye(3), skew])))
+
+    #: ``[m I; m [c]x]``, the (6, 3) matrix with ``W = wrench_matrix @ g_sensor`` (eqs 17-18).
+    wrench_matrix: np.ndarray = field(init=False, repr=False)
 
     def static_wrench(self, g_sensor) -> np.ndarray:
         """Wrench at rest (eqs 17-18), ``[m g, c x m g]`` in [N, N m].
@@ -78,7 +85,12 @@ class ToolConfiguration:
         Returns:
             Shape (6,) or (N, 6).
         """
-        return static_wrench(self.mass, self.p_sensor_com, g_sensor)
+        g = np.asarray(g_sensor, dtype=float)
+        if g.shape == (3,):
+            return self.wrench_matrix.dot(g)
+        if g.ndim != 2 or g.shape[1] != 3:
+            raise ShapeError(f"g_sensor.shape={g.shape} but expected (3,) or (N, 3)")
+        return g @ self.wrench_matrix.T
 
     def dynamic_wrench(self, g_sensor, omega_sensor, alpha_sensor, a_sensor) -> np.ndarray:
         """Wrench of the moving tool (Newton-Euler); see :func:`fts_calib.wrench.dynamic_wrench`.
@@ -143,13 +155,7 @@ def _read_configuration(raw: object, index: int, path: Path) -> ToolConfiguratio
     if not isinstance(raw, Mapping):
         raise FileFormatError(path, field, "expected a mapping with name, mass and com")
     name = require(raw, "name", path, field + ".")
-    mass_raw = require(raw, "mass", path, field + ".")
-    try:
-        mass = float(mass_raw)
-    except (TypeError, ValueError):
-        raise FileFormatError(path, field + ".mass", f"expected a number in kg, got {mass_raw!r}") from None
-    if not (math.isfinite(mass) and mass > 0):
-        raise FileFormatError(path, field + ".mass", f"is {mass} kg but expected a finite value > 0")
+    mass = read_positive(require(raw, "mass", path, field + "."), path, field + ".mass", "kg")
     com = read_array(require(raw, "com", path, field + "."), (3,), path, field + ".com")
     inertia = None
     if raw.get("inertia") is not None:
@@ -177,13 +183,7 @@ def load_tool(path: str | Path) -> Tool:
     path = Path(path)
     data = load_yaml(path)
     name = str(require(data, "name", path))
-    gravity_raw = data.get("gravity", STANDARD_GRAVITY)
-    try:
-        gravity = float(gravity_raw)
-    except (TypeError, ValueError):
-        raise FileFormatError(path, "gravity", f"expected a number in m/s², got {gravity_raw!r}") from None
-    if not (math.isfinite(gravity) and gravity > 0):
-        raise FileFormatError(path, "gravity", f"is {gravity} m/s² but expected a finite value > 0")
+    gravity = read_positive(data.get("gravity", STANDARD_GRAVITY), path, "gravity", "m/s²")
     raw_configs = require(data, "configurations", path)
     if not isinstance(raw_configs, list) or not raw_configs:
         raise FileFormatError(path, "configurations", "expected a non-empty list")
