@@ -7,7 +7,9 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: demo test lint bench clean
+ROBOTS := ur5 ur10 panda kinova xarm7
+
+.PHONY: demo test lint bench trajectories clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -28,6 +30,10 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	@for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
+
+# The planned sweeps shipped in trajectories/ (100 Hz, gzip); tests check that planning reproduces them.
+trajectories: $(STAMP)
+	@for r in $(ROBOTS); do $(BIN)/fts-calib trajectory --robot $$r -o trajectories/$$r --rate 100 --compress | tail -n 1 || exit 1; done
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache

@@ -22,6 +22,34 @@ def _robots(args: argparse.Namespace) -> int:
     return 0
 
 
+def _trajectory(args: argparse.Namespace) -> int:
+    from .pipeline_config import load_pipeline_config
+    from .planner import SweepPattern
+    from .resources import resolve
+    from .sensor_config import load_sensor_config
+    from .tool import ToolShape, load_tool
+    from .trajectory import format_report, plan_trajectories, write_run
+
+    robot_path, tool_path = resolve(args.robot, "robots"), resolve(args.tool, "configs")
+    tool = load_tool(tool_path)
+    if args.tool_radius is not None or args.tool_length is not None:
+        import dataclasses
+
+        shape = ToolShape(args.tool_radius or tool.shape.radius, args.tool_length or tool.shape.length)
+        tool = dataclasses.replace(tool, shape=shape)
+    sensor = load_sensor_config(resolve(args.sensor, "configs"))
+    pipeline = load_pipeline_config(resolve(args.pipeline, "configs"))
+    noise = args.noise if args.noise is not None else pipeline.noise_std
+    if noise is None:
+        noise = sensor.simulated.noise_std if sensor.simulated is not None else 0.0
+    pattern = SweepPattern(levels=args.levels, stops=args.stops, dwell=args.dwell, margin=args.margin)
+    print(f"planning {robot_path.stem} sweeps for '{tool.name}' ({len(tool.configurations)} configurations)...", flush=True)
+    run = plan_trajectories(robot_path, tool, sensor, pipeline.filter, noise, pattern, args.rate, args.min_clearance)
+    run = write_run(run, args.out, compress=args.compress, plot=not args.no_plot)
+    print(format_report(run, robot_path, tool_path))
+    return 1 if run.problems else 0
+
+
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
     return commands.add_parser(
         name, help=help_text, description=description, epilog=f"example:\n  {example}",
@@ -53,6 +81,29 @@ def build_parser() -> argparse.ArgumentParser:
                   "limits, frames and sensor mount.", "fts-calib robots ur5")
     robots.add_argument("name", nargs="?", help="shipped robot name (e.g. ur5) or path to a robot YAML file")
     robots.set_defaults(handler=_robots)
+
+    traj = _add(commands, "trajectory", "plan and check calibration sweeps for a robot and a tool",
+                "Plan jerk-limited sweeps of the last two joints (ruckig), once per tool configuration; check limits, "
+                "clearance and the predicted excitation before anything moves; write one CSV per configuration, plan.yaml "
+                "and plan.png. Exits 1 when a check fails (the CSVs are then not written).",
+                "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500")
+    traj.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    traj.add_argument("--tool", default="paper_tool", help="tool file: a shipped name or a YAML path (default: paper_tool)")
+    traj.add_argument("-o", "--out", required=True, help="output folder")
+    traj.add_argument("--rate", type=float, default=500.0, help="sample rate of the files in Hz (default: 500)")
+    traj.add_argument("--levels", type=int, default=4, help="positions of the first sweep joint (default: 4)")
+    traj.add_argument("--stops", type=int, default=6, help="positions of the second sweep joint per level (default: 6)")
+    traj.add_argument("--dwell", type=float, default=0.5, help="time still at each stop in s (default: 0.5)")
+    traj.add_argument("--margin", type=float, default=0.02, help="distance kept from position limits in rad (default: 0.02)")
+    traj.add_argument("--min-clearance", type=float, default=0.02, help="smallest distance allowed in m (default: 0.02)")
+    traj.add_argument("--tool-radius", type=float, help="override the tool envelope's radius in m")
+    traj.add_argument("--tool-length", type=float, help="override the tool envelope's length in m")
+    traj.add_argument("--sensor", default="sensor", help="sensor configuration (nominal model for the excitation report)")
+    traj.add_argument("--pipeline", default="pipeline", help="pipeline configuration (quasi-static filter thresholds)")
+    traj.add_argument("--noise", type=float, help="strain noise per bridge for the excitation report (default: the pipeline's)")
+    traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
+    traj.add_argument("--no-plot", action="store_true", help="do not write plan.png")
+    traj.set_defaults(handler=_trajectory)
     return parser
 
 

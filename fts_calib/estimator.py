@@ -107,6 +107,26 @@ def _solve_normal(S_XX: np.ndarray, S_WX: np.ndarray, rcond: float, min_norm: bo
     return theta_t.T, np.diag(inv).copy(), rank, condition, inv
 
 
+def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
+    """Standard errors of the coefficients of an ordinary least-squares fit of W on x.
+
+    ``Cov(row j) = sigma_j^2 S_XX^-1``; for ``C = C_bar P``, ``Var(C_jk) = sigma_j^2 p_k^T
+    Cov6 p_k`` with ``p_k`` the column k of P and Cov6 the C_bar block.
+
+    Args:
+        sigma: Residual standard deviation per wrench axis, [N or N m]. Shape (6,).
+        inv: Inverse of S_XX. Shape (p, p), p = 6 or 7 (the last entry is the offset).
+
+    Returns:
+        ``(stderr of [C_bar, D] (6, p), stderr of C (6, 8))``.
+    """
+    sigma = np.asarray(sigma, dtype=float)
+    stderr_theta = sigma[:, None] * np.sqrt(np.maximum(np.diag(inv), 0.0))[None, :]
+    inv6 = inv[:6, :6]
+    stderr_C = sigma[:, None] * np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", P, inv6, P), 0.0))[None, :]
+    return stderr_theta, stderr_C
+
+
 def _quality(S_WW, S_WX, S_XX, theta, inv, n_eff: float, used: int, seen: int, rank: int,
              condition: float, skipped: Mapping[str, int]) -> Quality:
     """Residuals and standard errors of a least-squares fit from its normal matrices.
@@ -120,11 +140,7 @@ def _quality(S_WW, S_WX, S_XX, theta, inv, n_eff: float, used: int, seen: int, r
     residual_rms = np.sqrt(rss / n_eff) if n_eff > 0 else np.full(6, np.nan)
     dof = n_eff - p
     sigma = np.sqrt(rss / dof) if dof > 0 else np.full(6, math.inf)
-    diag = np.maximum(np.diag(inv), 0.0)
-    stderr_theta = sigma[:, None] * np.sqrt(diag)[None, :]
-    # C = C_bar P: Var(C_jk) = sigma_j^2 p_k^T Cov(C_bar row) p_k, with p_k column k of P.
-    inv6 = inv[:6, :6]
-    stderr_C = sigma[:, None] * np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", P, inv6, P), 0.0))[None, :]
+    stderr_theta, stderr_C = coefficient_stderr(sigma, inv)
     stderr_D = stderr_theta[:, 6] if p == 7 else np.zeros(6)
     return Quality(
         samples_used=used,

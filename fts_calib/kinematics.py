@@ -322,6 +322,57 @@ class Kinematics:
         self._p_last_sensor = frame.placement.translation.copy()
         return chain
 
+    # -- collision geometry -------------------------------------------------------------
+
+    def collision_model(self) -> pin.GeometryModel:
+        """The URDF's collision geometry for this (reduced) model; meshes from the package dirs.
+
+        Links listed in the definition's ``collision.ignore_links`` are left out.
+        """
+        geometry = pin.buildGeomFromUrdf(self._full_model, str(self.robot.urdf), pin.COLLISION,
+                                         package_dirs=[str(p) for p in self.robot.package_dirs])
+        if self._lock_ids:
+            _, geometry = pin.buildReducedModel(self._full_model, geometry, self._lock_ids, self._q_lock)
+        for name in self.robot.ignore_links:
+            if not self.model.existFrame(name):
+                raise FrameNotFound(name, [f.name for f in self.model.frames])
+        ignored = {self.model.getFrameId(n) for n in self.robot.ignore_links}
+        doomed = [obj.name for obj in geometry.geometryObjects if obj.parentFrame in ignored]
+        for name in doomed:  # names first: removing invalidates the objects
+            geometry.removeGeometryObject(name)
+        return geometry
+
+    def distances(self, reading, geometry: pin.GeometryModel, geometry_data: pin.GeometryData) -> int:
+        """Distances of every collision pair of ``geometry`` at one reading.
+
+        Fills ``geometry_data.distanceResults`` and returns the index of the closest pair.
+        """
+        theta, single = self.readings(reading)
+        if not single:
+            raise ShapeError(f"distances takes one reading; got {len(theta)}")
+        q = theta[0] if self._plain_q else self._q(theta)[0]
+        return int(pin.computeDistances(self.model, self.data, geometry, geometry_data, q))
+
+    def joint_axis_world(self, reading, joint_name: str) -> np.ndarray:
+        """Unit axis of a joint in the world frame at one reading. Shape (3,)."""
+        self._check_names([joint_name], "joint")
+        self.sensor_pose(reading)  # runs forwardKinematics on this reading
+        jid = self.model.getJointId(joint_name)
+        return self.data.oMi[jid].rotation @ self.joints[self._index[joint_name]].axis
+
+    def chain_joints(self, joint_name: str) -> list[str]:
+        """Actuated joints from the root down to ``joint_name`` (inclusive), in order."""
+        jid = self.model.getJointId(joint_name)
+        return [self.model.names[j] for j in list(self.model.supports[jid])[1:]]
+
+    def parent_joint_of_frame(self, frame_id: int) -> int:
+        """Index of the joint a frame moves with (0 for the world)."""
+        return int(self.model.frames[frame_id].parentJoint)
+
+    def joint_parent(self, joint_id: int) -> int:
+        """Index of the parent joint of a joint (0 for the world)."""
+        return int(self.model.parents[joint_id])
+
     # -- readings -----------------------------------------------------------------------
 
     @property

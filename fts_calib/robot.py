@@ -9,8 +9,9 @@ absent), ``locked_joints`` (name -> value, e.g. gripper fingers, removed with a 
 model), ``limits`` (``velocity_fraction`` of the URDF velocity limits, ``velocity``
 rad/s per joint, ``acceleration`` rad/s^2 and ``jerk`` rad/s^3, each one number for all
 joints or a mapping joint -> value), ``collision`` (``ignore_links``: links whose geometry
-is left out, e.g. a gripper the sensor replaces; ``floor_z``: height of the floor in the
-world frame [m]), and ``package_dirs`` (folders for ``package://`` mesh paths, relative to
+is left out, e.g. a gripper the sensor replaces; ``srdf``: an SRDF, path or
+``example-robot-data:<path>``, whose ``disable_collisions`` pairs are not checked;
+``floor_z``: height of the floor in the world frame [m]), and ``package_dirs`` (folders for ``package://`` mesh paths, relative to
 the YAML file).
 
 Angles may be written as numbers or as simple expressions of pi: ``pi/2``, ``-pi``,
@@ -41,8 +42,8 @@ ROBOT_DATA_PREFIX = "example-robot-data:"
 
 #: Defaults of the motion limits: conservative for a calibration sweep with a tool on.
 DEFAULT_VELOCITY_FRACTION = 0.5
-DEFAULT_ACCELERATION = 1.5  # [rad/s^2]
-DEFAULT_JERK = 10.0  # [rad/s^3]
+DEFAULT_ACCELERATION = 2.0  # [rad/s^2]
+DEFAULT_JERK = 15.0  # [rad/s^3]
 
 _PI_EXPR = re.compile(r"^\s*([+-])?\s*(?:(\d+(?:\.\d*)?)\s*\*\s*)?pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
 
@@ -122,6 +123,8 @@ class RobotDefinition:
         locked_joints: Joints removed from the model, name -> value [rad or m].
         limits: Motion limits.
         ignore_links: Links whose collision geometry is left out.
+        allowed_pairs: Pairs of links never checked against each other (from the SRDF's
+            ``disable_collisions``: adjacent links, or links that never meet).
         floor_z: Height of the floor in the world frame, in [m].
         package_dirs: Folders searched for ``package://`` mesh paths.
         source: The YAML file, or None.
@@ -136,6 +139,7 @@ class RobotDefinition:
     locked_joints: Mapping[str, float] = field(default_factory=dict)
     limits: LimitSpec = field(default_factory=LimitSpec)
     ignore_links: tuple[str, ...] = ()
+    allowed_pairs: frozenset[frozenset[str]] = frozenset()
     floor_z: float = 0.0
     package_dirs: tuple[Path, ...] = ()
     source: Path | None = None
@@ -157,6 +161,27 @@ def resolve_urdf(spec: str, base: Path, path: Path) -> tuple[Path, tuple[Path, .
     if not urdf.is_file():
         raise FileFormatError(path, "urdf", f"'{spec}' resolves to {urdf}, which does not exist")
     return urdf, package_dirs
+
+
+def read_srdf_pairs(spec: str, base: Path, path: Path) -> frozenset[frozenset[str]]:
+    """Link pairs of an SRDF's ``disable_collisions`` entries.
+
+    Raises:
+        FileFormatError: The SRDF does not exist or is not valid XML.
+    """
+    import xml.etree.ElementTree as ET
+
+    if spec.startswith(ROBOT_DATA_PREFIX):
+        srdf = example_robot_data_dir() / "robots" / spec[len(ROBOT_DATA_PREFIX):].lstrip("/")
+    else:
+        srdf = (base / spec).resolve()
+    if not srdf.is_file():
+        raise FileFormatError(path, "collision.srdf", f"'{spec}' resolves to {srdf}, which does not exist")
+    try:
+        root = ET.parse(srdf).getroot()
+    except ET.ParseError as exc:
+        raise FileFormatError(path, "collision.srdf", f"{srdf} is not valid XML: {exc}") from None
+    return frozenset(frozenset((e.get("link1"), e.get("link2"))) for e in root.iter("disable_collisions"))
 
 
 def _mapping(value: Any, path: Path, field_name: str) -> Mapping[str, Any]:
@@ -250,6 +275,8 @@ def load_robot(path: str | Path) -> RobotDefinition:
         floor_z = float(collision.get("floor_z", 0.0))
     except (TypeError, ValueError):
         raise FileFormatError(path, "collision.floor_z", f"expected a height in m, got {collision.get('floor_z')!r}") from None
+    srdf = collision.get("srdf")
+    allowed = read_srdf_pairs(str(srdf), base, path) if srdf else frozenset()
     extra_dirs = tuple((base / p).resolve() for p in (data.get("package_dirs") or []))
     return RobotDefinition(
         name=str(require(data, "name", path)),
@@ -261,6 +288,7 @@ def load_robot(path: str | Path) -> RobotDefinition:
         locked_joints=_angles(data.get("locked_joints"), path, "locked_joints"),
         limits=_read_limits(data.get("limits"), path),
         ignore_links=tuple(str(x) for x in ignore),
+        allowed_pairs=allowed,
         floor_z=floor_z,
         package_dirs=package_dirs + extra_dirs + (urdf.parent,),
         source=path,

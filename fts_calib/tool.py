@@ -3,7 +3,9 @@ r"""Calibration tools: configurations of known mass and centre of mass, and thei
 A tool file (YAML, ``configs/``) holds ``name``, optional ``gravity`` (magnitude in
 [m/s^2], default 9.81) and ``configurations``: a list of ``{name, mass [kg], com [x, y, z]
 [m, in the sensor frame S], inertia (optional 3x3 about the centre of mass, axes of S,
-[kg m^2])}``.
+[kg m^2])}``, and optional ``shape`` ``{radius, length}`` [m]: the envelope used for
+collision checks, a cylinder along X of S from the sensor out (default: around the
+centres of mass).
 
 Identifiability (paper eqs 18-20): one centre of mass gives the estimator rank 4, two
 give 6, and the full rank 7 needs three centres of mass that are not on one line.
@@ -108,6 +110,19 @@ class ToolConfiguration:
 
 
 @dataclass(frozen=True)
+class ToolShape:
+    """The tool's envelope for collision checks: a cylinder along X of S, from the sensor out.
+
+    Attributes:
+        radius: Cylinder radius in [m].
+        length: Cylinder length from the origin of S along +X, in [m].
+    """
+
+    radius: float
+    length: float
+
+
+@dataclass(frozen=True)
 class Tool:
     """A calibration tool and its configurations.
 
@@ -115,13 +130,19 @@ class Tool:
         name: Tool name.
         gravity: Magnitude of gravity in [m/s^2] where the tool is used.
         configurations: The configurations, in file order.
+        shape: Envelope for collision checks.
         source: The file it was read from, or None.
     """
 
     name: str
     gravity: float
     configurations: tuple[ToolConfiguration, ...]
+    shape: ToolShape | None = None
     source: Path | None = None
+
+    def __post_init__(self):
+        if self.shape is None:
+            object.__setattr__(self, "shape", default_shape(self.configurations))
 
     @property
     def names(self) -> list[str]:
@@ -148,6 +169,18 @@ class Tool:
         if len(coms) < 2:
             return 0
         return int(np.linalg.matrix_rank(coms[1:] - coms[0], tol=1e-6))
+
+
+def default_shape(configurations: Sequence[ToolConfiguration]) -> ToolShape:
+    """An envelope around every centre of mass.
+
+    Length 1.3 x the farthest X, radius 1.3 x the farthest off-axis distance, at least 8 cm
+    long and 4 cm in radius.
+    """
+    coms = np.array([c.p_sensor_com for c in configurations])
+    length = max(0.08, 1.3 * float(np.max(np.abs(coms[:, 0]))))
+    radius = max(0.04, 1.3 * float(np.max(np.linalg.norm(coms[:, 1:], axis=1))))
+    return ToolShape(radius=radius, length=length)
 
 
 def _read_configuration(raw: object, index: int, path: Path) -> ToolConfiguration:
@@ -192,7 +225,16 @@ def load_tool(path: str | Path) -> Tool:
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
         raise FileFormatError(path, "configurations", f"duplicate names {duplicates}")
-    tool = Tool(name=name, gravity=gravity, configurations=configs, source=path)
+    shape = None
+    if data.get("shape") is not None:
+        raw_shape = data["shape"]
+        if not isinstance(raw_shape, Mapping):
+            raise FileFormatError(path, "shape", "expected {radius: m, length: m}")
+        shape = ToolShape(
+            radius=read_positive(require(raw_shape, "radius", path, "shape."), path, "shape.radius", "m"),
+            length=read_positive(require(raw_shape, "length", path, "shape."), path, "shape.length", "m"),
+        )
+    tool = Tool(name=name, gravity=gravity, configurations=configs, shape=shape, source=path)
     if len(configs) >= 3 and tool.com_rank() < 2:
         warnings.warn(
             f"{path}: the centres of mass of {names} are collinear; the calibration can reach rank 6 at most "

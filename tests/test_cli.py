@@ -32,3 +32,25 @@ def test_demo_runs_and_writes_a_calibration(tmp_path, capsys):
 def test_no_command_prints_help(capsys):
     assert main([]) == 2
     assert "COMMAND" in capsys.readouterr().out
+
+
+def test_trajectory_command_writes_checked_files(tmp_path, capsys):
+    out = tmp_path / "traj"
+    assert main(["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50"]) == 0
+    text = capsys.readouterr().out
+    assert "predicted rank 7 of 7" in text and "duration:" in text and "clearance:" in text
+    assert sorted(p.name for p in out.iterdir()) == ["A.csv", "B.csv", "C.csv", "plan.png", "plan.yaml"]
+
+
+def test_trajectory_command_fails_a_check_and_writes_no_trajectory(tmp_path, capsys):
+    out = tmp_path / "traj"
+    # 40 cm of clearance cannot be met: the plan is refused, the report says why
+    assert main(["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--min-clearance", "0.4", "--no-plot"]) in (1, 2)
+    captured = capsys.readouterr()
+    assert "0.4 m" in captured.out + captured.err
+    assert not out.exists() or not list(out.glob("*.csv"))
+
+
+def test_trajectory_command_rejects_a_rate_of_zero(tmp_path, capsys):
+    assert main(["trajectory", "--robot", "ur5", "-o", str(tmp_path), "--rate", "0"]) == 2
+    assert "rate=0.0 Hz but expected a finite rate > 0" in capsys.readouterr().err

@@ -1,0 +1,148 @@
+"""Clearance of the arm and the tool during a calibration sweep (Pinocchio geometry + coal).
+
+The URDF's collision meshes are replaced by their convex hulls (a hull contains its mesh,
+so a distance between hulls is a lower bound of the true one: the check errs on the safe
+side, and it is about 25 times faster). The tool is a cylinder along X of the sensor frame
+S, from the sensor out; the floor is the half-space below ``floor_z`` in the world frame.
+
+Only pairs whose distance can change during a sweep of the two sweep joints are checked
+along it: a body that moves with the first sweep joint (or the tool) against one that does
+not, the tool against the links of the first sweep joint, and every moving body against
+the floor. Bodies on the same joint or on a joint and its parent touch by design and are
+skipped, as are the robot's base against the floor and the link pairs the robot's SRDF
+disables. The pose of the arm itself (the home pose) is checked once for every other pair.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from .kinematics import Kinematics
+from .tool import ToolShape
+
+#: Name of the tool's collision body.
+TOOL = "tool"
+#: Name of the floor's collision body.
+FLOOR = "floor"
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """The smallest distance found.
+
+    Attributes:
+        distance: Signed distance in [m]; negative when the bodies overlap.
+        pair: Names of the two bodies.
+        index: Index of the reading where it was found.
+    """
+
+    distance: float
+    pair: tuple[str, str]
+    index: int
+
+
+class CollisionChecker:
+    """Distances between the robot's bodies, the tool and the floor at given readings.
+
+    Args:
+        kin: Kinematics of the robot (its definition gives ignored links and the floor height).
+        shape: The tool's envelope.
+        moving_joint: The first joint whose motion is swept (bodies at or below it move).
+    """
+
+    def __init__(self, kin: Kinematics, shape: ToolShape, moving_joint: str):
+        self.kin = kin
+        model = kin.model
+        geometry = kin.collision_model()
+        for obj in geometry.geometryObjects:
+            if isinstance(obj.geometry, coal.BVHModelBase):
+                obj.geometry.buildConvexRepresentation(False)
+                obj.geometry = obj.geometry.convex
+        sensor = model.frames[kin.sensor_frame_id]
+        # coal's cylinder is centred on its origin along z: turn z onto X of S, then shift out
+        R_sensor_cylinder = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        placement = sensor.placement * pin.SE3(R_sensor_cylinder, np.array([shape.length / 2, 0.0, 0.0]))
+        tool = pin.GeometryObject(TOOL, sensor.parentJoint, kin.sensor_frame_id, placement, coal.Cylinder(shape.radius, shape.length))
+        self.tool_id = geometry.addGeometryObject(tool)
+        floor = pin.GeometryObject(FLOOR, 0, 0, pin.SE3.Identity(), coal.Halfspace(np.array([0.0, 0.0, 1.0]), kin.robot.floor_z))
+        self.floor_id = geometry.addGeometryObject(floor)
+
+        moving_id = model.getJointId(moving_joint)
+        above = int(model.parents[moving_id])  # the joint whose link carries the first sweep joint
+        objects = geometry.geometryObjects
+        joints = [obj.parentJoint for obj in objects]
+        links = [model.frames[obj.parentFrame].name for obj in objects]
+        allowed = kin.robot.allowed_pairs
+
+        def moves(joint: int) -> bool:
+            return moving_id in list(model.supports[joint])
+
+        def adjacent(a: int, b: int) -> bool:
+            return a == b or model.parents[a] == b or model.parents[b] == a
+
+        groups: dict[str, list[tuple[int, int]]] = {"sweep": [], "wrist": [], "home": []}
+        for i in range(len(objects)):
+            for j in range(i + 1, len(objects)):
+                a, b = joints[i], joints[j]
+                if j == self.floor_id:
+                    if a != 0:  # the base stands on the floor
+                        groups["sweep" if moves(a) else "home"].append((i, j))
+                    continue
+                if frozenset((links[i], links[j])) in allowed:
+                    continue
+                tool_pair = self.tool_id in (i, j)
+                if adjacent(a, b) and not (tool_pair and moving_id in (a, b) and a != b):
+                    continue
+                if moves(a) != moves(b) or (tool_pair and moving_id in (a, b)):
+                    # a static body on the link carrying the first sweep joint keeps the same
+                    # distance whatever the home pose: only the sweep angles matter
+                    static = a if not moves(a) else b
+                    groups["wrist" if static == above or (tool_pair and moving_id in (a, b)) else "sweep"].append((i, j))
+                elif not moves(a):
+                    groups["home"].append((i, j))
+        self.geometry = geometry
+        self._groups = {name: self._with_pairs(pairs) for name, pairs in groups.items()}
+        self._groups["all"] = self._with_pairs(groups["sweep"] + groups["wrist"])
+
+    def _with_pairs(self, pairs: list[tuple[int, int]]) -> tuple[pin.GeometryModel, pin.GeometryData, list[tuple[str, str]]]:
+        geometry = self.geometry.copy()
+        for i, j in pairs:
+            geometry.addCollisionPair(pin.CollisionPair(i, j))
+        names = [(geometry.geometryObjects[i].name, geometry.geometryObjects[j].name) for i, j in pairs]
+        return geometry, pin.GeometryData(geometry), names
+
+    def pairs(self, group: str = "all") -> list[tuple[str, str]]:
+        """Names of the pairs of a group.
+
+        Groups: 'all', every pair whose distance changes during a sweep; 'sweep', those of
+        them that also depend on the home pose; 'wrist', those that depend on the sweep
+        angles only (a body on the link carrying the first sweep joint, or the tool against
+        that joint's links); 'home', pairs that do not move during a sweep.
+        """
+        return list(self._groups[group][2])
+
+    def clearance(self, readings, group: str = "all") -> Clearance:
+        """The smallest distance over the readings, and where.
+
+        Args:
+            readings: Joint readings, (n_joints,) or (N, n_joints).
+            group: Which pairs (see :meth:`pairs`).
+
+        Returns:
+            The minimum over readings and pairs (inf distance when there is no pair).
+        """
+        geometry, data, names = self._groups[group]
+        theta, _ = self.kin.readings(readings)
+        best = Clearance(np.inf, ("", ""), -1)
+        if not names:
+            return best
+        for k, reading in enumerate(theta):
+            index = self.kin.distances(reading, geometry, data)
+            distance = float(data.distanceResults[index].min_distance)
+            if distance < best.distance:
+                best = Clearance(distance, names[index], k)
+        return best

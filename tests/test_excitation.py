@@ -1,0 +1,37 @@
+"""Experiment design: predicted standard errors against the estimator's, and coverage."""
+
+import numpy as np
+import pytest
+
+from fts_calib import OnlineEstimator
+from fts_calib.excitation import coverage_angle, predict_excitation
+from fts_calib.resources import resolve
+from fts_calib.sensor_config import load_sensor_config
+
+from .helpers import random_gravity
+
+
+def test_predicted_standard_errors_match_those_of_a_simulated_calibration(paper_tool, rng):
+    """The estimator reports standard errors from its residuals; with N = 3 x 2000 samples the
+    residual variance is estimated to about 1/sqrt(2 N) = 0.9 %, so both agree within 5 %."""
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    noise = 2e-4
+    g = {c.name: random_gravity(2000, rng) for c in paper_tool.configurations}
+    predicted = predict_excitation(g, paper_tool, sensor.C_bar, sensor.D, noise)
+    est = OnlineEstimator()
+    for config in paper_tool.configurations:
+        W = config.static_wrench(g[config.name])
+        est.update_batch(W, sensor.strains(W) + noise * rng.standard_normal((len(W), 8)))
+    q = est.solve().quality
+    np.testing.assert_allclose(predicted.stderr_C_bar, q.stderr_C_bar, rtol=0.05)
+    np.testing.assert_allclose(predicted.stderr_D, q.stderr_D, rtol=0.05)
+    np.testing.assert_allclose(predicted.stderr_C, q.stderr_C, rtol=0.05)
+    assert predicted.rank == q.rank == 7
+    assert predicted.condition_number == pytest.approx(q.condition_number, rel=0.01)  # noise adds to S_XX
+
+
+def test_coverage_of_the_six_axis_directions_is_the_cube_corner_angle():
+    axes = np.vstack([np.eye(3), -np.eye(3)])
+    # the farthest directions are the cube's corners, acos(1/sqrt(3)) = 54.74 deg from an axis
+    assert coverage_angle(axes) == pytest.approx(np.degrees(np.arccos(1 / np.sqrt(3))), abs=1.5)
+    assert coverage_angle(np.array([[0.0, 0.0, 1.0]])) == pytest.approx(180.0, abs=3)

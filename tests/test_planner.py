@@ -1,0 +1,180 @@
+"""Calibration trajectories: shipped plans re-checked independently, reproduction, checks."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from fts_calib import FileFormatError, JointError, TrajectoryError
+from fts_calib.collision import CollisionChecker
+from fts_calib.excitation import predict_excitation
+from fts_calib.kinematics import Kinematics
+from fts_calib.pipeline_config import load_pipeline_config
+from fts_calib.planner import SweepPattern, plan_calibration, plan_sweeps, sweep_ranges
+from fts_calib.resources import resolve
+from fts_calib.robot import load_robot
+from fts_calib.sensor_config import load_sensor_config
+from fts_calib.tool import ToolShape, load_tool
+from fts_calib.trajectory import plan_trajectories
+from fts_calib.trajectory_io import read_trajectory
+
+ROOT = Path(__file__).resolve().parents[1]
+SHIPPED = ["ur5", "ur10", "panda", "kinova", "xarm7"]
+# Positions are printed to 1e-9 rad: rounding adds at most 2^k * 0.5e-9 / dt^k to a k-th difference.
+ROUNDING = 0.5e-9  # [rad]
+
+
+@pytest.fixture(scope="module")
+def setup():
+    tool = load_tool(resolve("paper_tool", "configs"))
+    sensor = load_sensor_config(resolve("sensor", "configs"))
+    pipeline = load_pipeline_config(resolve("pipeline", "configs"))
+    return tool, sensor, pipeline
+
+
+@pytest.mark.parametrize("robot", SHIPPED)
+def test_every_sample_of_the_shipped_plans_is_within_limits_by_finite_differences(robot, robot_kinematics, paper_tool):
+    """Independent of ruckig: velocity, acceleration and jerk from differences of positions only.
+
+    A k-th difference over k steps is a weighted mean of the k-th derivative, so it cannot
+    exceed the derivative's limit; the tolerance is the rounding of the printed positions.
+    """
+    kin = robot_kinematics(robot)
+    for config in paper_tool.configurations:
+        traj = read_trajectory(ROOT / "trajectories" / robot / f"{config.name}.csv.gz")
+        assert traj.joint_names == kin.joint_names and traj.tool == config.name
+        dt = np.diff(traj.time)
+        assert np.allclose(dt, 0.01), "100 Hz"
+        h = 0.01
+        lim = kin.limits
+        assert np.all(traj.q >= lim.lower - 1e-9) and np.all(traj.q <= lim.upper + 1e-9)
+        for order, name in ((1, "velocity"), (2, "acceleration"), (3, "jerk")):
+            diff = np.abs(np.diff(traj.q, n=order, axis=0)) / h**order
+            tolerance = 2**order * ROUNDING / h**order
+            limit = getattr(lim, name)
+            excess = diff - (limit * (1 + 1e-9) + tolerance)
+            assert np.all(excess <= 0), f"{robot} {config.name}: {name} exceeds its limit by {excess.max():.3g}"
+        still = [j for j in kin.joint_names if j not in kin.sweep_joints]
+        for joint in still:
+            k = kin.joint_names.index(joint)
+            assert np.ptp(traj.q[:, k]) == 0.0, f"{joint} must not move"
+        # the files' velocity columns agree with the positions (central differences, O(h^2))
+        central = (traj.q[2:] - traj.q[:-2]) / (2 * h)
+        assert np.max(np.abs(central - traj.qd[1:-1])) < lim.jerk.max() * h**2 + 1e-6
+
+
+@pytest.mark.parametrize("robot", SHIPPED)
+def test_planning_again_reproduces_the_shipped_trajectories(robot, setup):
+    tool, sensor, pipeline = setup
+    run = plan_trajectories(resolve(robot, "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 100.0)
+    assert not run.problems, run.problems
+    shipped = read_trajectory(ROOT / "trajectories" / robot / "A.csv.gz")
+    plan = run.result.plan
+    assert len(shipped.time) == len(plan.time)
+    np.testing.assert_allclose(plan.q, shipped.q, atol=ROUNDING * 1.01, rtol=0)
+    np.testing.assert_allclose(plan.qdd, shipped.qdd, atol=ROUNDING * 1.01, rtol=0)
+    summary = yaml.safe_load((ROOT / "trajectories" / robot / "plan.yaml").read_text())
+    assert summary["duration_s"] == pytest.approx(plan.duration, abs=1e-6)
+    assert summary["excitation"]["rank"] == 7
+
+
+def test_ur5_figures(setup):
+    """The issue's figures: <= 60 s per configuration, predicted stderr <= 0.05 % of the row's largest."""
+    tool, sensor, pipeline = setup
+    run = plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 500.0)
+    assert run.result.plan.duration <= 60.0
+    assert run.excitation.max_relative_stderr <= 5e-4
+    assert run.excitation.rank == 7 and math.isfinite(run.excitation.condition_number)
+    assert run.result.clearance.distance >= 0.02 and run.result.limits.ok
+
+
+def test_one_configuration_gives_rank_4_two_give_6(setup):
+    tool, sensor, pipeline = setup
+    run = plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 100.0)
+    g = run.g_sensor[run.still]
+    sim = sensor.simulated
+    ranks = [predict_excitation({name: g for name in names}, tool, sim.C_bar, sim.D, 1e-5).rank
+             for names in (["A"], ["A", "B"], ["A", "B", "C"])]
+    assert ranks == [4, 6, 7]
+    single = predict_excitation({"A": g}, tool, sim.C_bar, sim.D, 1e-5)
+    assert "rank 4 of 7" in single.advice and np.all(np.isinf(single.stderr_C))
+
+
+def _robot_file(tmp_path, base, **changes):
+    data = yaml.safe_load(resolve(base, "robots").read_text())
+    data.update(changes)
+    path = tmp_path / f"{base}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_a_home_with_a_vertical_first_sweep_axis_is_flagged(tmp_path, ur5):
+    # find the wrist_1 angle that makes the wrist_2 axis vertical, from a typical pose
+    home = np.array([0.0, -1.2, 1.6, 0.0, 0.0, 0.0])
+    values = np.linspace(-math.pi, math.pi, 721)
+    tilts = []
+    for v in values:
+        home[3] = v
+        tilts.append(abs(ur5.joint_axis_world(home, "wrist_2_joint")[2]))
+    home[3] = values[int(np.argmax(tilts))]
+    assert max(tilts) > 0.999
+    path = _robot_file(tmp_path, "ur5", home=dict(zip(ur5.joint_names, home.tolist(), strict=True)))
+    kin = Kinematics(load_robot(path))
+    checker = CollisionChecker(kin, load_tool(resolve("paper_tool", "configs")).shape, kin.sweep_joints[0])
+    with pytest.raises(TrajectoryError, match=r"poor home: the axis of wrist_2_joint is (89|90)\.\d° from horizontal .* "
+                                              r"gravity would stay near one circle.*Change wrist_1_joint") as info:
+        plan_calibration(kin, checker, SweepPattern(), 100.0)
+    assert info.value.result == "poor home"
+
+
+def test_a_very_large_tool_is_rejected_with_the_pair_named(setup):
+    tool, sensor, pipeline = setup
+    import dataclasses
+
+    huge = dataclasses.replace(tool, shape=ToolShape(radius=0.45, length=0.6))
+    with pytest.raises(TrajectoryError, match=r"'\w+' and '\w+'") as info:
+        plan_trajectories(resolve("ur5", "robots"), huge, sensor, pipeline.filter, 1e-5, SweepPattern(), 100.0)
+    assert "'tool'" in str(info.value) and "m" in str(info.value)
+
+
+def test_home_outside_the_joint_limits_is_a_clear_error(tmp_path):
+    home = {"panda_joint4": 0.5}
+    path = _robot_file(tmp_path, "panda", home=home)
+    kin = Kinematics(load_robot(path))
+    checker = CollisionChecker(kin, ToolShape(0.05, 0.1), kin.sweep_joints[0])
+    with pytest.raises(TrajectoryError, match=r"home outside the joint limits: panda_joint4 = \+0.5000 rad not in \[-3.0718, -0.0698\]"):
+        plan_calibration(kin, checker, SweepPattern(), 100.0)
+
+
+def test_bad_rate_pattern_limits_and_sweep_joint(tmp_path, ur5):
+    home = np.array([0.0, -1.2, 1.6, -1.97, 0.0, 0.0])
+    ranges = sweep_ranges(ur5, home, 0.02)
+    for rate in (0.0, -5.0, math.nan):
+        with pytest.raises(TrajectoryError, match="rate=.* Hz but expected a finite rate > 0"):
+            plan_sweeps(ur5, home, ranges, SweepPattern(), rate)
+    with pytest.raises(TrajectoryError, match="levels=1 and stops=6 but expected at least 2 each"):
+        SweepPattern(levels=1)
+    with pytest.raises(TrajectoryError, match="dwell=-1 s"):
+        SweepPattern(dwell=-1)
+    with pytest.raises(FileFormatError, match=r"'limits.acceleration': is 0.0 but expected a finite value > 0"):
+        load_robot(_robot_file(tmp_path, "ur5", limits={"acceleration": 0}))
+    with pytest.raises(FileFormatError, match=r"'limits.jerk': is -3.0 but expected a finite value > 0"):
+        load_robot(_robot_file(tmp_path, "ur5", limits={"jerk": -3}))
+    with pytest.raises(JointError, match=r"sweep joint \['wrist_9_joint'\] not among the actuated joints"):
+        Kinematics(load_robot(_robot_file(tmp_path, "ur5", sweep_joints=["wrist_2_joint", "wrist_9_joint"])))
+
+
+def test_ruckig_errors_become_trajectory_errors(ur5):
+    import dataclasses
+
+    home = np.array([0.0, -1.2, 1.6, -1.97, 0.0, 0.0])
+    broken = dataclasses.replace(ur5.limits, jerk=np.full(6, np.nan))
+    object.__setattr__(ur5, "limits", broken)
+    try:
+        with pytest.raises(TrajectoryError, match="ruckig (rejected|could not plan) the segment") as info:
+            plan_sweeps(ur5, home, sweep_ranges(ur5, home, 0.02), SweepPattern(), 100.0)
+        assert info.value.result
+    finally:
+        object.__setattr__(ur5, "limits", Kinematics(ur5.robot).limits)
