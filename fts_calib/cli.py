@@ -50,6 +50,100 @@ def _trajectory(args: argparse.Namespace) -> int:
     return 1 if run.problems else 0
 
 
+def _calibrate(args: argparse.Namespace) -> int:
+    from .calibrate import ProgressBar, calibrate_recording, format_summary
+    from .calibration import save_calibration
+    from .kinematics import Kinematics
+    from .pipeline_config import load_pipeline_config
+    from .resources import resolve
+    from .robot import load_robot
+    from .tool import load_tool
+
+    kin = Kinematics(load_robot(resolve(args.robot, "robots")))
+    tool = load_tool(resolve(args.tool, "configs"))
+    config = load_pipeline_config(resolve(args.pipeline, "configs"))
+    recording = Path(args.recording)
+    size = recording.stat().st_size if recording.exists() else 1
+    bar = None if args.quiet else ProgressBar(size, "rows")
+    result = calibrate_recording(recording, kin, tool, config, use_filter=not args.no_filter, checkpoint=args.checkpoint,
+                                 resume=args.resume, joints_in_degrees=args.joints_in_degrees, progress=bar)
+    output = None
+    if result.calibration is not None:
+        output = save_calibration(result.calibration, args.output)
+    print(format_summary(result, recording, output))
+    return 0 if result.calibration is not None else 1
+
+
+def _address(text: str) -> tuple[str, int]:
+    host, _, port = text.rpartition(":")
+    try:
+        return (host or "127.0.0.1"), int(port)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, e.g. 127.0.0.1:5005, got {text!r}") from None
+
+
+def _live(args: argparse.Namespace) -> int:
+    from .calibration import save_calibration
+    from .exceptions import InsufficientExcitation
+    from .kinematics import Kinematics
+    from .live import LiveRunner, UdpReceiver, format_stats
+    from .pipeline_config import load_pipeline_config
+    from .resources import resolve
+    from .robot import load_robot
+    from .session import CalibrationSession
+    from .sync import Synchronizer
+    from .tool import load_tool
+
+    kin = Kinematics(load_robot(resolve(args.robot, "robots")))
+    tool = load_tool(resolve(args.tool, "configs"))
+    config = load_pipeline_config(resolve(args.pipeline, "configs"))
+    checkpoint = Path(args.checkpoint or f"{args.output}.checkpoint.json")
+    host, port = args.listen
+    source = f"live udp://{host}:{port}"
+    if args.resume:
+        session = CalibrationSession.resume(checkpoint, kin, tool, config, source=source)
+        print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
+    else:
+        session = CalibrationSession(kin, tool, config, checkpoint=checkpoint, source=source)
+    latency = config.live.latency_s if args.latency is None else args.latency
+    max_gap = config.live.max_gap_s if args.max_gap is None else args.max_gap
+    sync = Synchronizer(kin.joint_names, [j.kind == "continuous" for j in kin.joints], max_gap, latency)
+    receiver = UdpReceiver(host, port)
+    print(f"listening on udp://{receiver.address[0]}:{receiver.address[1]} for {kin.robot.name} with '{tool.name}'; "
+          "Ctrl-C or an 'end' message writes the calibration", flush=True)
+    try:
+        runner = LiveRunner(session, receiver, sync, status=None if args.quiet else sys.stderr)
+        stats = runner.run(idle_timeout_s=args.idle_timeout)
+    finally:
+        receiver.close()
+    print(format_stats(stats, sync))
+    from .calibrate import format_counts
+
+    print("\n".join(format_counts(session)))
+    try:
+        calibration = session.solve()
+    except InsufficientExcitation as exc:
+        print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
+        return 1
+    path = save_calibration(calibration, args.output)
+    q = calibration.quality
+    print(f"rank {q.rank} of 7, condition number {q.condition_number:.1f}; wrote {path}")
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> int:
+    from .replay import ReplayOptions, replay
+
+    options = ReplayOptions(speed=args.speed, joint_rate_hz=args.joint_rate, latency_s=args.latency, loss=args.loss,
+                            reorder=args.reorder, seed=args.seed)
+    host, port = args.to
+    print(f"replaying {args.recording} to udp://{host}:{port} at speed {args.speed:g}...", flush=True)
+    stats = replay(args.recording, host, port, options)
+    print(f"sent {stats.sent:,} datagrams in {stats.seconds:.1f} s ({stats.dropped:,} dropped and {stats.reordered:,} "
+          "reordered on purpose)")
+    return 0
+
+
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
     return commands.add_parser(
         name, help=help_text, description=description, epilog=f"example:\n  {example}",
@@ -104,18 +198,76 @@ def build_parser() -> argparse.ArgumentParser:
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", action="store_true", help="do not write plan.png")
     traj.set_defaults(handler=_trajectory)
+
+    cal = _add(commands, "calibrate", "calibrate from a recording",
+               "Read a recording (CSV: time, joints, strain_1..8, tool), keep the quasi-static samples, accumulate the "
+               "least squares and write the calibration. Prints a progress bar, then a summary: samples kept and why the "
+               "rest were dropped, rank, condition, residuals, standard errors. Exits 1 when the data cannot determine C.",
+               "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml")
+    cal.add_argument("recording", help="recording CSV (or .csv.gz)")
+    cal.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    cal.add_argument("--tool", default="paper_tool", help="tool file (default: paper_tool)")
+    cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
+    cal.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
+    cal.add_argument("--no-filter", action="store_true", help="keep every valid sample, moving or not (for comparison)")
+    cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
+    cal.add_argument("--resume", action="store_true", help="continue from --checkpoint")
+    cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
+    cal.add_argument("--quiet", action="store_true", help="no progress bar")
+    cal.set_defaults(handler=_calibrate)
+
+    live = _add(commands, "live", "calibrate from live UDP feeds of joints and strains",
+                "Listen for the JSON datagrams of the live protocol (joints, strain, tool, end), pair the two streams, keep "
+                "the quasi-static samples and show a status line; write the calibration on 'end' or Ctrl-C. Checkpoints "
+                "every few seconds; --resume continues after a crash.",
+                "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml")
+    live.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    live.add_argument("--tool", default="paper_tool", help="tool file (default: paper_tool)")
+    live.add_argument("--listen", type=_address, default=("127.0.0.1", 5005), help="HOST:PORT to bind (default 127.0.0.1:5005)")
+    live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
+    live.add_argument("--checkpoint", help="checkpoint file (default: OUTPUT.checkpoint.json)")
+    live.add_argument("--resume", action="store_true", help="continue from the checkpoint")
+    live.add_argument("--pipeline", default="pipeline", help="pipeline configuration")
+    live.add_argument("--latency", type=float, help="how late the joint stamps are, in s (default: the pipeline's)")
+    live.add_argument("--max-gap", type=float, help="longest joint gap interpolated across, in s (default: the pipeline's)")
+    live.add_argument("--idle-timeout", type=float, help="stop after this many seconds without data")
+    live.add_argument("--quiet", action="store_true", help="no status line")
+    live.set_defaults(handler=_live)
+
+    rep = _add(commands, "replay", "send a recording as the live protocol",
+               "Send a recording's rows as live datagrams (joints, strain, tool, end), with options for a slower joint "
+               "rate, added latency, loss and reordering, to test and show the live path without a robot.",
+               "fts-calib replay recording.csv --to 127.0.0.1:5005 --speed 1.0")
+    rep.add_argument("recording", help="recording CSV (or .csv.gz)")
+    rep.add_argument("--to", type=_address, default=("127.0.0.1", 5005), help="HOST:PORT (default 127.0.0.1:5005)")
+    rep.add_argument("--speed", type=float, default=1.0, help="time scale: 1 real time, 10 ten times faster, 0 no pacing")
+    rep.add_argument("--joint-rate", type=float, help="joint messages per second (default: one per row)")
+    rep.add_argument("--latency", type=float, default=0.0, help="joint stamps late by this many s (default 0)")
+    rep.add_argument("--loss", type=float, default=0.0, help="fraction of joint and strain messages dropped (default 0)")
+    rep.add_argument("--reorder", type=float, default=0.0, help="fraction of messages delayed by 1-5 places (default 0)")
+    rep.add_argument("--seed", type=int, default=0, help="seed of loss and reordering (default 0)")
+    rep.set_defaults(handler=_replay)
     return parser
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"fts-calib: warning: {message}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fts-calib`` command; returns the exit status."""
+    import warnings
+
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "handler", None):
         parser.print_help()
         return 2
     try:
-        return int(args.handler(args) or 0)
+        with warnings.catch_warnings():  # warnings as 'fts-calib: warning: ...', for this command only
+            warnings.simplefilter("default")
+            warnings.showwarning = _show_warning
+            return int(args.handler(args) or 0)
     except FtsCalibError as exc:
         print(f"fts-calib {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -111,12 +111,14 @@ class SensorMotion:
         alpha: Angular acceleration [rad/s^2]. Shape (3,) or (N, 3).
         v: Linear velocity of the origin of S [m/s]. Shape (3,) or (N, 3).
         a: Classical linear acceleration of the origin of S [m/s^2]. Shape (3,) or (N, 3).
+        R_world_sensor: Orientation of S. Shape (3, 3) or (N, 3, 3).
     """
 
     omega: np.ndarray
     alpha: np.ndarray
     v: np.ndarray
     a: np.ndarray
+    R_world_sensor: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -436,18 +438,27 @@ class Kinematics:
                 q[:, joint.idx_q] = theta[:, k]
         return q
 
+    def reading_problems(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+        """Soft problems of readings (N, n_joints), without warnings.
+
+        Returns:
+            ``(outside (N, n_joints) bool: outside the limits, outside_rows (N,) bool,
+            joints whose readings look like degrees)``.
+        """
+        lim = self.limits
+        outside = (theta < lim.lower - _LIMIT_TOLERANCE) | (theta > lim.upper + _LIMIT_TOLERANCE)
+        suspect = np.any(np.abs(theta) > DEGREES_SUSPECT, axis=0) & self._bounded
+        return outside, np.any(outside, axis=1), tuple(n for n, big in zip(self.joint_names, suspect, strict=True) if big)
+
     def check_readings(self, readings) -> ReadingCheck:
         """Warn about readings outside the joint limits or that look like degrees.
 
         Emits one :class:`FtsCalibWarning` per kind of problem and returns the counts.
         """
         theta, _ = self.readings(readings)
-        lim = self.limits
-        outside = (theta < lim.lower - _LIMIT_TOLERANCE) | (theta > lim.upper + _LIMIT_TOLERANCE)
+        outside, outside_rows, degrees = self.reading_problems(theta)
         by_joint = {name: int(n) for name, n in zip(self.joint_names, outside.sum(axis=0), strict=True) if n}
-        rows = int(np.any(outside, axis=1).sum())
-        suspect = np.any(np.abs(theta) > DEGREES_SUSPECT, axis=0) & self._bounded
-        degrees = tuple(name for name, big in zip(self.joint_names, suspect, strict=True) if big)
+        rows = int(outside_rows.sum())
         if degrees:
             worst = {n: float(np.max(np.abs(theta[:, self._index[n]]))) for n in degrees}
             warnings.warn(
@@ -574,7 +585,8 @@ class Kinematics:
             pin.updateFramePlacement(self.model, self.data, self.sensor_frame_id)
             vel = pin.getFrameVelocity(self.model, self.data, self.sensor_frame_id, pin.LOCAL)
             acc = pin.getFrameClassicalAcceleration(self.model, self.data, self.sensor_frame_id, pin.LOCAL)
-            return SensorMotion(vel.angular.copy(), acc.angular.copy(), vel.linear.copy(), acc.linear.copy())
+            R = self.data.oMf[self.sensor_frame_id].rotation.copy()
+            return SensorMotion(vel.angular.copy(), acc.angular.copy(), vel.linear.copy(), acc.linear.copy(), R)
         return self._motion(theta, dtheta, ddtheta)
 
     def _motion(self, theta: np.ndarray, dtheta: np.ndarray, ddtheta: np.ndarray) -> SensorMotion:
@@ -603,4 +615,4 @@ class Kinematics:
         v += np.cross(w, r)
         a += np.cross(al, r) + np.cross(w, np.cross(w, r))
         cols = _compose(cols, self._R_last_sensor)
-        return SensorMotion(*(_transpose_apply(cols, x) for x in (w, al, v, a)))
+        return SensorMotion(*(_transpose_apply(cols, x) for x in (w, al, v, a)), _matrices(cols))

@@ -59,3 +59,34 @@ def random_readings(kin, n, rng):
     lo = np.where(np.isfinite(kin.limits.lower), kin.limits.lower, -np.pi)
     hi = np.where(np.isfinite(kin.limits.upper), kin.limits.upper, np.pi)
     return rng.uniform(lo, hi, (n, kin.n_joints))
+
+
+@pytest.fixture(scope="session")
+def short_plan():
+    """A short UR5 calibration motion (3 levels x 4 stops, 100 Hz) for all three configurations."""
+    from fts_calib.collision import CollisionChecker
+    from fts_calib.planner import SweepPattern, plan_sweeps, sweep_ranges, wrist_ranges
+
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    tool = load_tool(resolve("paper_tool", "configs"))
+    pattern = SweepPattern(levels=3, stops=4, dwell=0.4)
+    checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])
+    home = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])
+    ranges = wrist_ranges(kin, checker, home, sweep_ranges(kin, home, pattern.margin), 0.02).ranges
+    return plan_sweeps(kin, home, ranges, pattern, 100.0)
+
+
+@pytest.fixture(scope="session")
+def ur5_recording(tmp_path_factory, short_plan):
+    """A simulated UR5 recording of the short plan: noise, 24-bit ADC, moving tool (Newton-Euler)."""
+    from fts_calib.sensor_config import load_sensor_config
+    from fts_calib.simulate import simulate_recording
+    from fts_calib.trajectory_io import TrajectoryFile
+
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    tool = load_tool(resolve("paper_tool", "configs"))
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    p = short_plan
+    trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
+    path = tmp_path_factory.mktemp("recordings") / "ur5.csv"
+    return simulate_recording(path, kin, tool, trajectories, sensor, np.random.default_rng(7))

@@ -1,0 +1,138 @@
+"""The ``replay`` job: send a recording as the live protocol, to test and show the live path.
+
+Every row becomes a strain message; joint messages go at ``joint_rate_hz`` (every row by
+default, with the row's readings) and carry stamps late by ``latency_s`` (as a joint feed
+with a constant latency would); a tool message announces each configuration when it
+starts; an ``end`` message closes the run. ``loss`` drops that fraction of the joint and
+strain messages and ``reorder`` delays that fraction by one to five messages (seeded).
+Messages leave at their recorded times divided by ``speed`` (0: as fast as the socket
+takes them).
+"""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .protocol import End, Joints, Message, Strain, ToolChange, encode
+from .recording import RecordingReader
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """How to replay.
+
+    Attributes:
+        speed: Time scale (1: real time, 10: ten times faster, 0: no pacing).
+        joint_rate_hz: Rate of the joint messages [Hz]; None for every row.
+        latency_s: Joint stamps are late by this [s].
+        loss: Fraction of joint and strain messages dropped, in [0, 1).
+        reorder: Fraction of messages delayed by one to five places, in [0, 1).
+        seed: Seed of the loss and reordering.
+    """
+
+    speed: float = 1.0
+    joint_rate_hz: float | None = None
+    latency_s: float = 0.0
+    loss: float = 0.0
+    reorder: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self):
+        if not (self.speed >= 0 and np.isfinite(self.speed)):
+            raise ValueError(f"speed={self.speed} but expected a finite value >= 0")
+        if self.joint_rate_hz is not None and not self.joint_rate_hz > 0:
+            raise ValueError(f"joint_rate_hz={self.joint_rate_hz} but expected > 0")
+        for name in ("loss", "reorder"):
+            value = getattr(self, name)
+            if not 0.0 <= value < 1.0:
+                raise ValueError(f"{name}={value} but expected a fraction in [0, 1)")
+
+
+def messages(path: str | Path, options: ReplayOptions) -> Iterator[tuple[float, Message]]:
+    """(recorded time [s], message) pairs of a recording, before loss and reordering."""
+    with RecordingReader(path, None, None) as reader:
+        names = reader.joint_names
+        current, next_joint, last = None, -np.inf, 0.0
+        period = 0.0 if options.joint_rate_hz is None else 1.0 / options.joint_rate_hz
+        for chunk in reader:
+            tools = reader.tool_names
+            for t, q, s, code in zip(chunk.time, chunk.readings, chunk.strain, chunk.tool, strict=True):
+                t = float(t)
+                if tools[code] != current:
+                    current = tools[code]
+                    yield t, ToolChange(t, current)
+                if t >= next_joint:
+                    next_joint = t + period if period else t
+                    yield t, Joints(t + options.latency_s, dict(zip(names, q.tolist(), strict=True)))
+                yield t, Strain(t, tuple(s.tolist()))
+                last = t
+    yield last, End()
+
+
+@dataclass(frozen=True)
+class ReplayStats:
+    """What was sent.
+
+    Attributes:
+        sent: Datagrams sent.
+        dropped: Messages dropped on purpose (``loss``).
+        reordered: Messages sent late on purpose (``reorder``).
+        seconds: Wall-clock time [s].
+    """
+
+    sent: int
+    dropped: int
+    reordered: int
+    seconds: float
+
+
+def replay(path: str | Path, host: str, port: int, options: ReplayOptions) -> ReplayStats:
+    """Send a recording to ``host:port`` (see the module docstring)."""
+    rng = np.random.default_rng(options.seed)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    target = (host, port)
+    start = time.monotonic()
+    t0 = None
+    sent = dropped = reordered = 0
+    delayed: list[list] = []  # [messages still to pass, datagram]
+    try:
+        for t, message in messages(path, options):
+            if t0 is None:
+                t0 = t
+            if options.speed > 0:
+                wait = (t - t0) / options.speed - (time.monotonic() - start)
+                if wait > 0.0005:
+                    time.sleep(wait)
+            data = encode(message)
+            lossy = isinstance(message, (Joints, Strain))
+            if lossy and options.loss and rng.random() < options.loss:
+                dropped += 1
+                continue
+            if lossy and options.reorder and rng.random() < options.reorder:
+                delayed.append([int(rng.integers(1, 6)), data])
+                reordered += 1
+                continue
+            if isinstance(message, End):
+                for _, late in delayed:
+                    sock.sendto(late, target)
+                    sent += 1
+                delayed = []
+            sock.sendto(data, target)
+            sent += 1
+            for entry in delayed:
+                entry[0] -= 1
+            for entry in [e for e in delayed if e[0] <= 0]:
+                sock.sendto(entry[1], target)
+                sent += 1
+                delayed.remove(entry)
+            if options.speed == 0 and sent % 200 == 0:
+                time.sleep(0.001)  # let the receiver keep up
+    finally:
+        sock.close()
+    return ReplayStats(sent, dropped, reordered, time.monotonic() - start)

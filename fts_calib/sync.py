@@ -1,0 +1,167 @@
+"""The synchronizer: joint readings interpolated at strain times, across two live streams.
+
+Joint and strain messages arrive at different rates and out of order. Joint samples are
+kept sorted by time (their stamps less the configured latency: a joint stream whose stamps
+are late by ``latency_s`` is shifted back). A strain sample is placed once the joint
+stream has passed its time by ``hold_s`` (so that late joint messages can still arrive):
+the joints are interpolated linearly between the two joint samples around it (continuous
+joints along the shorter arc), and its tool configuration is the last one announced at or
+before its time. A strain sample is dropped, and counted, when it cannot be placed: before
+the first joint sample, inside a joint gap longer than ``max_gap_s`` (the synchronizer
+refuses to interpolate across it), before any tool message, or arriving after later
+strain samples were already placed.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+BEFORE_JOINTS = "strain before the first joint sample"
+JOINT_GAP = "joint gap longer than max_gap_s"
+NO_TOOL = "no tool configuration announced yet"
+LATE = "strain sample arrived too late (reordered beyond the hold)"
+
+
+@dataclass(frozen=True)
+class Synced:
+    """Strain samples with the joint readings interpolated at their times, in time order.
+
+    Attributes:
+        time: [s], shape (m,).
+        readings: Joint readings [rad], shape (m, n_joints).
+        strain: Raw strains, shape (m, 8).
+        tool: Tool configuration names, length m.
+    """
+
+    time: np.ndarray
+    readings: np.ndarray
+    strain: np.ndarray
+    tool: list[str]
+
+
+class Synchronizer:
+    """Pairs the two streams (see the module docstring).
+
+    Args:
+        joint_names: Joint names, in the robot's order.
+        continuous: Which joints are continuous (interpolated along the shorter arc). Shape (n,).
+        max_gap_s: Longest joint gap interpolated across [s].
+        latency_s: How late the joint stamps are relative to the strain stamps [s].
+        hold_s: How far the joint stream must pass a strain time before it is placed [s];
+            ``max_gap_s`` when None.
+
+    Attributes:
+        dropped: Strain samples dropped, by reason.
+    """
+
+    def __init__(self, joint_names: Sequence[str], continuous: Sequence[bool] | None = None, max_gap_s: float = 0.05,
+                 latency_s: float = 0.0, hold_s: float | None = None):
+        self.joint_names = list(joint_names)
+        self._index = {name: k for k, name in enumerate(self.joint_names)}
+        self.continuous = np.zeros(len(self.joint_names), dtype=bool) if continuous is None else np.asarray(continuous, dtype=bool)
+        self.max_gap_s = float(max_gap_s)
+        self.latency_s = float(latency_s)
+        self.hold_s = self.max_gap_s if hold_s is None else float(hold_s)
+        self._joint_t = np.zeros(0)
+        self._joint_q = np.zeros((0, len(self.joint_names)))
+        self._new_joints: list[tuple[float, np.ndarray]] = []
+        self._strain: list[tuple[float, tuple[float, ...]]] = []
+        self._tools: list[tuple[float, str]] = []
+        self._placed_until = -math.inf
+        self.dropped: dict[str, int] = {}
+        self.joint_messages = 0
+        self.strain_messages = 0
+
+    def add_joints(self, t: float, q: dict[str, float]) -> bool:
+        """Add a joint message; False (nothing added) when its joints are not exactly the robot's."""
+        if len(q) != len(self._index) or any(name not in self._index for name in q):
+            return False
+        self.joint_messages += 1
+        self._new_joints.append((t - self.latency_s, np.array([q[n] for n in self.joint_names])))
+        return True
+
+    def add_strain(self, t: float, strain: Sequence[float]) -> None:
+        """Add a strain message."""
+        self.strain_messages += 1
+        if t <= self._placed_until:
+            self._drop(LATE, 1)
+            return
+        self._strain.append((t, tuple(strain)))
+
+    def add_tool(self, t: float, name: str) -> None:
+        """Announce the tool configuration mounted from ``t`` on."""
+        bisect.insort(self._tools, (t, name))
+
+    def _drop(self, reason: str, count: int) -> None:
+        if count:
+            self.dropped[reason] = self.dropped.get(reason, 0) + count
+
+    def _merge_joints(self) -> None:
+        if not self._new_joints:
+            return
+        t = np.array([j[0] for j in self._new_joints])
+        q = np.array([j[1] for j in self._new_joints])
+        self._new_joints = []
+        all_t = np.concatenate([self._joint_t, t])
+        all_q = np.concatenate([self._joint_q, q])
+        order = np.argsort(all_t, kind="stable")
+        all_t, all_q = all_t[order], all_q[order]
+        unique = np.concatenate([[True], np.diff(all_t) > 0])  # a repeated stamp keeps its first reading
+        self._joint_t, self._joint_q = all_t[unique], all_q[unique]
+
+    def pop(self, final: bool = False) -> Synced:
+        """Place every strain sample the joint stream has passed (all of them when ``final``)."""
+        self._merge_joints()
+        empty = Synced(np.zeros(0), np.zeros((0, len(self.joint_names))), np.zeros((0, 8)), [])
+        if not self._strain:
+            return empty
+        self._strain.sort(key=lambda s: s[0])
+        frontier = math.inf if final else (self._joint_t[-1] - self.hold_s if len(self._joint_t) else -math.inf)
+        count = bisect.bisect_right([s[0] for s in self._strain], frontier)
+        ready, self._strain = self._strain[:count], self._strain[count:]
+        if not ready:
+            return empty
+        t = np.array([s[0] for s in ready])
+        strain = np.array([s[1] for s in ready], dtype=float)
+        self._placed_until = max(self._placed_until, float(t[-1]))
+        jt, jq = self._joint_t, self._joint_q
+        if len(jt) == 0:
+            self._drop(BEFORE_JOINTS, len(t))
+            return empty
+        right = np.searchsorted(jt, t, side="left")
+        exact = (right < len(jt)) & (jt[np.minimum(right, len(jt) - 1)] == t)
+        left = np.where(exact, right, right - 1)  # an exact stamp interpolates with itself
+        inside = (left >= 0) & (right < len(jt))
+        self._drop(BEFORE_JOINTS, int(np.sum(left < 0)))
+        after = (left >= 0) & (right >= len(jt))  # only when final: beyond the last joint sample
+        self._drop(JOINT_GAP, int(np.sum(after)))
+        lo, hi = np.clip(left, 0, len(jt) - 1), np.clip(right, 0, len(jt) - 1)
+        gap = jt[hi] - jt[lo]
+        ok = inside & (gap <= self.max_gap_s)
+        self._drop(JOINT_GAP, int(np.sum(inside & ~ok)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = np.where(gap > 0, (t - jt[lo]) / np.where(gap > 0, gap, 1.0), 0.0)[:, None]
+        delta = jq[hi] - jq[lo]
+        delta[:, self.continuous] = (delta[:, self.continuous] + math.pi) % (2 * math.pi) - math.pi
+        readings = jq[lo] + w * delta
+        tools = self._tool_at(t)
+        has_tool = np.array([name is not None for name in tools], dtype=bool)
+        self._drop(NO_TOOL, int(np.sum(ok & ~has_tool)))
+        ok &= has_tool
+        # joints older than what the pending strain samples can still need are dropped
+        oldest = self._strain[0][0] if self._strain else self._placed_until
+        keep_from = max(0, int(np.searchsorted(jt, oldest - self.max_gap_s, side="left")) - 1)
+        self._joint_t, self._joint_q = jt[keep_from:], jq[keep_from:]
+        return Synced(t[ok], readings[ok], strain[ok], [name for name, good in zip(tools, ok, strict=True) if good])
+
+    def _tool_at(self, t: np.ndarray) -> list[str | None]:
+        if not self._tools:
+            return [None] * len(t)
+        times = np.array([x[0] for x in self._tools])
+        k = np.searchsorted(times, t, side="right") - 1
+        return [self._tools[i][1] if i >= 0 else None for i in k]

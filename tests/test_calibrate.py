@@ -1,0 +1,110 @@
+"""The calibrate job: the filter against a moving tool, the summary, and bad recordings."""
+
+import numpy as np
+import pytest
+
+from fts_calib import load_calibration
+from fts_calib.calibrate import calibrate_recording
+from fts_calib.cli import main
+from fts_calib.resources import resolve
+from fts_calib.sensor_config import load_sensor_config
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return load_sensor_config(resolve("sensor", "configs")).simulated
+
+
+def _error(calibration, truth):
+    """Largest coefficient error relative to its row's largest coefficient."""
+    return np.max(np.abs(calibration.C - truth.C) / np.abs(truth.C).max(axis=1, keepdims=True))
+
+
+def test_the_filter_makes_the_error_at_least_five_times_smaller_on_a_moving_tool(ur5, paper_tool, ur5_recording, truth):
+    """The recording has the moving tool's full Newton-Euler wrench: without the filter,
+    accelerations and centripetal terms enter the fit as if they were weight."""
+    with_filter = calibrate_recording(ur5_recording, ur5, paper_tool).calibration
+    without = calibrate_recording(ur5_recording, ur5, paper_tool, use_filter=False).calibration
+    e_with, e_without = _error(with_filter, truth), _error(without, truth)
+    assert e_without >= 5 * e_with, (e_with, e_without)
+    assert e_with < 1e-4  # 0.01 % of the row's largest coefficient
+    assert np.all(np.abs(with_filter.C - truth.C) <= 4 * with_filter.quality.stderr_C)
+
+
+def test_cli_calibrate_summary_and_file(tmp_path, ur5_recording, capsys):
+    out = tmp_path / "cal.yaml"
+    assert main(["calibrate", "--robot", "ur5", str(ur5_recording), "-o", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    for part in ("rows in", "kept (", "filter: joint speed", "rank 7 of 7", "residual RMS: Fx", "± standard error", "D: Fx", "wrote"):
+        assert part in text, part
+    cal = load_calibration(out)
+    assert cal.provenance["robot"]["name"] == "ur5" and cal.provenance["source"] == str(ur5_recording)
+    assert cal.quality.samples_seen == 9009 and cal.quality.skipped["filter: joint speed"] > 0
+
+
+def _lines(path):
+    return path.read_text().splitlines(keepends=True)
+
+
+def test_a_recording_of_one_configuration_cannot_determine_c(tmp_path, ur5_recording, capsys):
+    lines = _lines(ur5_recording)
+    only_a = tmp_path / "a.csv"
+    only_a.write_text("".join([lines[0], *[line for line in lines[1:] if line.rstrip().endswith(",A")]]))
+    assert main(["calibrate", "--robot", "ur5", str(only_a), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 1
+    text = capsys.readouterr().out
+    assert "NO CALIBRATION: insufficient excitation: the information matrix has rank 4 of 7" in text
+    assert "need a second centre of mass: mount configuration B or C" in text
+    assert not (tmp_path / "c.yaml").exists()
+
+
+def test_bad_rows_are_counted_and_the_run_goes_on(tmp_path, ur5_recording, capsys):
+    lines = _lines(ur5_recording)
+    bad = list(lines)
+    bad[100] = bad[100].replace(",A\n", ",D\n")  # unknown tool configuration
+    cells = bad[200].split(",")
+    cells[8] = "nan"
+    bad[200] = ",".join(cells)  # a NaN strain
+    bad[301] = bad[250]  # an earlier row: time goes backwards
+    bad[400] = bad[400].replace(",", ";", 1)  # malformed
+    bad[-1] = bad[-1][:30]  # truncated last line
+    path = tmp_path / "bad.csv"
+    path.write_text("".join(bad))
+    out = tmp_path / "c.yaml"
+    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "unknown tool configuration" in text and "line 101: column 'tool': unknown tool configuration 'D'" in text
+    assert "non-finite value" in text and "time going backwards" in text and "malformed line" in text
+    assert f"line {len(bad)}: truncated (no line end)" in text
+    skipped = load_calibration(out).quality.skipped
+    assert skipped["unknown tool configuration"] == 1 and skipped["non-finite value"] == 1
+    assert skipped["malformed line"] == 2 and skipped["time going backwards"] == 1
+
+
+def test_missing_column_and_empty_file_are_clear_errors(tmp_path, ur5_recording, capsys):
+    lines = _lines(ur5_recording)
+    path = tmp_path / "no_tool.csv"
+    path.write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in lines[:50]))
+    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 2
+    assert "no_tool.csv, line 1, column 'tool': missing column(s) ['tool']" in capsys.readouterr().err
+    (tmp_path / "empty.csv").write_text("")
+    assert main(["calibrate", "--robot", "ur5", str(tmp_path / "empty.csv"), "--quiet"]) == 2
+    assert "empty.csv, line 1: empty file" in capsys.readouterr().err
+
+
+def test_joint_columns_in_degrees(tmp_path, ur5_recording, capsys):
+    lines = _lines(ur5_recording)
+    header = lines[0].strip().split(",")
+    joints = range(1, 7)
+    out_lines = [lines[0]]
+    for line in lines[1:]:
+        cells = line.rstrip("\n").split(",")
+        for j in joints:
+            cells[j] = str(float(np.degrees(float(cells[j]))))
+        out_lines.append(",".join(cells) + "\n")
+    path = tmp_path / "deg.csv"
+    path.write_text("".join(out_lines))
+    assert header[1] == "shoulder_pan_joint"
+    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 1
+    captured = capsys.readouterr()
+    assert "fts-calib: warning: joint readings look like degrees" in captured.err and "outside joint limits" in captured.out
+    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet", "--joints-in-degrees"]) == 0

@@ -1,0 +1,34 @@
+"""The live protocol: round trip, and malformed or oversized datagrams."""
+
+import pytest
+
+from fts_calib.protocol import MAX_DATAGRAM, End, Joints, ProtocolError, Strain, ToolChange, decode, encode
+
+
+@pytest.mark.parametrize("message", [Joints(1.5, {"j1": 0.1, "j2": -2.0}), Strain(2.0, tuple(range(8))), ToolChange(0.0, "B"), End()])
+def test_round_trip(message):
+    assert decode(encode(message)) == message
+
+
+def test_documented_examples_decode():
+    assert decode(b'{"type": "joints", "t": 12.345, "q": {"shoulder_pan_joint": 0.1}}') == Joints(12.345, {"shoulder_pan_joint": 0.1})
+    assert decode(b'{"type": "tool", "t": 12.0, "name": "B"}') == ToolChange(12.0, "B")
+
+
+@pytest.mark.parametrize(
+    ("data", "reason", "match"),
+    [
+        (b"\xff\xfe", "malformed", "not JSON"),
+        (b"[1, 2]", "malformed", "expected a JSON object"),
+        (b'{"type": "strain", "t": 1, "strain": [1, 2]}', "malformed", "list of 8 numbers"),
+        (b'{"type": "strain", "t": "now", "strain": [0,0,0,0,0,0,0,0]}', "malformed", "'t' must be a finite number"),
+        (b'{"type": "joints", "t": 1, "q": {"j": "x"}}', "malformed", "'q' must map joint names to numbers"),
+        (b'{"type": "tool", "t": 1}', "malformed", "'name'"),
+        (b'{"type": "torque", "t": 1}', "malformed", "unknown type 'torque'"),
+        (b"x" * (MAX_DATAGRAM + 1), "oversized", f"at most {MAX_DATAGRAM}"),
+    ],
+)
+def test_bad_datagrams(data, reason, match):
+    with pytest.raises(ProtocolError, match=match) as info:
+        decode(data)
+    assert info.value.reason == reason

@@ -1,0 +1,77 @@
+"""The quasi-static filter: rules, chunk independence, the windowed deviation."""
+
+import numpy as np
+import pytest
+
+from fts_calib.pipeline_config import FilterConfig
+from fts_calib.qsfilter import QuasiStaticFilter, window_bounds, windowed_std
+from fts_calib.recording import RecordingReader
+
+
+def test_windowed_std_equals_the_direct_computation(rng):
+    t = np.cumsum(rng.uniform(0.0008, 0.0012, 3000))
+    x = np.column_stack([0.1 + 1e-5 * rng.standard_normal(3000), np.sin(3 * t), np.full(3000, 0.123)])
+    index = np.arange(3000)
+    left, right = window_bounds(t, index, 0.05)
+    direct = np.array([x[a:b + 1].std(axis=0) for a, b in zip(left, right, strict=True)])
+    got = windowed_std(x, left, right)
+    np.testing.assert_allclose(got[:, :2], direct[:, :2], rtol=1e-7, atol=1e-13)
+    assert np.all(got[:, 2] == 0.0)  # a constant has no spread, exactly
+
+
+def _stream(path, kin, tool):
+    with RecordingReader(path, kin.joint_names, tool.names) as reader:
+        chunks = list(reader)
+    return [np.concatenate([getattr(c, f) for c in chunks]) for f in ("time", "readings", "strain", "tool")]
+
+
+def test_decisions_do_not_depend_on_where_chunks_end(ur5, paper_tool, ur5_recording):
+    t, q, s, k = _stream(ur5_recording, ur5, paper_tool)
+    whole = QuasiStaticFilter(FilterConfig(), ur5, paper_tool).process(t, q, s, k, final=True)
+    filt = QuasiStaticFilter(FilterConfig(), ur5, paper_tool)
+    cuts = np.sort(np.random.default_rng(3).choice(len(t), 25, replace=False))
+    parts = [filt.process(*(a[i:j] for a in (t, q, s, k))) for i, j in zip([0, *cuts], [*cuts, len(t)], strict=True)]
+    parts.append(filt.process(t[:0], q[:0], s[:0], k[:0], final=True))
+    keep = np.concatenate([p.keep for p in parts])
+    assert np.array_equal(np.concatenate([p.time for p in parts]), t)
+    # the noise floor is learnt chunk by chunk: decisions agree but for a handful of borderline samples
+    assert np.sum(keep != whole.keep) <= 0.002 * len(t)
+    assert whole.keep.sum() > 1000
+
+
+def test_each_rule_rejects_what_it_should(ur5, paper_tool, rng):
+    """Three seconds still, then a slow turn of the last joint, then still with a strain ramp."""
+    rate = 500.0
+    t = np.arange(int(9 * rate)) / rate
+    q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
+    moving = (t >= 3) & (t < 6)
+    q[:, 5] = np.where(moving, 0.3 * (t - 3), np.where(t >= 6, 0.9, 0.0))
+    s = 0.1 + 1e-5 * rng.standard_normal((len(t), 8))
+    ramp = t >= 7.5
+    s[ramp] += 5e-3 * (t[ramp, None] - 7.5)  # the strains creep while the joints are still
+    f = QuasiStaticFilter(FilterConfig(), ur5, paper_tool)
+    out = f.process(t, q, s, np.zeros(len(t), dtype=np.int64), final=True)
+    assert out.keep[(t > 0.2) & (t < 2.8)].all()
+    assert not out.keep[moving].any()
+    assert not out.keep[t > 7.6].any()
+    assert out.keep[(t > 6.2) & (t < 7.4)].mean() > 0.9
+    assert f.rejected["joint speed"] > 0.9 * moving.sum() and f.rejected["strain not stationary"] > 0
+
+
+def test_the_dynamic_rule_catches_what_loose_joint_thresholds_let_through(ur5, paper_tool):
+    rate = 500.0
+    t = np.arange(int(4 * rate)) / rate
+    q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
+    q[:, 4] = 0.02 * t**2  # wrist_2 accelerates at 0.04 rad/s² from rest
+    loose = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0)
+    f = QuasiStaticFilter(loose, ur5, paper_tool)
+    out = f.process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64), final=True)
+    assert f.rejected["dynamic wrench"] > 0.5 * len(t) and out.keep.mean() < 0.5
+    strict = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0, max_dynamic_fraction=1.0)
+    assert QuasiStaticFilter(strict, ur5, paper_tool).process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64),
+                                                             final=True).keep.all()
+
+
+def test_bad_thresholds_are_refused():
+    with pytest.raises(ValueError, match="filter.max_joint_speed=0.0 but expected a finite value > 0"):
+        FilterConfig(max_joint_speed=0.0)

@@ -1,0 +1,129 @@
+"""The calibration session: checks, progress in words, checkpoints and resume."""
+
+import numpy as np
+import pytest
+
+from fts_calib import FtsCalibWarning, InsufficientExcitation
+from fts_calib.pipeline_config import LiveConfig, PipelineConfig
+from fts_calib.recording import RecordingReader
+from fts_calib.session import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, CalibrationSession
+from fts_calib.tool import Tool, ToolConfiguration
+
+
+def _chunks(path, kin, tool, rows=4000):
+    with RecordingReader(path, kin.joint_names, tool.names, chunk_rows=rows) as reader:
+        return list(reader)
+
+
+def _feed(session, chunks):
+    for c in chunks:
+        session.add_batch(c.time, c.readings, c.strain, c.tool)
+    session.flush()
+
+
+def test_single_samples_and_batches_give_the_same_calibration(ur5, paper_tool, ur5_recording):
+    chunks = _chunks(ur5_recording, ur5, paper_tool)
+    batch = CalibrationSession(ur5, paper_tool)
+    _feed(batch, chunks)
+    single = CalibrationSession(ur5, paper_tool)
+    for c in chunks[:2]:
+        for t, q, s, k in zip(c.time, c.readings, c.strain, c.tool, strict=True):
+            single.add(t, q, s, paper_tool.names[k])
+    _feed(single, chunks[2:])
+    a, b = batch.solve(), single.solve()
+    np.testing.assert_allclose(a.C_bar, b.C_bar, rtol=1e-10)
+    assert a.quality.samples_used == b.quality.samples_used > 1000
+
+
+def test_progress_says_what_is_missing(ur5, paper_tool, ur5_recording):
+    chunks = _chunks(ur5_recording, ur5, paper_tool)
+    t = np.concatenate([c.time for c in chunks])
+    q = np.concatenate([c.readings for c in chunks])
+    s = np.concatenate([c.strain for c in chunks])
+    k = np.concatenate([c.tool for c in chunks])
+    session = CalibrationSession(ur5, paper_tool)
+    assert session.progress().missing.startswith("no quasi-static sample yet")
+    words = []
+    for config in range(3):
+        mine = k == config
+        session.add_batch(t[mine], q[mine], s[mine], k[mine])
+        session.flush()
+        p = session.progress()
+        words.append((p.rank, p.missing))
+    assert words[0] == (4, "need a second centre of mass: mount configuration B or C")
+    assert words[1] == (6, "need a third centre of mass not on the line through A and B: mount configuration C")
+    assert words[2] == (7, "")
+    assert session.progress().kept_by_configuration["C"] > 300
+
+
+def test_collinear_tool_is_explained(ur5, ur5_recording, paper_tool):
+    """Strains made by a tool whose centres of mass lie on one line: rank 6 at most (eqs 19-20)."""
+    from fts_calib.resources import resolve
+    from fts_calib.sensor_config import load_sensor_config
+
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    line = Tool("line", 9.81, tuple(ToolConfiguration(n, 2.0, np.array([x, 0.0, 0.0]))
+                                    for n, x in zip("ABC", (0.05, 0.1, 0.15), strict=True)))
+    session = CalibrationSession(ur5, line)
+    for c in _chunks(ur5_recording, ur5, paper_tool):
+        W = np.array([line.configurations[k].static_wrench(g) for k, g in zip(c.tool, ur5.g_sensor(c.readings), strict=True)])
+        session.add_batch(c.time, c.readings, sensor.strains(W), c.tool)
+    session.flush()
+    p = session.progress()
+    assert p.rank == 6 and "lie on one line" in p.missing
+    with pytest.raises(InsufficientExcitation, match="rank 6 of 7.*lie on one line"):
+        session.solve()
+
+
+def test_bad_samples_are_counted_and_the_run_goes_on(ur5, paper_tool, ur5_recording):
+    c = _chunks(ur5_recording, ur5, paper_tool, rows=100_000)[0]
+    t, q, s, k = c.time.copy(), c.readings.copy(), c.strain.copy(), c.tool.copy()
+    t[100] = t[50]  # backwards
+    s[200, 3] = np.nan
+    k[300] = -1
+    q[400, 2] = 4.0  # outside the elbow's limits of +-pi
+    session = CalibrationSession(ur5, paper_tool)
+    session.add_batch(t, q, s, k)
+    session.flush()
+    assert session.skipped == {BACKWARDS: 1, NON_FINITE: 1, UNKNOWN_TOOL: 1, OUTSIDE_LIMITS: 1}
+    assert session.solve().quality.rank == 7
+
+
+def test_readings_in_degrees_are_warned_about_once_and_skipped(ur5, paper_tool, ur5_recording):
+    c = _chunks(ur5_recording, ur5, paper_tool, rows=100_000)[0]
+    session = CalibrationSession(ur5, paper_tool)
+    with pytest.warns(FtsCalibWarning, match="look like degrees"):
+        session.add_batch(c.time, np.degrees(c.readings), c.strain, c.tool)
+    assert session.skipped[OUTSIDE_LIMITS] > 0.9 * len(c.time)
+
+
+def test_checkpoint_and_resume_give_the_uninterrupted_result(tmp_path, ur5, paper_tool, ur5_recording):
+    chunks = _chunks(ur5_recording, ur5, paper_tool, rows=3000)
+    whole = CalibrationSession(ur5, paper_tool)
+    _feed(whole, chunks)
+    expected = whole.solve()
+    clock = iter(np.arange(0.0, 1000.0, 1.0))
+    config = PipelineConfig(live=LiveConfig(checkpoint_interval_s=1.0))
+    first = CalibrationSession(ur5, paper_tool, config, checkpoint=tmp_path / "cp.json", clock=lambda: next(clock))
+    for c in chunks[:3]:
+        first.add_batch(c.time, c.readings, c.strain, c.tool)
+    # a crash here: the checkpoint written after the third chunk is all that is left
+    resumed = CalibrationSession.resume(tmp_path / "cp.json", ur5, paper_tool, config)
+    _feed(resumed, chunks)  # the whole recording again: what the checkpoint holds is skipped
+    assert resumed.skipped[BEFORE_CHECKPOINT] > 0
+    got = resumed.solve()
+    # the filter's undecided context at the checkpoint (half a window) is lost: a few samples
+    assert abs(got.quality.samples_used - expected.quality.samples_used) < 60
+    assert np.all(np.abs(got.C - expected.C) < 0.5 * expected.quality.stderr_C)
+
+
+def test_resume_refuses_another_robot_or_tool(tmp_path, ur5, panda, paper_tool):
+    session = CalibrationSession(ur5, paper_tool, checkpoint=tmp_path / "cp.json")
+    session.checkpoint()
+    from fts_calib import FileFormatError
+
+    with pytest.raises(FileFormatError, match="checkpoint of robot 'ur5'.*not of 'panda'"):
+        CalibrationSession.resume(tmp_path / "cp.json", panda, paper_tool)
+    (tmp_path / "bad.json").write_text("{")
+    with pytest.raises(FileFormatError, match="not a checkpoint"):
+        CalibrationSession.resume(tmp_path / "bad.json", ur5, paper_tool)

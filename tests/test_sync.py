@@ -1,0 +1,95 @@
+"""The synchronizer: interpolation, reordering, gaps, latency, continuous joints."""
+
+import math
+
+import numpy as np
+
+from fts_calib.sync import BEFORE_JOINTS, JOINT_GAP, LATE, NO_TOOL, Synchronizer
+
+NAMES = ["a", "b"]
+
+
+def _joints(sync, times, f):
+    for t in times:
+        sync.add_joints(t, dict(zip(NAMES, f(t), strict=True)))
+
+
+def test_linear_motion_is_interpolated_exactly_at_strain_times(rng):
+    sync = Synchronizer(NAMES, max_gap_s=0.05)
+    sync.add_tool(0.0, "A")
+    motion = lambda t: (0.5 * t + 0.1, -2.0 * t)  # noqa: E731
+    _joints(sync, np.arange(0, 1.0001, 0.01), motion)
+    strain_t = np.sort(rng.uniform(0.0, 0.9, 200))
+    for t in strain_t:
+        sync.add_strain(t, [t] * 8)
+    out = sync.pop()
+    np.testing.assert_allclose(out.time, strain_t)
+    np.testing.assert_allclose(out.readings, np.column_stack(motion(strain_t)), atol=1e-12)
+    np.testing.assert_allclose(out.strain[:, 0], strain_t)
+    assert out.tool == ["A"] * 200
+
+
+def test_reordered_messages_are_placed_in_time_order(rng):
+    sync = Synchronizer(NAMES, max_gap_s=0.05)
+    sync.add_tool(0.0, "A")
+    times = np.arange(0, 1.0, 0.01)
+    order = rng.permutation(len(times))
+    _joints(sync, times[order], lambda t: (t, 0.0))
+    strain_t = np.arange(0.005, 0.9, 0.002)
+    for t in strain_t[rng.permutation(len(strain_t))]:
+        sync.add_strain(t, [0.0] * 8)
+    out = sync.pop()
+    np.testing.assert_allclose(out.time, strain_t)
+    np.testing.assert_allclose(out.readings[:, 0], strain_t, atol=1e-12)
+
+
+def test_gaps_are_refused_and_counted():
+    sync = Synchronizer(NAMES, max_gap_s=0.05)
+    sync.add_tool(0.0, "A")
+    _joints(sync, [0.0, 0.01, 0.02, 0.2, 0.21, 0.5], lambda t: (t, t))  # a 180 ms gap
+    for t in (0.015, 0.1, 0.205, -0.5):
+        sync.add_strain(t, [0.0] * 8)
+    out = sync.pop()
+    assert out.time.tolist() == [0.015, 0.205]
+    assert sync.dropped == {JOINT_GAP: 1, BEFORE_JOINTS: 1}
+
+
+def test_latency_is_compensated():
+    """Joint stamps 30 ms late: the synchronizer shifts them back before interpolating."""
+    sync = Synchronizer(NAMES, max_gap_s=0.05, latency_s=0.03)
+    sync.add_tool(0.0, "A")
+    _joints(sync, np.arange(0, 1, 0.01) + 0.03, lambda t: (t - 0.03, 0.0))  # stamped late
+    sync.add_strain(0.5, [0.0] * 8)
+    out = sync.pop()
+    np.testing.assert_allclose(out.readings[0, 0], 0.5, atol=1e-12)
+
+
+def test_continuous_joints_take_the_shorter_arc():
+    sync = Synchronizer(NAMES, continuous=[True, False], max_gap_s=0.05)
+    sync.add_tool(0.0, "A")
+    sync.add_joints(0.0, {"a": math.pi - 0.1, "b": 0.0})
+    sync.add_joints(0.02, {"a": -math.pi + 0.1, "b": 0.0})  # across +-pi: 0.2 rad, not 6.08 rad
+    sync.add_strain(0.01, [0.0] * 8)
+    out = sync.pop(final=True)
+    assert abs(math.remainder(out.readings[0, 0] - math.pi, 2 * math.pi)) < 1e-12
+
+
+def test_tool_changes_and_late_strains():
+    sync = Synchronizer(NAMES, max_gap_s=0.05)
+    _joints(sync, np.arange(0, 2, 0.01), lambda t: (0.0, 0.0))
+    sync.add_strain(0.1, [0.0] * 8)  # before any tool message
+    sync.add_tool(0.5, "A")
+    sync.add_tool(1.0, "B")
+    sync.add_strain(0.7, [0.0] * 8)
+    sync.add_strain(1.2, [0.0] * 8)
+    out = sync.pop()
+    assert out.tool == ["A", "B"] and sync.dropped == {NO_TOOL: 1}
+    sync.add_strain(0.8, [0.0] * 8)  # after 1.2 was placed
+    assert sync.dropped[LATE] == 1
+
+
+def test_joint_messages_with_other_joints_are_refused():
+    sync = Synchronizer(NAMES)
+    assert not sync.add_joints(0.0, {"a": 0.0})
+    assert not sync.add_joints(0.0, {"a": 0.0, "c": 1.0})
+    assert sync.add_joints(0.0, {"b": 0.0, "a": 1.0})
