@@ -50,18 +50,23 @@ def _trajectory(args: argparse.Namespace) -> int:
     return 1 if run.problems else 0
 
 
-def _calibrate(args: argparse.Namespace) -> int:
-    from .calibrate import ProgressBar, calibrate_recording, format_summary
-    from .calibration import save_calibration
+def _setup(args: argparse.Namespace):
+    """The robot's kinematics, the tool and the pipeline settings named on the command line."""
     from .kinematics import Kinematics
     from .pipeline_config import load_pipeline_config
     from .resources import resolve
     from .robot import load_robot
     from .tool import load_tool
 
-    kin = Kinematics(load_robot(resolve(args.robot, "robots")))
-    tool = load_tool(resolve(args.tool, "configs"))
-    config = load_pipeline_config(resolve(args.pipeline, "configs"))
+    return (Kinematics(load_robot(resolve(args.robot, "robots"))), load_tool(resolve(args.tool, "configs")),
+            load_pipeline_config(resolve(args.pipeline, "configs")))
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    from .calibrate import ProgressBar, calibrate_recording, format_summary
+    from .calibration import save_calibration
+
+    kin, tool, config = _setup(args)
     recording = Path(args.recording)
     size = recording.stat().st_size if recording.exists() else 1
     bar = None if args.quiet else ProgressBar(size, "rows")
@@ -85,18 +90,11 @@ def _address(text: str) -> tuple[str, int]:
 def _live(args: argparse.Namespace) -> int:
     from .calibration import save_calibration
     from .exceptions import InsufficientExcitation
-    from .kinematics import Kinematics
     from .live import LiveRunner, UdpReceiver, format_stats
-    from .pipeline_config import load_pipeline_config
-    from .resources import resolve
-    from .robot import load_robot
     from .session import CalibrationSession
     from .sync import Synchronizer
-    from .tool import load_tool
 
-    kin = Kinematics(load_robot(resolve(args.robot, "robots")))
-    tool = load_tool(resolve(args.tool, "configs"))
-    config = load_pipeline_config(resolve(args.pipeline, "configs"))
+    kin, tool, config = _setup(args)
     checkpoint = Path(args.checkpoint or f"{args.output}.checkpoint.json")
     host, port = args.listen
     source = f"live udp://{host}:{port}"
@@ -151,6 +149,13 @@ def _add(commands, name: str, help_text: str, description: str, example: str) ->
     )
 
 
+def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True) -> None:
+    parser.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    parser.add_argument("--tool", default="paper_tool", help="tool file: a shipped name or a YAML path (default: paper_tool)")
+    if pipeline:
+        parser.add_argument("--pipeline", default="pipeline", help="pipeline configuration: filter thresholds, live settings")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``fts-calib`` with all its sub-commands."""
     parser = argparse.ArgumentParser(
@@ -181,8 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
                 "clearance and the predicted excitation before anything moves; write one CSV per configuration, plan.yaml "
                 "and plan.png. Exits 1 when a check fails (the CSVs are then not written).",
                 "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500")
-    traj.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
-    traj.add_argument("--tool", default="paper_tool", help="tool file: a shipped name or a YAML path (default: paper_tool)")
+    _robot_and_tool(traj)
     traj.add_argument("-o", "--out", required=True, help="output folder")
     traj.add_argument("--rate", type=float, default=500.0, help="sample rate of the files in Hz (default: 500)")
     traj.add_argument("--levels", type=int, default=4, help="positions of the first sweep joint (default: 4)")
@@ -193,7 +197,6 @@ def build_parser() -> argparse.ArgumentParser:
     traj.add_argument("--tool-radius", type=float, help="override the tool envelope's radius in m")
     traj.add_argument("--tool-length", type=float, help="override the tool envelope's length in m")
     traj.add_argument("--sensor", default="sensor", help="sensor configuration (nominal model for the excitation report)")
-    traj.add_argument("--pipeline", default="pipeline", help="pipeline configuration (quasi-static filter thresholds)")
     traj.add_argument("--noise", type=float, help="strain noise per bridge for the excitation report (default: the pipeline's)")
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", action="store_true", help="do not write plan.png")
@@ -205,10 +208,8 @@ def build_parser() -> argparse.ArgumentParser:
                "rest were dropped, rank, condition, residuals, standard errors. Exits 1 when the data cannot determine C.",
                "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml")
     cal.add_argument("recording", help="recording CSV (or .csv.gz)")
-    cal.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
-    cal.add_argument("--tool", default="paper_tool", help="tool file (default: paper_tool)")
+    _robot_and_tool(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
-    cal.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
     cal.add_argument("--no-filter", action="store_true", help="keep every valid sample, moving or not (for comparison)")
     cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
     cal.add_argument("--resume", action="store_true", help="continue from --checkpoint")
@@ -221,13 +222,11 @@ def build_parser() -> argparse.ArgumentParser:
                 "the quasi-static samples and show a status line; write the calibration on 'end' or Ctrl-C. Checkpoints "
                 "every few seconds; --resume continues after a crash.",
                 "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml")
-    live.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
-    live.add_argument("--tool", default="paper_tool", help="tool file (default: paper_tool)")
+    _robot_and_tool(live)
     live.add_argument("--listen", type=_address, default=("127.0.0.1", 5005), help="HOST:PORT to bind (default 127.0.0.1:5005)")
     live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
     live.add_argument("--checkpoint", help="checkpoint file (default: OUTPUT.checkpoint.json)")
     live.add_argument("--resume", action="store_true", help="continue from the checkpoint")
-    live.add_argument("--pipeline", default="pipeline", help="pipeline configuration")
     live.add_argument("--latency", type=float, help="how late the joint stamps are, in s (default: the pipeline's)")
     live.add_argument("--max-gap", type=float, help="longest joint gap interpolated across, in s (default: the pipeline's)")
     live.add_argument("--idle-timeout", type=float, help="stop after this many seconds without data")

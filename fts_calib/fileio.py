@@ -161,3 +161,12 @@ def read_positive(value: Any, path: str | Path, field: str, unit: str = "") -> f
     if not (math.isfinite(number) and number > 0):
         raise FileFormatError(path, field, f"is {number}{suffix} but expected a finite value > 0")
     return number
+
+
+def is_number(text: str) -> bool:
+    """Whether ``float(text)`` succeeds (for error messages that point at the bad cell)."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

@@ -1,12 +1,12 @@
 """Pipeline settings (``configs/pipeline.yaml``): the quasi-static filter and the live path.
 
 ``filter``: a sample is kept when the joint speeds stay below ``max_joint_speed`` [rad/s]
-and the joint accelerations below ``max_joint_acceleration`` [rad/s^2] (estimated over
-``derivative_window_s`` [s] when the feed carries no velocities), when the strains are
+and the joint accelerations below ``max_joint_acceleration`` [rad/s^2] (estimated by a least-squares quadratic over
+``derivative_window_s`` [s]: the feeds carry no velocities), when the strains are
 stationary over ``strain_window_s`` [s] (standard deviation of every bridge at most
 ``max_strain_std`` raw units, or ``auto``: ``strain_std_factor`` times the noise floor
 measured on still samples), and when the dynamic part of the tool's wrench is at most
-``max_dynamic_fraction`` of the static part.
+``max_dynamic_fraction`` of its weight (force) and of weight times lever (moment).
 
 ``live``: ``max_gap_s`` [s], the longest gap of the joint stream the synchronizer
 interpolates across; ``latency_s`` [s], added to joint times to align them with strain
@@ -32,11 +32,11 @@ class FilterConfig:
 
     max_joint_speed: float = 0.01  # [rad/s]
     max_joint_acceleration: float = 0.1  # [rad/s^2]
-    derivative_window_s: float = 0.02  # [s]
+    derivative_window_s: float = 0.05  # [s]
     strain_window_s: float = 0.1  # [s]
     max_strain_std: float | None = None  # [raw units]; None = auto
     strain_std_factor: float = 4.0
-    max_dynamic_fraction: float = 2e-4
+    max_dynamic_fraction: float = 1e-3
 
     def __post_init__(self):
         for name in ("max_joint_speed", "max_joint_acceleration", "derivative_window_s", "strain_window_s",

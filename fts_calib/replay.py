@@ -3,7 +3,8 @@
 Every row becomes a strain message; joint messages go at ``joint_rate_hz`` (every row by
 default, with the row's readings) and carry stamps late by ``latency_s`` (as a joint feed
 with a constant latency would); a tool message announces each configuration when it
-starts; an ``end`` message closes the run. ``loss`` drops that fraction of the joint and
+starts and is repeated every second (so that a receiver restarted mid-run learns it); an
+``end`` message closes the run. ``loss`` drops that fraction of the joint and
 strain messages and ``reorder`` delays that fraction by one to five messages (seeded).
 Messages leave at their recorded times divided by ``speed`` (0: as fast as the socket
 takes them).
@@ -21,6 +22,8 @@ import numpy as np
 
 from .protocol import End, Joints, Message, Strain, ToolChange, encode
 from .recording import RecordingReader
+
+_TOOL_REPEAT_S = 1.0  # [s] of recording time between tool announcements
 
 
 @dataclass(frozen=True)
@@ -58,14 +61,16 @@ def messages(path: str | Path, options: ReplayOptions) -> Iterator[tuple[float, 
     """(recorded time [s], message) pairs of a recording, before loss and reordering."""
     with RecordingReader(path, None, None) as reader:
         names = reader.joint_names
-        current, next_joint, last = None, -np.inf, 0.0
+        current, next_joint, next_tool, last = None, -np.inf, -np.inf, 0.0
         period = 0.0 if options.joint_rate_hz is None else 1.0 / options.joint_rate_hz
         for chunk in reader:
             tools = reader.tool_names
             for t, q, s, code in zip(chunk.time, chunk.readings, chunk.strain, chunk.tool, strict=True):
                 t = float(t)
-                if tools[code] != current:
-                    current = tools[code]
+                if tools[code] != current or t >= next_tool:
+                    # announced at each change and repeated every second: a receiver that
+                    # (re)starts mid-run learns the mounted configuration within a second
+                    current, next_tool = tools[code], t + _TOOL_REPEAT_S
                     yield t, ToolChange(t, current)
                 if t >= next_joint:
                     next_joint = t + period if period else t

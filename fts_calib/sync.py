@@ -7,9 +7,9 @@ stream has passed its time by ``hold_s`` (so that late joint messages can still 
 the joints are interpolated linearly between the two joint samples around it (continuous
 joints along the shorter arc), and its tool configuration is the last one announced at or
 before its time. A strain sample is dropped, and counted, when it cannot be placed: before
-the first joint sample, inside a joint gap longer than ``max_gap_s`` (the synchronizer
-refuses to interpolate across it), before any tool message, or arriving after later
-strain samples were already placed.
+the first joint sample or after the last one, inside a joint gap longer than
+``max_gap_s`` (the synchronizer refuses to interpolate across it), before any tool
+message, or arriving after later strain samples were already placed.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 
 BEFORE_JOINTS = "strain before the first joint sample"
 JOINT_GAP = "joint gap longer than max_gap_s"
+AFTER_JOINTS = "strain after the last joint sample"
 NO_TOOL = "no tool configuration announced yet"
 LATE = "strain sample arrived too late (reordered beyond the hold)"
 
@@ -94,8 +95,11 @@ class Synchronizer:
         self._strain.append((t, tuple(strain)))
 
     def add_tool(self, t: float, name: str) -> None:
-        """Announce the tool configuration mounted from ``t`` on."""
-        bisect.insort(self._tools, (t, name))
+        """Announce the tool configuration mounted from ``t`` on (repeats change nothing)."""
+        k = bisect.bisect_right(self._tools, (t, name))
+        if k and self._tools[k - 1][1] == name:
+            return  # the same configuration is already mounted at t
+        self._tools.insert(k, (t, name))
 
     def _drop(self, reason: str, count: int) -> None:
         if count:
@@ -139,7 +143,7 @@ class Synchronizer:
         inside = (left >= 0) & (right < len(jt))
         self._drop(BEFORE_JOINTS, int(np.sum(left < 0)))
         after = (left >= 0) & (right >= len(jt))  # only when final: beyond the last joint sample
-        self._drop(JOINT_GAP, int(np.sum(after)))
+        self._drop(AFTER_JOINTS, int(np.sum(after)))
         lo, hi = np.clip(left, 0, len(jt) - 1), np.clip(right, 0, len(jt) - 1)
         gap = jt[hi] - jt[lo]
         ok = inside & (gap <= self.max_gap_s)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._arrays import frozen
 from .exceptions import RecordingError
-from .fileio import atomic_write_bytes
+from .fileio import atomic_write_bytes, is_number
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ def read_trajectory(path: str | Path) -> TrajectoryFile:
         try:
             rows.append([float(c) for c in cells[:-1]])
         except ValueError:
-            bad = next(i for i, c in enumerate(cells[:-1]) if not _is_float(c))
+            bad = next(i for i, c in enumerate(cells[:-1]) if not is_number(c))
             raise RecordingError(path, number, header[bad], f"'{cells[bad]}' is not a number") from None
         tools.add(cells[-1])
     if len(tools) > 1:
@@ -124,11 +124,3 @@ def read_trajectory(path: str | Path) -> TrajectoryFile:
         raise RecordingError(path, line, "time", "time goes backwards")
     return TrajectoryFile(tuple(joints), table[:, 0], table[:, 1::3], table[:, 2::3], table[:, 3::3],
                           tools.pop() if tools else "")
-
-
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True

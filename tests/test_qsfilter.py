@@ -62,7 +62,7 @@ def test_the_dynamic_rule_catches_what_loose_joint_thresholds_let_through(ur5, p
     rate = 500.0
     t = np.arange(int(4 * rate)) / rate
     q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
-    q[:, 4] = 0.02 * t**2  # wrist_2 accelerates at 0.04 rad/s² from rest
+    q[:, 4] = 0.1 * t**2  # wrist_2 accelerates at 0.2 rad/s² from rest: about 3e-3 g at the tool
     loose = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0)
     f = QuasiStaticFilter(loose, ur5, paper_tool)
     out = f.process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64), final=True)

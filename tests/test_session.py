@@ -11,7 +11,7 @@ from fts_calib.tool import Tool, ToolConfiguration
 
 
 def _chunks(path, kin, tool, rows=4000):
-    with RecordingReader(path, kin.joint_names, tool.names, chunk_rows=rows) as reader:
+    with RecordingReader(path, kin.joint_names, tool.names, block_bytes=rows * 220) as reader:
         return list(reader)
 
 

@@ -1,0 +1,77 @@
+"""Benchmark: `calibrate` end to end (read, kinematics, filter, accumulate) on a long recording.
+
+Writes a recording of the UR5's planned sweep repeated up to 3.6 million rows (1 kHz,
+simulated sensor with noise), then runs `fts-calib calibrate` on it in a child process and
+prints rows/s and the child's peak memory. Asserts nothing.
+Run: .venv/bin/python bench/bench_calibrate.py [ROWS]
+"""
+
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fts_calib.kinematics import Kinematics
+from fts_calib.recording import RecordingWriter
+from fts_calib.resources import resolve
+from fts_calib.robot import load_robot
+from fts_calib.sensor_config import load_sensor_config
+from fts_calib.simulate import tool_wrenches
+from fts_calib.tool import load_tool
+from fts_calib.trajectory_io import read_trajectory
+
+
+def write_recording(path: Path, rows: int) -> None:
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    tool = load_tool(resolve("paper_tool", "configs"))
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    rng = np.random.default_rng(0)
+    # the shipped 100 Hz plan, resampled to 1 kHz by linear interpolation (positions only:
+    # the filter estimates velocities from them; the wrench uses the planned ones)
+    parts = []
+    for name in tool.names:
+        traj = read_trajectory(resolve("ur5", "robots").parents[1] / "trajectories" / "ur5" / f"{name}.csv.gz")
+        t = np.arange(0, traj.time[-1], 0.001)
+        interp = [np.column_stack([np.interp(t, traj.time, x[:, k]) for k in range(x.shape[1])]) for x in (traj.q, traj.qd, traj.qdd)]
+        parts.append((name, t, *interp, tool_wrenches(kin, tool, name, *interp)))
+    written, offset = 0, 0.0
+    with RecordingWriter(path, kin.joint_names) as writer:
+        while written < rows:
+            for name, t, q, _, _, W in parts:
+                n = min(len(t), rows - written)
+                if n <= 0:
+                    break
+                writer.write(t[:n] + offset, q[:n], sensor.strains(W[:n], rng=rng), name)
+                written += n
+                offset += t[-1] + 2.0
+
+
+def main():
+    rows = int(sys.argv[1]) if len(sys.argv) > 1 else 3_600_000
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "long.csv"
+        start = time.perf_counter()
+        write_recording(path, rows)
+        print(f"wrote {rows:,} rows ({path.stat().st_size / 1e6:.0f} MB) in {time.perf_counter() - start:.1f} s")
+        # the child reports its own high-water mark (VmHWM, reset at exec; ru_maxrss would
+        # include the memory of this parent at the time of the fork)
+        child = ("import sys; from fts_calib.cli import main; code = main(sys.argv[1:]); "
+                 "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)")
+        command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", str(path), "-o", str(Path(folder) / "cal.yaml"),
+                   "--quiet"]
+        start = time.perf_counter()
+        result = subprocess.run(command, capture_output=True, text=True)
+        seconds = time.perf_counter() - start
+        if result.returncode != 0:
+            print(result.stdout, result.stderr)
+        peak = float(result.stdout.strip().splitlines()[-1].split()[1]) / 1024  # kB
+        print("\n".join(result.stdout.splitlines()[:3]))
+        print(f"calibrate end to end (process start included): {rows / seconds:,.0f} rows/s (target >= 250,000), "
+              f"{seconds:.1f} s; peak memory {peak:.0f} MB (target <= 500 MB)")
+
+
+if __name__ == "__main__":
+    main()
