@@ -92,7 +92,7 @@ class ProgressBar:
 
 def calibrate_recording(path: str | Path, kin: Kinematics, tool: Tool, config: PipelineConfig | None = None,
                         use_filter: bool = True, checkpoint: str | Path | None = None, resume: bool = False,
-                        joints_in_degrees: bool = False, progress: ProgressBar | None = None) -> CalibrateResult:
+                        joints_in_degrees: bool = False, progress: ProgressBar | None = None, on_kept=None) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
     Args:
@@ -105,6 +105,7 @@ def calibrate_recording(path: str | Path, kin: Kinematics, tool: Tool, config: P
         resume: Continue from ``checkpoint``.
         joints_in_degrees: The joint columns are in degrees (converted to rad).
         progress: A progress bar over the file's bytes, or None.
+        on_kept: Passed to the session (see :class:`fts_calib.session.CalibrationSession`).
 
     Raises:
         RecordingError: The file cannot be read at all (missing, empty, a missing column).
@@ -114,7 +115,8 @@ def calibrate_recording(path: str | Path, kin: Kinematics, tool: Tool, config: P
     if resume and checkpoint is not None and Path(checkpoint).exists():
         session = CalibrationSession.resume(checkpoint, kin, tool, config, source=source)
     else:
-        session = CalibrationSession(kin, tool, config, checkpoint=checkpoint, use_filter=use_filter, source=source)
+        session = CalibrationSession(kin, tool, config, checkpoint=checkpoint, use_filter=use_filter, source=source,
+                                     on_kept=on_kept)
     with RecordingReader(path, kin.joint_names, tool.names) as reader:
         for chunk in reader:
             readings = np.radians(chunk.readings) if joints_in_degrees else chunk.readings

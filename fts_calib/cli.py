@@ -6,13 +6,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from .exceptions import FtsCalibError
+from .exceptions import FileFormatError, FtsCalibError
 
 
 def _demo(args: argparse.Namespace) -> int:
     from . import demo
 
-    return demo.main(Path(args.out), samples=args.samples, seed=args.seed)
+    return demo.main(Path(args.out), seed=args.seed, quick=args.quick)
 
 
 def _robots(args: argparse.Namespace) -> int:
@@ -59,7 +59,7 @@ def _setup(args: argparse.Namespace):
     from .tool import load_tool
 
     return (Kinematics(load_robot(resolve(args.robot, "robots"))), load_tool(resolve(args.tool, "configs")),
-            load_pipeline_config(resolve(args.pipeline, "configs")))
+            load_pipeline_config(resolve(getattr(args, "pipeline", "pipeline"), "configs")))
 
 
 def _calibrate(args: argparse.Namespace) -> int:
@@ -142,6 +142,96 @@ def _replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def _simulate(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    import numpy as np
+
+    from .resources import resolve
+    from .sensor_config import load_sensor_config
+    from .simulate import simulate_recording
+    from .trajectory_io import read_trajectory
+
+    kin, tool, _ = _setup(args)
+    sensor_path = resolve(args.sensor, "configs")
+    spec = load_sensor_config(sensor_path)
+    if spec.simulated is None:
+        raise FileFormatError(sensor_path, "simulation", "missing: this sensor file defines no simulated sensor")
+    sensor = spec.simulated
+    if args.noise is not None:
+        sensor = dataclasses.replace(sensor, noise_std=np.full(8, args.noise))
+    if args.drift is not None:
+        sensor = dataclasses.replace(sensor, drift_rate=np.full(8, args.drift))
+    folder = Path(args.trajectory)
+    files = sorted(folder.glob("*.csv")) + sorted(folder.glob("*.csv.gz")) if folder.is_dir() else [folder]
+    if not files:
+        raise FileFormatError(folder, None, "no trajectory file (*.csv, *.csv.gz) in this folder")
+    found = {}
+    for path in files:
+        traj = read_trajectory(path)
+        if traj.tool in tool.names:
+            found.setdefault(traj.tool, traj)
+    missing = [name for name in tool.names if name not in found]
+    if not found:
+        raise FileFormatError(folder, None, f"no trajectory for the configurations {tool.names} of '{tool.name}'")
+    trajectories = [found[name] for name in tool.names if name in found]
+    rng = None if args.noiseless else np.random.default_rng(args.seed)
+    path = simulate_recording(args.output, kin, tool, trajectories, sensor, rng, tool_change_s=args.tool_change,
+                              dynamic=not args.static)
+    rows = sum(len(t.time) for t in trajectories)
+    noise = "none" if rng is None else f"{sensor.noise_std.max():.2g} {spec.strain_unit} per bridge (seed {args.seed})"
+    wrench = "static" if args.static else "moving (Newton-Euler)"
+    print(f"wrote {path}: {rows:,} rows, configurations {', '.join(t.tool for t in trajectories)}"
+          + (f" (no trajectory for {missing})" if missing else "") + f"; tool wrench {wrench}, noise {noise}, "
+          f"{sensor.adc_bits}-bit ADC")
+    return 0
+
+
+def _validate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .calibration import load_calibration
+    from .report import table
+    from .resources import resolve
+    from .sensor import WRENCH_AXES, WRENCH_UNITS
+    from .sensor_config import load_sensor_config
+    from .validate import validate_recording
+
+    kin, tool, _ = _setup(args)
+    calibrations = [load_calibration(p) for p in args.calibration]
+    full_scale = load_sensor_config(resolve(args.sensor, "configs")).full_scale.copy()
+    if args.full_scale_force is not None:
+        full_scale[:3] = args.full_scale_force
+    if args.full_scale_moment is not None:
+        full_scale[3:] = args.full_scale_moment
+    result = validate_recording(args.recording, kin, tool, calibrations, full_scale, dynamic=not args.static)
+    print(f"validation of {len(calibrations)} calibration(s) over {result.samples:,} samples of {args.recording} with "
+          f"'{tool.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
+          f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)")
+    if result.skipped:
+        print("skipped: " + ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items()))
+    sets = [(str(p), e) for p, e in zip(args.calibration, result.errors, strict=True)]
+    if result.between is not None:
+        sets.append((f"{args.calibration[0]} against {args.calibration[1]}", result.between))
+    for label, errors in sets:
+        print(label + ":")
+        rows = [[axis, f"{errors.max_abs[i]:.4g} {u}", f"{errors.max_percent[i]:.4f} %", f"{errors.rms[i]:.4g} {u}",
+                 f"{errors.rms_percent[i]:.4f} %"] for i, (axis, u) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))]
+        print(table(["axis", "max error", "max, % FS", "RMS error", "RMS, % FS"], rows, "  "))
+    if args.plot:
+        from .plots import plot_validation
+
+        labels = [Path(p).name for p in args.calibration]
+        path = plot_validation(args.plot, result.time, result.expected[:, 0], [m[:, 0] for m in result.measured], labels,
+                               float(full_scale[0]), f"validation over {Path(args.recording).name}")
+        print(f"wrote {path}")
+    worst = float(np.max([e.max_percent.max() for e in result.errors]))
+    if args.max_error is not None and worst > args.max_error:
+        print(f"FAILED: largest error {worst:.4f} % of full scale, above --max-error {args.max_error} %")
+        return 1
+    return 0
+
+
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
     return commands.add_parser(
         name, help=help_text, description=description, epilog=f"example:\n  {example}",
@@ -168,11 +258,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"fts-calib {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    demo = _add(commands, "demo", "the whole loop in simulation, with printed results",
-                "Simulate the paper's validation on the shipped sensor and tool and calibrate.", "fts-calib demo --out out/")
+    demo = _add(commands, "demo", "the whole loop in simulation on the built-in UR5, with plots",
+                "Plan the sweeps, simulate the recording (true C = Table 1 of the paper), calibrate with the quasi-static "
+                "filter, follow C_bar_11 sample by sample (paper Fig. 7) and validate on another motion with another tool; "
+                "print the results beside the truth and the targets, and write everything with PNG plots into one folder.",
+                "fts-calib demo --out out/")
     demo.add_argument("--out", default="out", help="folder for the results (default: out/)")
-    demo.add_argument("--samples", type=int, default=2000, help="samples per tool configuration (default: 2000)")
-    demo.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    demo.add_argument("--seed", type=int, default=0, help="seed of the sensor noise and the validation motion (default: 0)")
+    demo.add_argument("--quick", action="store_true", help="a smaller run: 3 levels x 4 stops at 100 Hz")
     demo.set_defaults(handler=_demo)
 
     robots = _add(commands, "robots", "list the shipped robots, or show one",
@@ -246,6 +339,41 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--reorder", type=float, default=0.0, help="fraction of messages delayed by 1-5 places (default 0)")
     rep.add_argument("--seed", type=int, default=0, help="seed of loss and reordering (default 0)")
     rep.set_defaults(handler=_replay)
+
+    sim = _add(commands, "simulate", "simulate a recording from planned trajectories",
+               "Play planned trajectories (one CSV per tool configuration) through the kinematics with the tool's full "
+               "dynamic wrench (mass, centre of mass, inertia) and the simulated sensor of the sensor file (true C, offsets, "
+               "noise, 24-bit ADC, null content, drift); write a recording in exactly the format a robot produces.",
+               "fts-calib simulate --robot ur5 --tool configs/paper_tool.yaml --trajectory out/trajectories -o recording.csv")
+    _robot_and_tool(sim, pipeline=False)
+    sim.add_argument("--trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
+    sim.add_argument("-o", "--output", required=True, help="recording to write (.csv or .csv.gz)")
+    sim.add_argument("--sensor", default="sensor", help="sensor configuration with a 'simulation' section (default: sensor)")
+    sim.add_argument("--noise", type=float, help="strain noise per bridge, raw units (default: the sensor file's)")
+    sim.add_argument("--noiseless", action="store_true", help="no noise at all")
+    sim.add_argument("--drift", type=float, help="offset drift of every bridge, raw units per s (default: the sensor file's)")
+    sim.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
+    sim.add_argument("--tool-change", type=float, default=2.0, help="pause between configurations in s (default 2)")
+    sim.add_argument("--static", action="store_true", help="the tool's static wrench only (no dynamics)")
+    sim.set_defaults(handler=_simulate)
+
+    val = _add(commands, "validate", "compare measured and expected wrenches over a recording",
+               "Over a recording made with another motion and another tool (the paper's third stage): the wrench measured "
+               "with the calibration against the tool's wrench from the kinematics (moving tool, Newton-Euler; --static for "
+               "its weight alone). Error per axis in N or N·m and in % of full scale; with two calibrations, the same "
+               "between them (paper: Table 1 against Table 2); --plot writes Fx and its error (paper Figs 9-10).",
+               "fts-calib validate --calibration calibration.yaml --robot ur5 --tool configs/validation_tool.yaml "
+               "validation.csv --plot validation.png")
+    val.add_argument("recording", help="recording CSV (or .csv.gz)")
+    val.add_argument("--calibration", action="append", required=True, help="calibration file (give two to compare them)")
+    _robot_and_tool(val, pipeline=False)
+    val.add_argument("--sensor", default="sensor", help="sensor configuration: full scale (default: sensor)")
+    val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
+    val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")
+    val.add_argument("--static", action="store_true", help="expect the tool's weight alone (no dynamics)")
+    val.add_argument("--plot", help="PNG of Fx and its error")
+    val.add_argument("--max-error", type=float, help="exit 1 when an error exceeds this %% of full scale")
+    val.set_defaults(handler=_validate)
     return parser
 
 

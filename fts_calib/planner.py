@@ -375,13 +375,14 @@ def raster(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: Sweep
 
 
 def _segment(start: np.ndarray, target: np.ndarray, limits: JointLimits, index: list[int]) -> ruckig.Trajectory:
-    inp = ruckig.InputParameter(2)
+    dofs = len(index)
+    inp = ruckig.InputParameter(dofs)
     inp.current_position = [float(v) for v in start]
-    inp.current_velocity = [0.0, 0.0]
-    inp.current_acceleration = [0.0, 0.0]
+    inp.current_velocity = [0.0] * dofs
+    inp.current_acceleration = [0.0] * dofs
     inp.target_position = [float(v) for v in target]
-    inp.target_velocity = [0.0, 0.0]
-    inp.target_acceleration = [0.0, 0.0]
+    inp.target_velocity = [0.0] * dofs
+    inp.target_acceleration = [0.0] * dofs
     inp.max_velocity = [float(limits.velocity[k]) for k in index]
     inp.max_acceleration = [float(limits.acceleration[k]) for k in index]
     inp.max_jerk = [float(limits.jerk[k]) for k in index]
@@ -389,9 +390,9 @@ def _segment(start: np.ndarray, target: np.ndarray, limits: JointLimits, index: 
     upper = [float(limits.upper[k]) for k in index]
     if all(math.isfinite(v) for v in lower + upper):
         inp.min_position, inp.max_position = lower, upper
-    otg = ruckig.Ruckig(2)
+    otg = ruckig.Ruckig(dofs)
     where = f"segment from {np.round(start, 4).tolist()} to {np.round(target, 4).tolist()} rad"
-    trajectory = ruckig.Trajectory(2)
+    trajectory = ruckig.Trajectory(dofs)
     try:
         otg.validate_input(inp, True, True)
         result = otg.calculate(inp, trajectory)
@@ -416,11 +417,34 @@ def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: 
     Raises:
         TrajectoryError: Bad rate, or ruckig refusing a segment.
     """
+    home = np.asarray(home, dtype=float)
+    stops = raster(kin, home, ranges, pattern)
+    time, q, qd, qdd = sample_motion(kin, home, kin.sweep_joints, stops, pattern.dwell, rate)
+    return Plan(kin.robot.name, kin.joint_names, kin.sweep_joints, home, ranges, stops, pattern, kin.limits, rate,
+                time, q, qd, qdd)
+
+
+def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, dwell: float, rate: float):
+    """Rest-to-rest ruckig segments of some joints from home, through stops, back to home.
+
+    Args:
+        kin: Kinematics (limits).
+        home: Base pose [rad], shape (n_joints,); the other joints stay there.
+        joints: Names of the joints that move.
+        stops: Their positions at each stop [rad], shape (W, len(joints)).
+        dwell: Time still at each stop [s].
+        rate: Sample rate [Hz], > 0.
+
+    Returns:
+        ``(time (N,), q, qd, qdd (N, n_joints))`` in [s, rad, rad/s, rad/s^2].
+
+    Raises:
+        TrajectoryError: Bad rate, or ruckig refusing a segment.
+    """
     if not (math.isfinite(rate) and rate > 0):
         raise TrajectoryError(f"rate={rate} Hz but expected a finite rate > 0", "invalid rate")
     home = np.asarray(home, dtype=float)
-    index = [kin.joint_names.index(name) for name in kin.sweep_joints]
-    stops = raster(kin, home, ranges, pattern)
+    index = [kin.joint_names.index(name) for name in joints]
     start = home[index]
     # (start time, duration, trajectory or None for a hold, held position)
     pieces: list[tuple[float, float, ruckig.Trajectory | None, np.ndarray]] = []
@@ -431,9 +455,9 @@ def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: 
         pieces.append((t, segment.duration, segment, target))
         t += segment.duration
         position = target
-        if pattern.dwell > 0 and target is not start:
-            pieces.append((t, pattern.dwell, None, target))
-            t += pattern.dwell
+        if dwell > 0 and target is not start:
+            pieces.append((t, dwell, None, target))
+            t += dwell
     n = int(math.floor(t * rate + 1e-9)) + 1
     time = np.arange(n) / rate
     q = np.repeat(home[None, :], n, axis=0)
@@ -449,8 +473,7 @@ def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: 
         for row in rows:
             p, v, a = trajectory.at_time(min(time[row] - t0, duration))
             q[row, index], qd[row, index], qdd[row, index] = p, v, a
-    return Plan(kin.robot.name, kin.joint_names, kin.sweep_joints, home, ranges, stops, pattern, kin.limits, rate,
-                time, q, qd, qdd)
+    return time, q, qd, qdd
 
 
 def check_limits(plan: Plan) -> LimitCheck:

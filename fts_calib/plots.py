@@ -64,3 +64,96 @@ def plot_plan(path: str | Path, time: np.ndarray, sweep: np.ndarray, sweep_names
     ax3.legend(loc="upper left", fontsize=8)
     fig.suptitle(title)
     return _save(fig, path)
+
+
+def plot_wrench(path: str | Path, time: np.ndarray, wrench: np.ndarray, tools: np.ndarray, names: list[str], title: str) -> Path:
+    """Forces and torques on the sensor during calibration (the paper's Figs 5 and 6).
+
+    Args:
+        path: PNG to write.
+        time: [s], shape (N,).
+        wrench: ``[Fx, Fy, Fz, Mx, My, Mz]`` [N, N m], shape (N, 6).
+        tools: Configuration index of each sample, shape (N,).
+        names: Configuration names.
+        title: Figure title.
+    """
+    fig, axes = plt.subplots(2, 1, figsize=(12, 7), sharex=True)
+    for ax, part, unit, labels in ((axes[0], slice(0, 3), "N", ("Fx", "Fy", "Fz")), (axes[1], slice(3, 6), "N·m", ("Mx", "My", "Mz"))):
+        for k, label in enumerate(labels):
+            ax.plot(time, wrench[:, part][:, k], lw=0.8, label=label)
+        ax.set_ylabel(f"[{unit}]")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8, ncol=3)
+        for c, name in enumerate(names):
+            mine = np.nonzero(tools == c)[0]
+            if len(mine):
+                ax.axvspan(time[mine[0]], time[mine[-1]], color=f"C{c + 3}", alpha=0.06)
+                if ax is axes[0]:
+                    ax.text(time[mine[0]], ax.get_ylim()[1], f" configuration {name}", va="top", fontsize=8)
+    axes[0].set_title("forces on the sensor (paper Fig. 5)")
+    axes[1].set_title("torques on the sensor (paper Fig. 6)")
+    axes[1].set_xlabel("time [s]")
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def plot_convergence(path: str | Path, samples: np.ndarray, error: np.ndarray, changes: list[tuple[int, str]],
+                     noise_floor: float, title: str) -> Path:
+    """Relative error of C_bar_11 against the samples used, tool changes marked (the paper's Fig. 7).
+
+    Args:
+        path: PNG to write.
+        samples: Quasi-static samples used so far, shape (K,).
+        error: |C_bar_11 estimate / true - 1| after each, shape (K,).
+        changes: (samples used when it started, configuration name) for each configuration.
+        noise_floor: The final standard error of C_bar_11, relative, for reference.
+        title: Figure title.
+    """
+    fig, ax = plt.subplots(figsize=(11, 5))
+    ax.semilogy(samples, np.maximum(error, 1e-12), lw=1.5, color="tab:blue", label="relative error of C̄₁₁")
+    ax.axhline(noise_floor, color="tab:gray", ls="--", lw=1, label=f"final standard error ({noise_floor:.1e})")
+    for start, name in changes:
+        ax.axvline(start, color="tab:red", lw=1, alpha=0.7)
+        ax.text(start, ax.get_ylim()[1], f" configuration {name}", va="top", fontsize=9, color="tab:red")
+    ax.set_xlabel("quasi-static samples used")
+    ax.set_ylabel("|C̄₁₁ estimate / true − 1|")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="lower left", fontsize=9)
+    ax.set_title(title)
+    return _save(fig, path)
+
+
+def plot_validation(path: str | Path, time: np.ndarray, expected: np.ndarray, measured: list[np.ndarray], labels: list[str],
+                    full_scale: float, title: str) -> Path:
+    """Force Fx acting on the sensor and measured, and the error (the paper's Figs 9 and 10).
+
+    Args:
+        path: PNG to write.
+        time: [s], shape (N,).
+        expected: Expected Fx [N], shape (N,).
+        measured: Measured Fx [N] per calibration, shape (N,) each.
+        labels: Name of each calibration.
+        full_scale: Full scale of Fx [N] (for the % axis).
+        title: Figure title.
+    """
+    fig, axes = plt.subplots(2, 1, figsize=(12, 7), sharex=True)
+    axes[0].plot(time, expected, lw=1.6, color="black", label="acting (tool model)")
+    # the first calibration is the one under test: drawn last, on top; the others lighter
+    for k in reversed(range(len(measured))):
+        m, label = measured[k], labels[k]
+        alpha = 1.0 if k == 0 else 0.45
+        axes[0].plot(time, m, lw=0.8, ls="--", color=f"C{k}", alpha=alpha, label=f"measured, {label}")
+        axes[1].plot(time, m - expected, lw=0.6, color=f"C{k}", alpha=alpha, label=label)
+    axes[0].set_ylabel("Fx [N]")
+    axes[0].set_title("force Fx acting on the sensor (paper Fig. 9)")
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[1].set_ylabel("error [N]")
+    axes[1].set_xlabel("time [s]")
+    axes[1].set_title("error of the measured Fx (paper Fig. 10)")
+    axes[1].legend(loc="upper right", fontsize=8)
+    right = axes[1].secondary_yaxis("right", functions=(lambda v: 100 * v / full_scale, lambda p: p * full_scale / 100))
+    right.set_ylabel("% of full scale")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.suptitle(title)
+    return _save(fig, path)

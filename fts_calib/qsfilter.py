@@ -109,6 +109,54 @@ def windowed_std(values: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.
     return np.sqrt(np.maximum(var, 0.0))
 
 
+def joint_rates(T: np.ndarray, theta: np.ndarray, window_s: float, dt: float,
+                continuous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Joint velocity and acceleration at every sample, estimated from readings alone.
+
+    A least-squares quadratic through the samples of a window of ``window_s`` centred on
+    each sample (Savitzky-Golay: with 1e-6 rad of reading noise at 1 kHz and a 50 ms window,
+    about 1.4e-3 rad/s^2 of acceleration noise, twenty times less than a second difference);
+    where the window is cut by the edges, a gap or irregular sampling, plain differences
+    over the window. Continuous joints are unwrapped first.
+
+    Args:
+        T: Sample times [s], non-decreasing. Shape (N,).
+        theta: Joint readings [rad]. Shape (N, n_joints).
+        window_s: Width of the window [s].
+        dt: The stream's sample period [s] (0: differences everywhere).
+        continuous: Which joints are continuous. Shape (n_joints,).
+
+    Returns:
+        ``(velocity [rad/s], acceleration [rad/s^2])``, each (N, n_joints).
+    """
+    theta = np.array(theta, dtype=float)
+    if continuous is not None and np.any(continuous) and len(theta) > 1:
+        theta[:, continuous] = np.unwrap(theta[:, continuous], axis=0)
+    n = len(T)
+    velocity, acceleration = np.zeros_like(theta), np.zeros_like(theta)
+    fitted = np.zeros(n, dtype=bool)
+    half = int(round(window_s / 2 / dt)) if dt > 0 else 0
+    if half >= 1 and n >= 2 * half + 1:
+        offsets = np.arange(-half, half + 1) * dt
+        kernels = np.linalg.pinv(np.column_stack([np.ones_like(offsets), offsets, offsets * offsets]))
+        windows = np.lib.stride_tricks.sliding_window_view(theta, 2 * half + 1, axis=0)  # (n - 2 half, joints, 2 half + 1)
+        inner = slice(half, n - half)
+        velocity[inner] = windows @ kernels[1]
+        acceleration[inner] = 2.0 * (windows @ kernels[2])
+        span = T[2 * half:] - T[: n - 2 * half]
+        fitted[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
+    rest = np.nonzero(~fitted)[0]
+    if len(rest):
+        left, right = window_bounds(T, rest, window_s / 2)
+        dt_total, dt_left, dt_right = T[right] - T[left], T[rest] - T[left], T[right] - T[rest]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            velocity[rest] = np.where((dt_total > 0)[:, None], (theta[right] - theta[left]) / dt_total[:, None], 0.0)
+            both = ((dt_left > 0) & (dt_right > 0))[:, None]
+            slopes = (theta[right] - theta[rest]) / dt_right[:, None] - (theta[rest] - theta[left]) / dt_left[:, None]
+            acceleration[rest] = np.where(both, 2.0 * slopes / dt_total[:, None], 0.0)
+    return velocity, acceleration
+
+
 class QuasiStaticFilter:
     """Stream filter of quasi-static samples (see the module docstring).
 
@@ -181,44 +229,10 @@ class QuasiStaticFilter:
         return decided
 
     def _joint_rates(self, T, theta) -> tuple[np.ndarray, np.ndarray]:
-        """Joint velocity and acceleration at every sample.
-
-        A least-squares quadratic through the samples of the derivative window (Savitzky-
-        Golay: with 1e-6 rad of reading noise at 1 kHz and a 50 ms window, about 1.4e-3
-        rad/s^2 of acceleration noise, twenty times less than a second difference); where
-        the window is cut by the edges of the stream, a gap or irregular sampling, plain
-        differences over the window. Continuous joints are unwrapped first.
-        """
-        theta = theta.copy()
-        if self._continuous.any() and len(theta) > 1:
-            theta[:, self._continuous] = np.unwrap(theta[:, self._continuous], axis=0)
-        n = len(T)
-        velocity, acceleration = np.zeros_like(theta), np.zeros_like(theta)
-        fitted = np.zeros(n, dtype=bool)
-        if self._dt is None and n > _PERIOD_SAMPLES:
+        if self._dt is None and len(T) > _PERIOD_SAMPLES:
             # one sample period per stream, from its first intervals: chunking changes nothing
             self._dt = float(np.median(np.diff(T[: _PERIOD_SAMPLES + 1])))
-        dt = self._dt or 0.0
-        half = int(round(self.config.derivative_window_s / 2 / dt)) if dt > 0 else 0
-        if half >= 1 and n >= 2 * half + 1:
-            offsets = np.arange(-half, half + 1) * dt
-            kernels = np.linalg.pinv(np.column_stack([np.ones_like(offsets), offsets, offsets * offsets]))
-            windows = np.lib.stride_tricks.sliding_window_view(theta, 2 * half + 1, axis=0)  # (n - 2 half, joints, 2 half + 1)
-            inner = slice(half, n - half)
-            velocity[inner] = windows @ kernels[1]
-            acceleration[inner] = 2.0 * (windows @ kernels[2])
-            span = T[2 * half:] - T[: n - 2 * half]
-            fitted[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
-        rest = np.nonzero(~fitted)[0]
-        if len(rest):
-            left, right = window_bounds(T, rest, self.config.derivative_window_s / 2)
-            dt_total, dt_left, dt_right = T[right] - T[left], T[rest] - T[left], T[right] - T[rest]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                velocity[rest] = np.where((dt_total > 0)[:, None], (theta[right] - theta[left]) / dt_total[:, None], 0.0)
-                both = ((dt_left > 0) & (dt_right > 0))[:, None]
-                slopes = (theta[right] - theta[rest]) / dt_right[:, None] - (theta[rest] - theta[left]) / dt_left[:, None]
-                acceleration[rest] = np.where(both, 2.0 * slopes / dt_total[:, None], 0.0)
-        return velocity, acceleration
+        return joint_rates(T, theta, self.config.derivative_window_s, self._dt or 0.0, self._continuous)
 
     def _still(self, T, theta, index):
         """Joint rules at ``index``: (speed ok, acceleration ok, velocity, acceleration, window bounds).

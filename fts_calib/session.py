@@ -94,10 +94,14 @@ class CalibrationSession:
         use_filter: Keep every valid sample instead of the quasi-static ones (for comparison).
         source: What the samples come from, for the calibration's provenance.
         clock: Wall-clock function in [s] (for checkpoint timing).
+        on_kept: Called with ``(time (k,), w_sensor (k, 6), strain (k, 8), configuration
+            indices (k,))`` for the samples entering the least squares, in order (e.g. to plot
+            the convergence); None for nothing.
     """
 
     def __init__(self, kin: Kinematics, tool: Tool, config: PipelineConfig | None = None, checkpoint: str | Path | None = None,
-                 use_filter: bool = True, source: str = "", clock: Callable[[], float] = _time.monotonic):
+                 use_filter: bool = True, source: str = "", clock: Callable[[], float] = _time.monotonic,
+                 on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None):
         self.kin = kin
         self.tool = tool
         self.config = config or PipelineConfig()
@@ -118,6 +122,7 @@ class CalibrationSession:
         self._last_checkpoint = clock()
         self._warned_degrees = False
         self._wrench = np.stack([c.wrench_matrix for c in tool.configurations])
+        self._on_kept = on_kept
 
     # -- input --------------------------------------------------------------------------
 
@@ -204,14 +209,16 @@ class CalibrationSession:
     def _accumulate(self, t, theta, strain, codes, final: bool) -> None:
         if self.filter is not None:
             decided = self.filter.process(t, theta, strain, codes, final=final)
-            theta, strain, codes, g = (decided.readings[decided.keep], decided.strain[decided.keep],
-                                       decided.tool[decided.keep], decided.g_sensor)
+            t, strain, codes, g = (decided.time[decided.keep], decided.strain[decided.keep], decided.tool[decided.keep],
+                                   decided.g_sensor)
         else:
             g = self.kin.g_sensor(theta, self.tool.gravity) if len(theta) else np.zeros((0, 3))
         if not len(g):
             return
         W = np.einsum("nij,nj->ni", self._wrench[codes], g)  # eqs 17-18 per sample's configuration
         self.estimator.update_batch(W, strain)
+        if self._on_kept is not None:
+            self._on_kept(t, W, strain, codes)
         self.kept += np.bincount(codes, minlength=len(self.kept))
         unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
         for c in np.unique(codes):

@@ -1,0 +1,44 @@
+"""The demo, headless at reduced size: every file, the paper's Fig. 7 story, the targets."""
+
+import io
+
+import numpy as np
+import pytest
+
+from fts_calib.demo import run_demo
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    text = io.StringIO()
+    return run_demo(out, seed=0, quick=True, stream=text), out, text.getvalue()
+
+
+def test_the_demo_writes_every_file(demo):
+    result, out, text = demo
+    names = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
+    assert names >= {"trajectories/A.csv", "trajectories/B.csv", "trajectories/C.csv", "trajectories/plan.yaml",
+                     "trajectories/plan.png", "recordings/calibration.csv", "recordings/validation.csv", "calibration.yaml",
+                     "calibration_wrench.png", "convergence_c11.png", "validation_fx.png"}
+    for png in out.rglob("*.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    for part in ("largest relative coefficient error", "offset error", "validation over", "less than 10 %", "Table 1 against"):
+        assert part in text
+
+
+def test_fig_7_the_c11_error_drops_at_each_tool_change_and_ends_at_the_noise_floor(demo):
+    result, _, _ = demo
+    curve, starts = result.convergence, [s for s, _ in result.changes]
+    assert len(starts) == 3
+    before = [curve[np.searchsorted(curve[:, 0], s) - 1, 1] for s in starts[1:]]
+    end = curve[-1, 1]
+    assert before[0] > 10 * before[1] and before[1] > end, (before, end)  # rank 4 -> 6 -> 7
+    se = result.calibration.quality.stderr_C_bar[0, 0] / abs(result.calibration.C_bar[0, 0])
+    assert end <= 3 * se  # within the noise: what is left is the strain noise, not the method
+
+
+def test_the_quick_demo_meets_the_targets(demo):
+    result, _, _ = demo
+    assert result.relative_error.max() <= 5e-4  # 0.05 % of each row's largest coefficient
+    assert result.validation.errors[0].max_percent.max() <= 0.2  # % of full scale

@@ -1,0 +1,92 @@
+"""Validation: at the noise floor with the true calibration, the perturbation with a wrong one."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fts_calib import Calibration, load_calibration
+from fts_calib.planner import sample_motion
+from fts_calib.resources import resolve
+from fts_calib.sensor_config import load_sensor_config
+from fts_calib.simulate import simulate_recording
+from fts_calib.tool import load_tool
+from fts_calib.trajectory_io import TrajectoryFile
+from fts_calib.validate import validate_recording
+
+from .paper import ROUNDING, TABLE_1, TABLE_2
+
+HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])
+JOINTS = ("wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory, _kinematics_cache):
+    from .conftest import _kinematics
+
+    kin = _kinematics(_kinematics_cache, "ur5")
+    tool = load_tool(resolve("validation_tool", "configs"))
+    spec = load_sensor_config(resolve("sensor", "configs"))
+    rng = np.random.default_rng(11)
+    stops = HOME[[3, 4, 5]] + rng.uniform(-1.0, 1.0, (8, 3))
+    t, q, qd, qdd = sample_motion(kin, HOME, JOINTS, stops, 0.0, 500.0)
+    traj = [TrajectoryFile(kin.joint_names, t, q, qd, qdd, "V")]
+    folder = tmp_path_factory.mktemp("validation")
+    static = simulate_recording(folder / "static.csv", kin, tool, traj, spec.simulated, np.random.default_rng(1), dynamic=False)
+    moving = simulate_recording(folder / "moving.csv", kin, tool, traj, spec.simulated, np.random.default_rng(2))
+    return kin, tool, spec, static, moving
+
+
+def test_the_true_calibration_validates_at_the_noise_floor(setup):
+    """With the tool's weight as the truth on both sides, only the strain noise is left: the
+    RMS error per axis is the predicted sigma_W = sqrt((C diag(s^2) C^T)_jj) (to 10 %, the
+    sampling error of an RMS over 10,000 samples being 0.7 %, plus quantization)."""
+    kin, tool, spec, static, _ = setup
+    sensor = spec.simulated
+    true = Calibration(sensor.C_bar, sensor.D)
+    result = validate_recording(static, kin, tool, [true], spec.full_scale, dynamic=False)
+    sigma_W = np.sqrt(np.diag(sensor.C @ np.diag(sensor.noise_std**2) @ sensor.C.T))
+    np.testing.assert_allclose(result.errors[0].rms, sigma_W, rtol=0.1)
+    assert np.all(result.errors[0].max_abs < 6 * sigma_W)
+
+
+def test_the_moving_tool_validates_within_the_target(setup):
+    kin, tool, spec, _, moving = setup
+    true = Calibration(spec.simulated.C_bar, spec.simulated.D)
+    dynamic = validate_recording(moving, kin, tool, [true], spec.full_scale)
+    static = validate_recording(moving, kin, tool, [true], spec.full_scale, dynamic=False)
+    assert dynamic.errors[0].max_percent.max() < 0.2
+    assert static.errors[0].max_percent.max() > 5 * dynamic.errors[0].max_percent.max()  # dynamics uncompensated
+
+
+def test_a_perturbed_calibration_shows_its_perturbation(setup):
+    kin, tool, spec, static, _ = setup
+    sensor = spec.simulated
+    true = Calibration(sensor.C_bar, sensor.D)
+    shift = np.array([0.5, 0.0, 0.0, 0.0, 0.05, 0.0])  # [N, N·m]
+    scaled = sensor.C_bar.copy()
+    scaled[1] *= 1.01  # Fy 1 % too large
+    wrong = Calibration(scaled, sensor.D + shift)
+    result = validate_recording(static, kin, tool, [wrong, true], spec.full_scale, dynamic=False)
+    errors, between = result.errors[0], result.between
+    # offsets: the error is the shift, plus noise (sigma_W << shift)
+    assert errors.rms[0] == pytest.approx(0.5, rel=1e-3) and errors.rms[4] == pytest.approx(0.05, rel=1e-2)
+    # the Fy row: 1 % of what the true calibration measures without its offset
+    expected_fy = result.measured[1][:, 1] - sensor.D[1]
+    np.testing.assert_allclose(between.max_abs[1], 0.01 * np.max(np.abs(expected_fy)), rtol=1e-3)
+    assert between.max_abs[0] == pytest.approx(0.5, abs=1e-9) and between.max_abs[2] < 1e-9
+
+
+def test_shipped_paper_tables_are_calibration_files():
+    for name, table in (("paper_table1_calibration", TABLE_1), ("paper_table2_calibration", TABLE_2)):
+        cal = load_calibration(resolve(name, "configs"))
+        np.testing.assert_allclose(cal.C, table, atol=ROUNDING)
+        np.testing.assert_array_equal(cal.D, np.zeros(6))
+
+
+def test_validate_refuses_three_calibrations(setup):
+    kin, tool, spec, static, _ = setup
+    true = Calibration(spec.simulated.C_bar, spec.simulated.D)
+    with pytest.raises(ValueError, match="3 calibrations given but expected one or two"):
+        validate_recording(static, kin, tool, [true] * 3, spec.full_scale)
+    assert dataclasses.is_dataclass(true)
