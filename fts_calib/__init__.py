@@ -24,38 +24,58 @@ from .exceptions import (
     StructureError,
     TrajectoryError,
 )
+from .kinematics import Kinematics
+from .payload import PayloadError, PayloadEstimate, identify_payload
+from .robot import load_robot
 from .sensor import WRENCH_AXES, P, c_bar_from_c, c_from_c_bar, project, wrench_from_strain
+from .sensor_config import load_sensor_config
+from .service import GravityCompensator, WrenchReader
+from .session import CalibrationSession
 from .simsensor import SimulatedSensor
+from .tool import Tool, ToolConfiguration, load_tool, save_tool
 from .wrench import dynamic_wrench, static_wrench
 
 __all__ = [
     "Calibration",
+    "CalibrationSession",
     "FileFormatError",
     "FrameNotFound",
     "FtsCalibError",
     "FtsCalibWarning",
+    "GravityCompensator",
     "InsufficientExcitation",
     "JointError",
+    "Kinematics",
     "OffsetEstimate",
     "OnlineEstimator",
     "P",
+    "PayloadError",
+    "PayloadEstimate",
     "Quality",
     "RecordingError",
     "ShapeError",
     "SimulatedSensor",
     "StructureError",
+    "Tool",
+    "ToolConfiguration",
     "TrajectoryError",
     "WRENCH_AXES",
+    "WrenchReader",
     "__version__",
     "c_bar_from_c",
     "c_from_c_bar",
     "dynamic_wrench",
     "estimate_offsets",
+    "identify_payload",
     "information_rank",
     "jig_calibration",
     "load_calibration",
+    "load_robot",
+    "load_sensor_config",
+    "load_tool",
     "project",
     "save_calibration",
+    "save_tool",
     "static_wrench",
     "wrench_from_strain",
 ]

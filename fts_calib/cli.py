@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from .exceptions import FileFormatError, FtsCalibError
 
 
@@ -232,6 +234,98 @@ def _validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _tare(args: argparse.Namespace) -> int:
+    from .calibration import load_calibration, save_calibration
+    from .pipeline_config import load_pipeline_config
+    from .resources import resolve
+    from .sensor import WRENCH_AXES, WRENCH_UNITS
+    from .tare import tare_live, tare_recording
+
+    calibration = load_calibration(args.calibration)
+    kin = tool = None
+    if args.configuration is not None:
+        if args.robot is None:
+            raise FileFormatError(args.calibration, None, "a mounted configuration needs --robot (its orientation matters)")
+        kin, tool, _ = _setup(argparse.Namespace(robot=args.robot, tool=args.tool))
+        tool.configuration(args.configuration)  # a clear error for an unknown name
+    config = load_pipeline_config(resolve(args.pipeline, "configs"))
+    if args.recording:
+        result = tare_recording(calibration, args.recording, kin, tool, args.configuration, config)
+    elif args.listen:
+        print(f"listening on udp://{args.listen[0]}:{args.listen[1]} for {args.seconds:g} s: hold the sensor still...", flush=True)
+        result = tare_live(calibration, args.listen[0], args.listen[1], args.seconds, kin, tool, args.configuration, config)
+    else:
+        raise FileFormatError(args.calibration, None, "give a recording or --listen HOST:PORT to re-tare from")
+    output = save_calibration(result.calibration, args.output or args.calibration)
+    est = result.estimate
+    print(f"re-tare from {est.samples_used:,} samples ({est.samples_skipped:,} skipped):")
+    rows = [[a, f"{old:+.5f}", f"{new:+.5f}", f"{new - old:+.5f}", f"{se:.1g}", u]
+            for a, old, new, se, u in zip(WRENCH_AXES, result.previous, est.D, est.stderr_D, WRENCH_UNITS, strict=True)]
+    from .report import table
+
+    print(table(["axis", "old D", "new D", "change", "stderr", "unit"], rows, "  "))
+    print(f"wrote {output} (previous offsets kept in offset_history: {len(result.calibration.offset_history)} entries)")
+    return 0
+
+
+def _payload(args: argparse.Namespace) -> int:
+    from .calibration import load_calibration
+    from .payload import identify_payload
+    from .qsfilter import QuasiStaticFilter
+    from .recording import RecordingReader
+    from .tool import save_tool
+
+    kin, _, config = _setup(argparse.Namespace(robot=args.robot, tool="paper_tool", pipeline=args.pipeline))
+    calibration = load_calibration(args.calibration)
+    with RecordingReader(args.recording, kin.joint_names, None) as reader:
+        chunks = list(reader)
+    if not chunks:
+        raise FileFormatError(args.recording, None, "no usable row")
+    t, q, s = (np.concatenate([getattr(c, f) for c in chunks]) for f in ("time", "readings", "strain"))
+    decided = QuasiStaticFilter(config.filter, kin, None).process(t, q, s, np.zeros(len(t), dtype=np.int64), final=True)
+    strain = decided.strain[decided.keep]
+    estimate = identify_payload(calibration.wrench(strain), decided.g_sensor, mount=args.mount,
+                                min_separation_deg=args.min_separation)
+    print(f"payload from {estimate.samples:,} still samples ({len(t) - estimate.samples:,} moving or unsettled skipped) in "
+          f"{len(estimate.poses)} orientations:")
+    print(f"  mass {estimate.mass:.4f} ± {estimate.stderr_mass:.1g} kg")
+    print("  centre of mass in the sensor frame " + ", ".join(f"{a} {v:+.5f} ± {e:.1g}" for a, v, e in
+                                                              zip("xyz", estimate.com, estimate.stderr_com, strict=True)) + " m")
+    print("  offsets " + ", ".join(f"{v:+.4f}" for v in estimate.offsets) + " [N, N, N, N·m, N·m, N·m] (add to D to re-tare)")
+    if estimate.mount_rotation is not None:
+        print("  mount rotation " + ", ".join(f"{np.degrees(v):+.3f} ± {np.degrees(e):.1g}" for v, e in
+                                             zip(estimate.mount_rotation, estimate.stderr_mount_rotation, strict=True)) + " deg")
+    print("  residual RMS " + ", ".join(f"{v:.2g}" for v in estimate.residual_rms) + " [N, N·m]")
+    header = (f"payload identified by fts-calib from {args.recording} ({estimate.samples} samples, {len(estimate.poses)} "
+              f"orientations)\nmass {estimate.mass:.6g} ± {estimate.stderr_mass:.2g} kg; com ± "
+              f"{', '.join(f'{e:.2g}' for e in estimate.stderr_com)} m")
+    path = save_tool(estimate.tool(args.name, float(np.linalg.norm(kin.g_world()))), args.output, header)
+    print(f"wrote {path}")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from .calibration import load_calibration
+    from .export import export
+    from .fileio import atomic_write_text
+    from .resources import resolve
+    from .tool import load_tool
+
+    calibration = load_calibration(args.calibration)
+    payload, gravity = None, 9.81
+    if args.payload:
+        tool = load_tool(resolve(args.payload, "configs"))
+        payload = tool.configuration(args.configuration) if args.configuration else tool.configurations[0]
+        gravity = tool.gravity
+    try:
+        text = export(calibration, args.format, payload, gravity, args.name, args.sensor_frame, args.world_frame)
+    except ValueError as exc:
+        raise FileFormatError(args.calibration, None, str(exc)) from None
+    path = atomic_write_text(args.output, text)
+    print(f"wrote {path} ({args.format})")
+    return 0
+
+
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
     return commands.add_parser(
         name, help=help_text, description=description, epilog=f"example:\n  {example}",
@@ -374,6 +468,51 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("--plot", help="PNG of Fx and its error")
     val.add_argument("--max-error", type=float, help="exit 1 when an error exceeds this %% of full scale")
     val.set_defaults(handler=_validate)
+
+    tare = _add(commands, "tare", "new offsets D for a calibration file, from a short still window",
+                "Estimate the offsets D again with C_bar kept, from a recording or a live window with the sensor still, "
+                "with nothing mounted or with a known tool configuration (then --robot gives its orientation). The file "
+                "keeps the previous offsets and when they were replaced.",
+                "fts-calib tare --calibration calibration.yaml tare.csv")
+    tare.add_argument("recording", nargs="?", help="recording with the sensor still")
+    tare.add_argument("--calibration", required=True, help="calibration file to update")
+    tare.add_argument("-o", "--output", help="where to write (default: update the calibration file)")
+    tare.add_argument("--listen", type=_address, help="HOST:PORT: re-tare from a live window instead of a recording")
+    tare.add_argument("--seconds", type=float, default=2.0, help="length of the live window in s (default 2)")
+    tare.add_argument("--robot", help="robot definition (needed with a mounted configuration)")
+    tare.add_argument("--tool", default="paper_tool", help="tool file of the mounted configuration (default: paper_tool)")
+    tare.add_argument("--configuration", help="the mounted configuration (default: nothing mounted)")
+    tare.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
+    tare.set_defaults(handler=_tare)
+
+    pay = _add(commands, "payload", "identify an unknown payload: mass, centre of mass, offsets",
+               "From a recording of the payload held still in at least three well-spread orientations: its mass, centre "
+               "of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for gravity "
+               "compensation. Refuses orientations that are too few or too close, and says which.",
+               "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml")
+    pay.add_argument("recording", help="recording of the payload in several still orientations")
+    pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
+    pay.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    pay.add_argument("-o", "--output", required=True, help="tool file to write")
+    pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
+    pay.add_argument("--mount", action="store_true", help="also estimate a small rotation of the sensor mount")
+    pay.add_argument("--min-separation", type=float, default=15.0, help="smallest angle between orientations in deg (default 15)")
+    pay.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
+    pay.set_defaults(handler=_payload)
+
+    exp = _add(commands, "export", "export a calibration as a C header, JSON or ROS 2 parameters",
+               "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
+               "provenance; ros2: the parameters of control_toolbox's GravityCompensationWrench filter for a payload.",
+               "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h")
+    exp.add_argument("--format", required=True, choices=["c-header", "json", "ros2"], help="what to write")
+    exp.add_argument("--calibration", required=True, help="calibration file")
+    exp.add_argument("-o", "--output", required=True, help="file to write")
+    exp.add_argument("--name", default="fts_calib", help="prefix of the C identifiers (default fts_calib)")
+    exp.add_argument("--payload", help="tool file of the payload (ros2)")
+    exp.add_argument("--configuration", help="configuration of the payload's tool file (default: the first)")
+    exp.add_argument("--sensor-frame", default="ft_sensor", help="TF frame of the sensor (ros2, default ft_sensor)")
+    exp.add_argument("--world-frame", default="world", help="TF frame with z up (ros2, default world)")
+    exp.set_defaults(handler=_export)
     return parser
 
 

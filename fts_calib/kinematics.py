@@ -355,6 +355,21 @@ class Kinematics:
         q = theta[0] if self._plain_q else self._q(theta)[0]
         return int(pin.computeDistances(self.model, self.data, geometry, geometry_data, q))
 
+    def jacobian(self, reading) -> np.ndarray:
+        """Jacobian of the sensor frame at one reading, axes of the world, origin of S.
+
+        ``[v; omega] = J qdot``: linear velocity of the origin of S and angular velocity, in
+        the world frame, from joint velocities in :attr:`joint_names` order.
+
+        Returns:
+            Shape (6, n_joints).
+        """
+        theta, single = self.readings(reading)
+        if not single:
+            raise ShapeError(f"jacobian takes one reading; got {len(theta)}")
+        q = theta[0] if self._plain_q else self._q(theta)[0]
+        return pin.computeFrameJacobian(self.model, self.data, q, self.sensor_frame_id, pin.LOCAL_WORLD_ALIGNED)
+
     def joint_axis_world(self, reading, joint_name: str) -> np.ndarray:
         """Unit axis of a joint in the world frame at one reading. Shape (3,)."""
         self._check_names([joint_name], "joint")

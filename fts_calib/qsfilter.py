@@ -163,10 +163,12 @@ class QuasiStaticFilter:
     Args:
         config: Thresholds.
         kin: Kinematics of the robot (for the dynamic rule and gravity).
-        tool: The calibration tool (mass, centre of mass and inertia of each configuration).
+        tool: The tool (mass, centre of mass and inertia of each configuration), or None for
+            an unknown payload: then the dynamic rule is skipped and gravity has the
+            model's magnitude.
     """
 
-    def __init__(self, config: FilterConfig, kin: Kinematics, tool: Tool):
+    def __init__(self, config: FilterConfig, kin: Kinematics, tool: Tool | None):
         self.config = config
         self.kin = kin
         self.tool = tool
@@ -299,9 +301,9 @@ class QuasiStaticFilter:
         dynamic_rejected = 0
         if len(rows):
             motion = self.kin.sensor_motion(theta[rows], velocity[candidates], acceleration[candidates])
-            g = np.einsum("nji,j->ni", motion.R_world_sensor, self.kin.g_world(self.tool.gravity))
+            g = np.einsum("nji,j->ni", motion.R_world_sensor, self.kin.g_world(None if self.tool is None else self.tool.gravity))
             fraction = np.zeros(len(rows))
-            for c, config in enumerate(self.tool.configurations):
+            for c, config in enumerate(() if self.tool is None else self.tool.configurations):
                 mine = codes[rows] == c
                 if not mine.any():
                     continue

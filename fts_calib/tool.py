@@ -23,7 +23,7 @@ import numpy as np
 
 from ._arrays import as_matrix, frozen
 from .exceptions import FileFormatError, FtsCalibError, FtsCalibWarning, ShapeError
-from .fileio import load_yaml, read_array, read_positive, require
+from .fileio import atomic_write_text, dump_yaml, load_yaml, read_array, read_positive, require
 from .wrench import dynamic_wrench
 
 #: Default magnitude of gravity in [m/s^2].
@@ -243,3 +243,24 @@ def load_tool(path: str | Path) -> Tool:
             stacklevel=2,
         )
     return tool
+
+
+def save_tool(tool: Tool, path: str | Path, header: str = "") -> Path:
+    """Write a tool file (the format :func:`load_tool` reads), atomically.
+
+    Args:
+        tool: The tool.
+        path: Destination.
+        header: Comment lines written first (e.g. the standard errors of an identified payload).
+    """
+    data: dict = {"name": tool.name, "gravity": tool.gravity}
+    if tool.shape is not None:
+        data["shape"] = {"radius": tool.shape.radius, "length": tool.shape.length}
+    data["configurations"] = []
+    for c in tool.configurations:
+        entry = {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist()}
+        if c.inertia_com is not None:
+            entry["inertia"] = c.inertia_com.tolist()
+        data["configurations"].append(entry)
+    comments = "".join(f"# {line}\n" for line in header.splitlines())
+    return atomic_write_text(path, comments + dump_yaml(data))

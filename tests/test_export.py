@@ -1,0 +1,90 @@
+"""Exports: the C header compiles and computes what Python does; JSON and ROS 2 parameters."""
+
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+import yaml
+
+from fts_calib import Calibration, load_calibration, save_calibration
+from fts_calib.cli import main
+from fts_calib.export import c_header, json_text, ros2_parameters
+from fts_calib.resources import resolve
+from fts_calib.sensor_config import load_sensor_config
+from fts_calib.tool import load_tool
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    return Calibration(sensor.C_bar, sensor.D, provenance={"method": "test", "software_version": "0"})
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
+@pytest.mark.parametrize("precision", ["float", "double"])
+def test_the_c_header_compiles_and_matches_python(tmp_path, calibration, rng, precision):
+    (tmp_path / "calibration.h").write_text(c_header(calibration))
+    strains = rng.standard_normal((50, 8)) * 0.2
+    rows = ",\n".join("{" + ", ".join(f"{v:.17g}" for v in s) + "}" for s in strains)
+    source = f"""
+#include <stdio.h>
+#include "calibration.h"
+static const double strains[50][8] = {{ {rows} }};
+int main(void) {{
+    for (int n = 0; n < 50; ++n) {{
+        fts_calib_real s[8], w[6];
+        for (int k = 0; k < 8; ++k) s[k] = (fts_calib_real)strains[n][k];
+        fts_calib_wrench(s, w);
+        for (int i = 0; i < 6; ++i) printf("%.17g%c", (double)w[i], i == 5 ? '\\n' : ' ');
+    }}
+    return 0;
+}}
+"""
+    (tmp_path / "main.c").write_text(source)
+    flags = ["-DFTS_CALIB_DOUBLE"] if precision == "double" else []
+    build = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", *flags, "-o", str(tmp_path / "main"),
+                            str(tmp_path / "main.c")], capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    out = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout
+    got = np.array([[float(v) for v in line.split()] for line in out.strip().splitlines()])
+    expected = calibration.wrench(strains)
+    # float: the wrench of a 1e-5 relative error on the largest terms; double: round-off only
+    tolerance = 1e-5 if precision == "float" else 1e-12
+    scale = np.abs(strains) @ np.abs(calibration.C).T + np.abs(calibration.D)
+    assert np.all(np.abs(got - expected) <= tolerance * scale), np.max(np.abs(got - expected) / scale)
+
+
+def test_json_export_holds_the_calibration(calibration):
+    data = json.loads(json_text(calibration))
+    assert data["format"] == "fts-calib/1"
+    np.testing.assert_allclose(data["C"], calibration.C, rtol=1e-15)
+    np.testing.assert_allclose(data["D"], calibration.D, rtol=1e-15)
+
+
+def test_ros2_parameters_of_the_gravity_compensation_filter():
+    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    params = yaml.safe_load(ros2_parameters(payload, 9.81, "ft_sensor_link", "base_link"))
+    f = params["force_torque_sensor_broadcaster"]["ros__parameters"]["sensor_filter_chain"]["filter1"]
+    assert f["type"] == "control_filters/GravityCompensationWrench"
+    assert f["params"]["world_frame"] == "base_link" and f["params"]["sensor_frame"] == "ft_sensor_link"
+    np.testing.assert_allclose(f["params"]["CoG"]["pos"], payload.p_sensor_com)
+    np.testing.assert_allclose(f["params"]["CoG"]["force"], [0, 0, -1.4 * 9.81])
+
+
+def test_cli_export_and_bad_calibration_files(tmp_path, calibration, capsys):
+    path = save_calibration(calibration, tmp_path / "cal.yaml")
+    assert main(["export", "--format", "json", "--calibration", str(path), "-o", str(tmp_path / "c.json")]) == 0
+    assert json.loads((tmp_path / "c.json").read_text())["D"] == calibration.D.tolist()
+    assert main(["export", "--format", "ros2", "--calibration", str(path), "-o", str(tmp_path / "r.yaml")]) == 2
+    assert "give its tool file (--payload)" in capsys.readouterr().err
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(path.read_text().replace("fts-calib/1", "fts-calib/9"))
+    assert main(["export", "--format", "c-header", "--calibration", str(bad), "-o", str(tmp_path / "h.h")]) == 2
+    assert "field 'format': is 'fts-calib/9' but expected 'fts-calib/1'" in capsys.readouterr().err
+    wrong_shape = tmp_path / "shape.yaml"
+    wrong_shape.write_text(path.read_text().replace("D: [", "D: [0.0, "))
+    assert main(["export", "--format", "c-header", "--calibration", str(wrong_shape), "-o", str(tmp_path / "h.h")]) == 2
+    assert "field 'D': shape (7,) but expected (6,)" in capsys.readouterr().err
+    assert load_calibration(path).D.tolist() == calibration.D.tolist()

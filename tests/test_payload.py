@@ -1,0 +1,122 @@
+"""Payload identification: exact without noise, honest uncertainties with it, refusals with reasons."""
+
+import numpy as np
+import pytest
+
+from fts_calib import ShapeError
+from fts_calib.payload import PayloadError, identify_payload
+from fts_calib.tool import load_tool, save_tool
+
+MASS, COM = 1.37, np.array([0.03, -0.01, 0.085])  # [kg], [m]
+OFFSETS = np.array([0.3, -0.2, 0.1, 0.01, -0.02, 0.005])  # [N, N·m]
+
+
+def _poses(rng, per=200):
+    """Eight well-spread orientations: the cube's corners (at least 70° apart), turned at random."""
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float) / np.sqrt(3)
+    q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    return np.repeat(9.81 * corners @ q.T, per, axis=0)
+
+
+def _wrench(g, rotation=None):
+    g_real = g if rotation is None else g - np.cross(rotation, g)
+    return np.hstack([MASS * g_real, np.cross(MASS * COM, g_real)]) + OFFSETS
+
+
+def test_noiseless_data_give_the_payload_to_1e_9(rng):
+    g = _poses(rng)
+    est = identify_payload(_wrench(g), g)
+    assert abs(est.mass - MASS) < 1e-9 and np.max(np.abs(est.com - COM)) < 1e-9
+    assert np.max(np.abs(est.offsets - OFFSETS)) < 1e-9 and len(est.poses) == 8
+
+
+def test_the_mount_rotation_is_recovered(rng):
+    g = _poses(rng)
+    rotation = np.array([0.01, -0.02, 0.005])  # [rad]
+    est = identify_payload(_wrench(g, rotation), g, mount=True)
+    np.testing.assert_allclose(est.mount_rotation, rotation, atol=1e-9)
+    assert abs(est.mass - MASS) < 1e-9
+
+
+def test_with_noise_the_errors_match_the_reported_uncertainty():
+    """100 seeds: the z-scores of mass and centre of mass have a spread of 1 within 20 %
+    (the spread of 100 z-scores is known to about 7 %)."""
+    z = []
+    for seed in range(100):
+        rng = np.random.default_rng(seed)
+        g = _poses(rng, per=50)
+        noise = np.hstack([0.02 * rng.standard_normal((len(g), 3)), 0.002 * rng.standard_normal((len(g), 3))])
+        est = identify_payload(_wrench(g) + noise, g)
+        z.append(np.concatenate([[(est.mass - MASS) / est.stderr_mass], (est.com - COM) / est.stderr_com]))
+    spread = np.std(z, axis=0)
+    assert np.all((spread > 0.8) & (spread < 1.2)), spread
+
+
+def test_one_orientation_is_refused(rng):
+    g = np.tile([0.0, 0.0, -9.81], (300, 1))
+    with pytest.raises(PayloadError, match="needs at least 3 orientations of the tool, well spread; got 1"):
+        identify_payload(_wrench(g), g)
+
+
+def test_orientations_too_close_are_named(rng):
+    base = np.array([[0, 0, -9.81], [9.81, 0, 0], [0, 9.81, 0]], dtype=float)
+    tilt = np.radians(8.0)
+    close = np.array([0.0, np.sin(tilt), -np.cos(tilt)]) * 9.81
+    g = np.repeat(np.vstack([base, close]), 50, axis=0)
+    with pytest.raises(PayloadError, match=r"orientations too close \(at least 15° apart needed\): 1 and 4 \(8.0°\)"):
+        identify_payload(_wrench(g), g)
+
+
+def test_shapes_are_checked(rng):
+    with pytest.raises(ShapeError, match="w_measured has 3 rows but g_sensor has 4"):
+        identify_payload(np.zeros((3, 6)), np.ones((4, 3)))
+
+
+def test_the_payload_is_saved_as_a_tool_file(tmp_path, rng):
+    g = _poses(rng)
+    est = identify_payload(_wrench(g), g)
+    path = save_tool(est.tool("gripper"), tmp_path / "gripper.yaml", header="identified in a test")
+    tool = load_tool(path)
+    assert tool.names == ["gripper"] and tool.configuration("gripper").mass == pytest.approx(MASS)
+    assert path.read_text().startswith("# identified in a test")
+
+
+def _payload_recording(path, ur5, poses, rng):
+    """The validation payload held still 0.3 s in each pose, on the simulated sensor."""
+    from fts_calib.recording import RecordingWriter
+    from fts_calib.resources import resolve
+    from fts_calib.sensor_config import load_sensor_config
+
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    home = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])
+    with RecordingWriter(path, ur5.joint_names) as writer:
+        for k, (a, b) in enumerate(poses):
+            reading = home.copy()
+            reading[4], reading[5] = a, b
+            t = 1.0 * k + np.arange(300) / 1000.0
+            W = payload.static_wrench(ur5.g_sensor(reading, 9.81))
+            writer.write(t, np.tile(reading, (300, 1)), sensor.strains(np.tile(W, (300, 1)), rng=rng), "payload")
+    return path, payload
+
+
+def test_cli_payload_identifies_and_refuses(tmp_path, ur5, rng, capsys):
+    from fts_calib import Calibration, save_calibration
+    from fts_calib.cli import main
+    from fts_calib.resources import resolve
+    from fts_calib.sensor_config import load_sensor_config
+
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
+    poses = [(0.0, 0.0), (1.2, 0.0), (-1.2, 0.5), (0.6, 2.0), (-0.5, -2.2), (2.2, 1.0)]
+    path, payload = _payload_recording(tmp_path / "poses.csv", ur5, poses, rng)
+    out = tmp_path / "payload.yaml"
+    assert main(["payload", "--calibration", str(cal), "--robot", "ur5", str(path), "-o", str(out), "--name", "gripper"]) == 0
+    text = capsys.readouterr().out
+    assert "in 6 orientations" in text and "mass 1.4000" in text
+    tool = load_tool(out)
+    assert tool.configuration("gripper").mass == pytest.approx(payload.mass, rel=1e-4)
+    np.testing.assert_allclose(tool.configuration("gripper").p_sensor_com, payload.p_sensor_com, atol=1e-4)
+    one, _ = _payload_recording(tmp_path / "one.csv", ur5, [(0.3, 0.3)], rng)
+    assert main(["payload", "--calibration", str(cal), "--robot", "ur5", str(one), "-o", str(tmp_path / "p.yaml")]) == 2
+    assert "needs at least 3 orientations of the tool, well spread; got 1" in capsys.readouterr().err

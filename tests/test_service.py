@@ -1,0 +1,86 @@
+"""In service: the fast wrench path, and gravity compensation against a simulated payload."""
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from fts_calib import Calibration, ShapeError
+from fts_calib.resources import resolve
+from fts_calib.sensor_config import load_sensor_config
+from fts_calib.service import GravityCompensator, WrenchReader
+from fts_calib.tool import load_tool
+
+from .conftest import random_readings
+
+
+@pytest.fixture(scope="module")
+def world():
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    return sensor, Calibration(sensor.C_bar, sensor.D), payload
+
+
+def test_single_and_batch_paths_equal_the_calibration(world, rng):
+    _, cal, _ = world
+    reader = WrenchReader(cal)
+    strains = rng.standard_normal((20, 8)) * 0.1
+    np.testing.assert_allclose(reader.wrench_batch(strains), cal.wrench(strains), rtol=1e-14)
+    for s in strains[:3]:
+        np.testing.assert_allclose(reader.wrench(s), cal.wrench(s), rtol=1e-14)
+    with pytest.raises(ShapeError, match=r"strain.shape=\(7,\) but expected \(8,\)"):
+        reader.wrench(np.zeros(7))
+
+
+def test_one_sample_allocates_nothing_in_steady_state(world, rng):
+    _, cal, payload = world
+    comp = GravityCompensator(cal, payload)
+    strain, R = rng.standard_normal(8) * 0.1, np.eye(3)
+    for _ in range(100):
+        comp.external(strain, R, frame="world")
+    tracemalloc.start()
+    before = tracemalloc.take_snapshot()
+    for _ in range(5000):
+        comp.external(strain, R, frame="world")
+    after = tracemalloc.take_snapshot()
+    tracemalloc.stop()
+    grown = sum(s.size_diff for s in after.compare_to(before, "filename") if "fts_calib" in str(s.traceback))
+    assert grown <= 0, f"{grown} bytes allocated by fts_calib over 5000 calls"
+
+
+def test_a_slowly_moving_payload_compensates_to_the_noise_floor(world, ur5, rng):
+    """Many poses, the payload's weight only: the external wrench is the strain noise
+    (RMS within 15 % of sigma_W = sqrt((C diag(s^2) C^T)_jj), 5,000 samples)."""
+    sensor, cal, payload = world
+    readings = random_readings(ur5, 5000, rng)
+    R = ur5.R_world_sensor(readings)
+    g = np.einsum("nji,j->ni", R, ur5.g_world(9.81))
+    strains = sensor.strains(payload.static_wrench(g), rng=rng)
+    comp = GravityCompensator(cal, payload, ur5.g_world(9.81))
+    external = comp.external_batch(strains, R)
+    sigma_W = np.sqrt(np.diag(sensor.C @ np.diag(sensor.noise_std**2) @ sensor.C.T))
+    np.testing.assert_allclose(np.sqrt(np.mean(external**2, axis=0)), sigma_W, rtol=0.15)
+    np.testing.assert_allclose(comp.external(strains[7], R[7]), external[7], atol=1e-12)
+
+
+def test_a_push_appears_with_its_true_size_in_every_frame(world, ur5, rng):
+    sensor, cal, payload = world
+    reading = random_readings(ur5, 1, rng)[0]
+    R = ur5.R_world_sensor(reading)
+    push_world = np.array([3.0, -7.0, 12.0])  # [N] on the tool tip
+    tip = np.array([0.15, 0.02, 0.0])  # [m] in S
+    f_s = R.T @ push_world
+    truth = payload.static_wrench(R.T @ ur5.g_world(9.81)) + np.concatenate([f_s, np.cross(tip, f_s)])
+    strains = sensor.strains(np.tile(truth, (200, 1)), rng=rng)
+    comp = GravityCompensator(cal, payload, ur5.g_world(9.81))
+    sensor_frame = comp.external_batch(strains, np.tile(R, (200, 1, 1))).mean(axis=0)
+    world_frame = comp.external_batch(strains, np.tile(R, (200, 1, 1)), frame="world").mean(axis=0)
+    at_tip = comp.external_batch(strains, np.tile(R, (200, 1, 1)), point=tip).mean(axis=0)
+    # noise of a 200-sample mean: about 2.7e-4 N and 1e-5 N m
+    np.testing.assert_allclose(world_frame[:3], push_world, atol=2e-3)
+    np.testing.assert_allclose(sensor_frame[:3], f_s, atol=2e-3)
+    np.testing.assert_allclose(sensor_frame[3:], np.cross(tip, f_s), atol=1e-4)
+    np.testing.assert_allclose(at_tip[3:], 0.0, atol=1e-4)  # a pure force at the tip: no moment about it
+    np.testing.assert_allclose(world_frame[3:], R @ sensor_frame[3:], atol=1e-12)
+    with pytest.raises(ValueError, match="frame='tool' but expected one of"):
+        comp.external(strains[0], R, frame="tool")

@@ -1,0 +1,63 @@
+"""Re-tare: shifted offsets recovered from a short recording; the file keeps the history."""
+
+import numpy as np
+import pytest
+
+from fts_calib import Calibration, load_calibration, save_calibration
+from fts_calib.cli import main
+from fts_calib.recording import RecordingWriter
+from fts_calib.resources import resolve
+from fts_calib.sensor_config import load_sensor_config
+from fts_calib.tare import tare_recording
+from fts_calib.tool import load_tool
+
+HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.3, 0.7])
+SHIFT = np.array([0.8, -0.3, 0.25, 0.02, -0.015, 0.01])  # [N, N·m]: the offsets drifted by this
+
+
+@pytest.fixture(scope="module")
+def setup():
+    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    return sensor, Calibration(sensor.C_bar, sensor.D, provenance={"method": "test"})
+
+
+def _recording(path, sensor, ur5, wrench, rng, rows=1500):
+    drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})
+    t = np.arange(rows) / 1000.0
+    with RecordingWriter(path, ur5.joint_names) as writer:
+        writer.write(t, np.tile(HOME, (rows, 1)), drifted.strains(np.tile(wrench, (rows, 1)), rng=rng), "A")
+    return path
+
+
+def test_re_tare_with_nothing_mounted_recovers_the_shift(tmp_path, setup, ur5, rng):
+    sensor, cal = setup
+    path = _recording(tmp_path / "tare.csv", sensor, ur5, np.zeros(6), rng)
+    result = tare_recording(cal, path)
+    # 1,500 samples: the mean's noise is about 6e-5 N and 1e-6 N m
+    np.testing.assert_allclose(result.calibration.D - cal.D, SHIFT, atol=4e-4)
+    assert np.all(np.abs(result.calibration.D - cal.D - SHIFT) < 5 * result.estimate.stderr_D)
+    entry = result.calibration.offset_history[-1]
+    assert entry["D"] == cal.D.tolist() and "re-tare from tare.csv, nothing mounted (1,500 samples)" == entry["reason"]
+
+
+def test_re_tare_with_a_known_tool_on(tmp_path, setup, ur5, rng):
+    sensor, cal = setup
+    tool = load_tool(resolve("paper_tool", "configs"))
+    weight = tool.configuration("B").static_wrench(ur5.g_sensor(HOME, tool.gravity))
+    path = _recording(tmp_path / "tare_b.csv", sensor, ur5, weight, rng)
+    result = tare_recording(cal, path, ur5, tool, "B")
+    np.testing.assert_allclose(result.calibration.D - cal.D, SHIFT, atol=4e-4)
+
+
+def test_cli_tare_updates_the_file_and_keeps_the_history(tmp_path, setup, ur5, rng, capsys):
+    sensor, cal = setup
+    file = save_calibration(cal, tmp_path / "cal.yaml")
+    path = _recording(tmp_path / "tare.csv", sensor, ur5, np.zeros(6), rng)
+    assert main(["tare", "--calibration", str(file), str(path)]) == 0
+    assert "old D" in capsys.readouterr().out
+    assert main(["tare", "--calibration", str(file), str(path)]) == 0
+    updated = load_calibration(file)
+    assert len(updated.offset_history) == 2 and updated.offset_history[0]["D"] == cal.D.tolist()
+    np.testing.assert_allclose(updated.D - cal.D, SHIFT, atol=4e-4)
+    assert main(["tare", "--calibration", str(file), str(path), "--configuration", "A"]) == 2
+    assert "needs --robot" in capsys.readouterr().err
