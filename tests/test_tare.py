@@ -61,3 +61,44 @@ def test_cli_tare_updates_the_file_and_keeps_the_history(tmp_path, setup, ur5, r
     np.testing.assert_allclose(updated.D - cal.D, SHIFT, atol=4e-4)
     assert main(["tare", "--calibration", str(file), str(path), "--configuration", "A"]) == 2
     assert "needs --robot" in capsys.readouterr().err
+
+
+def test_re_tare_from_a_live_window(setup, rng):
+    """Nothing mounted: strain messages on loopback for half a second, the shift recovered."""
+    import socket
+    import threading
+    import time
+
+    from fts_calib.protocol import Strain, encode
+    from fts_calib.tare import tare_live
+
+    sensor, cal = setup
+    drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})
+    strains = drifted.strains(np.zeros((2000, 6)), rng=rng)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    stop = threading.Event()
+
+    def send():
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            k = 0
+            while not stop.is_set() and k < len(strains):
+                sock.sendto(encode(Strain(k / 1000.0, tuple(strains[k]))), ("127.0.0.1", port))
+                k += 1
+                if k % 50 == 0:
+                    time.sleep(0.005)
+
+    sender = threading.Thread(target=send)
+    timer = threading.Timer(0.2, sender.start)  # start sending once the receiver listens
+    timer.start()
+    try:
+        result = tare_live(cal, "127.0.0.1", port, 0.8)
+    finally:
+        stop.set()
+        timer.join()
+        if sender.is_alive():
+            sender.join()
+    assert result.estimate.samples_used > 100
+    np.testing.assert_allclose(result.calibration.D - cal.D, SHIFT, atol=2e-3)
+    assert "live window of 0.8 s" in result.calibration.offset_history[-1]["reason"]
