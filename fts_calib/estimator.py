@@ -78,7 +78,7 @@ def _equilibrate(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _solve_normal(S_XX: np.ndarray, S_WX: np.ndarray, rcond: float, min_norm: bool):
-    """Solve ``Theta S_XX = S_WX``; return (Theta, diag of S_XX^-1 block, rank, condition, inv).
+    """Solve ``Theta S_XX = S_WX``; return (Theta, rank, condition, inverse of S_XX).
 
     Full rank: Cholesky factor L of the scaled matrix, then triangular solves (no explicit
     inverse of S_XX for Theta). Rank deficient with ``min_norm``: the minimum-norm solution
@@ -103,8 +103,8 @@ def _solve_normal(S_XX: np.ndarray, S_WX: np.ndarray, rcond: float, min_norm: bo
         inv = pinv_scaled * scale[:, None] * scale[None, :]
         theta_t = inv @ S_WX.T
     else:
-        return None, None, rank, condition, None
-    return theta_t.T, np.diag(inv).copy(), rank, condition, inv
+        return None, rank, condition, None
+    return theta_t.T, rank, condition, inv
 
 
 def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
@@ -373,7 +373,7 @@ class OnlineEstimator:
             raise InsufficientExcitation(0, 7, "no sample has been added yet.")
         sums = self._current()
         S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
-        theta, _, rank, condition, inv = _solve_normal(S_XX, S_WX, rcond, min_norm)
+        theta, rank, condition, inv = _solve_normal(S_XX, S_WX, rcond, min_norm)
         if theta is None:
             raise InsufficientExcitation(rank, 7 - rank, _RANK_ADVICE)
         quality = _quality(S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used,

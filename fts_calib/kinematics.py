@@ -382,14 +382,6 @@ class Kinematics:
         jid = self.model.getJointId(joint_name)
         return [self.model.names[j] for j in list(self.model.supports[jid])[1:]]
 
-    def parent_joint_of_frame(self, frame_id: int) -> int:
-        """Index of the joint a frame moves with (0 for the world)."""
-        return int(self.model.frames[frame_id].parentJoint)
-
-    def joint_parent(self, joint_id: int) -> int:
-        """Index of the parent joint of a joint (0 for the world)."""
-        return int(self.model.parents[joint_id])
-
     # -- readings -----------------------------------------------------------------------
 
     @property

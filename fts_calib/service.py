@@ -39,7 +39,7 @@ class WrenchReader:
 
     def __init__(self, calibration: Calibration):
         self.C = np.ascontiguousarray(calibration.C, dtype=float)
-        self.D = np.ascontiguousarray(calibration.D, dtype=float)
+        self.D = np.array(calibration.D, dtype=float)  # a copy: set_offsets changes it, the calibration stays
         self._out = np.empty(6)
 
     def wrench(self, strain: np.ndarray) -> np.ndarray:

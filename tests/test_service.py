@@ -30,6 +30,8 @@ def test_single_and_batch_paths_equal_the_calibration(world, rng):
         np.testing.assert_allclose(reader.wrench(s), cal.wrench(s), rtol=1e-14)
     with pytest.raises(ShapeError, match=r"strain.shape=\(7,\) but expected \(8,\)"):
         reader.wrench(np.zeros(7))
+    reader.set_offsets(cal.D + 1.0)  # after a re-tare, in a running loop
+    np.testing.assert_allclose(reader.wrench(strains[0]), cal.wrench(strains[0]) + 1.0, rtol=1e-14)
 
 
 def test_one_sample_allocates_nothing_in_steady_state(world, rng):
