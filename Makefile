@@ -1,22 +1,26 @@
 # fts-calib: `make demo` runs the main job, `make test` the whole test suite.
-# Both create .venv when missing and reinstall the package when pyproject.toml changes.
+# Both create .venv from the lock file (uv.lock) when missing or when the lock changes.
 
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT ?= out
+# uv installs what uv.lock pins; its own version is pinned here. Its cache stays in the checkout.
+UV_VERSION := 0.13.8
+UV := UV_CACHE_DIR=$(CURDIR)/.cache/uv UV_PYTHON_DOWNLOADS=never UV_PROJECT_ENVIRONMENT=$(VENV) $(BIN)/uv
 
 ROBOTS := ur5 ur10 panda kinova xarm7
 
-.PHONY: demo test lint bench trajectories clean
+.PHONY: demo test lint format lock wheel-check bench trajectories clean
 
-$(BIN)/python:
+$(BIN)/uv:
 	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check uv==$(UV_VERSION)
 
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install -qq -e '.[dev]'
+# --inexact keeps uv (and pip) in the venv; --frozen installs the lock as it is, never re-resolving.
+$(STAMP): pyproject.toml uv.lock | $(BIN)/uv
+	$(UV) sync --frozen --inexact --extra dev --quiet
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -27,6 +31,20 @@ test: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check fts_calib tests bench examples
+	$(BIN)/ruff format --check fts_calib tests bench examples
+	$(BIN)/mypy
+
+format: $(STAMP)
+	$(BIN)/ruff format fts_calib tests bench examples
+	$(BIN)/ruff check --fix fts_calib tests bench examples
+
+# Re-resolve uv.lock from pyproject.toml (newest versions within its ranges).
+lock: | $(BIN)/uv
+	$(UV) lock --upgrade
+
+# Build the wheel, install it into a fresh venv and run it from a folder outside the checkout.
+wheel-check: $(STAMP)
+	$(BIN)/python tests/wheel_check.py
 
 bench: $(STAMP)
 	@for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
@@ -36,4 +54,4 @@ trajectories: $(STAMP)
 	@for r in $(ROBOTS); do $(BIN)/fts-calib trajectory --robot $$r -o trajectories/$$r --rate 100 --compress | tail -n 1 || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(OUT) .cache .pytest_cache .ruff_cache .mypy_cache build dist

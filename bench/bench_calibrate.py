@@ -16,7 +16,7 @@ import numpy as np
 
 from fts_calib.kinematics import Kinematics
 from fts_calib.recording import RecordingWriter
-from fts_calib.resources import resolve
+from fts_calib.resources import data_dir, resolve
 from fts_calib.robot import load_robot
 from fts_calib.sensor_config import load_sensor_config
 from fts_calib.simulate import tool_wrenches
@@ -33,7 +33,7 @@ def write_recording(path: Path, rows: int) -> None:
     # the filter estimates velocities from them; the wrench uses the planned ones)
     parts = []
     for name in tool.names:
-        traj = read_trajectory(resolve("ur5", "robots").parents[1] / "trajectories" / "ur5" / f"{name}.csv.gz")
+        traj = read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz")
         t = np.arange(0, traj.time[-1], 0.001)
         interp = [np.column_stack([np.interp(t, traj.time, x[:, k]) for k in range(x.shape[1])]) for x in (traj.q, traj.qd, traj.qdd)]
         parts.append((name, t, *interp, tool_wrenches(kin, tool, name, *interp)))

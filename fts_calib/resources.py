@@ -1,16 +1,24 @@
 """Where shipped files live: robot definitions, configs and trajectories of the project.
 
 A name given on the command line is a path when such a file exists; otherwise it is
-looked up among the shipped files: ``ur5`` means ``robots/ur5.yaml``. The shipped
-folders are those of the source checkout the package runs from, or of the current
-folder.
+looked up among the shipped files: ``ur5`` means ``robots/ur5.yaml``.
+
+The folders ``robots/``, ``configs/`` and ``trajectories/`` stay at the repository's top
+level and are installed inside the package at build time (``pyproject.toml`` maps them
+to ``fts_calib/robots`` and so on), so an installed wheel finds them through
+:mod:`importlib.resources` wherever it lives. An editable install maps only the Python
+package, so there they are read from the source checkout beside it.
 """
 
 from __future__ import annotations
 
+from importlib.resources import files
 from pathlib import Path
 
 from .exceptions import FtsCalibError
+
+#: The kinds of shipped data, one folder each.
+KINDS = ("robots", "configs", "trajectories")
 
 
 class ResourceNotFound(FtsCalibError, FileNotFoundError):
@@ -27,26 +35,43 @@ class ResourceNotFound(FtsCalibError, FileNotFoundError):
         super().__init__(f"no file '{name}' and no shipped {kind} of that name; shipped: {', '.join(available) or 'none'}")
 
 
-def project_root() -> Path:
-    """The folder holding ``robots/``, ``configs/`` and ``trajectories/``.
+def data_dir(kind: str) -> Path:
+    """The folder of shipped data of one kind.
 
-    The source checkout of the package when it has them (an editable install, the
-    usual case), else the current folder.
+    Args:
+        kind: 'robots', 'configs' or 'trajectories'.
+
+    Returns:
+        ``<package>/<kind>`` of an installed wheel, else ``<checkout>/<kind>`` of the
+        source checkout an editable install runs from.
+
+    Raises:
+        ValueError: ``kind`` is not one of :data:`KINDS` (a programming error).
     """
-    checkout = Path(__file__).resolve().parents[1]
-    if (checkout / "configs").is_dir() and (checkout / "robots").is_dir():
-        return checkout
-    return Path.cwd()
+    if kind not in KINDS:
+        raise ValueError(f"kind={kind!r} but expected one of {KINDS}")
+    installed = files("fts_calib").joinpath(kind)
+    if installed.is_dir():
+        return Path(str(installed))
+    return Path(__file__).resolve().parents[1] / kind
 
 
 def shipped(kind: str) -> list[str]:
-    """Names of the shipped YAML files of a kind ('robots' or 'configs'), sorted."""
-    folder = project_root() / kind
-    return sorted(p.stem for p in folder.glob("*.yaml")) if folder.is_dir() else []
+    """Names of the shipped entries of a kind, sorted.
+
+    For 'robots' and 'configs' the stems of the YAML files (``ur5``); for 'trajectories'
+    the robot folders that hold a planned run.
+    """
+    folder = data_dir(kind)
+    if not folder.is_dir():
+        return []
+    if kind == "trajectories":
+        return sorted(p.name for p in folder.iterdir() if (p / "plan.yaml").is_file())
+    return sorted(p.stem for p in folder.glob("*.yaml"))
 
 
 def resolve(name_or_path: str | Path, kind: str) -> Path:
-    """A path to an existing file: ``name_or_path`` itself, or ``<root>/<kind>/<name>.yaml``.
+    """A path to an existing file: ``name_or_path`` itself, or the shipped ``<kind>/<name>.yaml``.
 
     Args:
         name_or_path: A file path, or the stem of a shipped file (e.g. 'ur5').
@@ -58,7 +83,7 @@ def resolve(name_or_path: str | Path, kind: str) -> Path:
     path = Path(name_or_path)
     if path.is_file():
         return path
-    candidate = project_root() / kind / f"{path.name}.yaml"
+    candidate = data_dir(kind) / f"{path.name}.yaml"
     if path.suffix == "" and candidate.is_file():
         return candidate
     raise ResourceNotFound(str(name_or_path), kind.rstrip("s"), shipped(kind))

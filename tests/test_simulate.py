@@ -5,12 +5,12 @@ import numpy as np
 from fts_calib import load_calibration
 from fts_calib.cli import main
 from fts_calib.recording import RecordingReader
-from fts_calib.resources import resolve
+from fts_calib.resources import data_dir, resolve
 from fts_calib.sensor_config import load_sensor_config
 from fts_calib.simulate import tool_wrenches
 from fts_calib.trajectory_io import read_trajectory
 
-TRAJECTORIES = resolve("ur5", "robots").parents[1] / "trajectories" / "ur5"
+TRAJECTORIES = data_dir("trajectories") / "ur5"
 
 
 def test_noiseless_recording_holds_exactly_the_tool_wrench_through_the_sensor(tmp_path, ur5, paper_tool, capsys):
