@@ -58,10 +58,11 @@ def main():
         print(f"wrote {rows:,} rows ({path.stat().st_size / 1e6:.0f} MB) in {time.perf_counter() - start:.1f} s")
         # the child reports its own high-water mark (VmHWM, reset at exec; ru_maxrss would
         # include the memory of this parent at the time of the fork)
-        child = ("import sys; from fts_calib.cli import main; code = main(sys.argv[1:]); "
-                 "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)")
-        command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", str(path), "-o", str(Path(folder) / "cal.yaml"),
-                   "--quiet"]
+        child = (
+            "import sys; from fts_calib.cli import main; code = main(sys.argv[1:]); "
+            "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)"
+        )
+        command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", str(path), "-o", str(Path(folder) / "cal.yaml"), "--quiet"]
         start = time.perf_counter()
         result = subprocess.run(command, capture_output=True, text=True)
         seconds = time.perf_counter() - start
@@ -69,8 +70,10 @@ def main():
             print(result.stdout, result.stderr)
         peak = float(result.stdout.strip().splitlines()[-1].split()[1]) / 1024  # kB
         print("\n".join(result.stdout.splitlines()[:3]))
-        print(f"calibrate end to end (process start included): {rows / seconds:,.0f} rows/s (target >= 250,000), "
-              f"{seconds:.1f} s; peak memory {peak:.0f} MB (target <= 500 MB)")
+        print(
+            f"calibrate end to end (process start included): {rows / seconds:,.0f} rows/s (target >= 250,000), "
+            f"{seconds:.1f} s; peak memory {peak:.0f} MB (target <= 500 MB)"
+        )
 
 
 if __name__ == "__main__":

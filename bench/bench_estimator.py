@@ -26,7 +26,7 @@ def per_sample(W, S, repeats: int = 200, calls: int = 500) -> float:
     est = OnlineEstimator()
     per_call = []
     for r in range(repeats):
-        w_rows, s_rows = W[r * calls:(r + 1) * calls], S[r * calls:(r + 1) * calls]
+        w_rows, s_rows = W[r * calls : (r + 1) * calls], S[r * calls : (r + 1) * calls]
         start = time.perf_counter()
         for w, s in zip(w_rows, s_rows, strict=True):
             est.update(w, s)

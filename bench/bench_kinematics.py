@@ -23,7 +23,7 @@ def single(kin: Kinematics, config, gravity: float, readings: np.ndarray, calls:
     """Median over blocks of `calls` readings of the time per reading, in s."""
     per_call = []
     for start in range(0, len(readings) - calls + 1, calls):
-        block = readings[start:start + calls]
+        block = readings[start : start + calls]
         t0 = time.perf_counter()
         for reading in block:
             config.static_wrench(kin.g_sensor(reading, gravity))

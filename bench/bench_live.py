@@ -32,8 +32,25 @@ def main():
     rng = np.random.default_rng(0)
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder) / "cal.yaml"
-        live = subprocess.Popen([sys.executable, "-m", "fts_calib.cli", "live", "--robot", "ur5", "--listen", f"127.0.0.1:{port}",
-                                 "-o", str(out), "--quiet", "--idle-timeout", "5"], stdout=subprocess.PIPE, text=True)
+        live = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "fts_calib.cli",
+                "live",
+                "--robot",
+                "ur5",
+                "--listen",
+                f"127.0.0.1:{port}",
+                "-o",
+                str(out),
+                "--quiet",
+                "--idle-timeout",
+                "5",
+            ],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         for line in live.stdout:
             if line.startswith("listening"):
                 break
@@ -55,16 +72,17 @@ def main():
             sent["joints"] += 1
             for j in range(5):
                 strain = (0.1 + 1e-5 * rng.standard_normal(8)).tolist()
-                sock.sendto(json.dumps({"type": "strain", "t": t + j * 0.0002, "strain": strain}, separators=(",", ":")).encode(),
-                            target)
+                sock.sendto(json.dumps({"type": "strain", "t": t + j * 0.0002, "strain": strain}, separators=(",", ":")).encode(), target)
                 sent["strain"] += 1
             k += 1
         elapsed = time.monotonic() - start
         sock.sendto(b'{"type":"end"}', target)
         output = live.communicate(timeout=60)[0]
     total = sent["joints"] + sent["strain"] + 2
-    print(f"sent {sent['strain']:,} strain ({sent['strain'] / elapsed:,.0f} Hz) and {sent['joints']:,} joint messages "
-          f"({sent['joints'] / elapsed:,.0f} Hz) in {elapsed:.1f} s, {total:,} datagrams with tool and end")
+    print(
+        f"sent {sent['strain']:,} strain ({sent['strain'] / elapsed:,.0f} Hz) and {sent['joints']:,} joint messages "
+        f"({sent['joints'] / elapsed:,.0f} Hz) in {elapsed:.1f} s, {total:,} datagrams with tool and end"
+    )
     for line in output.splitlines():
         if line.startswith(("messages:", "strain samples not paired", "samples:")):
             print("live:", line)

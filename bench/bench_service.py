@@ -57,8 +57,10 @@ def main():
         t0 = time.perf_counter()
         identify_payload(W, g, mount=True)
         times_mount.append(time.perf_counter() - t0)
-    print(f"payload identification from {len(g):,} samples: {np.median(times) * 1e3:.1f} ms median (target <= 50 ms); "
-          f"with the mount rotation: {np.median(times_mount) * 1e3:.1f} ms")
+    print(
+        f"payload identification from {len(g):,} samples: {np.median(times) * 1e3:.1f} ms median (target <= 50 ms); "
+        f"with the mount rotation: {np.median(times_mount) * 1e3:.1f} ms"
+    )
 
 
 if __name__ == "__main__":

@@ -28,9 +28,11 @@ def main():
             write_run(run, out, plot=False)
             written = time.perf_counter() - t0
         ex = run.excitation
-        print(f"  {robot:6s} plan+check {planned:5.2f} s, write 3 CSVs {written:4.2f} s | motion {run.result.plan.duration:5.1f} s "
-              f"per configuration, clearance {run.result.clearance.distance:.3f} m, predicted max stderr "
-              f"{100 * ex.max_relative_stderr:.5f} % of row max, coverage {ex.coverage_deg:.1f}°")
+        print(
+            f"  {robot:6s} plan+check {planned:5.2f} s, write 3 CSVs {written:4.2f} s | motion {run.result.plan.duration:5.1f} s "
+            f"per configuration, clearance {run.result.clearance.distance:.3f} m, predicted max stderr "
+            f"{100 * ex.max_relative_stderr:.5f} % of row max, coverage {ex.coverage_deg:.1f}°"
+        )
 
 
 if __name__ == "__main__":

@@ -43,8 +43,13 @@ def main():
     calibration = load_calibration(resolve("paper_table1_calibration", "configs"))
     tare = estimate_offsets(calibration.C_bar, sensor.strains(np.zeros((500, 6)), rng=rng))
     calibration = calibration.with_offsets(tare.D, "re-tare, nothing mounted")
-    print("1. re-tare, nothing mounted: D = " + " ".join(f"{v:+.3f}" for v in calibration.D) + " [N, N·m] (true "
-          + " ".join(f"{v:+.3f}" for v in sensor.D) + ")")
+    print(
+        "1. re-tare, nothing mounted: D = "
+        + " ".join(f"{v:+.3f}" for v in calibration.D)
+        + " [N, N·m] (true "
+        + " ".join(f"{v:+.3f}" for v in sensor.D)
+        + ")"
+    )
 
     # 2. the gripper goes on: identify it from six still orientations of the wrist
     W, G = [], []
@@ -56,8 +61,13 @@ def main():
         W.append(calibration.wrench(strains))
         G.append(np.tile(g, (300, 1)))
     payload = identify_payload(np.vstack(W), np.vstack(G))
-    print(f"2. payload: {payload.mass:.4f} ± {payload.stderr_mass:.1g} kg (true {gripper.mass}), centre of mass "
-          + " ".join(f"{v:+.4f}" for v in payload.com) + " m (true " + " ".join(f"{v:+.4f}" for v in gripper.p_sensor_com) + ")")
+    print(
+        f"2. payload: {payload.mass:.4f} ± {payload.stderr_mass:.1g} kg (true {gripper.mass}), centre of mass "
+        + " ".join(f"{v:+.4f}" for v in payload.com)
+        + " m (true "
+        + " ".join(f"{v:+.4f}" for v in gripper.p_sensor_com)
+        + ")"
+    )
 
     # 3. the control loop: external force in the world frame, admittance on the tool position
     compensator = GravityCompensator(calibration, ToolConfiguration("gripper", payload.mass, payload.com), g_world)
@@ -76,21 +86,31 @@ def main():
         magnitude = float(np.linalg.norm(external[:3]))
         peak = max(peak, magnitude)
         if magnitude > OVERLOAD:
-            print(f"3. overload: |F_ext| = {magnitude:.1f} N > {OVERLOAD:.0f} N at t = {t:.3f} s: the loop stops "
-                  f"(true external force {np.linalg.norm(f_world):.1f} N)")
+            print(
+                f"3. overload: |F_ext| = {magnitude:.1f} N > {OVERLOAD:.0f} N at t = {t:.3f} s: the loop stops "
+                f"(true external force {np.linalg.norm(f_world):.1f} N)"
+            )
             break
         if magnitude > DETECT and not guiding:
             guiding, detected_at = True, t
-            print(f"3. push detected at t = {t:.3f} s: F_ext = " + " ".join(f"{v:+.2f}" for v in external[:3])
-                  + " N in the world frame (true " + " ".join(f"{v:+.2f}" for v in f_world) + ")")
+            print(
+                f"3. push detected at t = {t:.3f} s: F_ext = "
+                + " ".join(f"{v:+.2f}" for v in external[:3])
+                + " N in the world frame (true "
+                + " ".join(f"{v:+.2f}" for v in f_world)
+                + ")"
+            )
         if magnitude > DEADBAND:  # move the tool along the force, holding the orientation
             J = kin.jacobian(q)
             velocity = np.concatenate([ADMITTANCE * external[:3], np.zeros(3)])
             q = q + np.linalg.lstsq(J, velocity, rcond=None)[0] / RATE
         elif guiding and magnitude < DEADBAND and detected_at is not None and t > detected_at + 0.3:
             moved = kin.sensor_pose(q).translation - start
-            print(f"   push over at t = {t:.3f} s: the tool moved " + " ".join(f"{1000 * v:+.1f}" for v in moved)
-                  + " mm (expected along +x only)")
+            print(
+                f"   push over at t = {t:.3f} s: the tool moved "
+                + " ".join(f"{1000 * v:+.1f}" for v in moved)
+                + " mm (expected along +x only)"
+            )
             guiding = False
     print(f"   peak external force seen {peak:.1f} N; quiet ticks below {DEADBAND} N kept the arm still")
 

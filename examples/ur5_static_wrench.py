@@ -22,14 +22,16 @@ def main():
     for label, reading in (("tool pointing down", down), ("wrist_2 + 90°", tilted)):
         T_world_sensor = kin.sensor_pose(reading)
         g_sensor = kin.g_sensor(reading, tool.gravity)
-        print(f"{label}: sensor at {_r(T_world_sensor.translation)} m, "
-              f"g_sensor = {_r(g_sensor)} m/s²")
+        print(f"{label}: sensor at {_r(T_world_sensor.translation)} m, g_sensor = {_r(g_sensor)} m/s²")
         for config in tool.configurations:
             w = config.static_wrench(g_sensor)
-            print(f"  tool {config.name} (m = {config.mass} kg, c = {config.p_sensor_com.tolist()} m): "
-                  f"F = {_r(w[:3])} N, M = {_r(w[3:])} N·m")
-    print("expected, tool down: F = [19.62, 0, 0] N for every configuration (2 kg along +X of S); "
-          "M = c × F = [0, 0, 0], [0, 0, -1.177], [0, 1.177, 0] N·m for A, B, C")
+            print(
+                f"  tool {config.name} (m = {config.mass} kg, c = {config.p_sensor_com.tolist()} m): F = {_r(w[:3])} N, M = {_r(w[3:])} N·m"
+            )
+    print(
+        "expected, tool down: F = [19.62, 0, 0] N for every configuration (2 kg along +X of S); "
+        "M = c × F = [0, 0, 0], [0, 0, -1.177], [0, 1.177, 0] N·m for A, B, C"
+    )
 
 
 if __name__ == "__main__":

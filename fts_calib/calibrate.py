@@ -90,9 +90,18 @@ class ProgressBar:
             self.stream.flush()
 
 
-def calibrate_recording(path: str | Path, kin: Kinematics, tool: Tool, config: PipelineConfig | None = None,
-                        use_filter: bool = True, checkpoint: str | Path | None = None, resume: bool = False,
-                        joints_in_degrees: bool = False, progress: ProgressBar | None = None, on_kept=None) -> CalibrateResult:
+def calibrate_recording(
+    path: str | Path,
+    kin: Kinematics,
+    tool: Tool,
+    config: PipelineConfig | None = None,
+    use_filter: bool = True,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    joints_in_degrees: bool = False,
+    progress: ProgressBar | None = None,
+    on_kept=None,
+) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
     Args:
@@ -115,8 +124,7 @@ def calibrate_recording(path: str | Path, kin: Kinematics, tool: Tool, config: P
     if resume and checkpoint is not None and Path(checkpoint).exists():
         session = CalibrationSession.resume(checkpoint, kin, tool, config, source=source)
     else:
-        session = CalibrationSession(kin, tool, config, checkpoint=checkpoint, use_filter=use_filter, source=source,
-                                     on_kept=on_kept)
+        session = CalibrationSession(kin, tool, config, checkpoint=checkpoint, use_filter=use_filter, source=source, on_kept=on_kept)
     with RecordingReader(path, kin.joint_names, tool.names) as reader:
         for chunk in reader:
             readings = np.radians(chunk.readings) if joints_in_degrees else chunk.readings
@@ -167,8 +175,9 @@ def format_summary(result: CalibrateResult, recording: Path, output: Path | None
     lines.append("C (N or N·m per strain unit) ± standard error (% of its row's largest coefficient):")
     rows = [[axis, *[f"{cal.C[i, k]:9.4f} ±{rel[i, k]:.4f}%" for k in range(8)]] for i, axis in enumerate(WRENCH_AXES)]
     lines.append(table(["", *[f"Δ{k + 1}" for k in range(8)]], rows, "  "))
-    lines.append("D: " + ", ".join(f"{a} {d:+.5f} ± {s:.1g} {u}" for a, d, s, u in
-                                   zip(WRENCH_AXES, cal.D, q.stderr_D, WRENCH_UNITS, strict=True)))
+    lines.append(
+        "D: " + ", ".join(f"{a} {d:+.5f} ± {s:.1g} {u}" for a, d, s, u in zip(WRENCH_AXES, cal.D, q.stderr_D, WRENCH_UNITS, strict=True))
+    )
     if output is not None:
         lines.append(f"wrote {output}")
     return "\n".join(lines)

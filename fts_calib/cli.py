@@ -60,8 +60,11 @@ def _setup(args: argparse.Namespace):
     from .robot import load_robot
     from .tool import load_tool
 
-    return (Kinematics(load_robot(resolve(args.robot, "robots"))), load_tool(resolve(args.tool, "configs")),
-            load_pipeline_config(resolve(getattr(args, "pipeline", "pipeline"), "configs")))
+    return (
+        Kinematics(load_robot(resolve(args.robot, "robots"))),
+        load_tool(resolve(args.tool, "configs")),
+        load_pipeline_config(resolve(getattr(args, "pipeline", "pipeline"), "configs")),
+    )
 
 
 def _calibrate(args: argparse.Namespace) -> int:
@@ -72,8 +75,17 @@ def _calibrate(args: argparse.Namespace) -> int:
     recording = Path(args.recording)
     size = recording.stat().st_size if recording.exists() else 1
     bar = None if args.quiet else ProgressBar(size, "rows")
-    result = calibrate_recording(recording, kin, tool, config, use_filter=not args.no_filter, checkpoint=args.checkpoint,
-                                 resume=args.resume, joints_in_degrees=args.joints_in_degrees, progress=bar)
+    result = calibrate_recording(
+        recording,
+        kin,
+        tool,
+        config,
+        use_filter=not args.no_filter,
+        checkpoint=args.checkpoint,
+        resume=args.resume,
+        joints_in_degrees=args.joints_in_degrees,
+        progress=bar,
+    )
     output = None
     if result.calibration is not None:
         output = save_calibration(result.calibration, args.output)
@@ -109,8 +121,11 @@ def _live(args: argparse.Namespace) -> int:
     max_gap = config.live.max_gap_s if args.max_gap is None else args.max_gap
     sync = Synchronizer(kin.joint_names, [j.kind == "continuous" for j in kin.joints], max_gap, latency)
     receiver = UdpReceiver(host, port)
-    print(f"listening on udp://{receiver.address[0]}:{receiver.address[1]} for {kin.robot.name} with '{tool.name}'; "
-          "Ctrl-C or an 'end' message writes the calibration", flush=True)
+    print(
+        f"listening on udp://{receiver.address[0]}:{receiver.address[1]} for {kin.robot.name} with '{tool.name}'; "
+        "Ctrl-C or an 'end' message writes the calibration",
+        flush=True,
+    )
     try:
         runner = LiveRunner(session, receiver, sync, status=None if args.quiet else sys.stderr)
         stats = runner.run(idle_timeout_s=args.idle_timeout)
@@ -134,13 +149,15 @@ def _live(args: argparse.Namespace) -> int:
 def _replay(args: argparse.Namespace) -> int:
     from .replay import ReplayOptions, replay
 
-    options = ReplayOptions(speed=args.speed, joint_rate_hz=args.joint_rate, latency_s=args.latency, loss=args.loss,
-                            reorder=args.reorder, seed=args.seed)
+    options = ReplayOptions(
+        speed=args.speed, joint_rate_hz=args.joint_rate, latency_s=args.latency, loss=args.loss, reorder=args.reorder, seed=args.seed
+    )
     host, port = args.to
     print(f"replaying {args.recording} to udp://{host}:{port} at speed {args.speed:g}...", flush=True)
     stats = replay(args.recording, host, port, options)
-    print(f"sent {stats.sent:,} datagrams in {stats.seconds:.1f} s ({stats.dropped:,} dropped and {stats.reordered:,} "
-          "reordered on purpose)")
+    print(
+        f"sent {stats.sent:,} datagrams in {stats.seconds:.1f} s ({stats.dropped:,} dropped and {stats.reordered:,} reordered on purpose)"
+    )
     return 0
 
 
@@ -178,14 +195,16 @@ def _simulate(args: argparse.Namespace) -> int:
         raise FileFormatError(folder, None, f"no trajectory for the configurations {tool.names} of '{tool.name}'")
     trajectories = [found[name] for name in tool.names if name in found]
     rng = None if args.noiseless else np.random.default_rng(args.seed)
-    path = simulate_recording(args.output, kin, tool, trajectories, sensor, rng, tool_change_s=args.tool_change,
-                              dynamic=not args.static)
+    path = simulate_recording(args.output, kin, tool, trajectories, sensor, rng, tool_change_s=args.tool_change, dynamic=not args.static)
     rows = sum(len(t.time) for t in trajectories)
     noise = "none" if rng is None else f"{sensor.noise_std.max():.2g} {spec.strain_unit} per bridge (seed {args.seed})"
     wrench = "static" if args.static else "moving (Newton-Euler)"
-    print(f"wrote {path}: {rows:,} rows, configurations {', '.join(t.tool for t in trajectories)}"
-          + (f" (no trajectory for {missing})" if missing else "") + f"; tool wrench {wrench}, noise {noise}, "
-          f"{sensor.adc_bits}-bit ADC")
+    print(
+        f"wrote {path}: {rows:,} rows, configurations {', '.join(t.tool for t in trajectories)}"
+        + (f" (no trajectory for {missing})" if missing else "")
+        + f"; tool wrench {wrench}, noise {noise}, "
+        f"{sensor.adc_bits}-bit ADC"
+    )
     return 0
 
 
@@ -207,9 +226,11 @@ def _validate(args: argparse.Namespace) -> int:
     if args.full_scale_moment is not None:
         full_scale[3:] = args.full_scale_moment
     result = validate_recording(args.recording, kin, tool, calibrations, full_scale, dynamic=not args.static)
-    print(f"validation of {len(calibrations)} calibration(s) over {result.samples:,} samples of {args.recording} with "
-          f"'{tool.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
-          f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)")
+    print(
+        f"validation of {len(calibrations)} calibration(s) over {result.samples:,} samples of {args.recording} with "
+        f"'{tool.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
+        f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)"
+    )
     if result.skipped:
         print("skipped: " + ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items()))
     sets = [(str(p), e) for p, e in zip(args.calibration, result.errors, strict=True)]
@@ -217,15 +238,30 @@ def _validate(args: argparse.Namespace) -> int:
         sets.append((f"{args.calibration[0]} against {args.calibration[1]}", result.between))
     for label, errors in sets:
         print(label + ":")
-        rows = [[axis, f"{errors.max_abs[i]:.4g} {u}", f"{errors.max_percent[i]:.4f} %", f"{errors.rms[i]:.4g} {u}",
-                 f"{errors.rms_percent[i]:.4f} %"] for i, (axis, u) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))]
+        rows = [
+            [
+                axis,
+                f"{errors.max_abs[i]:.4g} {u}",
+                f"{errors.max_percent[i]:.4f} %",
+                f"{errors.rms[i]:.4g} {u}",
+                f"{errors.rms_percent[i]:.4f} %",
+            ]
+            for i, (axis, u) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))
+        ]
         print(table(["axis", "max error", "max, % FS", "RMS error", "RMS, % FS"], rows, "  "))
     if args.plot:
         from .plots import plot_validation
 
         labels = [Path(p).name for p in args.calibration]
-        path = plot_validation(args.plot, result.time, result.expected[:, 0], [m[:, 0] for m in result.measured], labels,
-                               float(full_scale[0]), f"validation over {Path(args.recording).name}")
+        path = plot_validation(
+            args.plot,
+            result.time,
+            result.expected[:, 0],
+            [m[:, 0] for m in result.measured],
+            labels,
+            float(full_scale[0]),
+            f"validation over {Path(args.recording).name}",
+        )
         print(f"wrote {path}")
     worst = float(np.max([e.max_percent.max() for e in result.errors]))
     if args.max_error is not None and worst > args.max_error:
@@ -259,8 +295,10 @@ def _tare(args: argparse.Namespace) -> int:
     output = save_calibration(result.calibration, args.output or args.calibration)
     est = result.estimate
     print(f"re-tare from {est.samples_used:,} samples ({est.samples_skipped:,} skipped):")
-    rows = [[a, f"{old:+.5f}", f"{new:+.5f}", f"{new - old:+.5f}", f"{se:.1g}", u]
-            for a, old, new, se, u in zip(WRENCH_AXES, result.previous, est.D, est.stderr_D, WRENCH_UNITS, strict=True)]
+    rows = [
+        [a, f"{old:+.5f}", f"{new:+.5f}", f"{new - old:+.5f}", f"{se:.1g}", u]
+        for a, old, new, se, u in zip(WRENCH_AXES, result.previous, est.D, est.stderr_D, WRENCH_UNITS, strict=True)
+    ]
     from .report import table
 
     print(table(["axis", "old D", "new D", "change", "stderr", "unit"], rows, "  "))
@@ -284,21 +322,33 @@ def _payload(args: argparse.Namespace) -> int:
     t, q, s = (np.concatenate([getattr(c, f) for c in chunks]) for f in ("time", "readings", "strain"))
     decided = QuasiStaticFilter(config.filter, kin, None).process(t, q, s, np.zeros(len(t), dtype=np.int64), final=True)
     strain = decided.strain[decided.keep]
-    estimate = identify_payload(calibration.wrench(strain), decided.g_sensor, mount=args.mount,
-                                min_separation_deg=args.min_separation)
-    print(f"payload from {estimate.samples:,} still samples ({len(t) - estimate.samples:,} moving or unsettled skipped) in "
-          f"{len(estimate.poses)} orientations:")
+    estimate = identify_payload(calibration.wrench(strain), decided.g_sensor, mount=args.mount, min_separation_deg=args.min_separation)
+    print(
+        f"payload from {estimate.samples:,} still samples ({len(t) - estimate.samples:,} moving or unsettled skipped) in "
+        f"{len(estimate.poses)} orientations:"
+    )
     print(f"  mass {estimate.mass:.4f} ± {estimate.stderr_mass:.1g} kg")
-    print("  centre of mass in the sensor frame " + ", ".join(f"{a} {v:+.5f} ± {e:.1g}" for a, v, e in
-                                                              zip("xyz", estimate.com, estimate.stderr_com, strict=True)) + " m")
+    print(
+        "  centre of mass in the sensor frame "
+        + ", ".join(f"{a} {v:+.5f} ± {e:.1g}" for a, v, e in zip("xyz", estimate.com, estimate.stderr_com, strict=True))
+        + " m"
+    )
     print("  offsets " + ", ".join(f"{v:+.4f}" for v in estimate.offsets) + " [N, N, N, N·m, N·m, N·m] (add to D to re-tare)")
     if estimate.mount_rotation is not None:
-        print("  mount rotation " + ", ".join(f"{np.degrees(v):+.3f} ± {np.degrees(e):.1g}" for v, e in
-                                             zip(estimate.mount_rotation, estimate.stderr_mount_rotation, strict=True)) + " deg")
+        print(
+            "  mount rotation "
+            + ", ".join(
+                f"{np.degrees(v):+.3f} ± {np.degrees(e):.1g}"
+                for v, e in zip(estimate.mount_rotation, estimate.stderr_mount_rotation, strict=True)
+            )
+            + " deg"
+        )
     print("  residual RMS " + ", ".join(f"{v:.2g}" for v in estimate.residual_rms) + " [N, N·m]")
-    header = (f"payload identified by fts-calib from {args.recording} ({estimate.samples} samples, {len(estimate.poses)} "
-              f"orientations)\nmass {estimate.mass:.6g} ± {estimate.stderr_mass:.2g} kg; com ± "
-              f"{', '.join(f'{e:.2g}' for e in estimate.stderr_com)} m")
+    header = (
+        f"payload identified by fts-calib from {args.recording} ({estimate.samples} samples, {len(estimate.poses)} "
+        f"orientations)\nmass {estimate.mass:.6g} ± {estimate.stderr_mass:.2g} kg; com ± "
+        f"{', '.join(f'{e:.2g}' for e in estimate.stderr_com)} m"
+    )
     path = save_tool(estimate.tool(args.name, float(np.linalg.norm(kin.g_world()))), args.output, header)
     print(f"wrote {path}")
     return 0
@@ -328,7 +378,10 @@ def _export(args: argparse.Namespace) -> int:
 
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
     return commands.add_parser(
-        name, help=help_text, description=description, epilog=f"example:\n  {example}",
+        name,
+        help=help_text,
+        description=description,
+        epilog=f"example:\n  {example}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
 
@@ -352,27 +405,40 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"fts-calib {__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    demo = _add(commands, "demo", "the whole loop in simulation on the built-in UR5, with plots",
-                "Plan the sweeps, simulate the recording (true C = Table 1 of the paper), calibrate with the quasi-static "
-                "filter, follow C_bar_11 sample by sample (paper Fig. 7) and validate on another motion with another tool; "
-                "print the results beside the truth and the targets, and write everything with PNG plots into one folder.",
-                "fts-calib demo --out out/")
+    demo = _add(
+        commands,
+        "demo",
+        "the whole loop in simulation on the built-in UR5, with plots",
+        "Plan the sweeps, simulate the recording (true C = Table 1 of the paper), calibrate with the quasi-static "
+        "filter, follow C_bar_11 sample by sample (paper Fig. 7) and validate on another motion with another tool; "
+        "print the results beside the truth and the targets, and write everything with PNG plots into one folder.",
+        "fts-calib demo --out out/",
+    )
     demo.add_argument("--out", default="out", help="folder for the results (default: out/)")
     demo.add_argument("--seed", type=int, default=0, help="seed of the sensor noise and the validation motion (default: 0)")
     demo.add_argument("--quick", action="store_true", help="a smaller run: 3 levels x 4 stops at 100 Hz")
     demo.set_defaults(handler=_demo)
 
-    robots = _add(commands, "robots", "list the shipped robots, or show one",
-                  "Without NAME: the shipped robot definitions. With NAME (a shipped name or a YAML path): its joints, "
-                  "limits, frames and sensor mount.", "fts-calib robots ur5")
+    robots = _add(
+        commands,
+        "robots",
+        "list the shipped robots, or show one",
+        "Without NAME: the shipped robot definitions. With NAME (a shipped name or a YAML path): its joints, "
+        "limits, frames and sensor mount.",
+        "fts-calib robots ur5",
+    )
     robots.add_argument("name", nargs="?", help="shipped robot name (e.g. ur5) or path to a robot YAML file")
     robots.set_defaults(handler=_robots)
 
-    traj = _add(commands, "trajectory", "plan and check calibration sweeps for a robot and a tool",
-                "Plan jerk-limited sweeps of the last two joints (ruckig), once per tool configuration; check limits, "
-                "clearance and the predicted excitation before anything moves; write one CSV per configuration, plan.yaml "
-                "and plan.png. Exits 1 when a check fails (the CSVs are then not written).",
-                "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500")
+    traj = _add(
+        commands,
+        "trajectory",
+        "plan and check calibration sweeps for a robot and a tool",
+        "Plan jerk-limited sweeps of the last two joints (ruckig), once per tool configuration; check limits, "
+        "clearance and the predicted excitation before anything moves; write one CSV per configuration, plan.yaml "
+        "and plan.png. Exits 1 when a check fails (the CSVs are then not written).",
+        "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500",
+    )
     _robot_and_tool(traj)
     traj.add_argument("-o", "--out", required=True, help="output folder")
     traj.add_argument("--rate", type=float, default=500.0, help="sample rate of the files in Hz (default: 500)")
@@ -389,11 +455,15 @@ def build_parser() -> argparse.ArgumentParser:
     traj.add_argument("--no-plot", action="store_true", help="do not write plan.png")
     traj.set_defaults(handler=_trajectory)
 
-    cal = _add(commands, "calibrate", "calibrate from a recording",
-               "Read a recording (CSV: time, joints, strain_1..8, tool), keep the quasi-static samples, accumulate the "
-               "least squares and write the calibration. Prints a progress bar, then a summary: samples kept and why the "
-               "rest were dropped, rank, condition, residuals, standard errors. Exits 1 when the data cannot determine C.",
-               "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml")
+    cal = _add(
+        commands,
+        "calibrate",
+        "calibrate from a recording",
+        "Read a recording (CSV: time, joints, strain_1..8, tool), keep the quasi-static samples, accumulate the "
+        "least squares and write the calibration. Prints a progress bar, then a summary: samples kept and why the "
+        "rest were dropped, rank, condition, residuals, standard errors. Exits 1 when the data cannot determine C.",
+        "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml",
+    )
     cal.add_argument("recording", help="recording CSV (or .csv.gz)")
     _robot_and_tool(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
@@ -404,11 +474,15 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
     cal.set_defaults(handler=_calibrate)
 
-    live = _add(commands, "live", "calibrate from live UDP feeds of joints and strains",
-                "Listen for the JSON datagrams of the live protocol (joints, strain, tool, end), pair the two streams, keep "
-                "the quasi-static samples and show a status line; write the calibration on 'end' or Ctrl-C. Checkpoints "
-                "every few seconds; --resume continues after a crash.",
-                "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml")
+    live = _add(
+        commands,
+        "live",
+        "calibrate from live UDP feeds of joints and strains",
+        "Listen for the JSON datagrams of the live protocol (joints, strain, tool, end), pair the two streams, keep "
+        "the quasi-static samples and show a status line; write the calibration on 'end' or Ctrl-C. Checkpoints "
+        "every few seconds; --resume continues after a crash.",
+        "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml",
+    )
     _robot_and_tool(live)
     live.add_argument("--listen", type=_address, default=("127.0.0.1", 5005), help="HOST:PORT to bind (default 127.0.0.1:5005)")
     live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
@@ -420,10 +494,14 @@ def build_parser() -> argparse.ArgumentParser:
     live.add_argument("--quiet", action="store_true", help="no status line")
     live.set_defaults(handler=_live)
 
-    rep = _add(commands, "replay", "send a recording as the live protocol",
-               "Send a recording's rows as live datagrams (joints, strain, tool, end), with options for a slower joint "
-               "rate, added latency, loss and reordering, to test and show the live path without a robot.",
-               "fts-calib replay recording.csv --to 127.0.0.1:5005 --speed 1.0")
+    rep = _add(
+        commands,
+        "replay",
+        "send a recording as the live protocol",
+        "Send a recording's rows as live datagrams (joints, strain, tool, end), with options for a slower joint "
+        "rate, added latency, loss and reordering, to test and show the live path without a robot.",
+        "fts-calib replay recording.csv --to 127.0.0.1:5005 --speed 1.0",
+    )
     rep.add_argument("recording", help="recording CSV (or .csv.gz)")
     rep.add_argument("--to", type=_address, default=("127.0.0.1", 5005), help="HOST:PORT (default 127.0.0.1:5005)")
     rep.add_argument("--speed", type=float, default=1.0, help="time scale: 1 real time, 10 ten times faster, 0 no pacing")
@@ -434,11 +512,15 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--seed", type=int, default=0, help="seed of loss and reordering (default 0)")
     rep.set_defaults(handler=_replay)
 
-    sim = _add(commands, "simulate", "simulate a recording from planned trajectories",
-               "Play planned trajectories (one CSV per tool configuration) through the kinematics with the tool's full "
-               "dynamic wrench (mass, centre of mass, inertia) and the simulated sensor of the sensor file (true C, offsets, "
-               "noise, 24-bit ADC, null content, drift); write a recording in exactly the format a robot produces.",
-               "fts-calib simulate --robot ur5 --tool configs/paper_tool.yaml --trajectory out/trajectories -o recording.csv")
+    sim = _add(
+        commands,
+        "simulate",
+        "simulate a recording from planned trajectories",
+        "Play planned trajectories (one CSV per tool configuration) through the kinematics with the tool's full "
+        "dynamic wrench (mass, centre of mass, inertia) and the simulated sensor of the sensor file (true C, offsets, "
+        "noise, 24-bit ADC, null content, drift); write a recording in exactly the format a robot produces.",
+        "fts-calib simulate --robot ur5 --tool configs/paper_tool.yaml --trajectory out/trajectories -o recording.csv",
+    )
     _robot_and_tool(sim, pipeline=False)
     sim.add_argument("--trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
     sim.add_argument("-o", "--output", required=True, help="recording to write (.csv or .csv.gz)")
@@ -451,13 +533,17 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--static", action="store_true", help="the tool's static wrench only (no dynamics)")
     sim.set_defaults(handler=_simulate)
 
-    val = _add(commands, "validate", "compare measured and expected wrenches over a recording",
-               "Over a recording made with another motion and another tool (the paper's third stage): the wrench measured "
-               "with the calibration against the tool's wrench from the kinematics (moving tool, Newton-Euler; --static for "
-               "its weight alone). Error per axis in N or N·m and in % of full scale; with two calibrations, the same "
-               "between them (paper: Table 1 against Table 2); --plot writes Fx and its error (paper Figs 9-10).",
-               "fts-calib validate --calibration calibration.yaml --robot ur5 --tool configs/validation_tool.yaml "
-               "validation.csv --plot validation.png")
+    val = _add(
+        commands,
+        "validate",
+        "compare measured and expected wrenches over a recording",
+        "Over a recording made with another motion and another tool (the paper's third stage): the wrench measured "
+        "with the calibration against the tool's wrench from the kinematics (moving tool, Newton-Euler; --static for "
+        "its weight alone). Error per axis in N or N·m and in % of full scale; with two calibrations, the same "
+        "between them (paper: Table 1 against Table 2); --plot writes Fx and its error (paper Figs 9-10).",
+        "fts-calib validate --calibration calibration.yaml --robot ur5 --tool configs/validation_tool.yaml "
+        "validation.csv --plot validation.png",
+    )
     val.add_argument("recording", help="recording CSV (or .csv.gz)")
     val.add_argument("--calibration", action="append", required=True, help="calibration file (give two to compare them)")
     _robot_and_tool(val, pipeline=False)
@@ -469,11 +555,15 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("--max-error", type=float, help="exit 1 when an error exceeds this %% of full scale")
     val.set_defaults(handler=_validate)
 
-    tare = _add(commands, "tare", "new offsets D for a calibration file, from a short still window",
-                "Estimate the offsets D again with C_bar kept, from a recording or a live window with the sensor still, "
-                "with nothing mounted or with a known tool configuration (then --robot gives its orientation). The file "
-                "keeps the previous offsets and when they were replaced.",
-                "fts-calib tare --calibration calibration.yaml tare.csv")
+    tare = _add(
+        commands,
+        "tare",
+        "new offsets D for a calibration file, from a short still window",
+        "Estimate the offsets D again with C_bar kept, from a recording or a live window with the sensor still, "
+        "with nothing mounted or with a known tool configuration (then --robot gives its orientation). The file "
+        "keeps the previous offsets and when they were replaced.",
+        "fts-calib tare --calibration calibration.yaml tare.csv",
+    )
     tare.add_argument("recording", nargs="?", help="recording with the sensor still")
     tare.add_argument("--calibration", required=True, help="calibration file to update")
     tare.add_argument("-o", "--output", help="where to write (default: update the calibration file)")
@@ -485,11 +575,15 @@ def build_parser() -> argparse.ArgumentParser:
     tare.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
     tare.set_defaults(handler=_tare)
 
-    pay = _add(commands, "payload", "identify an unknown payload: mass, centre of mass, offsets",
-               "From a recording of the payload held still in at least three well-spread orientations: its mass, centre "
-               "of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for gravity "
-               "compensation. Refuses orientations that are too few or too close, and says which.",
-               "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml")
+    pay = _add(
+        commands,
+        "payload",
+        "identify an unknown payload: mass, centre of mass, offsets",
+        "From a recording of the payload held still in at least three well-spread orientations: its mass, centre "
+        "of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for gravity "
+        "compensation. Refuses orientations that are too few or too close, and says which.",
+        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml",
+    )
     pay.add_argument("recording", help="recording of the payload in several still orientations")
     pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
     pay.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
@@ -500,10 +594,14 @@ def build_parser() -> argparse.ArgumentParser:
     pay.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
     pay.set_defaults(handler=_payload)
 
-    exp = _add(commands, "export", "export a calibration as a C header, JSON or ROS 2 parameters",
-               "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
-               "provenance; ros2: the parameters of control_toolbox's GravityCompensationWrench filter for a payload.",
-               "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h")
+    exp = _add(
+        commands,
+        "export",
+        "export a calibration as a C header, JSON or ROS 2 parameters",
+        "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
+        "provenance; ros2: the parameters of control_toolbox's GravityCompensationWrench filter for a payload.",
+        "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h",
+    )
     exp.add_argument("--format", required=True, choices=["c-header", "json", "ros2"], help="what to write")
     exp.add_argument("--calibration", required=True, help="calibration file")
     exp.add_argument("-o", "--output", required=True, help="file to write")

@@ -98,8 +98,7 @@ def convergence(W: np.ndarray, strain: np.ndarray, true_c11: float, steps: int =
     return np.array(out)
 
 
-def _validation_motion(kin: Kinematics, checker: CollisionChecker, home: np.ndarray, rate: float, count: int,
-                       rng: np.random.Generator):
+def _validation_motion(kin: Kinematics, checker: CollisionChecker, home: np.ndarray, rate: float, count: int, rng: np.random.Generator):
     """Waypoints of the last three joints around home, collision-free, as one ruckig motion."""
     index = [kin.joint_names.index(j) for j in _VALIDATION_JOINTS]
     stops = []
@@ -164,8 +163,10 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     pipeline = load_pipeline_config(resolve("pipeline", "configs"))
     rate = 100.0 if quick else 500.0
     pattern = SweepPattern(levels=3, stops=4, dwell=0.4) if quick else SweepPattern()
-    say(f"fts-calib demo: in-situ calibration of the paper's sensor on a simulated UR5 ({'quick' if quick else 'full'} run, "
-        f"seed {seed}); writing into {out}/")
+    say(
+        f"fts-calib demo: in-situ calibration of the paper's sensor on a simulated UR5 ({'quick' if quick else 'full'} run, "
+        f"seed {seed}); writing into {out}/"
+    )
 
     say("[1/5] planning the calibration sweeps (ruckig) ...")
     run = plan_trajectories(robot_path, tool, spec, pipeline.filter, sensor.noise_std, pattern, rate)
@@ -173,9 +174,11 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
         raise RuntimeError(f"the demo's plan failed its checks: {run.problems}")
     run = write_run(run, out / "trajectories")
     plan = run.result.plan
-    say(f"      {len(plan.waypoints)} stops, {plan.duration:.1f} s per configuration at {rate:g} Hz, clearance "
+    say(
+        f"      {len(plan.waypoints)} stops, {plan.duration:.1f} s per configuration at {rate:g} Hz, clearance "
         f"{run.result.clearance.distance:.3f} m, predicted rank {run.excitation.rank}, predicted max stderr "
-        f"{100 * run.excitation.max_relative_stderr:.5f} % of row max")
+        f"{100 * run.excitation.max_relative_stderr:.5f} % of row max"
+    )
     lap("plan")
 
     say("[2/5] simulating the calibration recording (moving tool, noise, 24-bit ADC) ...")
@@ -200,35 +203,63 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     S = np.concatenate([k[2] for k in kept])
     codes = np.concatenate([k[3] for k in kept])
     curve = convergence(W, S, sensor.C_bar[0, 0], steps=120 if quick else 300)
-    starts = [(int(np.nonzero(codes == c)[0][0]), tool.configurations[c].name) for c in range(len(tool.configurations))
-              if np.any(codes == c)]
+    starts = [
+        (int(np.nonzero(codes == c)[0][0]), tool.configurations[c].name) for c in range(len(tool.configurations)) if np.any(codes == c)
+    ]
     lap("convergence")
 
     say("[5/5] validating on another motion with another tool ...")
     checker = CollisionChecker(kin, vtool.shape, kin.sweep_joints[0])
-    v_time, v_q, v_qd, v_qdd, v_clearance = _validation_motion(kin, checker, plan.home, rate, 8 if quick else 16,
-                                                                np.random.default_rng(seed + 1))
-    v_recording = simulate_recording(out / "recordings" / "validation.csv", kin, vtool,
-                                     [TrajectoryFile(kin.joint_names, v_time, v_q, v_qd, v_qdd, vtool.names[0])], sensor,
-                                     np.random.default_rng(seed + 2))
+    v_time, v_q, v_qd, v_qdd, v_clearance = _validation_motion(
+        kin, checker, plan.home, rate, 8 if quick else 16, np.random.default_rng(seed + 1)
+    )
+    v_recording = simulate_recording(
+        out / "recordings" / "validation.csv",
+        kin,
+        vtool,
+        [TrajectoryFile(kin.joint_names, v_time, v_q, v_qd, v_qdd, vtool.names[0])],
+        sensor,
+        np.random.default_rng(seed + 2),
+    )
     true = Calibration(sensor.C_bar, sensor.D, provenance={"method": "simulated sensor's truth (Table 1 of the paper)"})
     validation = validate_recording(v_recording, kin, vtool, [calibration, true], spec.full_scale)
     tables = [load_calibration(resolve(f"paper_table{k}_calibration", "configs")) for k in (1, 2)]
     paper = validate_recording(v_recording, kin, vtool, tables, spec.full_scale).between  # the paper's comparison
-    say(f"      {v_time[-1]:.1f} s of motion through {8 if quick else 16} waypoints of the wrist, tool "
-        f"'{vtool.name}' ({vtool.configurations[0].mass} kg), clearance {v_clearance.distance:.3f} m")
+    say(
+        f"      {v_time[-1]:.1f} s of motion through {8 if quick else 16} waypoints of the wrist, tool "
+        f"'{vtool.name}' ({vtool.configurations[0].mass} kg), clearance {v_clearance.distance:.3f} m"
+    )
     lap("validate")
 
     files = list(run.files) + [recording, cal_path, v_recording]
     t, wrench, k = _wrench_series(recording, kin, tool)
-    files.append(plots.plot_wrench(out / "calibration_wrench.png", t, wrench, k, tool.names,
-                                   "tool wrench on the sensor during the calibration sweeps"))
+    files.append(
+        plots.plot_wrench(
+            out / "calibration_wrench.png", t, wrench, k, tool.names, "tool wrench on the sensor during the calibration sweeps"
+        )
+    )
     final_se = calibration.quality.stderr_C_bar[0, 0] / abs(sensor.C_bar[0, 0])
-    files.append(plots.plot_convergence(out / "convergence_c11.png", curve[:, 0], curve[:, 1], starts, final_se,
-                                        "online estimate of C̄₁₁ as quasi-static samples come in (paper Fig. 7)"))
-    files.append(plots.plot_validation(out / "validation_fx.png", validation.time, validation.expected[:, 0],
-                                       [m[:, 0] for m in validation.measured], ["this calibration", "true C (Table 1)"],
-                                       float(spec.full_scale[0]), "validation on another motion with another tool"))
+    files.append(
+        plots.plot_convergence(
+            out / "convergence_c11.png",
+            curve[:, 0],
+            curve[:, 1],
+            starts,
+            final_se,
+            "online estimate of C̄₁₁ as quasi-static samples come in (paper Fig. 7)",
+        )
+    )
+    files.append(
+        plots.plot_validation(
+            out / "validation_fx.png",
+            validation.time,
+            validation.expected[:, 0],
+            [m[:, 0] for m in validation.measured],
+            ["this calibration", "true C (Table 1)"],
+            float(spec.full_scale[0]),
+            "validation on another motion with another tool",
+        )
+    )
     lap("plots")
 
     rel = np.abs(calibration.C - sensor.C) / np.max(np.abs(sensor.C), axis=1, keepdims=True)
@@ -236,8 +267,9 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     return DemoResult(calibration, sensor.C, sensor.D, rel, curve, starts, validation, files, seconds)
 
 
-def _report(say, calibration: Calibration, sensor, rel, curve, starts, final_se, validation: ValidationResult, paper: AxisErrors,
-            files, seconds) -> None:
+def _report(
+    say, calibration: Calibration, sensor, rel, curve, starts, final_se, validation: ValidationResult, paper: AxisErrors, files, seconds
+) -> None:
     say()
     header = [""] + [f"Δ{k + 1}" for k in range(8)]
     say("estimated C (rows Fx Fy Fz in N, Mx My Mz in N·m, per mV/V), true C (Table 1 of the paper) below each row:")
@@ -247,24 +279,38 @@ def _report(say, calibration: Calibration, sensor, rel, curve, starts, final_se,
         rows.append(["  true", *[f"{v:9.4f}" for v in sensor.C[i]]])
     say(table(header, rows))
     worst = np.unravel_index(np.argmax(rel), rel.shape)
-    say(f"largest relative coefficient error: {100 * rel.max():.4f} % (C[{WRENCH_AXES[worst[0]]}, Δ{worst[1] + 1}], relative to "
-        f"its row's largest coefficient; target <= 0.05 %)")
-    say("offset error D - true: " + ", ".join(f"{a} {d - t:+.2e} {u}" for a, d, t, u in
-                                               zip(WRENCH_AXES, calibration.D, sensor.D, WRENCH_UNITS, strict=True)))
+    say(
+        f"largest relative coefficient error: {100 * rel.max():.4f} % (C[{WRENCH_AXES[worst[0]]}, Δ{worst[1] + 1}], relative to "
+        f"its row's largest coefficient; target <= 0.05 %)"
+    )
+    say(
+        "offset error D - true: "
+        + ", ".join(f"{a} {d - t:+.2e} {u}" for a, d, t, u in zip(WRENCH_AXES, calibration.D, sensor.D, WRENCH_UNITS, strict=True))
+    )
     marks = ", ".join(f"{name} at sample {start}" for start, name in starts)
     at_change = [curve[np.searchsorted(curve[:, 0], start, side="left") - 1, 1] if start > 0 else float("nan") for start, _ in starts[1:]]
-    say(f"Fig. 7: configurations {marks}; C̄₁₁ error just before each change "
-        f"{', '.join(f'{e:.1e}' for e in at_change)}, at the end {curve[-1, 1]:.1e} (final standard error {final_se:.1e})")
+    say(
+        f"Fig. 7: configurations {marks}; C̄₁₁ error just before each change "
+        f"{', '.join(f'{e:.1e}' for e in at_change)}, at the end {curve[-1, 1]:.1e} (final standard error {final_se:.1e})"
+    )
     e, t = validation.errors
-    say(f"validation over {validation.samples:,} samples of another motion with another tool (error of the measured wrench, "
-        "% of full scale: 50 N, 5 N·m):")
-    rows = [[axis, f"{e.max_abs[i]:.4f} {u}", f"{e.max_percent[i]:.4f} %", f"{e.rms_percent[i]:.4f} %", f"{t.max_percent[i]:.4f} %"]
-            for i, (axis, u) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))]
+    say(
+        f"validation over {validation.samples:,} samples of another motion with another tool (error of the measured wrench, "
+        "% of full scale: 50 N, 5 N·m):"
+    )
+    rows = [
+        [axis, f"{e.max_abs[i]:.4f} {u}", f"{e.max_percent[i]:.4f} %", f"{e.rms_percent[i]:.4f} %", f"{t.max_percent[i]:.4f} %"]
+        for i, (axis, u) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))
+    ]
     say(table(["axis", "max error", "max, % FS", "RMS, % FS", "max with true C"], rows, "  "))
-    say(f"largest validation error {e.max_percent.max():.4f} % of full scale (target <= 0.2 %; the paper: less than "
-        f"{PAPER_ERROR_PERCENT:.0f} % on Fx, most of it uncompensated dynamics, which the expected wrench here includes)")
-    say("the paper's Table 1 against its Table 2 over the same motion, largest difference per axis in % of full scale: "
-        + ", ".join(f"{a} {v:.2f} %" for a, v in zip(WRENCH_AXES, paper.max_percent, strict=True)))
+    say(
+        f"largest validation error {e.max_percent.max():.4f} % of full scale (target <= 0.2 %; the paper: less than "
+        f"{PAPER_ERROR_PERCENT:.0f} % on Fx, most of it uncompensated dynamics, which the expected wrench here includes)"
+    )
+    say(
+        "the paper's Table 1 against its Table 2 over the same motion, largest difference per axis in % of full scale: "
+        + ", ".join(f"{a} {v:.2f} %" for a, v in zip(WRENCH_AXES, paper.max_percent, strict=True))
+    )
     say("wrote:")
     for path in files:
         say(f"  {path}")

@@ -127,8 +127,9 @@ def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
     return stderr_theta, stderr_C
 
 
-def _quality(S_WW, S_WX, S_XX, theta, inv, n_eff: float, used: int, seen: int, rank: int,
-             condition: float, skipped: Mapping[str, int]) -> Quality:
+def _quality(
+    S_WW, S_WX, S_XX, theta, inv, n_eff: float, used: int, seen: int, rank: int, condition: float, skipped: Mapping[str, int]
+) -> Quality:
     """Residuals and standard errors of a least-squares fit from its normal matrices.
 
     ``theta`` is (6, p) with p = 7 (C_bar and D) or 6 (C_bar only); ``inv`` is the (p, p)
@@ -312,7 +313,7 @@ class OnlineEstimator:
         self._flush()
         other._flush()
         out = OnlineEstimator(self.forgetting)
-        decay = self.forgetting ** other.samples_used
+        decay = self.forgetting**other.samples_used
         out._sums = self._sums * decay + other._sums
         out._weight_sum = self._weight_sum * decay + other._weight_sum
         out.samples_used = self.samples_used + other.samples_used
@@ -376,8 +377,9 @@ class OnlineEstimator:
         theta, rank, condition, inv = _solve_normal(S_XX, S_WX, rcond, min_norm)
         if theta is None:
             raise InsufficientExcitation(rank, 7 - rank, _RANK_ADVICE)
-        quality = _quality(S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used,
-                           self.samples_seen, rank, condition, self.skipped)
+        quality = _quality(
+            S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used, self.samples_seen, rank, condition, self.skipped
+        )
         provenance = {
             "method": "online least squares (paper eqs 12-16)",
             "time": now_iso(),

@@ -61,10 +61,7 @@ class InsufficientExcitation(FtsCalibError):
         self.missing = missing
         self.detail = detail
         self.full = full
-        text = (
-            f"insufficient excitation: the information matrix has rank {rank} of {full}, {missing} independent "
-            "direction(s) missing."
-        )
+        text = f"insufficient excitation: the information matrix has rank {rank} of {full}, {missing} independent direction(s) missing."
         super().__init__(text + (" " + detail if detail else ""))
 
 

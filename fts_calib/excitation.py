@@ -89,12 +89,13 @@ def coverage_angle(directions: np.ndarray) -> float:
     probes = _fibonacci_sphere(_SPHERE_POINTS)
     best = np.full(len(probes), -1.0)
     for start in range(0, len(unit), 512):
-        best = np.maximum(best, np.max(probes @ unit[start:start + 512].T, axis=1))
+        best = np.maximum(best, np.max(probes @ unit[start : start + 512].T, axis=1))
     return float(np.degrees(np.arccos(np.clip(best.min(), -1.0, 1.0))))
 
 
-def predict_excitation(g_sensor: Mapping[str, np.ndarray], tool: Tool, C_bar: np.ndarray, D: np.ndarray,
-                       noise_std, rcond: float = RCOND) -> ExcitationReport:
+def predict_excitation(
+    g_sensor: Mapping[str, np.ndarray], tool: Tool, C_bar: np.ndarray, D: np.ndarray, noise_std, rcond: float = RCOND
+) -> ExcitationReport:
     """Predict the estimator's rank, condition and standard errors for planned samples.
 
     Args:
@@ -130,9 +131,11 @@ def predict_excitation(g_sensor: Mapping[str, np.ndarray], tool: Tool, C_bar: np
     else:
         stderr_theta, stderr_C = np.full((6, 7), math.inf), np.full((6, 8), math.inf)
         used = [name for name, n in counts.items() if n]
-        advice = (f"predicted rank {rank} of 7 ({7 - rank} direction(s) missing) with quasi-static samples from "
-                  f"{len(used)} configuration(s) {used}: one centre of mass gives at most 4, two give 6, three that are "
-                  "not on one line give 7, and within each the gravity directions must span 3-D")
+        advice = (
+            f"predicted rank {rank} of 7 ({7 - rank} direction(s) missing) with quasi-static samples from "
+            f"{len(used)} configuration(s) {used}: one centre of mass gives at most 4, two give 6, three that are "
+            "not on one line give 7, and within each the gravity directions must span 3-D"
+        )
     coverage = coverage_angle(np.vstack(directions)) if directions else 180.0
     return ExcitationReport(
         samples=counts,

@@ -93,16 +93,29 @@ def json_text(calibration: Calibration) -> str:
         "C": calibration.C,
         "C_bar": calibration.C_bar,
         "D": calibration.D,
-        "quality": None if q is None else {"rank": q.rank, "condition_number": q.condition_number, "samples_used": q.samples_used,
-                                           "residual_rms": q.residual_rms, "stderr_C": q.stderr_C, "stderr_D": q.stderr_D},
+        "quality": None
+        if q is None
+        else {
+            "rank": q.rank,
+            "condition_number": q.condition_number,
+            "samples_used": q.samples_used,
+            "residual_rms": q.residual_rms,
+            "stderr_C": q.stderr_C,
+            "stderr_D": q.stderr_D,
+        },
         "provenance": dict(calibration.provenance),
         "offset_history": list(calibration.offset_history),
     }
     return json.dumps(to_plain(data), indent=2, ensure_ascii=False) + "\n"
 
 
-def ros2_parameters(payload: ToolConfiguration, gravity: float, sensor_frame: str = "ft_sensor", world_frame: str = "world",
-                    node: str = "force_torque_sensor_broadcaster") -> str:
+def ros2_parameters(
+    payload: ToolConfiguration,
+    gravity: float,
+    sensor_frame: str = "ft_sensor",
+    world_frame: str = "world",
+    node: str = "force_torque_sensor_broadcaster",
+) -> str:
     """Parameters of control_toolbox's gravity compensation filter for a payload (YAML).
 
     Args:
@@ -132,13 +145,22 @@ def ros2_parameters(payload: ToolConfiguration, gravity: float, sensor_frame: st
             }
         }
     }
-    header = (f"# control_toolbox GravityCompensationWrench filter for payload '{payload.name}' ({payload.mass:.4g} kg),\n"
-              "# written by fts-calib: CoG.pos in the sensor frame [m], CoG.force in the world frame [N] (z up).\n")
+    header = (
+        f"# control_toolbox GravityCompensationWrench filter for payload '{payload.name}' ({payload.mass:.4g} kg),\n"
+        "# written by fts-calib: CoG.pos in the sensor frame [m], CoG.force in the world frame [N] (z up).\n"
+    )
     return header + dump_yaml(params)
 
 
-def export(calibration: Calibration, fmt: str, payload: ToolConfiguration | None = None, gravity: float = 9.81,
-           name: str = "fts_calib", sensor_frame: str = "ft_sensor", world_frame: str = "world") -> str:
+def export(
+    calibration: Calibration,
+    fmt: str,
+    payload: ToolConfiguration | None = None,
+    gravity: float = 9.81,
+    name: str = "fts_calib",
+    sensor_frame: str = "ft_sensor",
+    world_frame: str = "world",
+) -> str:
     """The text of an export in one of :data:`FORMATS`.
 
     Raises:
@@ -153,4 +175,3 @@ def export(calibration: Calibration, fmt: str, payload: ToolConfiguration | None
             raise ValueError("the ros2 export describes the payload to compensate: give its tool file (--payload)")
         return ros2_parameters(payload, gravity, sensor_frame, world_frame)
     raise ValueError(f"format {fmt!r} but expected one of {', '.join(FORMATS)}")
-

@@ -246,7 +246,7 @@ class Kinematics:
             jid = full.getJointId(name)
             joint = full.joints[jid]
             if joint.nq == 2:
-                q[joint.idx_q:joint.idx_q + 2] = (math.cos(value), math.sin(value))
+                q[joint.idx_q : joint.idx_q + 2] = (math.cos(value), math.sin(value))
             else:
                 q[joint.idx_q] = value
             ids.append(jid)
@@ -271,8 +271,9 @@ class Kinematics:
             kind = "prismatic" if prismatic else ("continuous" if joint.nq == 2 else "revolute")
             lower = -math.inf if kind == "continuous" else float(model.lowerPositionLimit[joint.idx_q])
             upper = math.inf if kind == "continuous" else float(model.upperPositionLimit[joint.idx_q])
-            infos.append(JointInfo(name, kind, frozen(axis), lower, upper, float(model.velocityLimit[joint.idx_v]),
-                                   joint.idx_q, joint.idx_v))
+            infos.append(
+                JointInfo(name, kind, frozen(axis), lower, upper, float(model.velocityLimit[joint.idx_v]), joint.idx_q, joint.idx_v)
+            )
         return infos
 
     @staticmethod
@@ -294,14 +295,18 @@ class Kinematics:
 
     def _resolve_limits(self, robot: RobotDefinition) -> JointLimits:
         spec = robot.limits
-        per_joint = {**spec.velocity, **{k: v for k, v in spec.acceleration.items() if k != "*"},
-                     **{k: v for k, v in spec.jerk.items() if k != "*"}}
+        per_joint = {
+            **spec.velocity,
+            **{k: v for k, v in spec.acceleration.items() if k != "*"},
+            **{k: v for k, v in spec.jerk.items() if k != "*"},
+        }
         self._check_names([n for n in per_joint], "limit for joint")
         velocity = np.array([spec.velocity.get(j.name, j.velocity * spec.velocity_fraction) for j in self.joints])
         if np.any(~np.isfinite(velocity) | (velocity <= 0)):
             bad = [j.name for j, v in zip(self.joints, velocity, strict=True) if not (math.isfinite(v) and v > 0)]
-            raise JointError(f"joints {bad} have no positive velocity limit in the URDF: set limits.velocity for them", bad,
-                             self.joint_names)
+            raise JointError(
+                f"joints {bad} have no positive velocity limit in the URDF: set limits.velocity for them", bad, self.joint_names
+            )
 
         def table(values: Mapping[str, float]) -> np.ndarray:
             return np.array([values.get(j.name, values.get("*", math.nan)) for j in self.joints])
@@ -331,8 +336,9 @@ class Kinematics:
 
         Links listed in the definition's ``collision.ignore_links`` are left out.
         """
-        geometry = pin.buildGeomFromUrdf(self._full_model, str(self.robot.urdf), pin.COLLISION,
-                                         package_dirs=[str(p) for p in self.robot.package_dirs])
+        geometry = pin.buildGeomFromUrdf(
+            self._full_model, str(self.robot.urdf), pin.COLLISION, package_dirs=[str(p) for p in self.robot.package_dirs]
+        )
         if self._lock_ids:
             _, geometry = pin.buildReducedModel(self._full_model, geometry, self._lock_ids, self._q_lock)
         for name in self.robot.ignore_links:

@@ -110,8 +110,14 @@ class LiveRunner:
         status_interval_s: Time between status lines [s].
     """
 
-    def __init__(self, session: CalibrationSession, receiver: UdpReceiver, sync: Synchronizer, status: TextIO | None = None,
-                 status_interval_s: float = 0.5):
+    def __init__(
+        self,
+        session: CalibrationSession,
+        receiver: UdpReceiver,
+        sync: Synchronizer,
+        status: TextIO | None = None,
+        status_interval_s: float = 0.5,
+    ):
         self.session = session
         self.receiver = receiver
         self.sync = sync
@@ -164,8 +170,10 @@ class LiveRunner:
         p = self.session.progress()
         per = " ".join(f"{k} {v}" for k, v in p.kept_by_configuration.items())
         bad = self.stats.malformed + self.stats.oversized
-        text = (f"t {p.last_time if p.last_time is not None else 0.0:8.2f} s | joints {(self.stats.joints - j0) / span:6.0f} Hz "
-                f"strain {(self.stats.strain - s0) / span:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} | rank {p.rank}")
+        text = (
+            f"t {p.last_time if p.last_time is not None else 0.0:8.2f} s | joints {(self.stats.joints - j0) / span:6.0f} Hz "
+            f"strain {(self.stats.strain - s0) / span:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} | rank {p.rank}"
+        )
         if bad:
             text += f" | bad datagrams {bad}"
         if p.missing:
@@ -231,11 +239,12 @@ class LiveRunner:
 
 def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
     """Message counts and CPU use of a live run, one line each."""
-    lines = [f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
-             f"{stats.malformed} malformed and {stats.oversized} oversized skipped; "
-             f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
-             f"({100 * stats.cpu_s / max(stats.wall_s, 1e-9):.0f} % of one core)"]
+    lines = [
+        f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
+        f"{stats.malformed} malformed and {stats.oversized} oversized skipped; "
+        f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
+        f"({100 * stats.cpu_s / max(stats.wall_s, 1e-9):.0f} % of one core)"
+    ]
     if sync.dropped:
         lines.append("strain samples not paired: " + ", ".join(f"{r}: {n:,}" for r, n in sync.dropped.items()))
     return "\n".join(lines)
-

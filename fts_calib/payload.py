@@ -102,9 +102,11 @@ def group_orientations(g_sensor: np.ndarray, same_deg: float = _SAME_POSE_DEG) -
 
 def _check_orientations(poses: np.ndarray, counts: np.ndarray, min_separation_deg: float) -> None:
     if len(poses) < 3:
-        raise PayloadError(f"payload identification needs at least 3 orientations of the tool, well spread; got "
-                           f"{len(poses)} (samples within {_SAME_POSE_DEG:.0f}° of each other count as one). Add poses with "
-                           "the tool axis pointing down, sideways and tilted.")
+        raise PayloadError(
+            f"payload identification needs at least 3 orientations of the tool, well spread; got "
+            f"{len(poses)} (samples within {_SAME_POSE_DEG:.0f}° of each other count as one). Add poses with "
+            "the tool axis pointing down, sideways and tilted."
+        )
     close = []
     for i in range(len(poses)):
         for j in range(i + 1, len(poses)):
@@ -112,8 +114,10 @@ def _check_orientations(poses: np.ndarray, counts: np.ndarray, min_separation_de
             if angle < min_separation_deg:
                 close.append(f"{i + 1} and {j + 1} ({angle:.1f}°)")
     if close:
-        raise PayloadError(f"orientations too close (at least {min_separation_deg:.0f}° apart needed): {', '.join(close)}; "
-                           f"{len(poses)} orientations with {counts.tolist()} samples. Move those poses farther apart.")
+        raise PayloadError(
+            f"orientations too close (at least {min_separation_deg:.0f}° apart needed): {', '.join(close)}; "
+            f"{len(poses)} orientations with {counts.tolist()} samples. Move those poses farther apart."
+        )
 
 
 def _design(g: np.ndarray) -> np.ndarray:
@@ -173,8 +177,10 @@ def identify_payload(w_measured, g_sensor, mount: bool = False, min_separation_d
         residual = W - np.einsum("nij,j->ni", A, x)
         sigma = np.maximum(np.sqrt(np.mean(residual**2, axis=0)), 1e-12 * np.max(np.abs(W)) + 1e-15)
     if condition > _MAX_CONDITION:
-        raise PayloadError(f"the {len(poses)} orientations do not determine the centre of mass (condition {condition:.1e}): "
-                           "they lie too close to one plane through gravity. Add a pose with the tool axis rotated by 90°.")
+        raise PayloadError(
+            f"the {len(poses)} orientations do not determine the centre of mass (condition {condition:.1e}): "
+            "they lie too close to one plane through gravity. Add a pose with the tool axis rotated by 90°."
+        )
     delta = cov_delta = None
     if mount:
         x, cov, delta, cov_delta, residual = _with_mount(A, W, g, x, sigma)

@@ -39,8 +39,14 @@ class FilterConfig:
     max_dynamic_fraction: float = 1e-3
 
     def __post_init__(self):
-        for name in ("max_joint_speed", "max_joint_acceleration", "derivative_window_s", "strain_window_s",
-                     "strain_std_factor", "max_dynamic_fraction"):
+        for name in (
+            "max_joint_speed",
+            "max_joint_acceleration",
+            "derivative_window_s",
+            "strain_window_s",
+            "strain_std_factor",
+            "max_dynamic_fraction",
+        ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"filter.{name}={value} but expected a finite value > 0")

@@ -210,8 +210,11 @@ def check_home(kin: Kinematics, report: HomeReport, max_tilt_deg: float = MAX_AX
             says what to change.
     """
     lim = kin.limits
-    outside = [f"{n} = {v:+.4f} rad not in [{lo:+.4f}, {hi:+.4f}]"
-               for n, v, lo, hi in zip(kin.joint_names, report.home, lim.lower, lim.upper, strict=True) if not lo <= v <= hi]
+    outside = [
+        f"{n} = {v:+.4f} rad not in [{lo:+.4f}, {hi:+.4f}]"
+        for n, v, lo, hi in zip(kin.joint_names, report.home, lim.lower, lim.upper, strict=True)
+        if not lo <= v <= hi
+    ]
     if outside:
         raise TrajectoryError(f"home outside the joint limits: {'; '.join(outside)}", "home outside limits")
     a, b = kin.sweep_joints
@@ -219,14 +222,17 @@ def check_home(kin: Kinematics, report: HomeReport, max_tilt_deg: float = MAX_AX
         raise TrajectoryError(
             f"poor home: the axes of {a} and {b} are {report.axes_angle_deg:.1f}° apart (at least {MIN_AXES_ANGLE_DEG:.0f}° "
             "needed): the two sweeps would turn the sensor about nearly the same axis. Choose other sweep_joints.",
-            "poor home")
+            "poor home",
+        )
     if report.axis_tilt_deg > max_tilt_deg:
         fix = f"change {report.tilt_joint}" if report.tilt_joint else "change the joints above it"
         raise TrajectoryError(
             f"poor home: the axis of {a} is {report.axis_tilt_deg:.1f}° from horizontal (at most {max_tilt_deg:.0f}°): "
             f"gravity would stay near one circle in the sensor frame and the sweep cannot determine every coefficient. "
             f"{fix.capitalize()} so that the axis of {a} is horizontal, or remove 'home' from the robot definition to have "
-            "one planned.", "poor home")
+            "one planned.",
+            "poor home",
+        )
 
 
 def sweep_ranges(kin: Kinematics, home: np.ndarray, margin: float) -> np.ndarray:
@@ -237,8 +243,7 @@ def sweep_ranges(kin: Kinematics, home: np.ndarray, margin: float) -> np.ndarray
         lo = max(kin.limits.lower[k] + margin, home[k] - math.pi)
         hi = min(kin.limits.upper[k] - margin, home[k] + math.pi)
         if not hi - lo > 1e-3:
-            raise TrajectoryError(f"{name} cannot sweep: range [{lo:+.4f}, {hi:+.4f}] rad after a margin of {margin} rad",
-                                  "empty range")
+            raise TrajectoryError(f"{name} cannot sweep: range [{lo:+.4f}, {hi:+.4f}] rad after a margin of {margin} rad", "empty range")
         out.append((lo, hi))
     return np.array(out)
 
@@ -263,8 +268,7 @@ _WRIST_SECOND = 12  # grid of the second sweep joint when narrowing
 _MIN_SWEEP = math.radians(60.0)  # a narrowed first range shorter than this is refused
 
 
-def wrist_ranges(kin: Kinematics, checker: CollisionChecker, reading: np.ndarray, full: np.ndarray,
-                 min_clearance: float) -> RangeReport:
+def wrist_ranges(kin: Kinematics, checker: CollisionChecker, reading: np.ndarray, full: np.ndarray, min_clearance: float) -> RangeReport:
     """Narrow the first sweep joint's range to where the tool and last links clear the wrist.
 
     The largest interval where they stay clear for every angle of the second sweep joint (a
@@ -300,12 +304,16 @@ def wrist_ranges(kin: Kinematics, checker: CollisionChecker, reading: np.ndarray
             f"'{closest.pair[0]}' and '{closest.pair[1]}' come {closest.distance:.3f} m apart during the sweep of "
             f"{kin.sweep_joints[0]} whatever the home, leaving no interval of at least {math.degrees(_MIN_SWEEP):.0f}° with "
             f"{1.5 * min_clearance:.3f} m of clearance (the required {min_clearance} m plus half for the grid): "
-            "use a smaller tool shape.", "collision")
+            "use a smaller tool shape.",
+            "collision",
+        )
     ranges = full.copy()
     ranges[0] = (first[best_start], first[best_start + best_len - 1])
-    note = (f"{kin.sweep_joints[0]} narrowed from [{full[0, 0]:+.3f}, {full[0, 1]:+.3f}] to [{ranges[0, 0]:+.3f}, "
-            f"{ranges[0, 1]:+.3f}] rad: beyond, '{closest.pair[0]}' and '{closest.pair[1]}' "
-            + ("overlap" if closest.distance <= 0 else f"come within {closest.distance:.3f} m"))
+    note = (
+        f"{kin.sweep_joints[0]} narrowed from [{full[0, 0]:+.3f}, {full[0, 1]:+.3f}] to [{ranges[0, 0]:+.3f}, "
+        f"{ranges[0, 1]:+.3f}] rad: beyond, '{closest.pair[0]}' and '{closest.pair[1]}' "
+        + ("overlap" if closest.distance <= 0 else f"come within {closest.distance:.3f} m")
+    )
     return RangeReport(ranges, full.copy(), note)
 
 
@@ -349,7 +357,7 @@ def latitude_levels(kin: Kinematics, home: np.ndarray, span: np.ndarray, count: 
     sine = np.clip(np.array(sine), -1.0, 1.0)
     i, j = sorted((int(np.argmin(sine)), int(np.argmax(sine))))
     stretch = np.arange(i, j + 1)
-    low, high = np.arcsin(sine[i:j + 1].min()), np.arcsin(sine[i:j + 1].max())
+    low, high = np.arcsin(sine[i : j + 1].min()), np.arcsin(sine[i : j + 1].max())
     targets = np.sin(low + (np.arange(count) + 0.5) * (high - low) / count)
     levels = [grid[stretch[np.argmin(np.abs(sine[stretch] - t))]] for t in targets]
     return np.sort(np.array(levels))
@@ -369,7 +377,7 @@ def raster(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: Sweep
     rows = []
     for i, level in enumerate(first):
         values = second + (half if i % 2 else 0.0)
-        for value in (values if i % 2 == 0 else values[::-1]):
+        for value in values if i % 2 == 0 else values[::-1]:
             rows.append((level, value))
     return np.array(rows)
 
@@ -420,8 +428,7 @@ def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: 
     home = np.asarray(home, dtype=float)
     stops = raster(kin, home, ranges, pattern)
     time, q, qd, qdd = sample_motion(kin, home, kin.sweep_joints, stops, pattern.dwell, rate)
-    return Plan(kin.robot.name, kin.joint_names, kin.sweep_joints, home, ranges, stops, pattern, kin.limits, rate,
-                time, q, qd, qdd)
+    return Plan(kin.robot.name, kin.joint_names, kin.sweep_joints, home, ranges, stops, pattern, kin.limits, rate, time, q, qd, qdd)
 
 
 def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, dwell: float, rate: float):
@@ -483,11 +490,17 @@ def check_limits(plan: Plan) -> LimitCheck:
     for name in plan.sweep_joints:
         k = plan.joint_names.index(name)
         jerk = np.abs(np.diff(plan.qdd[:, k])) * plan.rate if len(plan.time) > 1 else np.zeros(1)
-        peak = {"velocity": float(np.max(np.abs(plan.qd[:, k]))), "acceleration": float(np.max(np.abs(plan.qdd[:, k]))),
-                "jerk": float(np.max(jerk))}
+        peak = {
+            "velocity": float(np.max(np.abs(plan.qd[:, k]))),
+            "acceleration": float(np.max(np.abs(plan.qdd[:, k]))),
+            "jerk": float(np.max(jerk)),
+        }
         peaks[name] = peak
-        ratios[name] = {"velocity": peak["velocity"] / lim.velocity[k], "acceleration": peak["acceleration"] / lim.acceleration[k],
-                        "jerk": peak["jerk"] / lim.jerk[k]}
+        ratios[name] = {
+            "velocity": peak["velocity"] / lim.velocity[k],
+            "acceleration": peak["acceleration"] / lim.acceleration[k],
+            "jerk": peak["jerk"] / lim.jerk[k],
+        }
     tol = 1e-9
     position_ok = bool(np.all((plan.q >= lim.lower - tol) & (plan.q <= lim.upper + tol)))
     return LimitCheck(peaks, ratios, position_ok)
@@ -552,8 +565,9 @@ def _tilt_roots(kin: Kinematics, reading: np.ndarray, joint: str) -> list[np.nda
     return roots
 
 
-def choose_home(kin: Kinematics, checker: CollisionChecker, ranges: np.ndarray, pattern: SweepPattern,
-                min_clearance: float = MIN_CLEARANCE) -> HomeReport:
+def choose_home(
+    kin: Kinematics, checker: CollisionChecker, ranges: np.ndarray, pattern: SweepPattern, min_clearance: float = MIN_CLEARANCE
+) -> HomeReport:
     """Choose a base pose automatically (see the module docstring).
 
     A candidate is acceptable when its home pose and a grid of its sweep keep every pair at
@@ -598,12 +612,17 @@ def choose_home(kin: Kinematics, checker: CollisionChecker, ranges: np.ndarray, 
                 best = (score, home)
     if best is None:
         if not found_horizontal:
-            raise TrajectoryError(f"no joint above {kin.sweep_joints[0]} can make its axis horizontal within the joint "
-                                  "limits: give 'home' in the robot definition", "no home")
+            raise TrajectoryError(
+                f"no joint above {kin.sweep_joints[0]} can make its axis horizontal within the joint "
+                "limits: give 'home' in the robot definition",
+                "no home",
+            )
         raise TrajectoryError(
             f"no collision-free home found: the best candidate leaves {closest.distance:.3f} m between '{closest.pair[0]}' "
             f"and '{closest.pair[1]}' (at least {min_clearance} m needed). Give 'home' in the robot definition, a smaller "
-            "tool shape, or fewer levels.", "no home")
+            "tool shape, or fewer levels.",
+            "no home",
+        )
     return home_report(kin, best[1], "automatic")
 
 
@@ -634,8 +653,9 @@ class PlanResult:
     checked_samples: int = 0
 
 
-def plan_calibration(kin: Kinematics, checker: CollisionChecker, pattern: SweepPattern, rate: float,
-                     min_clearance: float = MIN_CLEARANCE) -> PlanResult:
+def plan_calibration(
+    kin: Kinematics, checker: CollisionChecker, pattern: SweepPattern, rate: float, min_clearance: float = MIN_CLEARANCE
+) -> PlanResult:
     """Plan the sweeps and verify them: limits on every sample, clearance along the motion.
 
     The home is the robot definition's, checked (:func:`check_home`), or chosen
@@ -655,8 +675,7 @@ def plan_calibration(kin: Kinematics, checker: CollisionChecker, pattern: SweepP
     if given:
         check_home(kin, home_report(kin, home, "robot definition"))
     ranges = wrist_ranges(kin, checker, home, sweep_ranges(kin, home, pattern.margin), min_clearance)
-    report = home_report(kin, home, "robot definition") if given else choose_home(kin, checker, ranges.ranges, pattern,
-                                                                                  min_clearance)
+    report = home_report(kin, home, "robot definition") if given else choose_home(kin, checker, ranges.ranges, pattern, min_clearance)
     plan = plan_sweeps(kin, report.home, ranges.ranges, pattern, rate)
     limits = check_limits(plan)
     samples = collision_samples(plan)
@@ -666,11 +685,14 @@ def plan_calibration(kin: Kinematics, checker: CollisionChecker, pattern: SweepP
     problems = []
     if not limits.ok:
         worst = max(((j, k, r) for j, d in limits.ratios.items() for k, r in d.items()), key=lambda x: x[2])
-        problems.append(f"limits exceeded: {worst[0]} {worst[1]} reaches {worst[2]:.3f} of its limit"
-                        + ("" if limits.position_ok else "; positions outside the joint limits"))
+        problems.append(
+            f"limits exceeded: {worst[0]} {worst[1]} reaches {worst[2]:.3f} of its limit"
+            + ("" if limits.position_ok else "; positions outside the joint limits")
+        )
     for what, c in (("along the sweep", clearance), ("at home", home_clearance)):
         if c.distance < min_clearance:
             when = f" at t = {plan.time[c.index]:.2f} s" if what == "along the sweep" else ""
-            problems.append(f"collision {what}: '{c.pair[0]}' and '{c.pair[1]}' are {c.distance:.3f} m apart{when} "
-                            f"(at least {min_clearance} m needed)")
+            problems.append(
+                f"collision {what}: '{c.pair[0]}' and '{c.pair[1]}' are {c.distance:.3f} m apart{when} (at least {min_clearance} m needed)"
+            )
     return PlanResult(plan, report, ranges, limits, clearance, home_clearance, min_clearance, problems, len(samples))

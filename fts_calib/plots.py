@@ -22,8 +22,9 @@ def _save(fig, path: str | Path) -> Path:
     return path
 
 
-def plot_plan(path: str | Path, time: np.ndarray, sweep: np.ndarray, sweep_names: tuple[str, str], still: np.ndarray,
-              g_sensor: np.ndarray, title: str) -> Path:
+def plot_plan(
+    path: str | Path, time: np.ndarray, sweep: np.ndarray, sweep_names: tuple[str, str], still: np.ndarray, g_sensor: np.ndarray, title: str
+) -> Path:
     """Planned sweep-joint motion and gravity directions on the unit sphere in the sensor frame.
 
     Args:
@@ -49,7 +50,7 @@ def plot_plan(path: str | Path, time: np.ndarray, sweep: np.ndarray, sweep_names
     ax.grid(alpha=0.3)
 
     ax3 = fig.add_subplot(1, 2, 2, projection="3d")
-    u, v = np.mgrid[0:2 * np.pi:36j, 0:np.pi:18j]
+    u, v = np.mgrid[0 : 2 * np.pi : 36j, 0 : np.pi : 18j]
     ax3.plot_wireframe(np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v), color="0.85", lw=0.4)
     unit = g_sensor / np.linalg.norm(g_sensor, axis=1, keepdims=True)
     step = max(1, len(unit) // 4000)
@@ -97,8 +98,9 @@ def plot_wrench(path: str | Path, time: np.ndarray, wrench: np.ndarray, tools: n
     return _save(fig, path)
 
 
-def plot_convergence(path: str | Path, samples: np.ndarray, error: np.ndarray, changes: list[tuple[int, str]],
-                     noise_floor: float, title: str) -> Path:
+def plot_convergence(
+    path: str | Path, samples: np.ndarray, error: np.ndarray, changes: list[tuple[int, str]], noise_floor: float, title: str
+) -> Path:
     """Relative error of C_bar_11 against the samples used, tool changes marked (the paper's Fig. 7).
 
     Args:
@@ -123,8 +125,9 @@ def plot_convergence(path: str | Path, samples: np.ndarray, error: np.ndarray, c
     return _save(fig, path)
 
 
-def plot_validation(path: str | Path, time: np.ndarray, expected: np.ndarray, measured: list[np.ndarray], labels: list[str],
-                    full_scale: float, title: str) -> Path:
+def plot_validation(
+    path: str | Path, time: np.ndarray, expected: np.ndarray, measured: list[np.ndarray], labels: list[str], full_scale: float, title: str
+) -> Path:
     """Force Fx acting on the sensor and measured, and the error (the paper's Figs 9 and 10).
 
     Args:

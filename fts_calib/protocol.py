@@ -92,14 +92,20 @@ def decode(data: bytes) -> Message:
     kind = obj.get("type")
     if kind == "strain":
         values = obj.get("strain")
-        if not isinstance(values, list) or len(values) != 8 or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        if (
+            not isinstance(values, list)
+            or len(values) != 8
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+        ):
             raise ProtocolError("malformed", "'strain' must be a list of 8 numbers")
         return Strain(_time(obj), tuple(float(v) for v in values))
     if kind == "joints":
         q = obj.get("q")
-        if not isinstance(q, dict) or not q or not all(
-                isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) for k, v in q.items()):
+        if (
+            not isinstance(q, dict)
+            or not q
+            or not all(isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) for k, v in q.items())
+        ):
             raise ProtocolError("malformed", "'q' must map joint names to numbers")
         return Joints(_time(obj), {k: float(v) for k, v in q.items()})
     if kind == "tool":

@@ -109,8 +109,9 @@ def windowed_std(values: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.
     return np.sqrt(np.maximum(var, 0.0))
 
 
-def joint_rates(T: np.ndarray, theta: np.ndarray, window_s: float, dt: float,
-                continuous: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def joint_rates(
+    T: np.ndarray, theta: np.ndarray, window_s: float, dt: float, continuous: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Joint velocity and acceleration at every sample, estimated from readings alone.
 
     A least-squares quadratic through the samples of a window of ``window_s`` centred on
@@ -143,7 +144,7 @@ def joint_rates(T: np.ndarray, theta: np.ndarray, window_s: float, dt: float,
         inner = slice(half, n - half)
         velocity[inner] = windows @ kernels[1]
         acceleration[inner] = 2.0 * (windows @ kernels[2])
-        span = T[2 * half:] - T[: n - 2 * half]
+        span = T[2 * half :] - T[: n - 2 * half]
         fitted[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
     rest = np.nonzero(~fitted)[0]
     if len(rest):
@@ -184,8 +185,7 @@ class QuasiStaticFilter:
 
     def state(self) -> dict:
         """What a checkpoint keeps of the filter (the noise floor)."""
-        return {"noise_floor": None if self.noise_floor is None else self.noise_floor.tolist(),
-                "rejected": dict(self.rejected)}
+        return {"noise_floor": None if self.noise_floor is None else self.noise_floor.tolist(), "rejected": dict(self.rejected)}
 
     def restore(self, state: dict) -> None:
         """Restore :meth:`state`."""
@@ -203,8 +203,12 @@ class QuasiStaticFilter:
             tool: Tool configuration indices, shape (n,).
             final: No more samples will come: decide everything.
         """
-        new = (np.asarray(time, dtype=float), np.asarray(readings, dtype=float), np.asarray(strain, dtype=float),
-               np.asarray(tool, dtype=np.int64))
+        new = (
+            np.asarray(time, dtype=float),
+            np.asarray(readings, dtype=float),
+            np.asarray(strain, dtype=float),
+            np.asarray(tool, dtype=np.int64),
+        )
         if self._buffer is None:
             buf = new
         else:
@@ -312,8 +316,9 @@ class QuasiStaticFilter:
                 weight = config.mass * self.tool.gravity
                 lever = max(float(np.linalg.norm(config.p_sensor_com)), 1e-3)
                 delta = dynamic - static
-                fraction[mine] = np.maximum(np.linalg.norm(delta[:, :3], axis=1) / weight,
-                                            np.linalg.norm(delta[:, 3:], axis=1) / (weight * lever))
+                fraction[mine] = np.maximum(
+                    np.linalg.norm(delta[:, :3], axis=1) / weight, np.linalg.norm(delta[:, 3:], axis=1) / (weight * lever)
+                )
             dynamic_ok = fraction <= cfg.max_dynamic_fraction
             dynamic_rejected = int((~dynamic_ok).sum())
             keep[candidates] = dynamic_ok

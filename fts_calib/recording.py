@@ -81,8 +81,9 @@ class RecordingReader:
         extra_columns: Columns present but ignored.
     """
 
-    def __init__(self, path: str | Path, joint_names: Sequence[str] | None, tool_names: Sequence[str] | None,
-                 block_bytes: int = BLOCK_BYTES):
+    def __init__(
+        self, path: str | Path, joint_names: Sequence[str] | None, tool_names: Sequence[str] | None, block_bytes: int = BLOCK_BYTES
+    ):
         self.path = Path(path)
         self.tool_codes = {name: k for k, name in enumerate(tool_names or [])}
         self._open_tools = tool_names is None
@@ -108,8 +109,12 @@ class RecordingReader:
             joint_names = [c for c in self.columns if c not in ("time", "tool", *STRAIN_COLUMNS)]
         self.joint_names = list(joint_names)
         if not header.strip():
-            raise RecordingError(self.path, 1, None, "empty file: expected a header line "
-                                 f"'time,{','.join(self.joint_names) or '<joints>'},{','.join(STRAIN_COLUMNS)},tool'")
+            raise RecordingError(
+                self.path,
+                1,
+                None,
+                f"empty file: expected a header line 'time,{','.join(self.joint_names) or '<joints>'},{','.join(STRAIN_COLUMNS)},tool'",
+            )
         required = ["time", *self.joint_names, *STRAIN_COLUMNS, "tool"]
         repeated = sorted({c for c in self.columns if self.columns.count(c) > 1 and c in required})
         if repeated:
@@ -194,14 +199,16 @@ class RecordingReader:
                 rows = np.nonzero(index == category)[0]
                 name = str(categories[category]).strip()
                 if name not in self.unknown_tools and len(self.problems) < 10:
-                    self.problems.append(f"{self.path}, line {int(numbers[rows[0]])}: column 'tool': unknown tool configuration "
-                                         f"'{name}' (known: {', '.join(self.tool_codes)}); its rows are skipped")
+                    self.problems.append(
+                        f"{self.path}, line {int(numbers[rows[0]])}: column 'tool': unknown tool configuration "
+                        f"'{name}' (known: {', '.join(self.tool_codes)}); its rows are skipped"
+                    )
                 self.unknown_tools[name] = self.unknown_tools.get(name, 0) + len(rows)
             self.skipped[UNKNOWN_TOOL] = self.skipped.get(UNKNOWN_TOOL, 0) + int(unknown.sum())
             keep = ~unknown
             table, codes, numbers = table[keep], codes[keep], numbers[keep]
         if len(table):
-            yield RecordingChunk(int(numbers[0]), table[:, 0], table[:, 1:1 + n_joints], table[:, 1 + n_joints:], codes)
+            yield RecordingChunk(int(numbers[0]), table[:, 0], table[:, 1 : 1 + n_joints], table[:, 1 + n_joints :], codes)
 
     def _codes(self, categories: list, index: np.ndarray) -> np.ndarray:
         """Configuration indices of rows given as (distinct names, index of each row's name)."""
@@ -219,8 +226,9 @@ class RecordingReader:
         of appearance) and each row's index into them.
         """
         try:
-            frame = pd.read_csv(io.BytesIO(block), header=None, names=self.columns, dtype=self._dtypes, na_filter=False,
-                                skip_blank_lines=False, engine="c")
+            frame = pd.read_csv(
+                io.BytesIO(block), header=None, names=self.columns, dtype=self._dtypes, na_filter=False, skip_blank_lines=False, engine="c"
+            )
         except (ValueError, pd.errors.ParserError):
             return None, None, None
         if len(frame) != count or (frame[self.columns[-1]] == "").any():
@@ -287,8 +295,9 @@ class RecordingWriter:
         table = np.column_stack([time, np.asarray(readings, dtype=float), np.asarray(strain, dtype=float)])
         buffer = io.StringIO()
         if isinstance(tool, str):
-            np.savetxt(buffer, table, fmt=",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * 8) + "," +
-                       tool.replace("%", "%%"))
+            np.savetxt(
+                buffer, table, fmt=",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * 8) + "," + tool.replace("%", "%%")
+            )
         else:
             fmt = ",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * 8)
             for row, name in zip(table, tool, strict=True):

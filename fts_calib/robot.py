@@ -154,7 +154,7 @@ def resolve_urdf(spec: str, base: Path, path: Path) -> tuple[Path, tuple[Path, .
     package_dirs: tuple[Path, ...] = ()
     if spec.startswith(ROBOT_DATA_PREFIX):
         data_dir = example_robot_data_dir()
-        urdf = data_dir / "robots" / spec[len(ROBOT_DATA_PREFIX):].lstrip("/")
+        urdf = data_dir / "robots" / spec[len(ROBOT_DATA_PREFIX) :].lstrip("/")
         package_dirs = (data_dir.parent,)  # meshes are package://example-robot-data/robots/...
     else:
         urdf = (base / spec).resolve() if not Path(spec).is_absolute() else Path(spec)
@@ -172,7 +172,7 @@ def read_srdf_pairs(spec: str, base: Path, path: Path) -> frozenset[frozenset[st
     import xml.etree.ElementTree as ET
 
     if spec.startswith(ROBOT_DATA_PREFIX):
-        srdf = example_robot_data_dir() / "robots" / spec[len(ROBOT_DATA_PREFIX):].lstrip("/")
+        srdf = example_robot_data_dir() / "robots" / spec[len(ROBOT_DATA_PREFIX) :].lstrip("/")
     else:
         srdf = (base / spec).resolve()
     if not srdf.is_file():

@@ -99,9 +99,17 @@ class CalibrationSession:
             the convergence); None for nothing.
     """
 
-    def __init__(self, kin: Kinematics, tool: Tool, config: PipelineConfig | None = None, checkpoint: str | Path | None = None,
-                 use_filter: bool = True, source: str = "", clock: Callable[[], float] = _time.monotonic,
-                 on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None):
+    def __init__(
+        self,
+        kin: Kinematics,
+        tool: Tool,
+        config: PipelineConfig | None = None,
+        checkpoint: str | Path | None = None,
+        use_filter: bool = True,
+        source: str = "",
+        clock: Callable[[], float] = _time.monotonic,
+        on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+    ):
         self.kin = kin
         self.tool = tool
         self.config = config or PipelineConfig()
@@ -199,8 +207,12 @@ class CalibrationSession:
         ok &= ~outside
         if degrees and not self._warned_degrees:
             self._warned_degrees = True
-            warnings.warn(f"joint readings look like degrees ({', '.join(degrees)} far beyond 2π): readings must be in rad; "
-                          "these samples are skipped as outside the joint limits", FtsCalibWarning, stacklevel=3)
+            warnings.warn(
+                f"joint readings look like degrees ({', '.join(degrees)} far beyond 2π): readings must be in rad; "
+                "these samples are skipped as outside the joint limits",
+                FtsCalibWarning,
+                stacklevel=3,
+            )
         if ok.any():
             self._last_time = float(t[ok][-1])
             self._accumulate(t[ok], theta[ok], strain[ok], codes[ok], final=False)
@@ -209,8 +221,7 @@ class CalibrationSession:
     def _accumulate(self, t, theta, strain, codes, final: bool) -> None:
         if self.filter is not None:
             decided = self.filter.process(t, theta, strain, codes, final=final)
-            t, strain, codes, g = (decided.time[decided.keep], decided.strain[decided.keep], decided.tool[decided.keep],
-                                   decided.g_sensor)
+            t, strain, codes, g = (decided.time[decided.keep], decided.strain[decided.keep], decided.tool[decided.keep], decided.g_sensor)
         else:
             g = self.kin.g_sensor(theta, self.tool.gravity) if len(theta) else np.zeros((0, 3))
         if not len(g):
@@ -229,8 +240,7 @@ class CalibrationSession:
         """Decide the samples the filter still holds (call when the stream ends)."""
         self._flush_staged()
         if self.filter is not None:
-            self._accumulate(np.zeros(0), np.zeros((0, self.kin.n_joints)), np.zeros((0, 8)), np.zeros(0, dtype=np.int64),
-                             final=True)
+            self._accumulate(np.zeros(0), np.zeros((0, self.kin.n_joints)), np.zeros((0, 8)), np.zeros(0, dtype=np.int64), final=True)
 
     # -- output -------------------------------------------------------------------------
 
@@ -277,8 +287,10 @@ class CalibrationSession:
                 if off:
                     words.append(f"need a third centre of mass not on the line through {label}: mount configuration {' or '.join(off)}")
                 else:
-                    words.append(f"the centres of mass of {label} and every other configuration lie on one line: the tool "
-                                 "needs a configuration off that line (paper eqs 19-20)")
+                    words.append(
+                        f"the centres of mass of {label} and every other configuration lie on one line: the tool "
+                        "needs a configuration off that line (paper eqs 19-20)"
+                    )
         return "; ".join(words) or "more quasi-static samples"
 
     def solve(self) -> Calibration:
@@ -298,10 +310,15 @@ class CalibrationSession:
             **calibration.provenance,
             "robot": {"name": self.kin.robot.name, "urdf": self.kin.robot.urdf_spec or str(self.kin.robot.urdf)},
             "sensor_frame": {"name": mount.name, "parent_frame": mount.parent_frame, "xyz": mount.xyz.tolist(), "rpy": mount.rpy.tolist()},
-            "tools": {"name": self.tool.name, "file": str(self.tool.source) if self.tool.source else None,
-                      "gravity": self.tool.gravity,
-                      "configurations": [{"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist(), "samples": int(n)}
-                                         for c, n in zip(self.tool.configurations, self.kept, strict=True)]},
+            "tools": {
+                "name": self.tool.name,
+                "file": str(self.tool.source) if self.tool.source else None,
+                "gravity": self.tool.gravity,
+                "configurations": [
+                    {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist(), "samples": int(n)}
+                    for c, n in zip(self.tool.configurations, self.kept, strict=True)
+                ],
+            },
             "source": self.source,
             "filter": None if self.filter is None else {k: getattr(self.config.filter, k) for k in self.config.filter.__dataclass_fields__},
         }
@@ -336,8 +353,15 @@ class CalibrationSession:
         return atomic_write_text(self.checkpoint_path, json.dumps(state))
 
     @classmethod
-    def resume(cls, checkpoint: str | Path, kin: Kinematics, tool: Tool, config: PipelineConfig | None = None,
-               source: str = "", clock: Callable[[], float] = _time.monotonic) -> CalibrationSession:
+    def resume(
+        cls,
+        checkpoint: str | Path,
+        kin: Kinematics,
+        tool: Tool,
+        config: PipelineConfig | None = None,
+        source: str = "",
+        clock: Callable[[], float] = _time.monotonic,
+    ) -> CalibrationSession:
         """A session continuing from a checkpoint; samples up to its last time are skipped.
 
         Raises:
@@ -354,8 +378,12 @@ class CalibrationSession:
             raise FileFormatError(path, "format", f"expected {CHECKPOINT_FORMAT!r}")
         names = [c.name for c in tool.configurations]
         if state.get("robot") != kin.robot.name or state.get("tool") != tool.name or state.get("configurations") != names:
-            raise FileFormatError(path, None, f"checkpoint of robot {state.get('robot')!r} with tool {state.get('tool')!r} "
-                                  f"{state.get('configurations')}, not of {kin.robot.name!r} with {tool.name!r} {names}")
+            raise FileFormatError(
+                path,
+                None,
+                f"checkpoint of robot {state.get('robot')!r} with tool {state.get('tool')!r} "
+                f"{state.get('configurations')}, not of {kin.robot.name!r} with {tool.name!r} {names}",
+            )
         session = cls(kin, tool, config, checkpoint=path, use_filter=state.get("filter") is not None, source=source, clock=clock)
         session.estimator = OnlineEstimator.from_state(state["estimator"])
         session.kept = np.array(state["kept"], dtype=np.int64)
@@ -367,4 +395,3 @@ class CalibrationSession:
         if session.filter is not None and state.get("filter"):
             session.filter.restore(state["filter"])
         return session
-

@@ -49,9 +49,17 @@ def tool_wrenches(kin: Kinematics, tool: Tool, configuration: str, q, qd, qdd, d
     return config.dynamic_wrench(g, motion.omega, motion.alpha, motion.a)
 
 
-def simulate_recording(path: str | Path, kin: Kinematics, tool: Tool, trajectories: Sequence[TrajectoryFile],
-                       sensor: SimulatedSensor, rng: np.random.Generator | None, tool_change_s: float = 2.0,
-                       start_time: float = 0.0, dynamic: bool = True) -> Path:
+def simulate_recording(
+    path: str | Path,
+    kin: Kinematics,
+    tool: Tool,
+    trajectories: Sequence[TrajectoryFile],
+    sensor: SimulatedSensor,
+    rng: np.random.Generator | None,
+    tool_change_s: float = 2.0,
+    start_time: float = 0.0,
+    dynamic: bool = True,
+) -> Path:
     """Write a recording of the given trajectories (see the module docstring).
 
     Args:

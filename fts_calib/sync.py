@@ -60,8 +60,14 @@ class Synchronizer:
         dropped: Strain samples dropped, by reason.
     """
 
-    def __init__(self, joint_names: Sequence[str], continuous: Sequence[bool] | None = None, max_gap_s: float = 0.05,
-                 latency_s: float = 0.0, hold_s: float | None = None):
+    def __init__(
+        self,
+        joint_names: Sequence[str],
+        continuous: Sequence[bool] | None = None,
+        max_gap_s: float = 0.05,
+        latency_s: float = 0.0,
+        hold_s: float | None = None,
+    ):
         self.joint_names = list(joint_names)
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.continuous = np.zeros(len(self.joint_names), dtype=bool) if continuous is None else np.asarray(continuous, dtype=bool)

@@ -44,8 +44,15 @@ class TareResult:
     samples_seen: int
 
 
-def _known_load(kin: Kinematics | None, tool: Tool | None, configuration: str | None, config: PipelineConfig,
-                time_s: np.ndarray, readings: np.ndarray | None, strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _known_load(
+    kin: Kinematics | None,
+    tool: Tool | None,
+    configuration: str | None,
+    config: PipelineConfig,
+    time_s: np.ndarray,
+    readings: np.ndarray | None,
+    strain: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """The strains to use and the load on the sensor for each (zero with nothing mounted)."""
     if tool is None:
         return strain, np.zeros((len(strain), 6))
@@ -68,8 +75,14 @@ def _what(tool: Tool | None, configuration: str | None) -> str:
     return "nothing mounted" if tool is None else f"'{tool.name}' configuration {configuration} mounted"
 
 
-def tare_recording(calibration: Calibration, path: str | Path, kin: Kinematics | None = None, tool: Tool | None = None,
-                   configuration: str | None = None, config: PipelineConfig | None = None) -> TareResult:
+def tare_recording(
+    calibration: Calibration,
+    path: str | Path,
+    kin: Kinematics | None = None,
+    tool: Tool | None = None,
+    configuration: str | None = None,
+    config: PipelineConfig | None = None,
+) -> TareResult:
     """Re-tare from a recording (see the module docstring).
 
     Args:
@@ -99,16 +112,27 @@ def tare_recording(calibration: Calibration, path: str | Path, kin: Kinematics |
     return _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {_what(tool, configuration)}", seen)
 
 
-def tare_live(calibration: Calibration, host: str, port: int, seconds: float, kin: Kinematics | None = None,
-              tool: Tool | None = None, configuration: str | None = None, config: PipelineConfig | None = None) -> TareResult:
+def tare_live(
+    calibration: Calibration,
+    host: str,
+    port: int,
+    seconds: float,
+    kin: Kinematics | None = None,
+    tool: Tool | None = None,
+    configuration: str | None = None,
+    config: PipelineConfig | None = None,
+) -> TareResult:
     """Re-tare from a live window of ``seconds`` [s] on the UDP protocol (see :mod:`fts_calib.live`)."""
     from .live import UdpReceiver
     from .sync import Synchronizer
 
     config = config or PipelineConfig()
     receiver = UdpReceiver(host, port)
-    sync = None if kin is None else Synchronizer(kin.joint_names, [j.kind == "continuous" for j in kin.joints],
-                                                 config.live.max_gap_s, config.live.latency_s)
+    sync = (
+        None
+        if kin is None
+        else Synchronizer(kin.joint_names, [j.kind == "continuous" for j in kin.joints], config.live.max_gap_s, config.live.latency_s)
+    )
     strains: list[tuple[float, tuple]] = []
     try:
         end = time.monotonic() + seconds

@@ -122,5 +122,4 @@ def read_trajectory(path: str | Path) -> TrajectoryFile:
     if np.any(np.diff(table[:, 0]) < 0):
         line = int(np.argmax(np.diff(table[:, 0]) < 0)) + 3
         raise RecordingError(path, line, "time", "time goes backwards")
-    return TrajectoryFile(tuple(joints), table[:, 0], table[:, 1::3], table[:, 2::3], table[:, 3::3],
-                          tools.pop() if tools else "")
+    return TrajectoryFile(tuple(joints), table[:, 0], table[:, 1::3], table[:, 2::3], table[:, 3::3], tools.pop() if tools else "")

@@ -123,8 +123,9 @@ class _Thinner:
         return [np.concatenate(parts) for parts in zip(*self.rows, strict=True)]
 
 
-def expected_wrench(kin: Kinematics, tool: Tool, time: np.ndarray, readings: np.ndarray, codes: np.ndarray, dt: float,
-                    dynamic: bool) -> np.ndarray:
+def expected_wrench(
+    kin: Kinematics, tool: Tool, time: np.ndarray, readings: np.ndarray, codes: np.ndarray, dt: float, dynamic: bool
+) -> np.ndarray:
     """The tool's wrench on the sensor at each sample, from the joint readings alone.
 
     Args:
@@ -158,8 +159,9 @@ def expected_wrench(kin: Kinematics, tool: Tool, time: np.ndarray, readings: np.
     return out
 
 
-def validate_recording(path: str | Path, kin: Kinematics, tool: Tool, calibrations: Sequence[Calibration],
-                       full_scale: np.ndarray, dynamic: bool = True) -> ValidationResult:
+def validate_recording(
+    path: str | Path, kin: Kinematics, tool: Tool, calibrations: Sequence[Calibration], full_scale: np.ndarray, dynamic: bool = True
+) -> ValidationResult:
     """Compare measured and expected wrenches over a recording (see the module docstring).
 
     Args:
@@ -229,7 +231,7 @@ def validate_recording(path: str | Path, kin: Kinematics, tool: Tool, calibratio
             last = len(rows[0]) - half  # the last rows wait for their right-hand window
             if last > first:
                 compare(rows, first, last)
-                context = tuple(a[max(last - half, 0):last] for a in rows)
+                context = tuple(a[max(last - half, 0) : last] for a in rows)
                 waiting = tuple(a[last:] for a in rows)
             else:
                 waiting = join(waiting, new)
@@ -249,4 +251,3 @@ def validate_recording(path: str | Path, kin: Kinematics, tool: Tool, calibratio
         expected=expected,
         measured=measured,
     )
-

@@ -18,9 +18,19 @@ def demo(tmp_path_factory):
 def test_the_demo_writes_every_file(demo):
     result, out, text = demo
     names = {p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()}
-    assert names >= {"trajectories/A.csv", "trajectories/B.csv", "trajectories/C.csv", "trajectories/plan.yaml",
-                     "trajectories/plan.png", "recordings/calibration.csv", "recordings/validation.csv", "calibration.yaml",
-                     "calibration_wrench.png", "convergence_c11.png", "validation_fx.png"}
+    assert names >= {
+        "trajectories/A.csv",
+        "trajectories/B.csv",
+        "trajectories/C.csv",
+        "trajectories/plan.yaml",
+        "trajectories/plan.png",
+        "recordings/calibration.csv",
+        "recordings/validation.csv",
+        "calibration.yaml",
+        "calibration_wrench.png",
+        "convergence_c11.png",
+        "validation_fx.png",
+    }
     for png in out.rglob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
     for part in ("largest relative coefficient error", "offset error", "validation over", "less than 10 %", "Table 1 against"):

@@ -232,6 +232,7 @@ def test_checkpoint_state_round_trip(rng):
 
 # -- the jig (offline) method ------------------------------------------------------------
 
+
 def _jig_data(rng, noise_std=0.0):
     """Pure axial loads in 10 steps over +-50 N and +-5 N m (the paper's jig), offsets removed."""
     full_scale = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])
@@ -270,6 +271,7 @@ def test_jig_refuses_loads_missing_an_axis(rng):
 
 
 # -- offsets only (re-tare) ----------------------------------------------------------------
+
 
 def test_retare_recovers_offsets_with_a_known_load(rng):
     D_shifted = D_TRUE + np.array([0.8, -0.3, 0.2, 0.01, 0.02, -0.03])

@@ -44,8 +44,11 @@ int main(void) {{
 """
     (tmp_path / "main.c").write_text(source)
     flags = ["-DFTS_CALIB_DOUBLE"] if precision == "double" else []
-    build = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", *flags, "-o", str(tmp_path / "main"),
-                            str(tmp_path / "main.c")], capture_output=True, text=True)
+    build = subprocess.run(
+        ["gcc", "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", *flags, "-o", str(tmp_path / "main"), str(tmp_path / "main.c")],
+        capture_output=True,
+        text=True,
+    )
     assert build.returncode == 0, build.stderr
     out = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout
     got = np.array([[float(v) for v in line.split()] for line in out.strip().splitlines()])

@@ -157,6 +157,7 @@ def test_tool_wrench_matrix_equals_the_pure_function(rng):
 
 # -- bad input -----------------------------------------------------------------------------
 
+
 def test_unknown_sensor_frame_lists_the_frames(tmp_path):
     text = resolve("ur5", "robots").read_text().replace("parent_frame: tool0", "parent_frame: flange")
     path = tmp_path / "ur5.yaml"
@@ -169,8 +170,11 @@ def test_unknown_sensor_frame_lists_the_frames(tmp_path):
 def test_unknown_and_missing_joint_names_list_the_expected_ones(ur5):
     readings = dict.fromkeys(ur5.joint_names, 0.0)
     readings["shoulder_pan"] = readings.pop("shoulder_pan_joint")
-    with pytest.raises(JointError, match=r"unknown joints \['shoulder_pan'\]; missing joints \['shoulder_pan_joint'\]; "
-                                         r"expected joints, in order: shoulder_pan_joint, shoulder_lift_joint"):
+    with pytest.raises(
+        JointError,
+        match=r"unknown joints \['shoulder_pan'\]; missing joints \['shoulder_pan_joint'\]; "
+        r"expected joints, in order: shoulder_pan_joint, shoulder_lift_joint",
+    ):
         ur5.R_world_sensor(readings)
 
 

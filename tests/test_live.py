@@ -90,8 +90,23 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
     (tmp_path / "pipeline.yaml").write_text(yaml.safe_dump(pipeline))
     port = _free_port()
     out = tmp_path / "cal.yaml"
-    command = [sys.executable, "-m", "fts_calib.cli", "live", "--robot", "ur5", "--listen", f"127.0.0.1:{port}", "-o", str(out),
-               "--pipeline", str(tmp_path / "pipeline.yaml"), "--idle-timeout", "20", "--quiet"]
+    command = [
+        sys.executable,
+        "-m",
+        "fts_calib.cli",
+        "live",
+        "--robot",
+        "ur5",
+        "--listen",
+        f"127.0.0.1:{port}",
+        "-o",
+        str(out),
+        "--pipeline",
+        str(tmp_path / "pipeline.yaml"),
+        "--idle-timeout",
+        "20",
+        "--quiet",
+    ]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
 
     def start(extra=()):

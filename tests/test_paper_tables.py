@@ -36,7 +36,7 @@ def test_typed_tables_equal_the_paper(number, table):
 @pytest.mark.skipif(not PAPER.exists(), reason="../shared/paper.md is not beside the checkout")
 def test_projection_equals_eq_6_of_the_paper():
     text = PAPER.read_text(encoding="utf-8")
-    block = text[text.index("(6) \\quad P"):]
+    block = text[text.index("(6) \\quad P") :]
     block = block[: block.index("\\end{bmatrix}")]
     body = block.split("\\begin{bmatrix}")[1]
     rows = [[float(v.replace("+", "")) for v in re.split(r"\s*&\s*", row.strip())] for row in body.split("\\\\")]

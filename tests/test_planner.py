@@ -95,8 +95,9 @@ def test_one_configuration_gives_rank_4_two_give_6(setup):
     run = plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 100.0)
     g = run.g_sensor[run.still]
     sim = sensor.simulated
-    ranks = [predict_excitation({name: g for name in names}, tool, sim.C_bar, sim.D, 1e-5).rank
-             for names in (["A"], ["A", "B"], ["A", "B", "C"])]
+    ranks = [
+        predict_excitation({name: g for name in names}, tool, sim.C_bar, sim.D, 1e-5).rank for names in (["A"], ["A", "B"], ["A", "B", "C"])
+    ]
     assert ranks == [4, 6, 7]
     single = predict_excitation({"A": g}, tool, sim.C_bar, sim.D, 1e-5)
     assert "rank 4 of 7" in single.advice and np.all(np.isinf(single.stderr_C))
@@ -123,8 +124,11 @@ def test_a_home_with_a_vertical_first_sweep_axis_is_flagged(tmp_path, ur5):
     path = _robot_file(tmp_path, "ur5", home=dict(zip(ur5.joint_names, home.tolist(), strict=True)))
     kin = Kinematics(load_robot(path))
     checker = CollisionChecker(kin, load_tool(resolve("paper_tool", "configs")).shape, kin.sweep_joints[0])
-    with pytest.raises(TrajectoryError, match=r"poor home: the axis of wrist_2_joint is (89|90)\.\d° from horizontal .* "
-                                              r"gravity would stay near one circle.*Change wrist_1_joint") as info:
+    with pytest.raises(
+        TrajectoryError,
+        match=r"poor home: the axis of wrist_2_joint is (89|90)\.\d° from horizontal .* "
+        r"gravity would stay near one circle.*Change wrist_1_joint",
+    ) as info:
         plan_calibration(kin, checker, SweepPattern(), 100.0)
     assert info.value.result == "poor home"
 

@@ -13,7 +13,7 @@ def test_windowed_std_equals_the_direct_computation(rng):
     x = np.column_stack([0.1 + 1e-5 * rng.standard_normal(3000), np.sin(3 * t), np.full(3000, 0.123)])
     index = np.arange(3000)
     left, right = window_bounds(t, index, 0.05)
-    direct = np.array([x[a:b + 1].std(axis=0) for a, b in zip(left, right, strict=True)])
+    direct = np.array([x[a : b + 1].std(axis=0) for a, b in zip(left, right, strict=True)])
     got = windowed_std(x, left, right)
     np.testing.assert_allclose(got[:, :2], direct[:, :2], rtol=1e-7, atol=1e-13)
     assert np.all(got[:, 2] == 0.0)  # a constant has no spread, exactly
@@ -68,8 +68,11 @@ def test_the_dynamic_rule_catches_what_loose_joint_thresholds_let_through(ur5, p
     out = f.process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64), final=True)
     assert f.rejected["dynamic wrench"] > 0.5 * len(t) and out.keep.mean() < 0.5
     strict = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0, max_dynamic_fraction=1.0)
-    assert QuasiStaticFilter(strict, ur5, paper_tool).process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64),
-                                                             final=True).keep.all()
+    assert (
+        QuasiStaticFilter(strict, ur5, paper_tool)
+        .process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64), final=True)
+        .keep.all()
+    )
 
 
 def test_bad_thresholds_are_refused():

@@ -62,8 +62,9 @@ def test_collinear_tool_is_explained(ur5, ur5_recording, paper_tool):
     from fts_calib.sensor_config import load_sensor_config
 
     sensor = load_sensor_config(resolve("sensor", "configs")).simulated
-    line = Tool("line", 9.81, tuple(ToolConfiguration(n, 2.0, np.array([x, 0.0, 0.0]))
-                                    for n, x in zip("ABC", (0.05, 0.1, 0.15), strict=True)))
+    line = Tool(
+        "line", 9.81, tuple(ToolConfiguration(n, 2.0, np.array([x, 0.0, 0.0])) for n, x in zip("ABC", (0.05, 0.1, 0.15), strict=True))
+    )
     session = CalibrationSession(ur5, line)
     for c in _chunks(ur5_recording, ur5, paper_tool):
         W = np.array([line.configurations[k].static_wrench(g) for k, g in zip(c.tool, ur5.g_sensor(c.readings), strict=True)])

@@ -44,6 +44,8 @@ def test_simulate_needs_trajectories_of_the_tool(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     assert main(["simulate", "--robot", "ur5", "--trajectory", str(tmp_path / "empty"), "-o", str(tmp_path / "r.csv")]) == 2
     assert "no trajectory file" in capsys.readouterr().err
-    assert main(["simulate", "--robot", "ur5", "--tool", "validation_tool", "--trajectory", str(TRAJECTORIES),
-                 "-o", str(tmp_path / "r.csv")]) == 2
+    assert (
+        main(["simulate", "--robot", "ur5", "--tool", "validation_tool", "--trajectory", str(TRAJECTORIES), "-o", str(tmp_path / "r.csv")])
+        == 2
+    )
     assert "no trajectory for the configurations ['V']" in capsys.readouterr().err
