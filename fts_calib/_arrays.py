@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from .exceptions import ShapeError
 
@@ -34,7 +35,7 @@ def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
     return array
 
 
-def frozen(array: np.ndarray) -> np.ndarray:
+def frozen(array: npt.ArrayLike) -> np.ndarray:
     """Return a read-only float copy of ``array`` (for frozen dataclasses)."""
     out = np.array(array, dtype=float, copy=True)
     out.setflags(write=False)

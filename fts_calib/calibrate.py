@@ -18,7 +18,7 @@ from typing import TextIO
 import numpy as np
 
 from .calibration import Calibration
-from .exceptions import InsufficientExcitation
+from .exceptions import FtsCalibError, InsufficientExcitation
 from .kinematics import Kinematics
 from .pipeline_config import PipelineConfig
 from .recording import RecordingReader
@@ -168,6 +168,8 @@ def format_summary(result: CalibrateResult, recording: Path, output: Path | None
         lines.append(f"NO CALIBRATION: {result.error}")
         return "\n".join(lines)
     cal, q = result.calibration, result.calibration.quality
+    if q is None:  # CalibrationSession.solve always measures the fit
+        raise FtsCalibError("internal error: the calibration has no fit quality")
     lines.append(f"rank {q.rank} of 7, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
     rms = zip(WRENCH_AXES, q.residual_rms, WRENCH_UNITS, strict=True)
     lines.append("residual RMS: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))

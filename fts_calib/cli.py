@@ -37,6 +37,8 @@ def _trajectory(args: argparse.Namespace) -> int:
     if args.tool_radius is not None or args.tool_length is not None:
         import dataclasses
 
+        if tool.shape is None:  # never: Tool.__post_init__ fills in the default envelope
+            raise FtsCalibError(f"tool '{tool.name}' has no shape for the collision checks")
         shape = ToolShape(args.tool_radius or tool.shape.radius, args.tool_length or tool.shape.length)
         tool = dataclasses.replace(tool, shape=shape)
     sensor = load_sensor_config(resolve(args.sensor, "configs"))
@@ -142,6 +144,8 @@ def _live(args: argparse.Namespace) -> int:
         return 1
     path = save_calibration(calibration, args.output)
     q = calibration.quality
+    if q is None:  # CalibrationSession.solve always measures the fit
+        raise FtsCalibError("internal error: the calibration has no fit quality")
     print(f"rank {q.rank} of 7, condition number {q.condition_number:.1f}; wrote {path}")
     return 0
 
@@ -169,7 +173,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from .resources import resolve
     from .sensor_config import load_sensor_config
     from .simulate import simulate_recording
-    from .trajectory_io import read_trajectory
+    from .trajectory_io import TrajectoryFile, read_trajectory
 
     kin, tool, _ = _setup(args)
     sensor_path = resolve(args.sensor, "configs")
@@ -185,7 +189,7 @@ def _simulate(args: argparse.Namespace) -> int:
     files = sorted(folder.glob("*.csv")) + sorted(folder.glob("*.csv.gz")) if folder.is_dir() else [folder]
     if not files:
         raise FileFormatError(folder, None, "no trajectory file (*.csv, *.csv.gz) in this folder")
-    found = {}
+    found: dict[str, TrajectoryFile] = {}
     for path in files:
         traj = read_trajectory(path)
         if traj.tool in tool.names:
@@ -334,7 +338,8 @@ def _payload(args: argparse.Namespace) -> int:
         + " m"
     )
     print("  offsets " + ", ".join(f"{v:+.4f}" for v in estimate.offsets) + " [N, N, N, N·m, N·m, N·m] (add to D to re-tare)")
-    if estimate.mount_rotation is not None:
+    # the two are estimated together: both arrays or both None
+    if estimate.mount_rotation is not None and estimate.stderr_mount_rotation is not None:
         print(
             "  mount rotation "
             + ", ".join(

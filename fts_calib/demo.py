@@ -27,6 +27,7 @@ from .calibrate import calibrate_recording, format_counts
 from .calibration import Calibration, load_calibration, save_calibration
 from .collision import CollisionChecker
 from .estimator import OnlineEstimator
+from .exceptions import FileFormatError
 from .kinematics import Kinematics
 from .pipeline_config import load_pipeline_config
 from .planner import SweepPattern, sample_motion
@@ -101,7 +102,7 @@ def convergence(W: np.ndarray, strain: np.ndarray, true_c11: float, steps: int =
 def _validation_motion(kin: Kinematics, checker: CollisionChecker, home: np.ndarray, rate: float, count: int, rng: np.random.Generator):
     """Waypoints of the last three joints around home, collision-free, as one ruckig motion."""
     index = [kin.joint_names.index(j) for j in _VALIDATION_JOINTS]
-    stops = []
+    stops: list[np.ndarray] = []
     while len(stops) < count:
         candidate = home[index] + rng.uniform(-1.2, 1.2, 3)
         reading = home.copy()
@@ -158,7 +159,10 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     kin = Kinematics(load_robot(robot_path))
     tool = load_tool(resolve("paper_tool", "configs"))
     vtool = load_tool(resolve("validation_tool", "configs"))
-    spec = load_sensor_config(resolve("sensor", "configs"))
+    sensor_path = resolve("sensor", "configs")
+    spec = load_sensor_config(sensor_path)
+    if spec.simulated is None:
+        raise FileFormatError(sensor_path, "simulation", "missing: this sensor file defines no simulated sensor")
     sensor = spec.simulated
     pipeline = load_pipeline_config(resolve("pipeline", "configs"))
     rate = 100.0 if quick else 500.0
@@ -209,6 +213,8 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     lap("convergence")
 
     say("[5/5] validating on another motion with another tool ...")
+    if vtool.shape is None:  # never: Tool.__post_init__ fills in the default envelope
+        raise RuntimeError(f"the demo's validation tool '{vtool.name}' has no shape")
     checker = CollisionChecker(kin, vtool.shape, kin.sweep_joints[0])
     v_time, v_q, v_qd, v_qdd, v_clearance = _validation_motion(
         kin, checker, plan.home, rate, 8 if quick else 16, np.random.default_rng(seed + 1)
@@ -225,6 +231,8 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     validation = validate_recording(v_recording, kin, vtool, [calibration, true], spec.full_scale)
     tables = [load_calibration(resolve(f"paper_table{k}_calibration", "configs")) for k in (1, 2)]
     paper = validate_recording(v_recording, kin, vtool, tables, spec.full_scale).between  # the paper's comparison
+    if paper is None:  # never: two calibrations are compared
+        raise RuntimeError("the demo's comparison of the paper's two tables gave no result")
     say(
         f"      {v_time[-1]:.1f} s of motion through {8 if quick else 16} waypoints of the wrist, tool "
         f"'{vtool.name}' ({vtool.configurations[0].mass} kg), clearance {v_clearance.distance:.3f} m"
@@ -238,6 +246,8 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
             out / "calibration_wrench.png", t, wrench, k, tool.names, "tool wrench on the sensor during the calibration sweeps"
         )
     )
+    if calibration.quality is None:  # never: CalibrationSession.solve always measures the fit
+        raise RuntimeError("the demo's calibration has no fit quality")
     final_se = calibration.quality.stderr_C_bar[0, 0] / abs(sensor.C_bar[0, 0])
     files.append(
         plots.plot_convergence(

@@ -628,4 +628,6 @@ class Kinematics:
         v += np.cross(w, r)
         a += np.cross(al, r) + np.cross(w, np.cross(w, r))
         cols = _compose(cols, self._R_last_sensor)
-        return SensorMotion(*(_transpose_apply(cols, x) for x in (w, al, v, a)), _matrices(cols))
+        return SensorMotion(
+            _transpose_apply(cols, w), _transpose_apply(cols, al), _transpose_apply(cols, v), _transpose_apply(cols, a), _matrices(cols)
+        )

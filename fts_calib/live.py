@@ -125,7 +125,7 @@ class LiveRunner:
         self.status_interval_s = status_interval_s
         self.stats = LiveStats()
         self._stopping = False
-        self._rates = collections.deque(maxlen=20)  # (wall time, joints, strain) for the rates
+        self._rates: collections.deque[tuple[float, int, int]] = collections.deque(maxlen=20)  # (wall time, joints, strain) for the rates
         self._shown = 0
 
     def stop(self, *_args) -> None:
@@ -181,6 +181,8 @@ class LiveRunner:
         return text
 
     def _show(self, line: str, end: str = "") -> None:
+        if self.status is None:  # the callers only show a line when there is a status stream
+            return
         line = line[:240]
         self.status.write("\r" + line.ljust(self._shown) + end)  # spaces clear a longer previous line
         self.status.flush()

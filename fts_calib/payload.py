@@ -88,7 +88,7 @@ def group_orientations(g_sensor: np.ndarray, same_deg: float = _SAME_POSE_DEG) -
     unit = g_sensor / np.linalg.norm(g_sensor, axis=1, keepdims=True)
     labels = np.full(len(unit), -1)
     cos_same = math.cos(math.radians(same_deg))
-    means = []
+    means: list[np.ndarray] = []
     while True:  # one pass per orientation: the first sample not yet grouped starts the next
         free = np.nonzero(labels < 0)[0]
         if not len(free):

@@ -99,7 +99,7 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
         bad = sorted(set(raw) - known)
         if bad:
             raise FileFormatError(path, name, f"unknown keys {bad}; expected {sorted(known)}")
-        values = {}
+        values: dict[str, float | None] = {}
         for key, value in raw.items():
             if key == "max_strain_std" and value == "auto":
                 values[key] = None

@@ -428,7 +428,8 @@ def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: 
     home = np.asarray(home, dtype=float)
     stops = raster(kin, home, ranges, pattern)
     time, q, qd, qdd = sample_motion(kin, home, kin.sweep_joints, stops, pattern.dwell, rate)
-    return Plan(kin.robot.name, kin.joint_names, kin.sweep_joints, home, ranges, stops, pattern, kin.limits, rate, time, q, qd, qdd)
+    first, second = kin.sweep_joints  # two of them: raster has already unpacked them the same way
+    return Plan(kin.robot.name, kin.joint_names, (first, second), home, ranges, stops, pattern, kin.limits, rate, time, q, qd, qdd)
 
 
 def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, dwell: float, rate: float):
@@ -475,7 +476,7 @@ def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, 
     for k, (t0, duration, trajectory, held) in enumerate(pieces):
         rows = np.nonzero(which == k)[0]
         if trajectory is None:
-            q[np.ix_(rows, index)] = held
+            q[np.ix_(rows, np.asarray(index, dtype=np.intp))] = held
             continue
         for row in rows:
             p, v, a = trajectory.at_time(min(time[row] - t0, duration))
@@ -611,7 +612,9 @@ def choose_home(
             if best is None or score > best[0]:
                 best = (score, home)
     if best is None:
-        if not found_horizontal:
+        # closest is None exactly when no horizontal home was found: each one found was either
+        # too close (and updated closest) or scored (and set best)
+        if not found_horizontal or closest is None:
             raise TrajectoryError(
                 f"no joint above {kin.sweep_joints[0]} can make its axis horizontal within the joint "
                 "limits: give 'home' in the robot definition",

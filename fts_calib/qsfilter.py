@@ -209,6 +209,7 @@ class QuasiStaticFilter:
             np.asarray(strain, dtype=float),
             np.asarray(tool, dtype=np.int64),
         )
+        buf: tuple[np.ndarray, ...]
         if self._buffer is None:
             buf = new
         else:
@@ -307,18 +308,19 @@ class QuasiStaticFilter:
             motion = self.kin.sensor_motion(theta[rows], velocity[candidates], acceleration[candidates])
             g = np.einsum("nji,j->ni", motion.R_world_sensor, self.kin.g_world(None if self.tool is None else self.tool.gravity))
             fraction = np.zeros(len(rows))
-            for c, config in enumerate(() if self.tool is None else self.tool.configurations):
-                mine = codes[rows] == c
-                if not mine.any():
-                    continue
-                static = config.static_wrench(g[mine])
-                dynamic = config.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
-                weight = config.mass * self.tool.gravity
-                lever = max(float(np.linalg.norm(config.p_sensor_com)), 1e-3)
-                delta = dynamic - static
-                fraction[mine] = np.maximum(
-                    np.linalg.norm(delta[:, :3], axis=1) / weight, np.linalg.norm(delta[:, 3:], axis=1) / (weight * lever)
-                )
+            if self.tool is not None:  # without a tool the dynamic rule is skipped (every fraction stays 0)
+                for c, config in enumerate(self.tool.configurations):
+                    mine = codes[rows] == c
+                    if not mine.any():
+                        continue
+                    static = config.static_wrench(g[mine])
+                    dynamic = config.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
+                    weight = config.mass * self.tool.gravity
+                    lever = max(float(np.linalg.norm(config.p_sensor_com)), 1e-3)
+                    delta = dynamic - static
+                    fraction[mine] = np.maximum(
+                        np.linalg.norm(delta[:, :3], axis=1) / weight, np.linalg.norm(delta[:, 3:], axis=1) / (weight * lever)
+                    )
             dynamic_ok = fraction <= cfg.max_dynamic_fraction
             dynamic_rejected = int((~dynamic_ok).sum())
             keep[candidates] = dynamic_ok

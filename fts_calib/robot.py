@@ -181,7 +181,9 @@ def read_srdf_pairs(spec: str, base: Path, path: Path) -> frozenset[frozenset[st
         root = ET.parse(srdf).getroot()
     except ET.ParseError as exc:
         raise FileFormatError(path, "collision.srdf", f"{srdf} is not valid XML: {exc}") from None
-    return frozenset(frozenset((e.get("link1"), e.get("link2"))) for e in root.iter("disable_collisions"))
+    pairs = ((e.get("link1"), e.get("link2")) for e in root.iter("disable_collisions"))
+    # an entry missing a link names no pair of links, so it could never match one: leave it out
+    return frozenset(frozenset((a, b)) for a, b in pairs if a is not None and b is not None)
 
 
 def _mapping(value: Any, path: Path, field_name: str) -> Mapping[str, Any]:

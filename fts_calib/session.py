@@ -33,7 +33,7 @@ import numpy as np
 from ._version import __version__
 from .calibration import Calibration, now_iso
 from .estimator import OnlineEstimator
-from .exceptions import FileFormatError, FtsCalibWarning, InsufficientExcitation
+from .exceptions import FileFormatError, FtsCalibError, FtsCalibWarning, InsufficientExcitation
 from .fileio import atomic_write_text
 from .kinematics import Kinematics
 from .pipeline_config import PipelineConfig
@@ -304,6 +304,8 @@ class CalibrationSession:
             calibration = self.estimator.solve()
         except InsufficientExcitation as exc:
             raise InsufficientExcitation(exc.rank, exc.missing, self._missing()) from None
+        if calibration.quality is None:
+            raise FtsCalibError("internal error: the estimator returned a calibration without its fit quality")
         quality = replace(calibration.quality, samples_seen=self.seen, skipped=self.all_skipped())
         mount = self.kin.robot.sensor
         provenance = {

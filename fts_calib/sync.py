@@ -167,7 +167,9 @@ class Synchronizer:
         oldest = self._strain[0][0] if self._strain else self._placed_until
         keep_from = max(0, int(np.searchsorted(jt, oldest - self.max_gap_s, side="left")) - 1)
         self._joint_t, self._joint_q = jt[keep_from:], jq[keep_from:]
-        return Synced(t[ok], readings[ok], strain[ok], [name for name, good in zip(tools, ok, strict=True) if good])
+        # ok implies has_tool, so the name test only tells the type checker what is kept
+        kept_tools = [name for name, good in zip(tools, ok, strict=True) if good and name is not None]
+        return Synced(t[ok], readings[ok], strain[ok], kept_tools)
 
     def _tool_at(self, t: np.ndarray) -> list[str | None]:
         if not self._tools:

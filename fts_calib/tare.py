@@ -56,7 +56,11 @@ def _known_load(
     """The strains to use and the load on the sensor for each (zero with nothing mounted)."""
     if tool is None:
         return strain, np.zeros((len(strain), 6))
+    if configuration is None:
+        raise ValueError(f"tool '{tool.name}' is mounted: give its configuration, one of {tool.names}")
     config_index = tool.names.index(configuration)
+    if kin is None:
+        raise ValueError(f"tool '{tool.name}' is mounted: its load depends on the orientation, so give the kinematics")
     filt = QuasiStaticFilter(config.filter, kin, tool)
     decided = filt.process(time_s, readings, strain, np.full(len(time_s), config_index), final=True)
     weight = tool.configurations[config_index].static_wrench(decided.g_sensor) if len(decided.g_sensor) else np.zeros((0, 6))

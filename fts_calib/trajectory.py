@@ -96,6 +96,8 @@ def plan_trajectories(
         min_clearance: Required clearance [m].
     """
     kin = Kinematics(load_robot(robot_path))
+    if tool.shape is None:  # never: Tool.__post_init__ fills in the default envelope
+        raise ValueError(f"tool '{tool.name}' has no shape for the collision checks")
     checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])
     result = plan_calibration(kin, checker, pattern, rate, min_clearance)
     still = quasi_static(result, filter_config)

@@ -120,6 +120,6 @@ def read_trajectory(path: str | Path) -> TrajectoryFile:
         raise RecordingError(path, None, "tool", f"one tool configuration per file, found {sorted(tools)}")
     table = np.array(rows).reshape(-1, len(header) - 1)
     if np.any(np.diff(table[:, 0]) < 0):
-        line = int(np.argmax(np.diff(table[:, 0]) < 0)) + 3
-        raise RecordingError(path, line, "time", "time goes backwards")
+        backwards = int(np.argmax(np.diff(table[:, 0]) < 0)) + 3
+        raise RecordingError(path, backwards, "time", "time goes backwards")
     return TrajectoryFile(tuple(joints), table[:, 0], table[:, 1::3], table[:, 2::3], table[:, 3::3], tools.pop() if tools else "")

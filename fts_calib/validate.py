@@ -105,7 +105,8 @@ class _Thinner:
     """Keeps at most twice ``limit`` rows of a stream, evenly spaced (every ``stride``-th)."""
 
     def __init__(self, limit: int):
-        self.limit, self.stride, self.seen, self.rows = limit, 1, 0, []
+        self.limit, self.stride, self.seen = limit, 1, 0
+        self.rows: list[tuple[np.ndarray, ...]] = []
 
     def add(self, *columns: np.ndarray) -> None:
         n = len(columns[0])
