@@ -12,7 +12,7 @@ UV := UV_CACHE_DIR=$(CURDIR)/.cache/uv UV_PYTHON_DOWNLOADS=never UV_PROJECT_ENVI
 
 ROBOTS := ur5 ur10 panda kinova xarm7
 
-.PHONY: demo test lint format lock wheel-check bench trajectories clean
+.PHONY: demo test test-floors lint format lock wheel-check bench trajectories clean
 
 $(BIN)/uv:
 	$(PYTHON) -m venv $(VENV)
@@ -42,6 +42,15 @@ format: $(STAMP)
 lock: | $(BIN)/uv
 	$(UV) lock --upgrade
 
+# The suite on the lowest versions pyproject.toml allows (its floors), in a throw-away venv.
+FLOORS := $(VENV)-floors
+test-floors: | $(BIN)/uv
+	rm -rf $(FLOORS)
+	$(UV) venv --quiet --python $(PYTHON) $(FLOORS)
+	$(UV) pip install --quiet --python $(FLOORS)/bin/python --resolution lowest-direct -e '.[dev]'
+	MPLBACKEND=Agg $(FLOORS)/bin/python -m pytest -q -p no:cacheprovider
+	rm -rf $(FLOORS)
+
 # Build the wheel, install it into a fresh venv and run it from a folder outside the checkout.
 wheel-check: $(STAMP)
 	$(BIN)/python tests/wheel_check.py
@@ -54,4 +63,4 @@ trajectories: $(STAMP)
 	@for r in $(ROBOTS); do $(BIN)/fts-calib trajectory --robot $$r -o trajectories/$$r --rate 100 --compress | tail -n 1 || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(OUT) .cache .pytest_cache .ruff_cache .mypy_cache build dist
+	rm -rf $(VENV) $(VENV)-floors $(OUT) .cache .pytest_cache .ruff_cache .mypy_cache build dist
