@@ -292,8 +292,11 @@ def _tare(args: argparse.Namespace) -> int:
     if args.recording:
         result = tare_recording(calibration, args.recording, kin, tool, args.configuration, config)
     elif args.listen:
-        print(f"listening on udp://{args.listen[0]}:{args.listen[1]} for {args.seconds:g} s: hold the sensor still...", flush=True)
-        result = tare_live(calibration, args.listen[0], args.listen[1], args.seconds, kin, tool, args.configuration, config)
+
+        def listening(address: tuple[str, int]) -> None:  # the bound port, also when --listen gave port 0
+            print(f"listening on udp://{address[0]}:{address[1]} for {args.seconds:g} s: hold the sensor still...", flush=True)
+
+        result = tare_live(calibration, args.listen[0], args.listen[1], args.seconds, kin, tool, args.configuration, config, listening)
     else:
         raise FileFormatError(args.calibration, None, "give a recording or --listen HOST:PORT to re-tare from")
     output = save_calibration(result.calibration, args.output or args.calibration)

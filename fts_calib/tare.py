@@ -11,6 +11,7 @@ previous offsets, and when and why they were replaced, in ``offset_history``.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -125,13 +126,19 @@ def tare_live(
     tool: Tool | None = None,
     configuration: str | None = None,
     config: PipelineConfig | None = None,
+    on_listening: Callable[[tuple[str, int]], None] | None = None,
 ) -> TareResult:
-    """Re-tare from a live window of ``seconds`` [s] on the UDP protocol (see :mod:`fts_calib.live`)."""
+    """Re-tare from a live window of ``seconds`` [s] on the UDP protocol (see :mod:`fts_calib.live`).
+
+    ``on_listening`` is called with the bound (host, port) once the socket listens (port 0
+    picks a free one), before the window starts.
+    """
     from .live import UdpReceiver
     from .sync import Synchronizer
 
     config = config or PipelineConfig()
     receiver = UdpReceiver(host, port)
+    host, port = receiver.address[:2]
     sync = (
         None
         if kin is None
@@ -139,6 +146,8 @@ def tare_live(
     )
     strains: list[tuple[float, tuple]] = []
     try:
+        if on_listening is not None:
+            on_listening((host, port))
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             for data in receiver.drain():

@@ -8,11 +8,61 @@ from fts_calib.resources import resolve
 from fts_calib.robot import load_robot
 from fts_calib.tool import load_tool
 
+#: The one seed of the normal suite. ``--seed S`` runs the suite with another one, and
+#: ``--seeds N`` (or ``--seeds A:B``) runs every randomized test once per seed in range(N):
+#: a randomized test must pass for any seed (tests/seed_sweep.py checks a few hundred).
+DEFAULT_SEED = 20261122
+
+
+def pytest_addoption(parser):
+    group = parser.getgroup("fts_calib", "fts_calib seeds")
+    group.addoption("--seed", type=int, default=DEFAULT_SEED, help=f"seed of every randomized test (default {DEFAULT_SEED})")
+    group.addoption("--seeds", metavar="N|A:B", help="run every randomized test once per seed in range(N) or range(A, B)")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "randomized: draws its data from the `seed` fixture (marked on collection); tests/seed_sweep.py")
+    config.addinivalue_line("markers", "slow: takes more than a second a seed; left out of the seed sweep (the reason is at the test)")
+
+
+def seed_range(text: str) -> range:
+    """``"N"`` is range(N), ``"A:B"`` is range(A, B)."""
+    first, _, last = text.rpartition(":")
+    try:
+        seeds = range(int(first or 0), int(last))
+    except ValueError:
+        raise pytest.UsageError(f"--seeds {text!r} but expected N or A:B, e.g. 200 or 0:100") from None
+    if not seeds:
+        raise pytest.UsageError(f"--seeds {text!r} is an empty range")
+    return seeds
+
+
+def pytest_generate_tests(metafunc):
+    text = metafunc.config.getoption("seeds")
+    if text is not None and "seed" in metafunc.fixturenames:
+        seeds = seed_range(text)
+        # session scope: the seeded session and module fixtures (the simulated recordings) are
+        # built once per seed, and pytest groups the tests of one seed together
+        metafunc.parametrize("seed", seeds, ids=[f"seed{s}" for s in seeds], scope="session")
+
+
+@pytest.hookimpl(tryfirst=True)  # before -m selects on the marker
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if "seed" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.randomized)
+
+
+@pytest.fixture(scope="session")
+def seed(request):
+    """The seed of every random draw in a test: ``--seed`` (default DEFAULT_SEED), or one of ``--seeds``."""
+    return request.config.getoption("seed")
+
 
 @pytest.fixture
-def rng():
-    """A seeded generator: every random test is reproducible."""
-    return np.random.default_rng(20261122)
+def rng(seed):
+    """A generator seeded by ``seed``: every random test is reproducible, and passes for any seed."""
+    return np.random.default_rng(seed)
 
 
 @pytest.fixture(scope="session")
@@ -77,7 +127,7 @@ def short_plan():
 
 
 @pytest.fixture(scope="session")
-def ur5_recording(tmp_path_factory, short_plan):
+def ur5_recording(tmp_path_factory, short_plan, seed):
     """A simulated UR5 recording of the short plan: noise, 24-bit ADC, moving tool (Newton-Euler)."""
     from fts_calib.sensor_config import load_sensor_config
     from fts_calib.simulate import simulate_recording
@@ -89,4 +139,4 @@ def ur5_recording(tmp_path_factory, short_plan):
     p = short_plan
     trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
     path = tmp_path_factory.mktemp("recordings") / "ur5.csv"
-    return simulate_recording(path, kin, tool, trajectories, sensor, np.random.default_rng(7))
+    return simulate_recording(path, kin, tool, trajectories, sensor, np.random.default_rng(seed))

@@ -26,9 +26,14 @@ def test_the_filter_makes_the_error_at_least_five_times_smaller_on_a_moving_tool
     with_filter = calibrate_recording(ur5_recording, ur5, paper_tool).calibration
     without = calibrate_recording(ur5_recording, ur5, paper_tool, use_filter=False).calibration
     e_with, e_without = _error(with_filter, truth), _error(without, truth)
-    assert e_without >= 5 * e_with, (e_with, e_without)
-    assert e_with < 1e-4  # 0.01 % of the row's largest coefficient
-    assert np.all(np.abs(with_filter.C - truth.C) <= 4 * with_filter.quality.stderr_C)
+    assert e_without >= 5 * e_with, (e_with, e_without)  # 340 to 1000 times over 40 seeds
+    # With the filter only the strain noise is left: about 1,130 kept samples give standard errors
+    # of 4.3e-5 to 4.6e-5 of the row's largest coefficient, so the largest of 48 errors stays
+    # below 5 sigma, 2.5e-4 (a fixed figure: it also catches standard errors that grew).
+    assert e_with < 2.5e-4, e_with
+    # 48 coefficients at 5 sigma: P(any outside) < 48 x 6e-7 = 3e-5 for a seed
+    z = np.abs(with_filter.C - truth.C) / with_filter.quality.stderr_C
+    assert np.all(z <= 5), f"largest error {z.max():.2f} standard errors"
 
 
 def test_cli_calibrate_summary_and_file(tmp_path, ur5_recording, capsys):

@@ -62,8 +62,9 @@ int main(void) {{
 def test_json_export_holds_the_calibration(calibration):
     data = json.loads(json_text(calibration))
     assert data["format"] == "fts-calib/1"
-    np.testing.assert_allclose(data["C"], calibration.C, rtol=1e-15)
-    np.testing.assert_allclose(data["D"], calibration.D, rtol=1e-15)
+    # JSON numbers are Python reprs, which read back as the same double: exact
+    np.testing.assert_array_equal(data["C"], calibration.C)
+    np.testing.assert_array_equal(data["D"], calibration.D)
 
 
 def test_ros2_parameters_of_the_gravity_compensation_filter():
@@ -72,8 +73,9 @@ def test_ros2_parameters_of_the_gravity_compensation_filter():
     f = params["force_torque_sensor_broadcaster"]["ros__parameters"]["sensor_filter_chain"]["filter1"]
     assert f["type"] == "control_filters/GravityCompensationWrench"
     assert f["params"]["world_frame"] == "base_link" and f["params"]["sensor_frame"] == "ft_sensor_link"
-    np.testing.assert_allclose(f["params"]["CoG"]["pos"], payload.p_sensor_com)
-    np.testing.assert_allclose(f["params"]["CoG"]["force"], [0, 0, -1.4 * 9.81])
+    np.testing.assert_array_equal(f["params"]["CoG"]["pos"], payload.p_sensor_com)  # YAML reprs round-trip
+    # m g with the tool file's 1.4 kg: one product, to an eps of it (the zeros are exact)
+    np.testing.assert_allclose(f["params"]["CoG"]["force"], [0, 0, -1.4 * 9.81], rtol=0, atol=1e-15 * 1.4 * 9.81)
 
 
 def test_cli_export_and_bad_calibration_files(tmp_path, calibration, capsys):

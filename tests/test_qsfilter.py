@@ -15,7 +15,10 @@ def test_windowed_std_equals_the_direct_computation(rng):
     left, right = window_bounds(t, index, 0.05)
     direct = np.array([x[a : b + 1].std(axis=0) for a, b in zip(left, right, strict=True)])
     got = windowed_std(x, left, right)
-    np.testing.assert_allclose(got[:, :2], direct[:, :2], rtol=1e-7, atol=1e-13)
+    # running sums lose digits to the mean of each column, so their round-off follows the column's
+    # scale (spreads of 1e-5 and up to 0.09), not each entry (the sine's spread varies 25-fold)
+    for k, column in enumerate(("noise", "sine")):
+        np.testing.assert_allclose(got[:, k], direct[:, k], rtol=0, atol=1e-7 * np.abs(direct[:, k]).max(), err_msg=column)
     assert np.all(got[:, 2] == 0.0)  # a constant has no spread, exactly
 
 
@@ -25,11 +28,11 @@ def _stream(path, kin, tool):
     return [np.concatenate([getattr(c, f) for c in chunks]) for f in ("time", "readings", "strain", "tool")]
 
 
-def test_decisions_do_not_depend_on_where_chunks_end(ur5, paper_tool, ur5_recording):
+def test_decisions_do_not_depend_on_where_chunks_end(ur5, paper_tool, ur5_recording, rng):
     t, q, s, k = _stream(ur5_recording, ur5, paper_tool)
     whole = QuasiStaticFilter(FilterConfig(), ur5, paper_tool).process(t, q, s, k, final=True)
     filt = QuasiStaticFilter(FilterConfig(), ur5, paper_tool)
-    cuts = np.sort(np.random.default_rng(3).choice(len(t), 25, replace=False))
+    cuts = np.sort(rng.choice(len(t), 25, replace=False))
     parts = [filt.process(*(a[i:j] for a in (t, q, s, k))) for i, j in zip([0, *cuts], [*cuts, len(t)], strict=True)]
     parts.append(filt.process(t[:0], q[:0], s[:0], k[:0], final=True))
     keep = np.concatenate([p.keep for p in parts])

@@ -34,6 +34,8 @@ def test_write_then_read_in_small_chunks(tmp_path, rng, name):
     assert len(chunks) > 5 and chunks[1].first_line == 2 + len(chunks[0].time)
     np.testing.assert_allclose(np.concatenate([c.time for c in chunks]), t, atol=5e-7)
     np.testing.assert_allclose(np.concatenate([c.readings for c in chunks]), q, atol=5e-10)
+    # strains are written as %.9e, a relative rounding of 5e-10 however small the value: here,
+    # and only here, a tolerance relative to each entry is the model of the error
     np.testing.assert_allclose(np.concatenate([c.strain for c in chunks]), s, rtol=1e-9)
     assert np.concatenate([c.tool for c in chunks]).tolist() == [0] * 600 + [1] * 400
     assert reader.skipped == {} and reader.rows_read == 1000

@@ -12,6 +12,9 @@ from fts_calib.service import GravityCompensator, WrenchReader
 from fts_calib.tool import load_tool
 
 from .conftest import random_readings
+from .helpers import strains_eq22
+
+FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N, N, N m, N m, N m], the paper's sensor
 
 
 @pytest.fixture(scope="module")
@@ -21,17 +24,23 @@ def world():
     return sensor, Calibration(sensor.C_bar, sensor.D), payload
 
 
-def test_single_and_batch_paths_equal_the_calibration(world, rng):
+def test_single_and_batch_paths_give_the_wrench_that_made_the_strains(world, rng):
+    """Noiseless strains of known wrenches (eq 22 with the paper's P, typed in helpers.py)."""
     _, cal, _ = world
     reader = WrenchReader(cal)
-    strains = rng.standard_normal((20, 8)) * 0.1
-    np.testing.assert_allclose(reader.wrench_batch(strains), cal.wrench(strains), rtol=1e-14)
-    for s in strains[:3]:
-        np.testing.assert_allclose(reader.wrench(s), cal.wrench(s), rtol=1e-14)
+    W = rng.uniform(-1.0, 1.0, (20, 6)) * FULL_SCALE
+    strains = strains_eq22(cal.C_bar, cal.D, W)
+    # eq 22 solves with C_bar (condition number about 100) and the reader sums 8 products:
+    # round-off of 100 eps of the largest entry, whatever the order of the sums
+    atol = 1e-12 * np.abs(W).max()
+    np.testing.assert_allclose(reader.wrench_batch(strains), W, rtol=0, atol=atol)
+    for s, w in zip(strains[:3], W[:3], strict=True):
+        np.testing.assert_allclose(reader.wrench(s), w, rtol=0, atol=atol)
     with pytest.raises(ShapeError, match=r"strain.shape=\(7,\) but expected \(8,\)"):
         reader.wrench(np.zeros(7))
-    reader.set_offsets(cal.D + 1.0)  # after a re-tare, in a running loop
-    np.testing.assert_allclose(reader.wrench(strains[0]), cal.wrench(strains[0]) + 1.0, rtol=1e-14)
+    reader.set_offsets(cal.D + 1.0)  # after a re-tare, in a running loop: every component reads 1 more
+    np.testing.assert_allclose(reader.wrench(strains[0]), W[0] + 1.0, rtol=0, atol=atol)
+    np.testing.assert_allclose(reader.wrench_batch(strains), W + 1.0, rtol=0, atol=atol)
 
 
 def test_one_sample_allocates_nothing_in_steady_state(world, rng):
@@ -78,11 +87,18 @@ def test_a_push_appears_with_its_true_size_in_every_frame(world, ur5, rng):
     sensor_frame = comp.external_batch(strains, np.tile(R, (200, 1, 1))).mean(axis=0)
     world_frame = comp.external_batch(strains, np.tile(R, (200, 1, 1)), frame="world").mean(axis=0)
     at_tip = comp.external_batch(strains, np.tile(R, (200, 1, 1)), point=tip).mean(axis=0)
-    # noise of a 200-sample mean: about 2.7e-4 N and 1e-5 N m
+    # noise of a 200-sample mean, from the sensor's (covariance C diag(s^2) C^T / 200): at most
+    # 2.7e-4 N and 4e-6 N m at the sensor; about the tip, the moment also carries tip x (the force's
+    # noise), up to 4e-5 N m. Each check is 5 sigma or more of its noise, for any seed.
+    cov = sensor.C @ np.diag(sensor.noise_std**2) @ sensor.C.T / 200
+    tx, ty, tz = tip
+    to_tip = np.eye(6)
+    to_tip[3:, :3] = -np.array([[0.0, -tz, ty], [tz, 0.0, -tx], [-ty, tx, 0.0]])  # M_tip = M - tip x F
+    sigma_tip = np.sqrt(np.diag(to_tip @ cov @ to_tip.T))
     np.testing.assert_allclose(world_frame[:3], push_world, atol=2e-3)
     np.testing.assert_allclose(sensor_frame[:3], f_s, atol=2e-3)
     np.testing.assert_allclose(sensor_frame[3:], np.cross(tip, f_s), atol=1e-4)
-    np.testing.assert_allclose(at_tip[3:], 0.0, atol=1e-4)  # a pure force at the tip: no moment about it
+    np.testing.assert_allclose(at_tip[3:], 0.0, atol=5 * sigma_tip[3:].max())  # a pure force at the tip: no moment about it
     np.testing.assert_allclose(world_frame[3:], R @ sensor_frame[3:], atol=1e-12)
     with pytest.raises(ValueError, match="frame='tool' but expected one of"):
         comp.external(strains[0], R, frame="tool")

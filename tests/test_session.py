@@ -31,7 +31,9 @@ def test_single_samples_and_batches_give_the_same_calibration(ur5, paper_tool, u
             single.add(t, q, s, paper_tool.names[k])
     _feed(single, chunks[2:])
     a, b = batch.solve(), single.solve()
-    np.testing.assert_allclose(a.C_bar, b.C_bar, rtol=1e-10)
+    # the same samples summed in another grouping: round-off of the sums (N eps, N ~ 1,000)
+    # times the condition number (< 100), of the largest coefficient; C_bar has entries near zero
+    np.testing.assert_allclose(a.C_bar, b.C_bar, rtol=0, atol=1e-10 * np.abs(b.C_bar).max())
     assert a.quality.samples_used == b.quality.samples_used > 1000
 
 

@@ -30,14 +30,15 @@ def test_noiseless_recording_holds_exactly_the_tool_wrench_through_the_sensor(tm
     assert np.all(np.diff(times) > 0)  # configurations one after the other, with a pause
 
 
-def test_a_simulated_recording_is_calibrated_unchanged(tmp_path, capsys):
+def test_a_simulated_recording_is_calibrated_unchanged(tmp_path, capsys, seed):
     rec, cal = tmp_path / "rec.csv.gz", tmp_path / "cal.yaml"
-    assert main(["simulate", "--robot", "ur5", "--trajectory", str(TRAJECTORIES), "-o", str(rec), "--seed", "3"]) == 0
+    assert main(["simulate", "--robot", "ur5", "--trajectory", str(TRAJECTORIES), "-o", str(rec), "--seed", str(seed)]) == 0
     assert main(["calibrate", "--robot", "ur5", str(rec), "-o", str(cal), "--quiet"]) == 0
     calibration = load_calibration(cal)
     truth = load_sensor_config(resolve("sensor", "configs")).simulated
     assert calibration.quality.rank == 7 and "malformed line" not in calibration.quality.skipped
-    assert np.all(np.abs(calibration.C - truth.C) <= 4 * calibration.quality.stderr_C)
+    # 48 coefficients at 5 standard errors: P(any outside) < 48 x 6e-7 = 3e-5 for a seed
+    assert np.all(np.abs(calibration.C - truth.C) <= 5 * calibration.quality.stderr_C)
 
 
 def test_simulate_needs_trajectories_of_the_tool(tmp_path, capsys):

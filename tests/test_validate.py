@@ -1,7 +1,5 @@
 """Validation: at the noise floor with the true calibration, the perturbation with a wrong one."""
 
-import dataclasses
-
 import numpy as np
 import pytest
 
@@ -21,19 +19,19 @@ JOINTS = ("wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
 
 
 @pytest.fixture(scope="module")
-def setup(tmp_path_factory, _kinematics_cache):
+def setup(tmp_path_factory, _kinematics_cache, seed):
     from .conftest import _kinematics
 
     kin = _kinematics(_kinematics_cache, "ur5")
     tool = load_tool(resolve("validation_tool", "configs"))
     spec = load_sensor_config(resolve("sensor", "configs"))
-    rng = np.random.default_rng(11)
+    rng = np.random.default_rng([seed, 0])  # the motion; [seed, 1] and [seed, 2] the noise of the recordings
     stops = HOME[[3, 4, 5]] + rng.uniform(-1.0, 1.0, (8, 3))
     t, q, qd, qdd = sample_motion(kin, HOME, JOINTS, stops, 0.0, 500.0)
     traj = [TrajectoryFile(kin.joint_names, t, q, qd, qdd, "V")]
     folder = tmp_path_factory.mktemp("validation")
-    static = simulate_recording(folder / "static.csv", kin, tool, traj, spec.simulated, np.random.default_rng(1), dynamic=False)
-    moving = simulate_recording(folder / "moving.csv", kin, tool, traj, spec.simulated, np.random.default_rng(2))
+    static = simulate_recording(folder / "static.csv", kin, tool, traj, spec.simulated, np.random.default_rng([seed, 1]), dynamic=False)
+    moving = simulate_recording(folder / "moving.csv", kin, tool, traj, spec.simulated, np.random.default_rng([seed, 2]))
     return kin, tool, spec, static, moving
 
 
@@ -89,4 +87,12 @@ def test_validate_refuses_three_calibrations(setup):
     true = Calibration(spec.simulated.C_bar, spec.simulated.D)
     with pytest.raises(ValueError, match="3 calibrations given but expected one or two"):
         validate_recording(static, kin, tool, [true] * 3, spec.full_scale)
-    assert dataclasses.is_dataclass(true)
+    with pytest.raises(ValueError, match="0 calibrations given"):
+        validate_recording(static, kin, tool, [], spec.full_scale)
+    # one or two are taken; a calibration against itself differs by exactly nothing
+    one = validate_recording(static, kin, tool, [true], spec.full_scale, dynamic=False)
+    two = validate_recording(static, kin, tool, [true, true], spec.full_scale, dynamic=False)
+    assert one.between is None and two.samples == one.samples > 0
+    np.testing.assert_array_equal(two.between.max_abs, np.zeros(6))
+    np.testing.assert_array_equal(two.errors[0].rms, one.errors[0].rms)
+    np.testing.assert_array_equal(two.errors[1].rms, one.errors[0].rms)
