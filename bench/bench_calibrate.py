@@ -14,14 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
-from fts_calib.kinematics import Kinematics
-from fts_calib.recording import RecordingWriter
-from fts_calib.resources import data_dir, resolve
-from fts_calib.robot import load_robot
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.simulate import tool_wrenches
-from fts_calib.tool import load_tool
-from fts_calib.trajectory_io import read_trajectory
+from fts_calib.core.resources import data_dir, resolve
+from fts_calib.feeds.recording import RecordingWriter
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.planning.trajectory_io import read_trajectory
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
+from fts_calib.sim.recording import tool_wrenches
 
 
 def write_recording(path: Path, rows: int) -> None:
@@ -59,7 +59,7 @@ def main():
         # the child reports its own high-water mark (VmHWM, reset at exec; ru_maxrss would
         # include the memory of this parent at the time of the fork)
         child = (
-            "import sys; from fts_calib.cli import main; code = main(sys.argv[1:]); "
+            "import sys; from fts_calib.app.cli import main; code = main(sys.argv[1:]); "
             "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)"
         )
         command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", str(path), "-o", str(Path(folder) / "cal.yaml"), "--quiet"]

@@ -8,8 +8,8 @@ import io
 import tempfile
 import time
 
-from fts_calib.demo import run_demo
-from fts_calib.recording import RecordingReader
+from fts_calib.app.demo import run_demo
+from fts_calib.feeds.recording import RecordingReader
 
 
 def main():

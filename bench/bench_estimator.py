@@ -9,7 +9,7 @@ import tracemalloc
 import numpy as np
 
 from fts_calib import OnlineEstimator, SimulatedSensor, static_wrench
-from fts_calib.sensor import P
+from fts_calib.model.sensor import P
 
 
 def _data(n: int, rng: np.random.Generator):

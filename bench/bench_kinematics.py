@@ -7,10 +7,10 @@ import time
 
 import numpy as np
 
-from fts_calib.kinematics import Kinematics
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.tool import load_tool
+from fts_calib.core.resources import resolve
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
 
 
 def _readings(kin: Kinematics, n: int, rng: np.random.Generator) -> np.ndarray:

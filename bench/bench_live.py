@@ -36,7 +36,7 @@ def main():
             [
                 sys.executable,
                 "-m",
-                "fts_calib.cli",
+                "fts_calib.app.cli",
                 "live",
                 "--robot",
                 "ur5",

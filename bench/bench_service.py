@@ -8,13 +8,13 @@ import time
 import numpy as np
 
 from fts_calib import Calibration
-from fts_calib.kinematics import Kinematics
-from fts_calib.payload import identify_payload
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.service import GravityCompensator
-from fts_calib.tool import load_tool
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
+from fts_calib.service.payload import identify_payload
+from fts_calib.service.reader import GravityCompensator
 
 
 def per_call(fn, args, blocks: int = 200, calls: int = 500) -> float:

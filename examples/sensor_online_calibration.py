@@ -3,8 +3,8 @@
 import numpy as np
 
 from fts_calib import OnlineEstimator, static_wrench
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
 
 
 def main():

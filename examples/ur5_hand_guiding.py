@@ -5,13 +5,13 @@ import math
 import numpy as np
 
 from fts_calib import estimate_offsets, load_calibration
-from fts_calib.kinematics import Kinematics
-from fts_calib.payload import identify_payload
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.service import GravityCompensator
-from fts_calib.tool import ToolConfiguration, load_tool
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import ToolConfiguration, load_tool
+from fts_calib.service.payload import identify_payload
+from fts_calib.service.reader import GravityCompensator
 
 RATE = 1000.0  # [Hz] the control loop
 DETECT = 4.0  # [N] an external force above this is a push: start guiding

@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from fts_calib.kinematics import Kinematics
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.tool import load_tool
+from fts_calib.core.resources import resolve
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
 
 
 def _r(x):

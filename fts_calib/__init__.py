@@ -10,9 +10,7 @@ frame S; sample axis first.
 """
 
 from ._version import __version__
-from .calibration import Calibration, Quality, load_calibration, save_calibration
-from .estimator import OffsetEstimate, OnlineEstimator, estimate_offsets, information_rank, jig_calibration
-from .exceptions import (
+from .core.exceptions import (
     FileFormatError,
     FrameNotFound,
     FtsCalibError,
@@ -24,16 +22,18 @@ from .exceptions import (
     StructureError,
     TrajectoryError,
 )
-from .kinematics import Kinematics
-from .payload import PayloadError, PayloadEstimate, identify_payload
-from .robot import load_robot
-from .sensor import WRENCH_AXES, P, c_bar_from_c, c_from_c_bar, project, wrench_from_strain
-from .sensor_config import load_sensor_config
-from .service import GravityCompensator, WrenchReader
-from .session import CalibrationSession
-from .simsensor import SimulatedSensor
-from .tool import Tool, ToolConfiguration, load_tool, save_tool
-from .wrench import dynamic_wrench, static_wrench
+from .model.calibration import Calibration, Quality, load_calibration, save_calibration
+from .model.estimator import OffsetEstimate, OnlineEstimator, estimate_offsets, information_rank, jig_calibration
+from .model.sensor import WRENCH_AXES, P, c_bar_from_c, c_from_c_bar, project, wrench_from_strain
+from .model.sensor_config import load_sensor_config
+from .pipeline.session import CalibrationSession
+from .robot.definition import load_robot
+from .robot.kinematics import Kinematics
+from .robot.tool import Tool, ToolConfiguration, load_tool, save_tool
+from .robot.wrench import dynamic_wrench, static_wrench
+from .service.payload import PayloadError, PayloadEstimate, identify_payload
+from .service.reader import GravityCompensator, WrenchReader
+from .sim.sensor import SimulatedSensor
 
 __all__ = [
     "Calibration",

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from fts_calib.kinematics import Kinematics
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.tool import load_tool
+from fts_calib.core.resources import resolve
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
 
 #: The one seed of the normal suite. ``--seed S`` runs the suite with another one, and
 #: ``--seeds N`` (or ``--seeds A:B``) runs every randomized test once per seed in range(N):
@@ -114,8 +114,8 @@ def random_readings(kin, n, rng):
 @pytest.fixture(scope="session")
 def short_plan():
     """A short UR5 calibration motion (3 levels x 4 stops, 100 Hz) for all three configurations."""
-    from fts_calib.collision import CollisionChecker
-    from fts_calib.planner import SweepPattern, plan_sweeps, sweep_ranges, wrist_ranges
+    from fts_calib.planning.planner import SweepPattern, plan_sweeps, sweep_ranges, wrist_ranges
+    from fts_calib.robot.collision import CollisionChecker
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))
@@ -129,9 +129,9 @@ def short_plan():
 @pytest.fixture(scope="session")
 def ur5_recording(tmp_path_factory, short_plan, seed):
     """A simulated UR5 recording of the short plan: noise, 24-bit ADC, moving tool (Newton-Euler)."""
-    from fts_calib.sensor_config import load_sensor_config
-    from fts_calib.simulate import simulate_recording
-    from fts_calib.trajectory_io import TrajectoryFile
+    from fts_calib.model.sensor_config import load_sensor_config
+    from fts_calib.planning.trajectory_io import TrajectoryFile
+    from fts_calib.sim.recording import simulate_recording
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from fts_calib import load_calibration
-from fts_calib.calibrate import calibrate_recording
-from fts_calib.cli import main
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
+from fts_calib.app.cli import main
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.pipeline.calibrate import calibrate_recording
 
 
 @pytest.fixture(scope="module")

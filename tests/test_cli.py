@@ -3,7 +3,7 @@
 import pytest
 
 from fts_calib import load_calibration
-from fts_calib.cli import build_parser, main
+from fts_calib.app.cli import build_parser, main
 
 
 def _commands():

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib.collision import CollisionChecker
-from fts_calib.kinematics import Kinematics
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.tool import ToolShape
+from fts_calib.core.resources import resolve
+from fts_calib.robot.collision import CollisionChecker
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import ToolShape
 
 DOWN = np.array([0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0])  # UR5, tool pointing down
 

@@ -5,7 +5,7 @@ import io
 import numpy as np
 import pytest
 
-from fts_calib.demo import run_demo
+from fts_calib.app.demo import run_demo
 
 # Left out of the seed sweep: the quick demo plans, simulates, calibrates and validates (about
 # 4 s a seed). Its steps are swept one by one: test_calibrate, test_validate, test_estimator.

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from fts_calib import OnlineEstimator
-from fts_calib.excitation import coverage_angle, predict_excitation
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.planning.excitation import coverage_angle, predict_excitation
 
 from .helpers import random_gravity
 

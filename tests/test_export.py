@@ -9,11 +9,11 @@ import pytest
 import yaml
 
 from fts_calib import Calibration, load_calibration, save_calibration
-from fts_calib.cli import main
-from fts_calib.export import c_header, json_text, ros2_parameters
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.tool import load_tool
+from fts_calib.app.cli import main
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.robot.tool import load_tool
+from fts_calib.service.export import c_header, json_text, ros2_parameters
 
 
 @pytest.fixture(scope="module")

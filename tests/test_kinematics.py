@@ -7,10 +7,10 @@ import pinocchio as pin
 import pytest
 
 from fts_calib import FrameNotFound, FtsCalibWarning, JointError
-from fts_calib.kinematics import Kinematics
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.tool import ToolConfiguration
+from fts_calib.core.resources import resolve
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import ToolConfiguration
 
 from .conftest import random_readings
 from .urdf_chain import UrdfChain, homogeneous, rot_rpy

@@ -18,12 +18,12 @@ import pytest
 import yaml
 
 from fts_calib import load_calibration
-from fts_calib.calibrate import calibrate_recording
-from fts_calib.live import LiveRunner, UdpReceiver
-from fts_calib.protocol import encode
-from fts_calib.replay import ReplayOptions, messages, replay
-from fts_calib.session import CalibrationSession
-from fts_calib.sync import Synchronizer
+from fts_calib.feeds.protocol import encode
+from fts_calib.feeds.replay import ReplayOptions, messages, replay
+from fts_calib.feeds.sync import Synchronizer
+from fts_calib.pipeline.calibrate import calibrate_recording
+from fts_calib.pipeline.live import LiveRunner, UdpReceiver
+from fts_calib.pipeline.session import CalibrationSession
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -187,7 +187,7 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
     (tmp_path / "pipeline.yaml").write_text(yaml.safe_dump(pipeline))
     out = tmp_path / "cal.yaml"
     checkpoint = tmp_path / "cal.yaml.checkpoint.json"
-    command = [sys.executable, "-m", "fts_calib.cli", "live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(out)]
+    command = [sys.executable, "-m", "fts_calib.app.cli", "live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(out)]
     command += ["--pipeline", str(tmp_path / "pipeline.yaml"), "--idle-timeout", "20", "--quiet"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fts_calib import P, c_bar_from_c, c_from_c_bar
-from fts_calib.sensor import P_NULL, P_PINV
+from fts_calib.model.sensor import P_NULL, P_PINV
 
 from .paper import ROUNDING, TABLE_1, TABLE_2
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from fts_calib import ShapeError
-from fts_calib.payload import PayloadError, identify_payload
-from fts_calib.tool import load_tool, save_tool
+from fts_calib.robot.tool import load_tool, save_tool
+from fts_calib.service.payload import PayloadError, identify_payload
 
 MASS, COM = 1.37, np.array([0.03, -0.01, 0.085])  # [kg], [m]
 OFFSETS = np.array([0.3, -0.2, 0.1, 0.01, -0.02, 0.005])  # [N, N·m]
@@ -84,9 +84,9 @@ def test_the_payload_is_saved_as_a_tool_file(tmp_path, rng):
 
 def _payload_recording(path, ur5, poses, rng):
     """The validation payload held still 0.3 s in each pose, on the simulated sensor."""
-    from fts_calib.recording import RecordingWriter
-    from fts_calib.resources import resolve
-    from fts_calib.sensor_config import load_sensor_config
+    from fts_calib.core.resources import resolve
+    from fts_calib.feeds.recording import RecordingWriter
+    from fts_calib.model.sensor_config import load_sensor_config
 
     sensor = load_sensor_config(resolve("sensor", "configs")).simulated
     payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
@@ -103,9 +103,9 @@ def _payload_recording(path, ur5, poses, rng):
 
 def test_cli_payload_identifies_and_refuses(tmp_path, ur5, rng, capsys):
     from fts_calib import Calibration, save_calibration
-    from fts_calib.cli import main
-    from fts_calib.resources import resolve
-    from fts_calib.sensor_config import load_sensor_config
+    from fts_calib.app.cli import main
+    from fts_calib.core.resources import resolve
+    from fts_calib.model.sensor_config import load_sensor_config
 
     sensor = load_sensor_config(resolve("sensor", "configs")).simulated
     cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")

@@ -8,17 +8,17 @@ import pytest
 import yaml
 
 from fts_calib import FileFormatError, JointError, TrajectoryError
-from fts_calib.collision import CollisionChecker
-from fts_calib.excitation import predict_excitation
-from fts_calib.kinematics import Kinematics
-from fts_calib.pipeline_config import load_pipeline_config
-from fts_calib.planner import SweepPattern, plan_calibration, plan_sweeps, sweep_ranges
-from fts_calib.resources import resolve
-from fts_calib.robot import load_robot
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.tool import ToolShape, load_tool
-from fts_calib.trajectory import plan_trajectories
-from fts_calib.trajectory_io import read_trajectory
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.pipeline.settings import load_pipeline_config
+from fts_calib.planning.excitation import predict_excitation
+from fts_calib.planning.planner import SweepPattern, plan_calibration, plan_sweeps, sweep_ranges
+from fts_calib.planning.trajectory import plan_trajectories
+from fts_calib.planning.trajectory_io import read_trajectory
+from fts_calib.robot.collision import CollisionChecker
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import ToolShape, load_tool
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ["ur5", "ur10", "panda", "kinova", "xarm7"]

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from fts_calib.pipeline_config import FilterConfig
-from fts_calib.qsfilter import QuasiStaticFilter, window_bounds, windowed_std
-from fts_calib.recording import RecordingReader
+from fts_calib.feeds.recording import RecordingReader
+from fts_calib.pipeline.qsfilter import QuasiStaticFilter, window_bounds, windowed_std
+from fts_calib.pipeline.settings import FilterConfig
 
 
 def test_windowed_std_equals_the_direct_computation(rng):

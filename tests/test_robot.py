@@ -7,10 +7,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-from fts_calib import FileFormatError, resources
-from fts_calib.cli import main
-from fts_calib.resources import ROBOT_DATA_ENV, RobotDataNotFound, example_robot_data_dir, resolve, shipped
-from fts_calib.robot import load_robot, parse_angle
+from fts_calib import FileFormatError
+from fts_calib.app.cli import main
+from fts_calib.core import resources
+from fts_calib.core.resources import ROBOT_DATA_ENV, RobotDataNotFound, example_robot_data_dir, resolve, shipped
+from fts_calib.robot.definition import load_robot, parse_angle
 
 SHIPPED = ["kinova", "panda", "ur10", "ur5", "xarm7"]
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fts_calib import Calibration, ShapeError, StructureError, c_bar_from_c, project, wrench_from_strain
-from fts_calib.sensor import P_NULL
+from fts_calib.model.sensor import P_NULL
 
 from .helpers import C_BAR_TRUE, D_TRUE, strains_eq22
 from .paper import TABLE_1

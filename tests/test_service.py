@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from fts_calib import Calibration, ShapeError
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.service import GravityCompensator, WrenchReader
-from fts_calib.tool import load_tool
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.robot.tool import load_tool
+from fts_calib.service.reader import GravityCompensator, WrenchReader
 
 from .conftest import random_readings
 from .helpers import strains_eq22

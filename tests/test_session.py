@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from fts_calib import FtsCalibWarning, InsufficientExcitation
-from fts_calib.pipeline_config import LiveConfig, PipelineConfig
-from fts_calib.recording import RecordingReader
-from fts_calib.session import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, CalibrationSession
-from fts_calib.tool import Tool, ToolConfiguration
+from fts_calib.feeds.recording import RecordingReader
+from fts_calib.pipeline.session import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, CalibrationSession
+from fts_calib.pipeline.settings import LiveConfig, PipelineConfig
+from fts_calib.robot.tool import Tool, ToolConfiguration
 
 
 def _chunks(path, kin, tool, rows=4000):
@@ -60,8 +60,8 @@ def test_progress_says_what_is_missing(ur5, paper_tool, ur5_recording):
 
 def test_collinear_tool_is_explained(ur5, ur5_recording, paper_tool):
     """Strains made by a tool whose centres of mass lie on one line: rank 6 at most (eqs 19-20)."""
-    from fts_calib.resources import resolve
-    from fts_calib.sensor_config import load_sensor_config
+    from fts_calib.core.resources import resolve
+    from fts_calib.model.sensor_config import load_sensor_config
 
     sensor = load_sensor_config(resolve("sensor", "configs")).simulated
     line = Tool(

@@ -5,8 +5,8 @@ import pytest
 import yaml
 
 from fts_calib import FileFormatError, SimulatedSensor, project
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
 
 from .helpers import C_BAR_TRUE, D_TRUE
 from .paper import TABLE_1

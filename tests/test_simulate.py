@@ -3,12 +3,12 @@
 import numpy as np
 
 from fts_calib import load_calibration
-from fts_calib.cli import main
-from fts_calib.recording import RecordingReader
-from fts_calib.resources import data_dir, resolve
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.simulate import tool_wrenches
-from fts_calib.trajectory_io import read_trajectory
+from fts_calib.app.cli import main
+from fts_calib.core.resources import data_dir, resolve
+from fts_calib.feeds.recording import RecordingReader
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.planning.trajectory_io import read_trajectory
+from fts_calib.sim.recording import tool_wrenches
 
 TRAJECTORIES = data_dir("trajectories") / "ur5"
 

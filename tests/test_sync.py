@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from fts_calib.sync import BEFORE_JOINTS, JOINT_GAP, LATE, NO_TOOL, Synchronizer
+from fts_calib.feeds.sync import BEFORE_JOINTS, JOINT_GAP, LATE, NO_TOOL, Synchronizer
 
 NAMES = ["a", "b"]
 

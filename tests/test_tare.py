@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from fts_calib import Calibration, load_calibration, save_calibration
-from fts_calib.cli import main
-from fts_calib.recording import RecordingWriter
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.tare import tare_recording
-from fts_calib.tool import load_tool
+from fts_calib.app.cli import main
+from fts_calib.core.resources import resolve
+from fts_calib.feeds.recording import RecordingWriter
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.robot.tool import load_tool
+from fts_calib.service.tare import tare_recording
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.3, 0.7])
 SHIFT = np.array([0.8, -0.3, 0.25, 0.02, -0.015, 0.01])  # [N, N·m]: the offsets drifted by this
@@ -72,8 +72,8 @@ def test_re_tare_from_a_live_window(setup, rng):
     import threading
     import time
 
-    from fts_calib.protocol import Strain, encode
-    from fts_calib.tare import tare_live
+    from fts_calib.feeds.protocol import Strain, encode
+    from fts_calib.service.tare import tare_live
 
     sensor, cal = setup
     drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})

@@ -5,8 +5,8 @@ import pytest
 import yaml
 
 from fts_calib import FileFormatError, FtsCalibWarning
-from fts_calib.resources import resolve
-from fts_calib.tool import UnknownToolConfiguration, load_tool
+from fts_calib.core.resources import resolve
+from fts_calib.robot.tool import UnknownToolConfiguration, load_tool
 
 from .helpers import random_gravity, tool_wrench
 

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from fts_calib import Calibration, load_calibration
-from fts_calib.planner import sample_motion
-from fts_calib.resources import resolve
-from fts_calib.sensor_config import load_sensor_config
-from fts_calib.simulate import simulate_recording
-from fts_calib.tool import load_tool
-from fts_calib.trajectory_io import TrajectoryFile
-from fts_calib.validate import validate_recording
+from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.planning.planner import sample_motion
+from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.robot.tool import load_tool
+from fts_calib.service.validate import validate_recording
+from fts_calib.sim.recording import simulate_recording
 
 from .paper import ROUNDING, TABLE_1, TABLE_2
 

@@ -1,0 +1,327 @@
+"""Recordings (CSV): joint readings and raw strains of a calibration run, streamed in chunks.
+
+Columns (header required): ``time`` [s, non-decreasing], one column per actuated joint
+named exactly as in the URDF [rad], ``strain_1`` ... ``strain_8`` [raw units], ``tool`` (a
+configuration name of the tool file). Extra columns are ignored with a notice; a missing
+one is an error that names it. A name ending in ``.gz`` is read and written compressed.
+
+The reader keeps one block of the file in memory (8 MiB, whole lines) whatever the file's
+length. A block is parsed by pandas' C parser in one call (about five times faster than
+numpy's loadtxt, which is what lets a 2-core machine calibrate from 250,000 rows a second);
+only when that fails is it parsed line by line, so that a malformed line (a bad number, a
+missing value, a truncated last line) is skipped, counted and reported with its line and
+column while the run goes on.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import os
+import tempfile
+import warnings
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..core.exceptions import FtsCalibWarning, RecordingError
+from ..core.fileio import is_number, new_file_mode
+
+#: Names of the strain columns.
+STRAIN_COLUMNS = tuple(f"strain_{k}" for k in range(1, 9))
+
+#: Bytes read at a time: about 36,000 rows of a six-joint recording.
+BLOCK_BYTES = 8 << 20
+
+#: Skip reasons counted by the reader.
+MALFORMED = "malformed line"
+UNKNOWN_TOOL = "unknown tool configuration"
+
+
+@dataclass(frozen=True)
+class RecordingChunk:
+    """Consecutive valid rows of a recording.
+
+    Attributes:
+        first_line: Line number (1-based, the header is line 1) of the first row read.
+        time: Sample times [s]. Shape (n,).
+        readings: Joint readings [rad] in the robot's joint order. Shape (n, n_joints).
+        strain: Raw strains. Shape (n, 8).
+        tool: Index of each row's tool configuration in the tool's order. Shape (n,).
+    """
+
+    first_line: int
+    time: np.ndarray
+    readings: np.ndarray
+    strain: np.ndarray
+    tool: np.ndarray
+
+
+class RecordingReader:
+    """Read a recording chunk by chunk (see the module docstring).
+
+    Args:
+        path: The CSV file.
+        joint_names: Joint columns to read, in the robot's order; None for every column that
+            is not time, a strain or the tool, in file order.
+        tool_names: Tool configuration names, in the tool's order; None to accept any name
+            (indices in order of appearance, names in :attr:`tool_names`).
+        block_bytes: Bytes read at a time (a chunk is the whole lines they hold).
+
+    Raises:
+        RecordingError: The file is missing or empty, or a required column is missing or
+            repeated (the message names it).
+
+    Attributes:
+        skipped: Rows skipped so far, by reason.
+        problems: The first problems found, each with its line and column, for reporting.
+        extra_columns: Columns present but ignored.
+    """
+
+    def __init__(
+        self, path: str | Path, joint_names: Sequence[str] | None, tool_names: Sequence[str] | None, block_bytes: int = BLOCK_BYTES
+    ):
+        self.path = Path(path)
+        self.tool_codes = {name: k for k, name in enumerate(tool_names or [])}
+        self._open_tools = tool_names is None
+        self.block_bytes = int(block_bytes)
+        self.skipped: dict[str, int] = {}
+        self.problems: list[str] = []
+        self.unknown_tools: dict[str, int] = {}
+        self.rows_read = 0
+        try:
+            self.size = self.path.stat().st_size
+            self._raw = open(self.path, "rb")
+        except FileNotFoundError:
+            raise RecordingError(self.path, None, None, "file not found") from None
+        except OSError as exc:
+            raise RecordingError(self.path, None, None, f"cannot read: {exc.strerror}") from None
+        self._stream = gzip.GzipFile(fileobj=self._raw) if self.path.suffix == ".gz" else self._raw
+        try:
+            header = self._stream.readline().decode("utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise RecordingError(self.path, 1, None, f"cannot read the header: {exc}") from None
+        self.columns = [c.strip() for c in header.strip().split(",")]
+        if joint_names is None:
+            joint_names = [c for c in self.columns if c not in ("time", "tool", *STRAIN_COLUMNS)]
+        self.joint_names = list(joint_names)
+        if not header.strip():
+            raise RecordingError(
+                self.path,
+                1,
+                None,
+                f"empty file: expected a header line 'time,{','.join(self.joint_names) or '<joints>'},{','.join(STRAIN_COLUMNS)},tool'",
+            )
+        required = ["time", *self.joint_names, *STRAIN_COLUMNS, "tool"]
+        repeated = sorted({c for c in self.columns if self.columns.count(c) > 1 and c in required})
+        if repeated:
+            raise RecordingError(self.path, 1, repeated[0], f"column repeated: {repeated}")
+        missing = [c for c in required if c not in self.columns]
+        if missing:
+            raise RecordingError(self.path, 1, missing[0], f"missing column(s) {missing}; the header has {self.columns}")
+        self.extra_columns = [c for c in self.columns if c not in required]
+        if self.extra_columns:
+            warnings.warn(f"{self.path}: ignoring extra columns {self.extra_columns}", FtsCalibWarning, stacklevel=2)
+        self._numeric = [self.columns.index(c) for c in ["time", *self.joint_names, *STRAIN_COLUMNS]]
+        self._tool_col = self.columns.index("tool")
+        # numeric columns as float, the rest as text (the parser then refuses a bad number)
+        self._dtypes = {c: (np.float64 if k in self._numeric else str) for k, c in enumerate(self.columns)}
+        self._line = 1
+
+    @property
+    def tool_names(self) -> list[str]:
+        """Tool configuration names, by index."""
+        return list(self.tool_codes)
+
+    @property
+    def bytes_read(self) -> int:
+        """Bytes of the file read so far (for progress)."""
+        try:
+            return self._raw.tell()
+        except (OSError, ValueError):
+            return self.size
+
+    def close(self) -> None:
+        """Close the file."""
+        self._stream.close()
+        self._raw.close()
+
+    def __enter__(self) -> RecordingReader:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _skip(self, reason: str, line: int, detail: str) -> None:
+        self.skipped[reason] = self.skipped.get(reason, 0) + 1
+        if len(self.problems) < 10:
+            self.problems.append(f"{self.path}, line {line}: {detail}")
+
+    def __iter__(self) -> Iterator[RecordingChunk]:
+        n_joints = len(self.joint_names)
+        rest = b""
+        while True:
+            data = self._stream.read(self.block_bytes)
+            if not data:
+                if rest.strip():  # a last line without a line end: kept when it is complete
+                    yield from self._chunks([rest.decode("utf-8", "replace")], n_joints, fast=False, final=True)
+                return
+            data = rest + data
+            cut = data.rfind(b"\n") + 1
+            block, rest = data[:cut], data[cut:]
+            if block:
+                yield from self._chunks(block, n_joints, fast=True, final=False)
+
+    def _chunks(self, block, n_joints: int, fast: bool, final: bool) -> Iterator[RecordingChunk]:
+        first = self._line + 1
+        table = None
+        if fast:
+            count = block.count(b"\n")
+            self._line += count
+            table, categories, index = self._parse_fast(block, count)
+            if table is None:
+                block = block.decode("utf-8", "replace").splitlines(keepends=True)
+        else:
+            self._line += len(block)
+        if table is not None:
+            numbers = np.arange(first, first + len(table))
+        else:
+            table, tools, numbers = self._parse_slow(block, first, final)
+            categories, index = np.unique(np.array(tools, dtype=object), return_inverse=True) if tools else ([], np.zeros(0, int))
+        self.rows_read += int(self._line - first + 1)
+        codes = self._codes(list(categories), index)
+        unknown = codes < 0
+        if unknown.any():
+            for category in np.unique(index[unknown]):  # each unknown name once, at its first row
+                rows = np.nonzero(index == category)[0]
+                name = str(categories[category]).strip()
+                if name not in self.unknown_tools and len(self.problems) < 10:
+                    self.problems.append(
+                        f"{self.path}, line {int(numbers[rows[0]])}: column 'tool': unknown tool configuration "
+                        f"'{name}' (known: {', '.join(self.tool_codes)}); its rows are skipped"
+                    )
+                self.unknown_tools[name] = self.unknown_tools.get(name, 0) + len(rows)
+            self.skipped[UNKNOWN_TOOL] = self.skipped.get(UNKNOWN_TOOL, 0) + int(unknown.sum())
+            keep = ~unknown
+            table, codes, numbers = table[keep], codes[keep], numbers[keep]
+        if len(table):
+            yield RecordingChunk(int(numbers[0]), table[:, 0], table[:, 1 : 1 + n_joints], table[:, 1 + n_joints :], codes)
+
+    def _codes(self, categories: list, index: np.ndarray) -> np.ndarray:
+        """Configuration indices of rows given as (distinct names, index of each row's name)."""
+        names = [str(c).strip() for c in categories]
+        if self._open_tools:
+            for name in names:
+                self.tool_codes.setdefault(name, len(self.tool_codes))
+        lookup = np.array([self.tool_codes.get(name, -1) for name in names], dtype=np.int64)
+        return lookup[index] if len(index) else np.zeros(0, dtype=np.int64)
+
+    def _parse_fast(self, block: bytes, count: int):
+        """The whole block with pandas' C parser; Nones when any line is not clean.
+
+        Returns the numeric table (n, 1 + n_joints + 8), the distinct tool names (in order
+        of appearance) and each row's index into them.
+        """
+        try:
+            frame = pd.read_csv(
+                io.BytesIO(block), header=None, names=self.columns, dtype=self._dtypes, na_filter=False, skip_blank_lines=False, engine="c"
+            )
+        except (ValueError, pd.errors.ParserError):
+            return None, None, None
+        if len(frame) != count or (frame[self.columns[-1]] == "").any():
+            return None, None, None  # a short line leaves its last columns empty
+        index, categories = pd.factorize(frame["tool"])
+        return frame.iloc[:, self._numeric].to_numpy(dtype=float), list(categories), index
+
+    def _parse_slow(self, lines: list[str], first: int, final: bool):
+        rows, tools, numbers = [], [], []
+        width = len(self.columns)
+        for offset, line in enumerate(lines):
+            number = first + offset
+            text = line.rstrip("\r\n")
+            if not text.strip():
+                self._skip(MALFORMED, number, "empty line")
+                continue
+            cells = text.split(",")
+            if len(cells) != width:
+                what = "truncated (no line end)" if final and not line.endswith("\n") else "malformed"
+                self._skip(MALFORMED, number, f"{what}: {len(cells)} values but the header has {width} columns")
+                continue
+            try:
+                rows.append([float(cells[i]) for i in self._numeric])
+            except ValueError:
+                bad = next(i for i in self._numeric if not is_number(cells[i]))
+                self._skip(MALFORMED, number, f"column '{self.columns[bad]}': '{cells[bad]}' is not a number")
+                continue
+            tools.append(cells[self._tool_col].strip())
+            numbers.append(number)
+        return np.array(rows, dtype=float).reshape(-1, len(self._numeric)), tools, np.array(numbers, dtype=np.int64)
+
+
+class RecordingWriter:
+    """Write a recording (see the module docstring), atomically: the file appears on close.
+
+    Args:
+        path: Destination (``.csv`` or ``.csv.gz``).
+        joint_names: Joint columns, in order.
+    """
+
+    def __init__(self, path: str | Path, joint_names: Sequence[str]):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.joint_names = list(joint_names)
+        fd, self._tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
+        os.close(fd)
+        if self.path.suffix == ".gz":
+            self._handle = gzip.open(self._tmp, "wt", encoding="utf-8", newline="")
+        else:
+            self._handle = open(self._tmp, "w", encoding="utf-8", newline="")
+        self._handle.write(",".join(["time", *self.joint_names, *STRAIN_COLUMNS, "tool"]) + "\n")
+        self.rows = 0
+
+    def write(self, time, readings, strain, tool: str | Sequence[str]) -> None:
+        """Append rows.
+
+        Args:
+            time: Times [s], shape (n,).
+            readings: Joint readings [rad], shape (n, n_joints).
+            strain: Raw strains, shape (n, 8).
+            tool: One configuration name for all rows, or one per row.
+        """
+        time = np.asarray(time, dtype=float)
+        table = np.column_stack([time, np.asarray(readings, dtype=float), np.asarray(strain, dtype=float)])
+        buffer = io.StringIO()
+        if isinstance(tool, str):
+            np.savetxt(
+                buffer, table, fmt=",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * 8) + "," + tool.replace("%", "%%")
+            )
+        else:
+            fmt = ",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * 8)
+            for row, name in zip(table, tool, strict=True):
+                buffer.write(fmt % tuple(row) + "," + name + "\n")
+        self._handle.write(buffer.getvalue())
+        self.rows += len(time)
+
+    def close(self) -> Path:
+        """Finish the file and move it into place."""
+        self._handle.close()
+        os.chmod(self._tmp, new_file_mode())
+        os.replace(self._tmp, self.path)
+        return self.path
+
+    def abort(self) -> None:
+        """Drop the partial file (nothing is left behind)."""
+        self._handle.close()
+        Path(self._tmp).unlink(missing_ok=True)
+
+    def __enter__(self) -> RecordingWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()

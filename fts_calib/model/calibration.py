@@ -1,0 +1,233 @@
+"""The calibration result: C, C_bar, D and their quality, and its YAML file (``fts-calib/1``).
+
+Units: C and C_bar in [N or N m per strain unit] (rows Fx, Fy, Fz in N, rows Mx, My, Mz
+in N m), D in [N, N, N, N m, N m, N m]. C is always derived from C_bar (``C = C_bar P``,
+paper eq 7), so the two can never disagree; a file whose C does not match its C_bar is
+refused.
+
+The file is written atomically: a crash never leaves half a file.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.arrays import as_matrix, frozen
+from ..core.exceptions import FileFormatError
+from ..core.fileio import atomic_write_text, dump_yaml, load_yaml, read_array, require
+from .sensor import WRENCH_AXES, WRENCH_UNITS, P, wrench_from_strain
+
+#: Value of the ``format`` field of a calibration file.
+FORMAT = "fts-calib/1"
+
+_UNITS = {
+    "wrench": list(WRENCH_UNITS),
+    "C": "N or N·m per strain unit (rows Fx Fy Fz in N, Mx My Mz in N·m)",
+    "D": "N, N, N, N·m, N·m, N·m",
+    "strain": "raw bridge reading",
+}
+
+
+def now_iso() -> str:
+    """Current UTC time as an ISO 8601 string with seconds, e.g. '2026-11-22T10:00:00Z'."""
+    return _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+
+
+@dataclass(frozen=True)
+class Quality:
+    """How good a calibration is.
+
+    Attributes:
+        samples_used: Samples that entered the least squares.
+        samples_seen: Samples offered, including those skipped.
+        rank: Numerical rank of the 7x7 matrix S_XX (7 when every coefficient is determined).
+        condition_number: Condition number of S_XX after scaling its diagonal to 1.
+        residual_rms: RMS of the fit residual per wrench axis, in [N, N, N, N m, N m, N m].
+            Shape (6,).
+        stderr_C_bar: Standard error of every coefficient of C_bar. Shape (6, 6).
+        stderr_D: Standard error of every offset, in [N, N, N, N m, N m, N m]. Shape (6,).
+        stderr_C: Standard error of every coefficient of C. Shape (6, 8).
+        skipped: Samples skipped, by reason (e.g. ``{"non-finite strain": 3}``).
+    """
+
+    samples_used: int
+    samples_seen: int
+    rank: int
+    condition_number: float
+    residual_rms: np.ndarray
+    stderr_C_bar: np.ndarray
+    stderr_D: np.ndarray
+    stderr_C: np.ndarray
+    skipped: Mapping[str, int] = field(default_factory=dict)
+
+    def __post_init__(self):
+        for name, shape in (("residual_rms", (6,)), ("stderr_C_bar", (6, 6)), ("stderr_D", (6,)), ("stderr_C", (6, 8))):
+            object.__setattr__(self, name, frozen(as_matrix(getattr(self, name), shape, name)))
+        object.__setattr__(self, "skipped", dict(self.skipped))
+
+    def relative_stderr_C(self, C: np.ndarray) -> np.ndarray:
+        """Standard error of each coefficient of C relative to the largest |coefficient| of its row.
+
+        Args:
+            C: The calibration matrix the errors belong to. Shape (6, 8).
+
+        Returns:
+            Dimensionless ratios, shape (6, 8).
+        """
+        return self.stderr_C / np.max(np.abs(C), axis=1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A sensor calibration: ``W = C Delta + D`` with ``C = C_bar P``.
+
+    Attributes:
+        C_bar: Modified calibration matrix, shape (6, 6).
+        D: Wrench offsets in [N, N, N, N m, N m, N m], shape (6,).
+        quality: Fit statistics, or None for a calibration typed in by hand.
+        provenance: Where it came from: robot, sensor frame, tools, time, software version.
+        offset_history: Earlier offsets, oldest first, each ``{"D": [...], "replaced": time,
+            "reason": text}``.
+        C: Calibration matrix ``C_bar @ P``, shape (6, 8) (derived, not an argument).
+    """
+
+    C_bar: np.ndarray
+    D: np.ndarray
+    quality: Quality | None = None
+    provenance: Mapping[str, Any] = field(default_factory=dict)
+    offset_history: tuple[Mapping[str, Any], ...] = ()
+    C: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        C_bar = frozen(as_matrix(self.C_bar, (6, 6), "C_bar"))
+        object.__setattr__(self, "C_bar", C_bar)
+        object.__setattr__(self, "D", frozen(as_matrix(self.D, (6,), "D")))
+        object.__setattr__(self, "C", frozen(C_bar @ P))
+        object.__setattr__(self, "provenance", dict(self.provenance))
+        object.__setattr__(self, "offset_history", tuple(dict(h) for h in self.offset_history))
+
+    def wrench(self, strain) -> np.ndarray:
+        """Wrench on the sensor from raw strains, ``C Delta + D``.
+
+        Args:
+            strain: Raw bridge strains. Shape (8,) or (N, 8).
+
+        Returns:
+            ``[Fx, Fy, Fz, Mx, My, Mz]`` in S, in [N] and [N m]. Shape (6,) or (N, 6).
+        """
+        return wrench_from_strain(self.C, strain, self.D)
+
+    def with_offsets(self, D, reason: str, time: str | None = None) -> Calibration:
+        """Copy with new offsets; the current ones go to ``offset_history`` with the time.
+
+        Args:
+            D: New wrench offsets in [N, N, N, N m, N m, N m]. Shape (6,).
+            reason: Why they were replaced (e.g. 're-tare from tare.csv, nothing mounted').
+            time: ISO time of the replacement; now when None.
+        """
+        entry = {"D": self.D.tolist(), "replaced": time or now_iso(), "reason": reason}
+        return replace(self, D=D, offset_history=(*self.offset_history, entry))
+
+
+def _quality_to_dict(quality: Quality) -> dict[str, Any]:
+    return {
+        "samples_used": quality.samples_used,
+        "samples_seen": quality.samples_seen,
+        "skipped": dict(quality.skipped),
+        "rank": quality.rank,
+        "condition_number": quality.condition_number,
+        "residual_rms": dict(zip(WRENCH_AXES, quality.residual_rms.tolist(), strict=True)),
+        "stderr_C_bar": quality.stderr_C_bar,
+        "stderr_D": quality.stderr_D,
+        "stderr_C": quality.stderr_C,
+    }
+
+
+def save_calibration(calibration: Calibration, path: str | Path) -> Path:
+    """Write a calibration to a YAML file of format ``fts-calib/1``, atomically.
+
+    Args:
+        calibration: The calibration to write.
+        path: Destination; its folder is created when missing.
+
+    Returns:
+        The path written.
+    """
+    data: dict[str, Any] = {
+        "format": FORMAT,
+        "units": _UNITS,
+        "C": calibration.C,
+        "C_bar": calibration.C_bar,
+        "D": calibration.D,
+    }
+    if calibration.quality is not None:
+        data["quality"] = _quality_to_dict(calibration.quality)
+    data["provenance"] = dict(calibration.provenance)
+    data["offset_history"] = list(calibration.offset_history)
+    header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
+    return atomic_write_text(path, header + dump_yaml(data))
+
+
+def _quality_from_dict(raw: Any, path: Path) -> Quality:
+    if not isinstance(raw, Mapping):
+        raise FileFormatError(path, "quality", "expected a mapping")
+    rms = require(raw, "residual_rms", path, "quality.")
+    if isinstance(rms, Mapping):
+        missing = [axis for axis in WRENCH_AXES if axis not in rms]
+        if missing:
+            raise FileFormatError(path, "quality.residual_rms", f"missing axes {missing}")
+        rms = [rms[axis] for axis in WRENCH_AXES]
+    try:
+        return Quality(
+            samples_used=int(require(raw, "samples_used", path, "quality.")),
+            samples_seen=int(require(raw, "samples_seen", path, "quality.")),
+            rank=int(require(raw, "rank", path, "quality.")),
+            condition_number=float(require(raw, "condition_number", path, "quality.")),
+            residual_rms=read_array(rms, (6,), path, "quality.residual_rms"),
+            stderr_C_bar=read_array(require(raw, "stderr_C_bar", path, "quality."), (6, 6), path, "quality.stderr_C_bar"),
+            stderr_D=read_array(require(raw, "stderr_D", path, "quality."), (6,), path, "quality.stderr_D"),
+            stderr_C=read_array(require(raw, "stderr_C", path, "quality."), (6, 8), path, "quality.stderr_C"),
+            skipped={str(k): int(v) for k, v in (raw.get("skipped") or {}).items()},
+        )
+    except (TypeError, ValueError) as exc:
+        raise FileFormatError(path, "quality", str(exc)) from None
+
+
+def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
+    """Read a calibration file of format ``fts-calib/1``.
+
+    Args:
+        path: The YAML file.
+        rtol: Accepted mismatch between the file's C and ``C_bar @ P``, relative to max|C|.
+
+    Raises:
+        FileFormatError: Another format, a missing field, a wrong shape, a non-finite
+            number, or a C that does not equal ``C_bar @ P``; the message names the field.
+    """
+    path = Path(path)
+    data = load_yaml(path)
+    fmt = data.get("format")
+    if fmt != FORMAT:
+        raise FileFormatError(path, "format", f"is {fmt!r} but expected {FORMAT!r}: not a calibration file of this version")
+    C_bar = read_array(require(data, "C_bar", path), (6, 6), path, "C_bar")
+    D = read_array(require(data, "D", path), (6,), path, "D")
+    C = read_array(require(data, "C", path), (6, 8), path, "C")
+    mismatch = float(np.max(np.abs(C - C_bar @ P)))
+    if mismatch > rtol * max(float(np.max(np.abs(C))), 1e-300):
+        raise FileFormatError(
+            path, "C", f"does not equal C_bar @ P (largest difference {mismatch:.3g}); the file was edited inconsistently"
+        )
+    quality = _quality_from_dict(data["quality"], path) if data.get("quality") is not None else None
+    provenance = data.get("provenance") or {}
+    if not isinstance(provenance, Mapping):
+        raise FileFormatError(path, "provenance", "expected a mapping")
+    history = data.get("offset_history") or []
+    if not isinstance(history, list) or not all(isinstance(h, Mapping) for h in history):
+        raise FileFormatError(path, "offset_history", "expected a list of mappings")
+    return Calibration(C_bar=C_bar, D=D, quality=quality, provenance=provenance, offset_history=tuple(history))

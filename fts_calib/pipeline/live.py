@@ -1,0 +1,252 @@
+"""The ``live`` job: calibrate from live UDP feeds (joints and strains) until the run ends.
+
+A background thread only reads datagrams (a 4 MiB socket buffer absorbs bursts); the main
+thread decodes them (:mod:`fts_calib.feeds.protocol`), pairs the two streams
+(:mod:`fts_calib.feeds.sync`) and feeds the session (:mod:`fts_calib.pipeline.session`) every 20 ms, and
+prints a status line. The run ends on an ``end`` message, Ctrl-C, SIGTERM or an optional
+idle timeout; then the calibration is written. The session checkpoints every few seconds,
+so ``--resume`` after a crash loses at most that interval. The socket binds to 127.0.0.1
+unless told otherwise.
+"""
+
+from __future__ import annotations
+
+import collections
+import signal
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from typing import TextIO
+
+from ..feeds.protocol import End, Joints, ProtocolError, Strain, ToolChange, decode
+from ..feeds.sync import Synchronizer
+from .session import CalibrationSession
+
+_BATCH_S = 0.02  # how often paired samples go to the session [s]
+_RECV_BUFFER = 1 << 22  # socket receive buffer [bytes]
+
+
+class UdpReceiver:
+    """Reads datagrams on a background thread into a queue.
+
+    Args:
+        host: Address to bind (127.0.0.1 by default: loopback only).
+        port: UDP port; 0 picks a free one (see :attr:`address`).
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 5005):
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, _RECV_BUFFER)
+        self.sock.bind((host, port))
+        self.sock.settimeout(0.05)
+        self.address = self.sock.getsockname()
+        self.queue: collections.deque[bytes] = collections.deque()
+        self.received = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="fts-calib-udp", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data = self.sock.recv(65536)
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            self.queue.append(data)
+            self.received += 1
+
+    def drain(self) -> list[bytes]:
+        """Every datagram received since the last call, in arrival order."""
+        out = []
+        while self.queue:
+            out.append(self.queue.popleft())
+        return out
+
+    def close(self) -> None:
+        """Stop the thread and close the socket."""
+        self._stop.set()
+        self._thread.join(timeout=1.0)
+        self.sock.close()
+
+
+@dataclass
+class LiveStats:
+    """Message counts of a live run.
+
+    Attributes:
+        received: Datagrams received.
+        joints: Joint messages used.
+        strain: Strain messages.
+        tool: Tool messages.
+        malformed: Malformed datagrams (counted, skipped).
+        oversized: Oversized datagrams (counted, skipped).
+        ended: The run ended on an 'end' message.
+        wall_s: Wall-clock time [s].
+        cpu_s: CPU time of the process [s].
+    """
+
+    received: int = 0
+    joints: int = 0
+    strain: int = 0
+    tool: int = 0
+    malformed: int = 0
+    oversized: int = 0
+    ended: bool = False
+    wall_s: float = 0.0
+    cpu_s: float = 0.0
+
+
+class LiveRunner:
+    """Runs a session on live feeds (see the module docstring).
+
+    Args:
+        session: The calibration session (fresh or resumed).
+        receiver: The UDP receiver.
+        sync: The synchronizer of the two streams.
+        status: Where to print the status line (None: no status).
+        status_interval_s: Time between status lines [s].
+    """
+
+    def __init__(
+        self,
+        session: CalibrationSession,
+        receiver: UdpReceiver,
+        sync: Synchronizer,
+        status: TextIO | None = None,
+        status_interval_s: float = 0.5,
+    ):
+        self.session = session
+        self.receiver = receiver
+        self.sync = sync
+        self.status = status
+        self.status_interval_s = status_interval_s
+        self.stats = LiveStats()
+        self._stopping = False
+        self._rates: collections.deque[tuple[float, int, int]] = collections.deque(maxlen=20)  # (wall time, joints, strain) for the rates
+        self._shown = 0
+
+    def stop(self, *_args) -> None:
+        """Ask the run to end (signal handler)."""
+        self._stopping = True
+
+    def _handle(self, data: bytes) -> None:
+        self.stats.received += 1
+        try:
+            message = decode(data)
+        except ProtocolError as exc:
+            if exc.reason == "oversized":
+                self.stats.oversized += 1
+            else:
+                self.stats.malformed += 1
+            return
+        if isinstance(message, Strain):
+            self.stats.strain += 1
+            self.sync.add_strain(message.t, message.strain)
+        elif isinstance(message, Joints):
+            if self.sync.add_joints(message.t, message.q):
+                self.stats.joints += 1
+            else:
+                self.stats.malformed += 1
+        elif isinstance(message, ToolChange):
+            self.stats.tool += 1
+            self.sync.add_tool(message.t, message.name)
+        elif isinstance(message, End):
+            self.stats.ended = True
+
+    def _feed(self, final: bool = False) -> None:
+        batch = self.sync.pop(final)
+        if len(batch.time):
+            self.session.add_batch(batch.time, batch.readings, batch.strain, batch.tool)
+
+    def status_line(self) -> str:
+        """Rates, kept %, counts per configuration, rank and what is missing."""
+        now = time.monotonic()
+        self._rates.append((now, self.stats.joints, self.stats.strain))
+        t0, j0, s0 = self._rates[0]
+        span = max(now - t0, 1e-9)
+        p = self.session.progress()
+        per = " ".join(f"{k} {v}" for k, v in p.kept_by_configuration.items())
+        bad = self.stats.malformed + self.stats.oversized
+        text = (
+            f"t {p.last_time if p.last_time is not None else 0.0:8.2f} s | joints {(self.stats.joints - j0) / span:6.0f} Hz "
+            f"strain {(self.stats.strain - s0) / span:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} | rank {p.rank}"
+        )
+        if bad:
+            text += f" | bad datagrams {bad}"
+        if p.missing:
+            text += f" | missing: {p.missing}"
+        return text
+
+    def _show(self, line: str, end: str = "") -> None:
+        if self.status is None:  # the callers only show a line when there is a status stream
+            return
+        line = line[:240]
+        self.status.write("\r" + line.ljust(self._shown) + end)  # spaces clear a longer previous line
+        self.status.flush()
+        self._shown = 0 if end else len(line)
+
+    def run(self, idle_timeout_s: float | None = None, duration_s: float | None = None) -> LiveStats:
+        """Process messages until the run ends; return the counts.
+
+        Args:
+            idle_timeout_s: End after this long without any datagram [s]; None waits forever.
+            duration_s: End after this long in any case [s]; None for no limit.
+        """
+        start, cpu0 = time.monotonic(), time.process_time()
+        last_data = last_feed = last_status = start
+        previous = {}
+        if threading.current_thread() is threading.main_thread():
+            previous = {sig: signal.signal(sig, self.stop) for sig in (signal.SIGTERM,)}
+        try:
+            while not self._stopping and not self.stats.ended:
+                datagrams = self.receiver.drain()
+                now = time.monotonic()
+                if datagrams:
+                    last_data = now
+                    for data in datagrams:
+                        self._handle(data)
+                        if self.stats.ended:
+                            break
+                else:
+                    time.sleep(0.002)
+                if now - last_feed >= _BATCH_S:
+                    self._feed()
+                    last_feed = now
+                if self.status is not None and now - last_status >= self.status_interval_s:
+                    self._show(self.status_line())
+                    last_status = now
+                if idle_timeout_s is not None and now - last_data >= idle_timeout_s:
+                    break
+                if duration_s is not None and now - start >= duration_s:
+                    break
+        except KeyboardInterrupt:
+            pass
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+        for data in self.receiver.drain():  # whatever arrived with the end
+            self._handle(data)
+        self._feed(final=True)
+        self.session.flush()
+        self.session.checkpoint()
+        if self.status is not None:
+            self._show(self.status_line(), end="\n")
+        self.stats.wall_s = time.monotonic() - start
+        self.stats.cpu_s = time.process_time() - cpu0
+        return self.stats
+
+
+def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
+    """Message counts and CPU use of a live run, one line each."""
+    lines = [
+        f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
+        f"{stats.malformed} malformed and {stats.oversized} oversized skipped; "
+        f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
+        f"({100 * stats.cpu_s / max(stats.wall_s, 1e-9):.0f} % of one core)"
+    ]
+    if sync.dropped:
+        lines.append("strain samples not paired: " + ", ".join(f"{r}: {n:,}" for r, n in sync.dropped.items()))
+    return "\n".join(lines)

@@ -1,0 +1,151 @@
+r"""Experiment design: how well a planned motion will determine C_bar and D, before it runs.
+
+From the gravity directions a plan shows the sensor at its quasi-static samples, the tool
+configurations and a nominal sensor (C_bar, D), the report predicts what the online
+estimator will see: the projected strains ``x = [C_bar^-1 (W - D); 1]`` (eq 22) of every
+sample, the rank and the condition number of ``S_XX = sum x x^T`` (scaled to a unit
+diagonal, as the estimator does), and the standard error of every coefficient for white
+strain noise of standard deviation sigma per bridge. To first order the noise enters the
+fit as a residual on each wrench axis with variance
+
+.. math::
+
+    \sigma_{W,j}^2 = \left(\bar C P \,\mathrm{diag}(\sigma^2)\, P^T \bar C^T\right)_{jj},
+    \qquad \mathrm{Cov}(\text{row } j) = \sigma_{W,j}^2 S_{XX}^{-1}.
+
+It also measures coverage: the largest angle between any direction on the unit sphere and
+the nearest gravity direction seen by the sensor.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.arrays import frozen
+from ..model.estimator import RCOND, coefficient_stderr, information_rank
+from ..model.sensor import P
+from ..robot.tool import Tool
+
+_SPHERE_POINTS = 2000  # probe directions for the coverage angle (mean spacing about 4.5 deg)
+
+
+@dataclass(frozen=True)
+class ExcitationReport:
+    """Predicted quality of a calibration from a planned motion.
+
+    Attributes:
+        samples: Quasi-static samples per tool configuration.
+        rank: Predicted rank of S_XX (7 determines every coefficient).
+        condition_number: Of the scaled S_XX (inf when rank < 7).
+        noise_std: Strain noise per bridge assumed, raw units. Shape (8,).
+        stderr_C_bar: Predicted standard errors of C_bar (inf when undetermined). Shape (6, 6).
+        stderr_D: Predicted standard errors of D, [N, N, N, N m, N m, N m]. Shape (6,).
+        stderr_C: Predicted standard errors of C. Shape (6, 8).
+        relative_stderr_C: ``stderr_C`` over the largest |C| of its row. Shape (6, 8).
+        coverage_deg: Largest angle in [deg] from any direction to the nearest gravity
+            direction seen by the sensor (small is good; 180 with one direction).
+        advice: What is missing, in words, or '' when the plan determines every coefficient.
+    """
+
+    samples: Mapping[str, int]
+    rank: int
+    condition_number: float
+    noise_std: np.ndarray
+    stderr_C_bar: np.ndarray
+    stderr_D: np.ndarray
+    stderr_C: np.ndarray
+    relative_stderr_C: np.ndarray
+    coverage_deg: float
+    advice: str
+
+    def __post_init__(self):
+        for name in ("noise_std", "stderr_C_bar", "stderr_D", "stderr_C", "relative_stderr_C"):
+            object.__setattr__(self, name, frozen(getattr(self, name)))
+
+    @property
+    def max_relative_stderr(self) -> float:
+        """Largest standard error of C relative to its row's largest coefficient."""
+        return float(np.max(self.relative_stderr_C))
+
+
+def _fibonacci_sphere(n: int) -> np.ndarray:
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = math.pi * (1.0 + math.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def coverage_angle(directions: np.ndarray) -> float:
+    """Largest angle [deg] from any direction on the sphere to the nearest of ``directions`` (N, 3)."""
+    if len(directions) == 0:
+        return 180.0
+    unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    unit = np.unique(np.round(unit, 3), axis=0)  # dwell samples repeat the same direction
+    probes = _fibonacci_sphere(_SPHERE_POINTS)
+    best = np.full(len(probes), -1.0)
+    for start in range(0, len(unit), 512):
+        best = np.maximum(best, np.max(probes @ unit[start : start + 512].T, axis=1))
+    return float(np.degrees(np.arccos(np.clip(best.min(), -1.0, 1.0))))
+
+
+def predict_excitation(
+    g_sensor: Mapping[str, np.ndarray], tool: Tool, C_bar: np.ndarray, D: np.ndarray, noise_std, rcond: float = RCOND
+) -> ExcitationReport:
+    """Predict the estimator's rank, condition and standard errors for planned samples.
+
+    Args:
+        g_sensor: Per tool configuration name, gravity in the sensor frame at each
+            quasi-static sample, [m/s^2]. Shape (N_c, 3) each.
+        tool: The tool whose configurations are named in ``g_sensor``.
+        C_bar: Nominal modified calibration matrix. Shape (6, 6).
+        D: Nominal offsets, [N, N, N, N m, N m, N m]. Shape (6,).
+        noise_std: Strain noise per bridge, raw units; one number or shape (8,).
+        rcond: Rank threshold, as the estimator's.
+    """
+    noise = np.broadcast_to(np.asarray(noise_std, dtype=float), (8,)).copy()
+    S_XX = np.zeros((7, 7))
+    counts = {}
+    directions = []
+    for name, g in g_sensor.items():
+        g = np.asarray(g, dtype=float).reshape(-1, 3)
+        counts[name] = len(g)
+        if not len(g):
+            continue
+        W = tool.configuration(name).static_wrench(g)
+        x = np.hstack([np.linalg.solve(C_bar, (W - D).T).T, np.ones((len(g), 1))])  # eq 22, then eq 13
+        S_XX += x.T @ x
+        directions.append(g)
+    rank, condition = information_rank(S_XX, rcond) if any(counts.values()) else (0, math.inf)
+    C = C_bar @ P
+    if rank == 7:
+        sigma_W = np.sqrt(np.diag(C @ np.diag(noise**2) @ C.T))
+        scale = 1.0 / np.sqrt(np.diag(S_XX))
+        inv = np.linalg.solve(S_XX * scale[:, None] * scale[None, :], np.eye(7)) * scale[:, None] * scale[None, :]
+        stderr_theta, stderr_C = coefficient_stderr(sigma_W, inv)
+        advice = ""
+    else:
+        stderr_theta, stderr_C = np.full((6, 7), math.inf), np.full((6, 8), math.inf)
+        used = [name for name, n in counts.items() if n]
+        advice = (
+            f"predicted rank {rank} of 7 ({7 - rank} direction(s) missing) with quasi-static samples from "
+            f"{len(used)} configuration(s) {used}: one centre of mass gives at most 4, two give 6, three that are "
+            "not on one line give 7, and within each the gravity directions must span 3-D"
+        )
+    coverage = coverage_angle(np.vstack(directions)) if directions else 180.0
+    return ExcitationReport(
+        samples=counts,
+        rank=rank,
+        condition_number=condition,
+        noise_std=noise,
+        stderr_C_bar=stderr_theta[:, :6],
+        stderr_D=stderr_theta[:, 6],
+        stderr_C=stderr_C,
+        relative_stderr_C=stderr_C / np.max(np.abs(C), axis=1, keepdims=True),
+        coverage_deg=coverage,
+        advice=advice,
+    )

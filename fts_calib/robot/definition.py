@@ -1,0 +1,297 @@
+"""Robot definitions (``robots/NAME.yaml``): the URDF, the sensor mount, sweep joints, limits.
+
+Fields: ``name``; ``urdf``, a path relative to the YAML file or
+``example-robot-data:<path inside its robots/ folder>``; ``sensor.parent_frame`` (a URDF
+frame) with ``sensor.xyz`` [m] and ``sensor.rpy`` [rad] from that frame to the sensor frame
+S (X along the tool axis), and optional ``sensor.name``; optional ``sweep_joints`` (default:
+the last two actuated joints), ``home`` (joint name -> rad; planned automatically when
+absent), ``locked_joints`` (name -> value, e.g. gripper fingers, removed with a reduced
+model), ``limits`` (``velocity_fraction`` of the URDF velocity limits, ``velocity``
+rad/s per joint, ``acceleration`` rad/s^2 and ``jerk`` rad/s^3, each one number for all
+joints or a mapping joint -> value), ``collision`` (``ignore_links``: links whose geometry
+is left out, e.g. a gripper the sensor replaces; ``srdf``: an SRDF, path or
+``example-robot-data:<path>``, whose ``disable_collisions`` pairs are not checked;
+``floor_z``: height of the floor in the world frame [m]), and ``package_dirs`` (folders for ``package://`` mesh paths, relative to
+the YAML file).
+
+Angles may be written as numbers or as simple expressions of pi: ``pi/2``, ``-pi``,
+``3*pi/4``.
+
+This module only reads and checks the file; joint and frame names are checked against the
+URDF by :class:`fts_calib.robot.kinematics.Kinematics`.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.arrays import frozen
+from ..core.exceptions import FileFormatError
+from ..core.fileio import load_yaml, read_positive, require
+from ..core.resources import example_robot_data_dir
+
+#: Prefix of URDF paths inside the example-robot-data package.
+ROBOT_DATA_PREFIX = "example-robot-data:"
+
+#: Defaults of the motion limits: conservative for a calibration sweep with a tool on.
+DEFAULT_VELOCITY_FRACTION = 0.5
+DEFAULT_ACCELERATION = 2.0  # [rad/s^2]
+DEFAULT_JERK = 15.0  # [rad/s^3]
+
+_PI_EXPR = re.compile(r"^\s*([+-])?\s*(?:(\d+(?:\.\d*)?)\s*\*\s*)?pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
+
+
+def parse_angle(value: Any, path: str | Path, field_name: str) -> float:
+    """A number, or an expression ``[-][k*]pi[/n]``, as a float in [rad].
+
+    Raises:
+        FileFormatError: Anything else; names the field.
+    """
+    if isinstance(value, bool):
+        raise FileFormatError(path, field_name, f"expected an angle in rad, got {value!r}")
+    if isinstance(value, (int, float)):
+        number = float(value)
+    elif isinstance(value, str) and (match := _PI_EXPR.match(value)):
+        sign, factor, divisor = match.groups()
+        number = (-1.0 if sign == "-" else 1.0) * float(factor or 1.0) * math.pi / float(divisor or 1.0)
+    else:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise FileFormatError(path, field_name, f"expected an angle in rad (a number or e.g. 'pi/2'), got {value!r}") from None
+    if not math.isfinite(number):
+        raise FileFormatError(path, field_name, f"is {number} but expected a finite angle")
+    return number
+
+
+@dataclass(frozen=True)
+class SensorMount:
+    """Where the sensor frame S sits on the robot.
+
+    Attributes:
+        parent_frame: URDF frame the sensor is attached to.
+        xyz: Origin of S in the parent frame, in [m]. Shape (3,).
+        rpy: Roll, pitch, yaw from the parent frame to S (URDF convention), in [rad]. Shape (3,).
+        name: Name given to the sensor frame in the model.
+    """
+
+    parent_frame: str
+    xyz: np.ndarray
+    rpy: np.ndarray
+    name: str = "ft_sensor"
+
+    def __post_init__(self):
+        object.__setattr__(self, "xyz", frozen(self.xyz))
+        object.__setattr__(self, "rpy", frozen(self.rpy))
+
+
+@dataclass(frozen=True)
+class LimitSpec:
+    """Motion limits as written in the robot definition (resolved against the URDF later).
+
+    Attributes:
+        velocity_fraction: Fraction of the URDF velocity limit, in (0, 1].
+        velocity: Per-joint velocity limits in [rad/s] (override the fraction).
+        acceleration: Per-joint limits in [rad/s^2]; key ``"*"`` applies to all joints.
+        jerk: Per-joint limits in [rad/s^3]; key ``"*"`` applies to all joints.
+    """
+
+    velocity_fraction: float = DEFAULT_VELOCITY_FRACTION
+    velocity: Mapping[str, float] = field(default_factory=dict)
+    acceleration: Mapping[str, float] = field(default_factory=lambda: {"*": DEFAULT_ACCELERATION})
+    jerk: Mapping[str, float] = field(default_factory=lambda: {"*": DEFAULT_JERK})
+
+
+@dataclass(frozen=True)
+class RobotDefinition:
+    """A robot definition file, checked for form (see the module docstring).
+
+    Attributes:
+        name: Robot name.
+        urdf: Resolved path of the URDF file.
+        urdf_spec: The ``urdf`` field as written (e.g. 'example-robot-data:ur_description/...').
+        sensor: The sensor mount.
+        sweep_joints: The two joints to sweep, or None for the last two actuated joints.
+        home: Base pose, joint name -> [rad], or None to plan one.
+        locked_joints: Joints removed from the model, name -> value [rad or m].
+        limits: Motion limits.
+        ignore_links: Links whose collision geometry is left out.
+        allowed_pairs: Pairs of links never checked against each other (from the SRDF's
+            ``disable_collisions``: adjacent links, or links that never meet).
+        floor_z: Height of the floor in the world frame, in [m].
+        package_dirs: Folders searched for ``package://`` mesh paths.
+        source: The YAML file, or None.
+    """
+
+    name: str
+    urdf: Path
+    sensor: SensorMount
+    urdf_spec: str = ""
+    sweep_joints: tuple[str, str] | None = None
+    home: Mapping[str, float] | None = None
+    locked_joints: Mapping[str, float] = field(default_factory=dict)
+    limits: LimitSpec = field(default_factory=LimitSpec)
+    ignore_links: tuple[str, ...] = ()
+    allowed_pairs: frozenset[frozenset[str]] = frozenset()
+    floor_z: float = 0.0
+    package_dirs: tuple[Path, ...] = ()
+    source: Path | None = None
+
+
+def resolve_urdf(spec: str, base: Path, path: Path) -> tuple[Path, tuple[Path, ...]]:
+    """The URDF file of a ``urdf`` field, and the package folders its meshes need.
+
+    Raises:
+        FileFormatError: The file does not exist (the message gives the resolved path).
+    """
+    package_dirs: tuple[Path, ...] = ()
+    if spec.startswith(ROBOT_DATA_PREFIX):
+        data_dir = example_robot_data_dir()
+        urdf = data_dir / "robots" / spec[len(ROBOT_DATA_PREFIX) :].lstrip("/")
+        package_dirs = (data_dir.parent,)  # meshes are package://example-robot-data/robots/...
+    else:
+        urdf = (base / spec).resolve() if not Path(spec).is_absolute() else Path(spec)
+    if not urdf.is_file():
+        raise FileFormatError(path, "urdf", f"'{spec}' resolves to {urdf}, which does not exist")
+    return urdf, package_dirs
+
+
+def read_srdf_pairs(spec: str, base: Path, path: Path) -> frozenset[frozenset[str]]:
+    """Link pairs of an SRDF's ``disable_collisions`` entries.
+
+    Raises:
+        FileFormatError: The SRDF does not exist or is not valid XML.
+    """
+    import xml.etree.ElementTree as ET
+
+    if spec.startswith(ROBOT_DATA_PREFIX):
+        srdf = example_robot_data_dir() / "robots" / spec[len(ROBOT_DATA_PREFIX) :].lstrip("/")
+    else:
+        srdf = (base / spec).resolve()
+    if not srdf.is_file():
+        raise FileFormatError(path, "collision.srdf", f"'{spec}' resolves to {srdf}, which does not exist")
+    try:
+        root = ET.parse(srdf).getroot()
+    except ET.ParseError as exc:
+        raise FileFormatError(path, "collision.srdf", f"{srdf} is not valid XML: {exc}") from None
+    pairs = ((e.get("link1"), e.get("link2")) for e in root.iter("disable_collisions"))
+    # an entry missing a link names no pair of links, so it could never match one: leave it out
+    return frozenset(frozenset((a, b)) for a, b in pairs if a is not None and b is not None)
+
+
+def _mapping(value: Any, path: Path, field_name: str) -> Mapping[str, Any]:
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise FileFormatError(path, field_name, f"expected a mapping joint -> value, got {value!r}")
+    return value
+
+
+def _positive_per_joint(value: Any, path: Path, field_name: str, default: float | None) -> dict[str, float]:
+    if value is None:
+        return {} if default is None else {"*": default}
+    items = value.items() if isinstance(value, Mapping) else [("*", value)]
+    out = {}
+    for joint, raw in items:
+        out[str(joint)] = read_positive(raw, path, f"{field_name}.{joint}" if joint != "*" else field_name)
+    return out
+
+
+def _read_limits(raw: Any, path: Path) -> LimitSpec:
+    raw = _mapping(raw, path, "limits")
+    unknown = sorted(set(raw) - {"velocity_fraction", "velocity", "acceleration", "jerk"})
+    if unknown:
+        raise FileFormatError(path, "limits", f"unknown keys {unknown}; expected velocity_fraction, velocity, acceleration, jerk")
+    fraction = _positive_per_joint(raw.get("velocity_fraction"), path, "limits.velocity_fraction", DEFAULT_VELOCITY_FRACTION)["*"]
+    if fraction > 1.0:
+        raise FileFormatError(path, "limits.velocity_fraction", f"is {fraction} but expected a fraction in (0, 1]")
+    velocity = _positive_per_joint(raw.get("velocity"), path, "limits.velocity", None)
+    if "*" in velocity:
+        raise FileFormatError(path, "limits.velocity", "expected a mapping joint -> rad/s (use velocity_fraction for all joints)")
+    return LimitSpec(
+        velocity_fraction=fraction,
+        velocity=velocity,
+        acceleration=_positive_per_joint(raw.get("acceleration"), path, "limits.acceleration", DEFAULT_ACCELERATION),
+        jerk=_positive_per_joint(raw.get("jerk"), path, "limits.jerk", DEFAULT_JERK),
+    )
+
+
+def _angles(raw: Any, path: Path, field_name: str) -> dict[str, float]:
+    return {str(k): parse_angle(v, path, f"{field_name}.{k}") for k, v in _mapping(raw, path, field_name).items()}
+
+
+def _vector3(raw: Any, path: Path, field_name: str, angles: bool) -> np.ndarray:
+    if not isinstance(raw, (list, tuple)) or len(raw) != 3:
+        raise FileFormatError(path, field_name, f"expected 3 numbers, got {raw!r}")
+    if angles:
+        return np.array([parse_angle(v, path, f"{field_name}[{i}]") for i, v in enumerate(raw)])
+    try:
+        out = np.array([float(v) for v in raw])
+    except (TypeError, ValueError):
+        raise FileFormatError(path, field_name, f"expected 3 numbers in m, got {raw!r}") from None
+    if not np.all(np.isfinite(out)):
+        raise FileFormatError(path, field_name, "contains NaN or inf")
+    return out
+
+
+def load_robot(path: str | Path) -> RobotDefinition:
+    """Read and check a robot definition file (see the module docstring).
+
+    Raises:
+        FileFormatError: A missing or malformed field, or a URDF that does not exist; the
+            message names the file and the field.
+        RobotDataNotFound: The URDF is in example-robot-data, which is not installed.
+    """
+    path = Path(path)
+    data = load_yaml(path)
+    base = path.resolve().parent
+    urdf_spec = str(require(data, "urdf", path))
+    urdf, package_dirs = resolve_urdf(urdf_spec, base, path)
+    sensor_raw = require(data, "sensor", path)
+    if not isinstance(sensor_raw, Mapping):
+        raise FileFormatError(path, "sensor", "expected a mapping with parent_frame, xyz and rpy")
+    sensor = SensorMount(
+        parent_frame=str(require(sensor_raw, "parent_frame", path, "sensor.")),
+        xyz=_vector3(sensor_raw.get("xyz", [0, 0, 0]), path, "sensor.xyz", angles=False),
+        rpy=_vector3(sensor_raw.get("rpy", [0, 0, 0]), path, "sensor.rpy", angles=True),
+        name=str(sensor_raw.get("name", "ft_sensor")),
+    )
+    sweep = data.get("sweep_joints")
+    if sweep is not None:
+        if not isinstance(sweep, list) or len(sweep) != 2 or not all(isinstance(j, str) for j in sweep) or sweep[0] == sweep[1]:
+            raise FileFormatError(path, "sweep_joints", f"expected two different joint names, got {sweep!r}")
+        sweep = (sweep[0], sweep[1])
+    home = _angles(data["home"], path, "home") if data.get("home") is not None else None
+    collision = _mapping(data.get("collision"), path, "collision")
+    ignore = collision.get("ignore_links") or []
+    if not isinstance(ignore, list):
+        raise FileFormatError(path, "collision.ignore_links", f"expected a list of link names, got {ignore!r}")
+    try:
+        floor_z = float(collision.get("floor_z", 0.0))
+    except (TypeError, ValueError):
+        raise FileFormatError(path, "collision.floor_z", f"expected a height in m, got {collision.get('floor_z')!r}") from None
+    srdf = collision.get("srdf")
+    allowed = read_srdf_pairs(str(srdf), base, path) if srdf else frozenset()
+    extra_dirs = tuple((base / p).resolve() for p in (data.get("package_dirs") or []))
+    return RobotDefinition(
+        name=str(require(data, "name", path)),
+        urdf=urdf,
+        sensor=sensor,
+        urdf_spec=urdf_spec,
+        sweep_joints=sweep,
+        home=home,
+        locked_joints=_angles(data.get("locked_joints"), path, "locked_joints"),
+        limits=_read_limits(data.get("limits"), path),
+        ignore_links=tuple(str(x) for x in ignore),
+        allowed_pairs=allowed,
+        floor_z=floor_z,
+        package_dirs=package_dirs + extra_dirs + (urdf.parent,),
+        source=path,
+    )

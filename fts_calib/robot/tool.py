@@ -1,0 +1,266 @@
+r"""Calibration tools: configurations of known mass and centre of mass, and their wrench.
+
+A tool file (YAML, ``configs/``) holds ``name``, optional ``gravity`` (magnitude in
+[m/s^2], default 9.81) and ``configurations``: a list of ``{name, mass [kg], com [x, y, z]
+[m, in the sensor frame S], inertia (optional 3x3 about the centre of mass, axes of S,
+[kg m^2])}``, and optional ``shape`` ``{radius, length}`` [m]: the envelope used for
+collision checks, a cylinder along X of S from the sensor out (default: around the
+centres of mass).
+
+Identifiability (paper eqs 18-20): one centre of mass gives the estimator rank 4, two
+give 6, and the full rank 7 needs three centres of mass that are not on one line.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..core.arrays import as_matrix, frozen
+from ..core.exceptions import FileFormatError, FtsCalibError, FtsCalibWarning, ShapeError
+from ..core.fileio import atomic_write_text, dump_yaml, load_yaml, read_array, read_positive, require
+from .wrench import dynamic_wrench
+
+#: Default magnitude of gravity in [m/s^2].
+STANDARD_GRAVITY = 9.81
+
+
+class UnknownToolConfiguration(FtsCalibError, KeyError):
+    """A tool configuration name is not in the tool file.
+
+    Attributes:
+        name: The name asked for.
+        available: The configuration names of the tool.
+    """
+
+    def __init__(self, name: str, available: Sequence[str]):
+        self.name = name
+        self.available = list(available)
+        super().__init__(name)
+
+    def __str__(self) -> str:
+        return f"tool configuration '{self.name}' is not in the tool file; configurations: {', '.join(self.available)}"
+
+
+@dataclass(frozen=True)
+class ToolConfiguration:
+    """One mounting of the calibration tool.
+
+    Attributes:
+        name: Configuration name (e.g. 'A'), as written in recordings.
+        mass: Mass in [kg], > 0.
+        p_sensor_com: Centre of mass in the sensor frame, in [m]. Shape (3,).
+        inertia_com: Inertia about the centre of mass, axes of S, in [kg m^2]. Shape (3, 3),
+            or None when unknown (then only the static wrench is available).
+    """
+
+    name: str
+    mass: float
+    p_sensor_com: np.ndarray
+    inertia_com: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "p_sensor_com", frozen(as_matrix(self.p_sensor_com, (3,), "p_sensor_com")))
+        if self.inertia_com is not None:
+            object.__setattr__(self, "inertia_com", frozen(as_matrix(self.inertia_com, (3, 3), "inertia_com")))
+        if not (math.isfinite(self.mass) and self.mass > 0):
+            raise ValueError(f"configuration '{self.name}': mass={self.mass} kg but expected a finite value > 0")
+        # eqs 17-18 are linear in g: W = [m I; m [c]x] g, one product per sample
+        cx, cy, cz = self.p_sensor_com
+        skew = np.array([[0.0, -cz, cy], [cz, 0.0, -cx], [-cy, cx, 0.0]])
+        object.__setattr__(self, "wrench_matrix", frozen(self.mass * np.vstack([np.eye(3), skew])))
+
+    #: ``[m I; m [c]x]``, the (6, 3) matrix with ``W = wrench_matrix @ g_sensor`` (eqs 17-18).
+    wrench_matrix: np.ndarray = field(init=False, repr=False)
+
+    def static_wrench(self, g_sensor) -> np.ndarray:
+        """Wrench at rest (eqs 17-18), ``[m g, c x m g]`` in [N, N m].
+
+        Args:
+            g_sensor: Gravity in the sensor frame, [m/s^2]. Shape (3,) or (N, 3).
+
+        Returns:
+            Shape (6,) or (N, 6).
+        """
+        g = np.asarray(g_sensor, dtype=float)
+        if g.shape == (3,):
+            return self.wrench_matrix.dot(g)
+        if g.ndim != 2 or g.shape[1] != 3:
+            raise ShapeError(f"g_sensor.shape={g.shape} but expected (3,) or (N, 3)")
+        return g @ self.wrench_matrix.T
+
+    def dynamic_wrench(self, g_sensor, omega_sensor, alpha_sensor, a_sensor) -> np.ndarray:
+        """Wrench of the moving tool (Newton-Euler); see :func:`fts_calib.robot.wrench.dynamic_wrench`.
+
+        Without inertia the tool is treated as a point mass at its centre of mass.
+
+        Args:
+            g_sensor: Gravity in S, [m/s^2]. Shape (3,) or (N, 3).
+            omega_sensor: Angular velocity of S in S, [rad/s]. Shape (3,) or (N, 3).
+            alpha_sensor: Angular acceleration of S in S, [rad/s^2]. Shape (3,) or (N, 3).
+            a_sensor: Classical acceleration of the origin of S in S, [m/s^2]. Shape (3,) or (N, 3).
+        """
+        inertia = np.zeros((3, 3)) if self.inertia_com is None else self.inertia_com
+        return dynamic_wrench(self.mass, self.p_sensor_com, inertia, g_sensor, omega_sensor, alpha_sensor, a_sensor)
+
+
+@dataclass(frozen=True)
+class ToolShape:
+    """The tool's envelope for collision checks: a cylinder along X of S, from the sensor out.
+
+    Attributes:
+        radius: Cylinder radius in [m].
+        length: Cylinder length from the origin of S along +X, in [m].
+    """
+
+    radius: float
+    length: float
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A calibration tool and its configurations.
+
+    Attributes:
+        name: Tool name.
+        gravity: Magnitude of gravity in [m/s^2] where the tool is used.
+        configurations: The configurations, in file order.
+        shape: Envelope for collision checks.
+        source: The file it was read from, or None.
+    """
+
+    name: str
+    gravity: float
+    configurations: tuple[ToolConfiguration, ...]
+    shape: ToolShape | None = None
+    source: Path | None = None
+
+    def __post_init__(self):
+        if self.shape is None:
+            object.__setattr__(self, "shape", default_shape(self.configurations))
+
+    @property
+    def names(self) -> list[str]:
+        """Configuration names, in order."""
+        return [c.name for c in self.configurations]
+
+    def configuration(self, name: str) -> ToolConfiguration:
+        """The configuration called ``name``.
+
+        Raises:
+            UnknownToolConfiguration: No such name; lists the names that exist.
+        """
+        for config in self.configurations:
+            if config.name == name:
+                return config
+        raise UnknownToolConfiguration(name, self.names)
+
+    def com_rank(self) -> int:
+        """Affine rank of the centres of mass: 0 (one point), 1 (on a line) or 2 (a plane or more).
+
+        The estimator's full rank 7 needs 2 (paper eqs 18-20).
+        """
+        coms = np.array([c.p_sensor_com for c in self.configurations])
+        if len(coms) < 2:
+            return 0
+        return int(np.linalg.matrix_rank(coms[1:] - coms[0], tol=1e-6))
+
+
+def default_shape(configurations: Sequence[ToolConfiguration]) -> ToolShape:
+    """An envelope around every centre of mass.
+
+    Length 1.3 x the farthest X, radius 1.3 x the farthest off-axis distance, at least 8 cm
+    long and 4 cm in radius.
+    """
+    coms = np.array([c.p_sensor_com for c in configurations])
+    length = max(0.08, 1.3 * float(np.max(np.abs(coms[:, 0]))))
+    radius = max(0.04, 1.3 * float(np.max(np.linalg.norm(coms[:, 1:], axis=1))))
+    return ToolShape(radius=radius, length=length)
+
+
+def _read_configuration(raw: object, index: int, path: Path) -> ToolConfiguration:
+    field = f"configurations[{index}]"
+    if not isinstance(raw, Mapping):
+        raise FileFormatError(path, field, "expected a mapping with name, mass and com")
+    name = require(raw, "name", path, field + ".")
+    mass = read_positive(require(raw, "mass", path, field + "."), path, field + ".mass", "kg")
+    com = read_array(require(raw, "com", path, field + "."), (3,), path, field + ".com")
+    inertia = None
+    if raw.get("inertia") is not None:
+        inertia = read_array(raw["inertia"], (3, 3), path, field + ".inertia")
+        if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12):
+            raise FileFormatError(path, field + ".inertia", "is not symmetric")
+        eig = np.linalg.eigvalsh(inertia)
+        if eig[0] < 0 or eig[2] > eig[0] + eig[1] + 1e-12:
+            raise FileFormatError(
+                path, field + ".inertia", f"principal moments {eig.round(6).tolist()} kg·m² are not physical (>= 0, triangle inequality)"
+            )
+    return ToolConfiguration(name=str(name), mass=mass, p_sensor_com=com, inertia_com=inertia)
+
+
+def load_tool(path: str | Path) -> Tool:
+    """Read a tool file (see the module docstring).
+
+    Warns (:class:`FtsCalibWarning`) when the centres of mass are collinear: the
+    calibration can then reach rank 6 at most.
+
+    Raises:
+        FileFormatError: A missing field, a non-positive mass, a wrong shape, a duplicate
+            configuration name; the message names the file and the field.
+    """
+    path = Path(path)
+    data = load_yaml(path)
+    name = str(require(data, "name", path))
+    gravity = read_positive(data.get("gravity", STANDARD_GRAVITY), path, "gravity", "m/s²")
+    raw_configs = require(data, "configurations", path)
+    if not isinstance(raw_configs, list) or not raw_configs:
+        raise FileFormatError(path, "configurations", "expected a non-empty list")
+    configs = tuple(_read_configuration(raw, i, path) for i, raw in enumerate(raw_configs))
+    names = [c.name for c in configs]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise FileFormatError(path, "configurations", f"duplicate names {duplicates}")
+    shape = None
+    if data.get("shape") is not None:
+        raw_shape = data["shape"]
+        if not isinstance(raw_shape, Mapping):
+            raise FileFormatError(path, "shape", "expected {radius: m, length: m}")
+        shape = ToolShape(
+            radius=read_positive(require(raw_shape, "radius", path, "shape."), path, "shape.radius", "m"),
+            length=read_positive(require(raw_shape, "length", path, "shape."), path, "shape.length", "m"),
+        )
+    tool = Tool(name=name, gravity=gravity, configurations=configs, shape=shape, source=path)
+    if len(configs) >= 3 and tool.com_rank() < 2:
+        warnings.warn(
+            f"{path}: the centres of mass of {names} are collinear; the calibration can reach rank 6 at most "
+            "(paper eqs 19-20). Move one configuration off the line.",
+            FtsCalibWarning,
+            stacklevel=2,
+        )
+    return tool
+
+
+def save_tool(tool: Tool, path: str | Path, header: str = "") -> Path:
+    """Write a tool file (the format :func:`load_tool` reads), atomically.
+
+    Args:
+        tool: The tool.
+        path: Destination.
+        header: Comment lines written first (e.g. the standard errors of an identified payload).
+    """
+    data: dict = {"name": tool.name, "gravity": tool.gravity}
+    if tool.shape is not None:
+        data["shape"] = {"radius": tool.shape.radius, "length": tool.shape.length}
+    data["configurations"] = []
+    for c in tool.configurations:
+        entry = {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist()}
+        if c.inertia_com is not None:
+            entry["inertia"] = c.inertia_com.tolist()
+        data["configurations"].append(entry)
+    comments = "".join(f"# {line}\n" for line in header.splitlines())
+    return atomic_write_text(path, comments + dump_yaml(data))

@@ -1,0 +1,177 @@
+"""Export a calibration for firmware and other software: a C header, JSON, ROS 2 parameters.
+
+- ``c-header``: C (6x8) and D (6) as arrays, and an inline function computing
+  ``wrench = C strain + D``, as the paper's STM32 does. ``float`` by default (a Cortex-M4
+  has a single-precision FPU); define ``FTS_CALIB_DOUBLE`` before including it for double.
+  Values are printed as Python repr (shortest, round-trips a double; in float mode
+  the compiler rounds them).
+- ``json``: C, C_bar, D, units, quality and provenance.
+- ``ros2``: the parameters of the ``control_filters/GravityCompensationWrench`` filter of
+  ros2_control's control_toolbox (``world_frame``, ``sensor_frame``, ``CoG.pos`` in the
+  sensor frame [m], ``CoG.force`` in the world frame [N], e.g. ``[0, 0, -m g]``), in a
+  filter chain of a node, for the payload the sensor carries.
+
+Angles and units as everywhere in fts-calib: N, N m, m; strains raw.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+
+from ..core.fileio import dump_yaml, to_plain
+from ..model.calibration import FORMAT, Calibration
+from ..robot.tool import ToolConfiguration
+
+#: The formats :func:`export` writes.
+FORMATS = ("c-header", "json", "ros2")
+
+
+def _identifier(name: str) -> str:
+    text = re.sub(r"[^0-9A-Za-z_]", "_", name).upper().strip("_") or "FTS_CALIB"
+    return "_" + text if text[0].isdigit() else text
+
+
+def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
+    """A C header with the calibration (see the module docstring).
+
+    Args:
+        calibration: The calibration.
+        name: Prefix of the identifiers and of the include guard (letters, digits, '_').
+    """
+    prefix = _identifier(name)
+    lower = prefix.lower()
+    C_rows = ",\n".join("    {" + ", ".join(f"{prefix}_R({float(v)!r})" for v in row) + "}" for row in calibration.C)
+    D_values = ", ".join(f"{prefix}_R({float(v)!r})" for v in calibration.D)
+    prov = calibration.provenance
+    lines = [
+        f"/* {lower}.h: force/torque sensor calibration written by fts-calib {prov.get('software_version', '')}".rstrip() + ".",
+        " * wrench = C * strain + D, wrench = [Fx Fy Fz] in N and [Mx My Mz] in N*m, in the sensor frame;",
+        " * strain = the 8 raw half-bridge readings, in the unit used during calibration.",
+        f" * method: {prov.get('method', 'unknown')}; time: {prov.get('time', 'unknown')}. */",
+        f"#ifndef {prefix}_H",
+        f"#define {prefix}_H",
+        "",
+        "#ifdef FTS_CALIB_DOUBLE",
+        f"typedef double {lower}_real;",
+        f"#define {prefix}_R(x) x",
+        "#else",
+        f"typedef float {lower}_real;",
+        f"#define {prefix}_R(x) x##f",
+        "#endif",
+        "",
+        "/* C: rows Fx Fy Fz (N per strain unit), Mx My Mz (N*m per strain unit); columns strain 1..8 */",
+        f"static const {lower}_real {prefix}_C[6][8] = {{",
+        C_rows,
+        "};",
+        "",
+        "/* D: offsets [Fx Fy Fz Mx My Mz] in N and N*m */",
+        f"static const {lower}_real {prefix}_D[6] = {{{D_values}}};",
+        "",
+        "/* wrench[6] = C * strain[8] + D */",
+        f"static inline void {lower}_wrench(const {lower}_real strain[8], {lower}_real wrench[6])",
+        "{",
+        "    for (int i = 0; i < 6; ++i) {",
+        f"        {lower}_real sum = {prefix}_D[i];",
+        f"        for (int k = 0; k < 8; ++k) sum += {prefix}_C[i][k] * strain[k];",
+        "        wrench[i] = sum;",
+        "    }",
+        "}",
+        "",
+        f"#endif /* {prefix}_H */",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def json_text(calibration: Calibration) -> str:
+    """The calibration as JSON (format, units, C, C_bar, D, quality, provenance)."""
+    q = calibration.quality
+    data = {
+        "format": FORMAT,
+        "units": {"wrench": ["N", "N", "N", "N·m", "N·m", "N·m"], "strain": "raw bridge reading"},
+        "C": calibration.C,
+        "C_bar": calibration.C_bar,
+        "D": calibration.D,
+        "quality": None
+        if q is None
+        else {
+            "rank": q.rank,
+            "condition_number": q.condition_number,
+            "samples_used": q.samples_used,
+            "residual_rms": q.residual_rms,
+            "stderr_C": q.stderr_C,
+            "stderr_D": q.stderr_D,
+        },
+        "provenance": dict(calibration.provenance),
+        "offset_history": list(calibration.offset_history),
+    }
+    return json.dumps(to_plain(data), indent=2, ensure_ascii=False) + "\n"
+
+
+def ros2_parameters(
+    payload: ToolConfiguration,
+    gravity: float,
+    sensor_frame: str = "ft_sensor",
+    world_frame: str = "world",
+    node: str = "force_torque_sensor_broadcaster",
+) -> str:
+    """Parameters of control_toolbox's gravity compensation filter for a payload (YAML).
+
+    Args:
+        payload: The payload: mass [kg] and centre of mass in the sensor frame [m].
+        gravity: Magnitude of gravity [m/s^2].
+        sensor_frame: TF name of the sensor frame (the frame of fts-calib's S).
+        world_frame: TF name of a fixed frame whose z axis points up.
+        node: Name of the node that runs the filter chain.
+    """
+    params = {
+        node: {
+            "ros__parameters": {
+                "sensor_filter_chain": {
+                    "filter1": {
+                        "name": "gravity_compensation",
+                        "type": "control_filters/GravityCompensationWrench",
+                        "params": {
+                            "world_frame": world_frame,
+                            "sensor_frame": sensor_frame,
+                            "CoG": {
+                                "pos": [float(v) for v in payload.p_sensor_com],
+                                "force": [0.0, 0.0, -float(payload.mass * gravity)],
+                            },
+                        },
+                    }
+                }
+            }
+        }
+    }
+    header = (
+        f"# control_toolbox GravityCompensationWrench filter for payload '{payload.name}' ({payload.mass:.4g} kg),\n"
+        "# written by fts-calib: CoG.pos in the sensor frame [m], CoG.force in the world frame [N] (z up).\n"
+    )
+    return header + dump_yaml(params)
+
+
+def export(
+    calibration: Calibration,
+    fmt: str,
+    payload: ToolConfiguration | None = None,
+    gravity: float = 9.81,
+    name: str = "fts_calib",
+    sensor_frame: str = "ft_sensor",
+    world_frame: str = "world",
+) -> str:
+    """The text of an export in one of :data:`FORMATS`.
+
+    Raises:
+        ValueError: Unknown format, or ``ros2`` without a payload.
+    """
+    if fmt == "c-header":
+        return c_header(calibration, name)
+    if fmt == "json":
+        return json_text(calibration)
+    if fmt == "ros2":
+        if payload is None:
+            raise ValueError("the ros2 export describes the payload to compensate: give its tool file (--payload)")
+        return ros2_parameters(payload, gravity, sensor_frame, world_frame)
+    raise ValueError(f"format {fmt!r} but expected one of {', '.join(FORMATS)}")

@@ -1,0 +1,254 @@
+"""The ``validate`` job: measured against expected wrench over a recording (the paper's third stage).
+
+The recording should come from another motion and another tool than the calibration. For
+every sample, the *expected* wrench is the tool's, from the kinematics: by default the
+Newton-Euler wrench of the moving tool, with joint velocities and accelerations estimated
+from the readings as the quasi-static filter does (:func:`fts_calib.pipeline.qsfilter.joint_rates`);
+with ``dynamic=False`` the static weight alone (paper eqs 17-18: what the paper compared, its
+error then includes the uncompensated dynamics). The *measured* wrench is ``C strain + D``
+with each calibration. Errors per axis, in [N] or [N m] and in % of the sensor's full
+scale (the paper's sensor: 50 N, 5 N m), and, with two calibrations, the same between them
+(the paper's Table 1 against Table 2).
+
+The recording streams in chunks; statistics are accumulated and the series for the plot are
+thinned as they grow, so memory does not grow with the recording's length.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..core.arrays import frozen
+from ..feeds.recording import RecordingReader
+from ..model.calibration import Calibration
+from ..pipeline.qsfilter import joint_rates
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool
+
+_PLOT_POINTS = 20_000  # samples kept for the plot, at most twice this
+_WINDOW_S = 0.05  # derivative window of the joint-rate estimates [s]
+
+
+@dataclass(frozen=True)
+class AxisErrors:
+    """Errors of a wrench against a reference, per axis ``[Fx, Fy, Fz, Mx, My, Mz]``.
+
+    Attributes:
+        max_abs: Largest absolute error [N, N, N, N m, N m, N m]. Shape (6,).
+        rms: Root mean square error, same units. Shape (6,).
+        full_scale: Full scale per axis, same units. Shape (6,).
+    """
+
+    max_abs: np.ndarray
+    rms: np.ndarray
+    full_scale: np.ndarray
+
+    def __post_init__(self):
+        for name in ("max_abs", "rms", "full_scale"):
+            object.__setattr__(self, name, frozen(getattr(self, name)))
+
+    @property
+    def max_percent(self) -> np.ndarray:
+        """Largest absolute error in % of full scale, shape (6,)."""
+        return 100.0 * self.max_abs / self.full_scale
+
+    @property
+    def rms_percent(self) -> np.ndarray:
+        """RMS error in % of full scale, shape (6,)."""
+        return 100.0 * self.rms / self.full_scale
+
+
+@dataclass(frozen=True)
+class ValidationResult:
+    """What ``validate`` measured.
+
+    Attributes:
+        samples: Samples compared.
+        skipped: Rows or samples not compared, by reason.
+        errors: Per calibration, its errors against the expected wrench.
+        between: The first calibration against the second, or None.
+        dynamic: Whether the expected wrench includes the tool's dynamics.
+        time: Times of the plotted samples [s], shape (M,).
+        expected: Expected wrench at those samples, shape (M, 6).
+        measured: Per calibration, the measured wrench at those samples, (M, 6) each.
+    """
+
+    samples: int
+    skipped: dict[str, int]
+    errors: list[AxisErrors]
+    between: AxisErrors | None
+    dynamic: bool
+    time: np.ndarray
+    expected: np.ndarray
+    measured: list[np.ndarray]
+
+
+class _Errors:
+    def __init__(self):
+        self.sum_sq = np.zeros(6)
+        self.max_abs = np.zeros(6)
+
+    def add(self, difference: np.ndarray) -> None:
+        if len(difference):
+            self.sum_sq += np.sum(difference * difference, axis=0)
+            self.max_abs = np.maximum(self.max_abs, np.max(np.abs(difference), axis=0))
+
+    def result(self, n: int, full_scale: np.ndarray) -> AxisErrors:
+        return AxisErrors(self.max_abs.copy(), np.sqrt(self.sum_sq / max(n, 1)), full_scale)
+
+
+class _Thinner:
+    """Keeps at most twice ``limit`` rows of a stream, evenly spaced (every ``stride``-th)."""
+
+    def __init__(self, limit: int):
+        self.limit, self.stride, self.seen = limit, 1, 0
+        self.rows: list[tuple[np.ndarray, ...]] = []
+
+    def add(self, *columns: np.ndarray) -> None:
+        n = len(columns[0])
+        take = (np.arange(self.seen, self.seen + n) % self.stride) == 0
+        self.seen += n
+        self.rows.append(tuple(c[take] for c in columns))
+        if sum(len(r[0]) for r in self.rows) > 2 * self.limit:
+            merged = [np.concatenate(parts) for parts in zip(*self.rows, strict=True)]
+            self.rows = [tuple(m[::2] for m in merged)]
+            self.stride *= 2
+
+    def arrays(self, width: int) -> list[np.ndarray]:
+        if not self.rows:
+            return [np.zeros((0,) + ((width,) if k else ())) for k in range(width)]
+        return [np.concatenate(parts) for parts in zip(*self.rows, strict=True)]
+
+
+def expected_wrench(
+    kin: Kinematics, tool: Tool, time: np.ndarray, readings: np.ndarray, codes: np.ndarray, dt: float, dynamic: bool
+) -> np.ndarray:
+    """The tool's wrench on the sensor at each sample, from the joint readings alone.
+
+    Args:
+        kin: Kinematics.
+        tool: The tool.
+        time: [s], shape (N,).
+        readings: Joint readings [rad], shape (N, n_joints).
+        codes: Configuration index of each sample, shape (N,).
+        dt: The stream's sample period [s], for the joint-rate estimates.
+        dynamic: Newton-Euler wrench of the moving tool (True) or its weight alone (False).
+
+    Returns:
+        Shape (N, 6), [N, N m].
+    """
+    out = np.zeros((len(time), 6))
+    if dynamic:
+        continuous = np.array([j.kind == "continuous" for j in kin.joints])
+        velocity, acceleration = joint_rates(time, readings, _WINDOW_S, dt, continuous)
+        motion = kin.sensor_motion(readings, velocity, acceleration)
+        g = np.einsum("nji,j->ni", motion.R_world_sensor, kin.g_world(tool.gravity))
+    else:
+        g = kin.g_sensor(readings, tool.gravity)
+    for c, config in enumerate(tool.configurations):
+        mine = codes == c
+        if not mine.any():
+            continue
+        if dynamic:
+            out[mine] = config.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
+        else:
+            out[mine] = config.static_wrench(g[mine])
+    return out
+
+
+def validate_recording(
+    path: str | Path, kin: Kinematics, tool: Tool, calibrations: Sequence[Calibration], full_scale: np.ndarray, dynamic: bool = True
+) -> ValidationResult:
+    """Compare measured and expected wrenches over a recording (see the module docstring).
+
+    Args:
+        path: Recording (CSV or CSV.gz) made with ``tool``.
+        kin: Kinematics of the robot that made it.
+        tool: The tool mounted during the recording.
+        calibrations: One or two calibrations.
+        full_scale: Full scale per axis [N, N, N, N m, N m, N m], shape (6,).
+        dynamic: Include the moving tool's dynamics in the expected wrench.
+
+    Raises:
+        RecordingError: The recording cannot be read (missing, empty, a missing column).
+        ValueError: Not one or two calibrations.
+    """
+    if not 1 <= len(calibrations) <= 2:
+        raise ValueError(f"{len(calibrations)} calibrations given but expected one or two")
+    full_scale = np.asarray(full_scale, dtype=float)
+    errors = [_Errors() for _ in calibrations]
+    between = _Errors()
+    plot = _Thinner(_PLOT_POINTS)
+    skipped: dict[str, int] = {}
+    samples = 0
+    dt, half = 0.0, 0
+    last_time = -np.inf
+    # rows already compared that the next rows' rate windows need, and rows not compared yet
+    context: tuple[np.ndarray, ...] | None = None
+    waiting: tuple[np.ndarray, ...] | None = None
+
+    def skip(reason: str, count: int) -> None:
+        if count:
+            skipped[reason] = skipped.get(reason, 0) + count
+
+    def compare(rows: tuple[np.ndarray, ...], first: int, last: int) -> None:
+        """Compare rows ``first:last``; the rows around them serve the rate estimates."""
+        nonlocal samples
+        t, q, s, k = rows
+        W = expected_wrench(kin, tool, t, q, k, dt, dynamic)[first:last]
+        measured = [cal.wrench(s[first:last]) for cal in calibrations]
+        for errs, m in zip(errors, measured, strict=True):
+            errs.add(m - W)
+        if len(measured) == 2:
+            between.add(measured[0] - measured[1])
+        samples += len(W)
+        plot.add(t[first:last], W, *measured)
+
+    def join(*parts):
+        parts = [p for p in parts if p is not None]
+        return tuple(np.concatenate(columns) for columns in zip(*parts, strict=True))
+
+    with RecordingReader(path, kin.joint_names, tool.names) as reader:
+        for chunk in reader:
+            t, q, s, k = chunk.time, chunk.readings, chunk.strain, chunk.tool
+            ok = np.isfinite(t) & np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(s), axis=1)
+            skip("non-finite value", int((~ok).sum()))
+            previous = np.maximum.accumulate(np.concatenate([[last_time], np.where(ok, t, -np.inf)]))[:-1]
+            forward = ok & (t >= previous)
+            skip("time going backwards", int((ok & ~forward).sum()))
+            if not forward.any():
+                continue
+            new = (t[forward], q[forward], s[forward], k[forward])
+            last_time = float(new[0][-1])
+            if dt == 0.0 and len(new[0]) > 100:
+                dt = float(np.median(np.diff(new[0][:101])))
+                half = int(round(_WINDOW_S / 2 / dt)) if dt > 0 else 0
+            rows = join(context, waiting, new)
+            first = 0 if context is None else len(context[0])
+            last = len(rows[0]) - half  # the last rows wait for their right-hand window
+            if last > first:
+                compare(rows, first, last)
+                context = tuple(a[max(last - half, 0) : last] for a in rows)
+                waiting = tuple(a[last:] for a in rows)
+            else:
+                waiting = join(waiting, new)
+        for reason, count in reader.skipped.items():
+            skip(reason, count)
+    if waiting is not None and len(waiting[0]):
+        rows = join(context, waiting)
+        compare(rows, 0 if context is None else len(context[0]), len(rows[0]))
+    time, expected, *measured = plot.arrays(2 + len(calibrations))
+    return ValidationResult(
+        samples=samples,
+        skipped=skipped,
+        errors=[e.result(samples, full_scale) for e in errors],
+        between=between.result(samples, full_scale) if len(calibrations) == 2 else None,
+        dynamic=dynamic,
+        time=time,
+        expected=expected,
+        measured=measured,
+    )

@@ -1,0 +1,91 @@
+"""Simulated recordings: planned trajectories played through the kinematics and a simulated sensor.
+
+For each tool configuration's trajectory, the moving tool's full wrench on the sensor
+(Newton-Euler with its mass, centre of mass and inertia, from the trajectory's positions,
+velocities and accelerations: :meth:`fts_calib.robot.tool.ToolConfiguration.dynamic_wrench`) goes
+through the simulated sensor (:class:`fts_calib.sim.sensor.SimulatedSensor`: eq 22, null
+content, noise, drift, 24-bit ADC). The recording has exactly the format a real robot
+produces (:mod:`fts_calib.feeds.recording`); configurations follow each other with a pause for the
+tool change, during which nothing is recorded.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..core.exceptions import FtsCalibError
+from ..feeds.recording import RecordingWriter
+from ..planning.trajectory_io import TrajectoryFile
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool
+from .sensor import SimulatedSensor
+
+_BLOCK = 1 << 15  # samples simulated at a time (bounded memory)
+
+
+def tool_wrenches(kin: Kinematics, tool: Tool, configuration: str, q, qd, qdd, dynamic: bool = True) -> np.ndarray:
+    """The wrench a tool configuration exerts on the sensor along a motion.
+
+    Args:
+        kin: Kinematics.
+        tool: The tool.
+        configuration: Configuration name.
+        q: Joint positions [rad], shape (N, n_joints).
+        qd: Joint velocities [rad/s], shape (N, n_joints).
+        qdd: Joint accelerations [rad/s^2], shape (N, n_joints).
+        dynamic: Newton-Euler wrench of the moving tool; False for the static one (eqs 17-18).
+
+    Returns:
+        ``[Fx, Fy, Fz, Mx, My, Mz]`` in [N, N m], shape (N, 6).
+    """
+    config = tool.configuration(configuration)
+    if not dynamic:
+        return config.static_wrench(kin.g_sensor(q, tool.gravity))
+    motion = kin.sensor_motion(q, qd, qdd)
+    g = np.einsum("nji,j->ni", motion.R_world_sensor, kin.g_world(tool.gravity))
+    return config.dynamic_wrench(g, motion.omega, motion.alpha, motion.a)
+
+
+def simulate_recording(
+    path: str | Path,
+    kin: Kinematics,
+    tool: Tool,
+    trajectories: Sequence[TrajectoryFile],
+    sensor: SimulatedSensor,
+    rng: np.random.Generator | None,
+    tool_change_s: float = 2.0,
+    start_time: float = 0.0,
+    dynamic: bool = True,
+) -> Path:
+    """Write a recording of the given trajectories (see the module docstring).
+
+    Args:
+        path: Recording to write (``.csv`` or ``.csv.gz``), atomically.
+        kin: Kinematics of the robot the trajectories are for.
+        tool: The tool; each trajectory's ``tool`` names its configuration.
+        trajectories: One trajectory per configuration, in the order they are run.
+        sensor: The simulated sensor.
+        rng: Random generator for the sensor noise (noiseless when None).
+        tool_change_s: Pause between configurations [s].
+        start_time: Time of the first sample [s].
+        dynamic: Use the moving tool's wrench (True) or the static one.
+
+    Raises:
+        FtsCalibError: A trajectory's joints differ from the robot's.
+    """
+    offset = start_time
+    with RecordingWriter(path, kin.joint_names) as writer:
+        for traj in trajectories:
+            if tuple(traj.joint_names) != tuple(kin.joint_names):
+                raise FtsCalibError(f"trajectory joints {list(traj.joint_names)} differ from the robot's {list(kin.joint_names)}")
+            tool.configuration(traj.tool)  # a clear error for an unknown configuration
+            for start in range(0, len(traj.time), _BLOCK):
+                part = slice(start, start + _BLOCK)
+                W = tool_wrenches(kin, tool, traj.tool, traj.q[part], traj.qd[part], traj.qdd[part], dynamic)
+                t = traj.time[part] - traj.time[0] + offset
+                writer.write(t, traj.q[part], sensor.strains(W, time=t, rng=rng), traj.tool)
+            offset += traj.time[-1] - traj.time[0] + tool_change_s
+    return Path(path)
