@@ -16,18 +16,18 @@ import numpy as np
 
 from fts_calib.core.resources import data_dir, resolve
 from fts_calib.feeds.recording import RecordingWriter
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.planning.trajectory_io import read_trajectory
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
 from fts_calib.sim.recording import tool_wrenches
+from fts_calib.sim.sensor import load_simulated_sensor
 
 
 def write_recording(path: Path, rows: int) -> None:
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     rng = np.random.default_rng(0)
     # the shipped 100 Hz plan, resampled to 1 kHz by linear interpolation (positions only:
     # the filter estimates velocities from them; the wrench uses the planned ones)

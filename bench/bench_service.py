@@ -9,12 +9,12 @@ import numpy as np
 
 from fts_calib import Calibration
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
 from fts_calib.service.payload import identify_payload
 from fts_calib.service.reader import GravityCompensator
+from fts_calib.sim.sensor import load_simulated_sensor
 
 
 def per_call(fn, args, blocks: int = 200, calls: int = 500) -> float:
@@ -29,7 +29,7 @@ def per_call(fn, args, blocks: int = 200, calls: int = 500) -> float:
 
 
 def main():
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     comp = GravityCompensator(Calibration(sensor.C_bar, sensor.D), payload, kin.g_world(9.81))

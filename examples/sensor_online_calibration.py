@@ -4,13 +4,13 @@ import numpy as np
 
 from fts_calib import OnlineEstimator, static_wrench
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.sim.sensor import load_simulated_sensor
 
 
 def main():
     """Simulate, calibrate and print the result beside the truth."""
     # The shipped simulated sensor: true C = Table 1 of the paper, offsets D, noise 1e-5 mV/V, 24-bit ADC.
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     rng = np.random.default_rng(0)
     est = OnlineEstimator()
     for p_sensor_com in ([0.12, 0, 0], [0.08, 0.06, 0], [0.08, 0, 0.06]):  # [m], three tool configurations

@@ -6,12 +6,12 @@ import numpy as np
 
 from fts_calib import estimate_offsets, load_calibration
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import ToolConfiguration, load_tool
 from fts_calib.service.payload import identify_payload
 from fts_calib.service.reader import GravityCompensator
+from fts_calib.sim.sensor import load_simulated_sensor
 
 RATE = 1000.0  # [Hz] the control loop
 DETECT = 4.0  # [N] an external force above this is a push: start guiding
@@ -34,7 +34,7 @@ def external_push(t: float) -> np.ndarray:
 def main():
     """Run the loop on a simulated sensor and print what happened."""
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated  # the "real" sensor, with unknown offsets
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))  # the "real" sensor, with unknown offsets
     gripper = load_tool(resolve("validation_tool", "configs")).configurations[0]  # the payload, unknown to the loop
     rng = np.random.default_rng(0)
     g_world = kin.g_world(9.81)

@@ -11,33 +11,46 @@ frame S; sample axis first.
 
 from ._version import __version__
 from .core.exceptions import (
+    ConfigError,
     FileFormatError,
     FrameNotFound,
     FtsCalibError,
     FtsCalibWarning,
     InsufficientExcitation,
     JointError,
+    PayloadError,
+    ProtocolError,
     RecordingError,
+    ResourceNotFound,
+    RobotDataNotFound,
     ShapeError,
     StructureError,
     TrajectoryError,
+    UnknownToolConfiguration,
+    UnsupportedJoint,
 )
+from .feeds.batch import SampleBatch
 from .model.calibration import Calibration, Quality, load_calibration, save_calibration
-from .model.estimator import OffsetEstimate, OnlineEstimator, estimate_offsets, information_rank, jig_calibration
+from .model.estimator import OnlineEstimator
+from .model.jig import jig_calibration
+from .model.least_squares import information_rank
+from .model.offsets import OffsetEstimate, estimate_offsets
 from .model.sensor import WRENCH_AXES, P, c_bar_from_c, c_from_c_bar, project, wrench_from_strain
-from .model.sensor_config import load_sensor_config
+from .model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 from .pipeline.session import CalibrationSession
 from .robot.definition import load_robot
 from .robot.kinematics import Kinematics
+from .robot.load import ToolLoad, tool_load
 from .robot.tool import Tool, ToolConfiguration, load_tool, save_tool
 from .robot.wrench import dynamic_wrench, static_wrench
-from .service.payload import PayloadError, PayloadEstimate, identify_payload
+from .service.payload import PayloadEstimate, identify_payload
 from .service.reader import GravityCompensator, WrenchReader
-from .sim.sensor import SimulatedSensor
+from .sim.sensor import SimulatedSensor, load_simulated_sensor
 
 __all__ = [
     "Calibration",
     "CalibrationSession",
+    "ConfigError",
     "FileFormatError",
     "FrameNotFound",
     "FtsCalibError",
@@ -51,14 +64,23 @@ __all__ = [
     "P",
     "PayloadError",
     "PayloadEstimate",
+    "ProtocolError",
     "Quality",
     "RecordingError",
+    "ResourceNotFound",
+    "RobotDataNotFound",
+    "SampleBatch",
+    "SensorSpec",
     "ShapeError",
     "SimulatedSensor",
+    "SimulationSpec",
     "StructureError",
     "Tool",
     "ToolConfiguration",
+    "ToolLoad",
     "TrajectoryError",
+    "UnknownToolConfiguration",
+    "UnsupportedJoint",
     "WRENCH_AXES",
     "WrenchReader",
     "__version__",
@@ -72,10 +94,12 @@ __all__ = [
     "load_calibration",
     "load_robot",
     "load_sensor_config",
+    "load_simulated_sensor",
     "load_tool",
     "project",
     "save_calibration",
     "save_tool",
     "static_wrench",
+    "tool_load",
     "wrench_from_strain",
 ]

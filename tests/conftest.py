@@ -7,6 +7,7 @@ from fts_calib.core.resources import resolve
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
+from fts_calib.sim.sensor import load_simulated_sensor
 
 #: The one seed of the normal suite. ``--seed S`` runs the suite with another one, and
 #: ``--seeds N`` (or ``--seeds A:B``) runs every randomized test once per seed in range(N):
@@ -114,7 +115,8 @@ def random_readings(kin, n, rng):
 @pytest.fixture(scope="session")
 def short_plan():
     """A short UR5 calibration motion (3 levels x 4 stops, 100 Hz) for all three configurations."""
-    from fts_calib.planning.planner import SweepPattern, plan_sweeps, sweep_ranges, wrist_ranges
+    from fts_calib.planning.motion import plan_sweeps
+    from fts_calib.planning.sweeps import SweepPattern, sweep_ranges, wrist_ranges
     from fts_calib.robot.collision import CollisionChecker
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
@@ -129,13 +131,12 @@ def short_plan():
 @pytest.fixture(scope="session")
 def ur5_recording(tmp_path_factory, short_plan, seed):
     """A simulated UR5 recording of the short plan: noise, 24-bit ADC, moving tool (Newton-Euler)."""
-    from fts_calib.model.sensor_config import load_sensor_config
     from fts_calib.planning.trajectory_io import TrajectoryFile
     from fts_calib.sim.recording import simulate_recording
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     p = short_plan
     trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
     path = tmp_path_factory.mktemp("recordings") / "ur5.csv"

@@ -5,14 +5,15 @@ import pytest
 
 from fts_calib import load_calibration
 from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.calibrate import calibrate_recording
+from fts_calib.sim.sensor import load_simulated_sensor
 
 
 @pytest.fixture(scope="module")
 def truth():
-    return load_sensor_config(resolve("sensor", "configs")).simulated
+    return load_simulated_sensor(resolve("sensor", "configs"))
 
 
 def _error(calibration, truth):
@@ -89,10 +90,10 @@ def test_missing_column_and_empty_file_are_clear_errors(tmp_path, ur5_recording,
     lines = _lines(ur5_recording)
     path = tmp_path / "no_tool.csv"
     path.write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in lines[:50]))
-    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 2
+    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.RECORDING
     assert "no_tool.csv, line 1, column 'tool': missing column(s) ['tool']" in capsys.readouterr().err
     (tmp_path / "empty.csv").write_text("")
-    assert main(["calibrate", "--robot", "ur5", str(tmp_path / "empty.csv"), "--quiet"]) == 2
+    assert main(["calibrate", "--robot", "ur5", str(tmp_path / "empty.csv"), "--quiet"]) == ExitCode.RECORDING
     assert "empty.csv, line 1: empty file" in capsys.readouterr().err
 
 

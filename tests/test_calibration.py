@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import Calibration, FileFormatError, OnlineEstimator, ShapeError, load_calibration, save_calibration
+from fts_calib import Calibration, ConfigError, FileFormatError, OnlineEstimator, ShapeError, load_calibration, save_calibration
 
 from .helpers import C_BAR_TRUE, D_TRUE, paper_simulation
 
@@ -125,3 +125,12 @@ def test_not_yaml_and_missing_file(tmp_path):
 def test_constructor_checks_shapes():
     with pytest.raises(ShapeError, match=r"C_bar.shape=\(6, 8\) but expected \(6, 6\)"):
         Calibration(C_bar=np.zeros((6, 8)), D=np.zeros(6))
+
+
+def test_constructor_refuses_what_the_file_refuses_non_finite_coefficients():
+    with pytest.raises(ConfigError, match=r"D=\[0.0, nan, 0.0, 0.0, 0.0, 0.0\] but expected finite values"):
+        Calibration(C_bar=C_BAR_TRUE, D=[0.0, float("nan"), 0.0, 0.0, 0.0, 0.0])
+    C_bar = C_BAR_TRUE.copy()
+    C_bar[2, 3] = np.inf
+    with pytest.raises(ConfigError, match=r"C_bar=\[\[.*inf.*\]\] but expected finite values"):
+        Calibration(C_bar=C_bar, D=D_TRUE)

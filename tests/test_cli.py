@@ -4,6 +4,7 @@ import pytest
 
 from fts_calib import load_calibration
 from fts_calib.app.cli import build_parser, main
+from fts_calib.app.exit_codes import ExitCode
 
 
 def _commands():
@@ -46,12 +47,15 @@ def test_trajectory_command_writes_checked_files(tmp_path, capsys):
 def test_trajectory_command_fails_a_check_and_writes_no_trajectory(tmp_path, capsys):
     out = tmp_path / "traj"
     # 40 cm of clearance cannot be met: the plan is refused, the report says why
-    assert main(["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--min-clearance", "0.4", "--no-plot"]) in (1, 2)
+    assert main(["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--min-clearance", "0.4", "--no-plot"]) in (
+        ExitCode.CHECK_FAILED,
+        ExitCode.TRAJECTORY,
+    )
     captured = capsys.readouterr()
     assert "0.4 m" in captured.out + captured.err
     assert not out.exists() or not list(out.glob("*.csv"))
 
 
 def test_trajectory_command_rejects_a_rate_of_zero(tmp_path, capsys):
-    assert main(["trajectory", "--robot", "ur5", "-o", str(tmp_path), "--rate", "0"]) == 2
+    assert main(["trajectory", "--robot", "ur5", "-o", str(tmp_path), "--rate", "0"]) == ExitCode.TRAJECTORY
     assert "rate=0.0 Hz but expected a finite rate > 0" in capsys.readouterr().err

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from fts_calib import (
+    ConfigError,
     InsufficientExcitation,
     OnlineEstimator,
     ShapeError,
@@ -323,3 +324,9 @@ def test_information_rank_is_unit_free(rng):
     scaled = X * np.array([1e-6, 1, 1e3, 1e3, 1, 1, 1])
     assert information_rank(scaled.T @ scaled)[0] == rank == 6
     assert math.isinf(cond)
+
+
+def test_merge_refuses_another_forgetting_factor():
+    with pytest.raises(ConfigError, match=r"cannot merge estimators with forgetting 1.0 and 0.98") as info:
+        OnlineEstimator().merge(OnlineEstimator(0.98))
+    assert info.value.field == "forgetting" and info.value.value == 0.98

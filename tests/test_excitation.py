@@ -5,8 +5,8 @@ import pytest
 
 from fts_calib import OnlineEstimator
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.planning.excitation import coverage_angle, predict_excitation
+from fts_calib.sim.sensor import load_simulated_sensor
 
 from .helpers import random_gravity
 
@@ -14,7 +14,7 @@ from .helpers import random_gravity
 def test_predicted_standard_errors_match_those_of_a_simulated_calibration(paper_tool, rng):
     """The estimator reports standard errors from its residuals; with N = 3 x 2000 samples the
     residual variance is estimated to about 1/sqrt(2 N) = 0.9 %, so both agree within 5 %."""
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     noise = 2e-4
     g = {c.name: random_gravity(2000, rng) for c in paper_tool.configurations}
     predicted = predict_excitation(g, paper_tool, sensor.C_bar, sensor.D, noise)

@@ -8,17 +8,18 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import Calibration, load_calibration, save_calibration
+from fts_calib import Calibration, ConfigError, load_calibration, save_calibration
 from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.export import c_header, json_text, ros2_parameters
+from fts_calib.service.export import c_header, export, json_text, ros2_parameters
+from fts_calib.sim.sensor import load_simulated_sensor
 
 
 @pytest.fixture(scope="module")
 def calibration():
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     return Calibration(sensor.C_bar, sensor.D, provenance={"method": "test", "software_version": "0"})
 
 
@@ -82,14 +83,21 @@ def test_cli_export_and_bad_calibration_files(tmp_path, calibration, capsys):
     path = save_calibration(calibration, tmp_path / "cal.yaml")
     assert main(["export", "--format", "json", "--calibration", str(path), "-o", str(tmp_path / "c.json")]) == 0
     assert json.loads((tmp_path / "c.json").read_text())["D"] == calibration.D.tolist()
-    assert main(["export", "--format", "ros2", "--calibration", str(path), "-o", str(tmp_path / "r.yaml")]) == 2
+    assert main(["export", "--format", "ros2", "--calibration", str(path), "-o", str(tmp_path / "r.yaml")]) == ExitCode.CONFIG
     assert "give its tool file (--payload)" in capsys.readouterr().err
     bad = tmp_path / "bad.yaml"
     bad.write_text(path.read_text().replace("fts-calib/1", "fts-calib/9"))
-    assert main(["export", "--format", "c-header", "--calibration", str(bad), "-o", str(tmp_path / "h.h")]) == 2
+    assert main(["export", "--format", "c-header", "--calibration", str(bad), "-o", str(tmp_path / "h.h")]) == ExitCode.FILE
     assert "field 'format': is 'fts-calib/9' but expected 'fts-calib/1'" in capsys.readouterr().err
     wrong_shape = tmp_path / "shape.yaml"
     wrong_shape.write_text(path.read_text().replace("D: [", "D: [0.0, "))
-    assert main(["export", "--format", "c-header", "--calibration", str(wrong_shape), "-o", str(tmp_path / "h.h")]) == 2
+    assert main(["export", "--format", "c-header", "--calibration", str(wrong_shape), "-o", str(tmp_path / "h.h")]) == ExitCode.FILE
     assert "field 'D': shape (7,) but expected (6,)" in capsys.readouterr().err
     assert load_calibration(path).D.tolist() == calibration.D.tolist()
+
+
+def test_export_refuses_an_unknown_format_and_ros2_without_a_payload(calibration):
+    with pytest.raises(ConfigError, match="format='xml' but expected one of c-header, json, ros2"):
+        export(calibration, "xml")
+    with pytest.raises(ConfigError, match=r"the ros2 export describes the payload to compensate: give its tool file \(--payload\)"):
+        export(calibration, "ros2")

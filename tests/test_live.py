@@ -17,12 +17,13 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import load_calibration
+from fts_calib import ConfigError, load_calibration
 from fts_calib.feeds.protocol import encode
 from fts_calib.feeds.replay import ReplayOptions, messages, replay
 from fts_calib.feeds.sync import Synchronizer
+from fts_calib.feeds.udp import UdpReceiver
 from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.live import LiveRunner, UdpReceiver
+from fts_calib.pipeline.live import LiveRunner
 from fts_calib.pipeline.session import CalibrationSession
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,7 +44,7 @@ def reference(ur5_recording, _kinematics_cache, paper_tool):
 def _run_live(kin, tool, recording, options, garbage=()):
     receiver = UdpReceiver("127.0.0.1", 0)
     session = CalibrationSession(kin, tool, source="test")
-    sync = Synchronizer(kin.joint_names, [j.kind == "continuous" for j in kin.joints], 0.05, options.latency_s)
+    sync = Synchronizer(kin.joint_names, kin.continuous, 0.05, options.latency_s, configurations=tool.names)
     runner = LiveRunner(session, receiver, sync)
     result = {}
     thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=10.0)))
@@ -227,3 +228,18 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
     # at most 5 s of the 90 s recording lost: two or three of its 0.4 s dwells (one every 2.5 s),
     # about 120 of the 1,130 samples kept (1,125 kept in a typical run)
     assert got.quality.samples_used > 0.8 * reference.quality.samples_used, (got.quality.samples_used, reference.quality.samples_used)
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"speed": -1.0}, r"speed=-1.0 but expected a finite value >= 0"),
+        ({"joint_rate_hz": 0.0}, r"joint_rate_hz=0.0 Hz but expected a finite value > 0"),
+        ({"latency_s": float("nan")}, r"latency_s=nan s but expected a finite value"),
+        ({"loss": 1.0}, r"loss=1.0 but expected a fraction in \[0, 1\)"),
+        ({"reorder": -0.1}, r"reorder=-0.1 but expected a fraction in \[0, 1\)"),
+    ],
+)
+def test_bad_replay_options_are_refused(changes, match):
+    with pytest.raises(ConfigError, match=match):
+        ReplayOptions(**changes)

@@ -4,8 +4,10 @@ import numpy as np
 import pytest
 
 from fts_calib import ShapeError
+from fts_calib.core.exceptions import PayloadError
 from fts_calib.robot.tool import load_tool, save_tool
-from fts_calib.service.payload import PayloadError, identify_payload
+from fts_calib.service.payload import identify_payload
+from fts_calib.sim.sensor import load_simulated_sensor
 
 MASS, COM = 1.37, np.array([0.03, -0.01, 0.085])  # [kg], [m]
 OFFSETS = np.array([0.3, -0.2, 0.1, 0.01, -0.02, 0.005])  # [N, N·m]
@@ -86,9 +88,8 @@ def _payload_recording(path, ur5, poses, rng):
     """The validation payload held still 0.3 s in each pose, on the simulated sensor."""
     from fts_calib.core.resources import resolve
     from fts_calib.feeds.recording import RecordingWriter
-    from fts_calib.model.sensor_config import load_sensor_config
 
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
     home = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])
     with RecordingWriter(path, ur5.joint_names) as writer:
@@ -104,10 +105,10 @@ def _payload_recording(path, ur5, poses, rng):
 def test_cli_payload_identifies_and_refuses(tmp_path, ur5, rng, capsys):
     from fts_calib import Calibration, save_calibration
     from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
     from fts_calib.core.resources import resolve
-    from fts_calib.model.sensor_config import load_sensor_config
 
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
     poses = [(0.0, 0.0), (1.2, 0.0), (-1.2, 0.5), (0.6, 2.0), (-0.5, -2.2), (2.2, 1.0)]
     path, payload = _payload_recording(tmp_path / "poses.csv", ur5, poses, rng)
@@ -119,5 +120,5 @@ def test_cli_payload_identifies_and_refuses(tmp_path, ur5, rng, capsys):
     assert tool.configuration("gripper").mass == pytest.approx(payload.mass, rel=1e-4)
     np.testing.assert_allclose(tool.configuration("gripper").p_sensor_com, payload.p_sensor_com, atol=1e-4)
     one, _ = _payload_recording(tmp_path / "one.csv", ur5, [(0.3, 0.3)], rng)
-    assert main(["payload", "--calibration", str(cal), "--robot", "ur5", str(one), "-o", str(tmp_path / "p.yaml")]) == 2
+    assert main(["payload", "--calibration", str(cal), "--robot", "ur5", str(one), "-o", str(tmp_path / "p.yaml")]) == ExitCode.PAYLOAD
     assert "needs at least 3 orientations of the tool, well spread; got 1" in capsys.readouterr().err

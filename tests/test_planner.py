@@ -7,12 +7,14 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import FileFormatError, JointError, TrajectoryError
+from fts_calib import ConfigError, FileFormatError, JointError, TrajectoryError
 from fts_calib.core.resources import resolve
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.settings import load_pipeline_config
 from fts_calib.planning.excitation import predict_excitation
-from fts_calib.planning.planner import SweepPattern, plan_calibration, plan_sweeps, sweep_ranges
+from fts_calib.planning.motion import plan_sweeps
+from fts_calib.planning.planner import plan_calibration
+from fts_calib.planning.sweeps import SweepPattern, sweep_ranges
 from fts_calib.planning.trajectory import plan_trajectories
 from fts_calib.planning.trajectory_io import read_trajectory
 from fts_calib.robot.collision import CollisionChecker
@@ -191,3 +193,12 @@ def test_ruckig_errors_become_trajectory_errors(ur5):
         assert info.value.result
     finally:
         object.__setattr__(ur5, "limits", Kinematics(ur5.robot).limits)
+
+
+def test_planning_without_a_nominal_sensor_model_is_refused_before_planning(setup):
+    import dataclasses
+
+    tool, sensor, pipeline = setup
+    bare = dataclasses.replace(sensor, simulated=None)
+    with pytest.raises(ConfigError, match=r"the sensor configuration needs a 'simulation' section \(a nominal C\)"):
+        plan_trajectories(resolve("ur5", "robots"), tool, bare, pipeline.filter, 1e-5, SweepPattern(), 100.0)

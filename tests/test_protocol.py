@@ -2,7 +2,8 @@
 
 import pytest
 
-from fts_calib.feeds.protocol import MAX_DATAGRAM, End, Joints, ProtocolError, Strain, ToolChange, decode, encode
+from fts_calib.core.exceptions import ProtocolError
+from fts_calib.feeds.protocol import MAX_DATAGRAM, End, Joints, Strain, ToolChange, decode, encode
 
 
 @pytest.mark.parametrize("message", [Joints(1.5, {"j1": 0.1, "j2": -2.0}), Strain(2.0, tuple(range(8))), ToolChange(0.0, "B"), End()])

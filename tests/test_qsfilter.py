@@ -3,9 +3,11 @@
 import numpy as np
 import pytest
 
+from fts_calib.feeds.batch import SampleBatch
 from fts_calib.feeds.recording import RecordingReader
 from fts_calib.pipeline.qsfilter import QuasiStaticFilter, window_bounds, windowed_std
 from fts_calib.pipeline.settings import FilterConfig
+from fts_calib.pipeline.still import quasi_static
 
 
 def test_windowed_std_equals_the_direct_computation(rng):
@@ -24,22 +26,30 @@ def test_windowed_std_equals_the_direct_computation(rng):
 
 def _stream(path, kin, tool):
     with RecordingReader(path, kin.joint_names, tool.names) as reader:
-        chunks = list(reader)
-    return [np.concatenate([getattr(c, f) for c in chunks]) for f in ("time", "readings", "strain", "tool")]
+        return SampleBatch.concatenate(list(reader))
+
+
+def _decide(settings, kin, tool, t, q, s, k):
+    """The filter's whole decision (its four rules) over one batch: the kept mask, shape (N,)."""
+    filt = QuasiStaticFilter(settings, kin.continuous, tool)
+    return filt, quasi_static(filt, kin, tool, SampleBatch(t, q, s, k), final=True).keep
 
 
 def test_decisions_do_not_depend_on_where_chunks_end(ur5, paper_tool, ur5_recording, rng):
-    t, q, s, k = _stream(ur5_recording, ur5, paper_tool)
-    whole = QuasiStaticFilter(FilterConfig(), ur5, paper_tool).process(t, q, s, k, final=True)
-    filt = QuasiStaticFilter(FilterConfig(), ur5, paper_tool)
-    cuts = np.sort(rng.choice(len(t), 25, replace=False))
-    parts = [filt.process(*(a[i:j] for a in (t, q, s, k))) for i, j in zip([0, *cuts], [*cuts, len(t)], strict=True)]
-    parts.append(filt.process(t[:0], q[:0], s[:0], k[:0], final=True))
+    stream = _stream(ur5_recording, ur5, paper_tool)
+    n = len(stream)
+    whole = quasi_static(QuasiStaticFilter(FilterConfig(), ur5.continuous, paper_tool), ur5, paper_tool, stream, final=True)
+    filt = QuasiStaticFilter(FilterConfig(), ur5.continuous, paper_tool)
+    cuts = np.sort(rng.choice(n, 25, replace=False))
+    parts = [quasi_static(filt, ur5, paper_tool, stream.rows(i, j)) for i, j in zip([0, *cuts], [*cuts, n], strict=True)]
+    parts.append(quasi_static(filt, ur5, paper_tool, stream.rows(0, 0), final=True))
     keep = np.concatenate([p.keep for p in parts])
-    assert np.array_equal(np.concatenate([p.time for p in parts]), t)
+    assert np.array_equal(np.concatenate([p.decided.time for p in parts]), stream.time)
     # the noise floor is learnt chunk by chunk: decisions agree but for a handful of borderline samples
-    assert np.sum(keep != whole.keep) <= 0.002 * len(t)
+    assert np.sum(keep != whole.keep) <= 0.002 * n
     assert whole.keep.sum() > 1000
+    # the load comes with the kept samples, one row each
+    assert len(whole.g_sensor) == len(whole.w_sensor) == whole.keep.sum()
 
 
 def test_each_rule_rejects_what_it_should(ur5, paper_tool, rng):
@@ -52,12 +62,11 @@ def test_each_rule_rejects_what_it_should(ur5, paper_tool, rng):
     s = 0.1 + 1e-5 * rng.standard_normal((len(t), 8))
     ramp = t >= 7.5
     s[ramp] += 5e-3 * (t[ramp, None] - 7.5)  # the strains creep while the joints are still
-    f = QuasiStaticFilter(FilterConfig(), ur5, paper_tool)
-    out = f.process(t, q, s, np.zeros(len(t), dtype=np.int64), final=True)
-    assert out.keep[(t > 0.2) & (t < 2.8)].all()
-    assert not out.keep[moving].any()
-    assert not out.keep[t > 7.6].any()
-    assert out.keep[(t > 6.2) & (t < 7.4)].mean() > 0.9
+    f, keep = _decide(FilterConfig(), ur5, paper_tool, t, q, s, np.zeros(len(t), dtype=np.int64))
+    assert keep[(t > 0.2) & (t < 2.8)].all()
+    assert not keep[moving].any()
+    assert not keep[t > 7.6].any()
+    assert keep[(t > 6.2) & (t < 7.4)].mean() > 0.9
     assert f.rejected["joint speed"] > 0.9 * moving.sum() and f.rejected["strain not stationary"] > 0
 
 
@@ -67,15 +76,27 @@ def test_the_dynamic_rule_catches_what_loose_joint_thresholds_let_through(ur5, p
     q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
     q[:, 4] = 0.1 * t**2  # wrist_2 accelerates at 0.2 rad/s² from rest: about 3e-3 g at the tool
     loose = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0)
-    f = QuasiStaticFilter(loose, ur5, paper_tool)
-    out = f.process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64), final=True)
-    assert f.rejected["dynamic wrench"] > 0.5 * len(t) and out.keep.mean() < 0.5
+    s, k = np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64)
+    f, keep = _decide(loose, ur5, paper_tool, t, q, s, k)
+    assert f.rejected["dynamic wrench"] > 0.5 * len(t) and keep.mean() < 0.5
     strict = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0, max_dynamic_fraction=1.0)
-    assert (
-        QuasiStaticFilter(strict, ur5, paper_tool)
-        .process(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64), final=True)
-        .keep.all()
+    assert _decide(strict, ur5, paper_tool, t, q, s, k)[1].all()
+
+
+def test_the_filter_alone_decides_from_rates_and_stationarity_and_returns_the_rates(ur5, paper_tool):
+    """Rules 1-3 without kinematics: the joint rates it returns are those of the motion."""
+    rate = 500.0
+    t = np.arange(int(4 * rate)) / rate
+    q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
+    q[:, 4] = 0.1 * t**2  # velocity 0.2 t rad/s, acceleration 0.2 rad/s²
+    loose = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0)
+    decided = QuasiStaticFilter(loose, ur5.continuous, paper_tool).process(
+        SampleBatch(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64)), final=True
     )
+    assert decided.still.all() and len(decided.samples) == len(t)
+    inner = slice(50, -50)  # the Savitzky-Golay window is exact on a quadratic away from the edges
+    np.testing.assert_allclose(decided.joint_velocity[inner, 4], 0.2 * t[inner], atol=1e-9)
+    np.testing.assert_allclose(decided.joint_acceleration[inner, 4], 0.2, atol=1e-7)
 
 
 def test_bad_thresholds_are_refused():

@@ -33,11 +33,11 @@ def test_write_then_read_in_small_chunks(tmp_path, rng, name):
     reader, chunks = _read(tmp_path / name, block_bytes=16384)
     assert len(chunks) > 5 and chunks[1].first_line == 2 + len(chunks[0].time)
     np.testing.assert_allclose(np.concatenate([c.time for c in chunks]), t, atol=5e-7)
-    np.testing.assert_allclose(np.concatenate([c.readings for c in chunks]), q, atol=5e-10)
+    np.testing.assert_allclose(np.concatenate([c.joints for c in chunks]), q, atol=5e-10)
     # strains are written as %.9e, a relative rounding of 5e-10 however small the value: here,
     # and only here, a tolerance relative to each entry is the model of the error
-    np.testing.assert_allclose(np.concatenate([c.strain for c in chunks]), s, rtol=1e-9)
-    assert np.concatenate([c.tool for c in chunks]).tolist() == [0] * 600 + [1] * 400
+    np.testing.assert_allclose(np.concatenate([c.channels for c in chunks]), s, rtol=1e-9)
+    assert np.concatenate([c.configuration for c in chunks]).tolist() == [0] * 600 + [1] * 400
     assert reader.skipped == {} and reader.rows_read == 1000
 
 
@@ -71,7 +71,7 @@ def test_extra_columns_are_ignored_with_a_notice(tmp_path):
     path.write_text(HEADER.replace(",tool", ",temperature,tool") + _row(0.0).replace(",A", ",21.5,A"))
     with pytest.warns(FtsCalibWarning, match=r"ignoring extra columns \['temperature'\]"):
         reader, chunks = _read(path)
-    assert chunks[0].strain.shape == (1, 8) and chunks[0].tool.tolist() == [0]
+    assert chunks[0].channels.shape == (1, 8) and chunks[0].configuration.tolist() == [0]
 
 
 def test_unknown_tool_rows_are_skipped_counted_and_named(tmp_path):
@@ -97,7 +97,7 @@ def test_nan_values_pass_the_reader_for_the_session_to_count(tmp_path):
     path = tmp_path / "r.csv"
     path.write_text(HEADER + _row(0.0) + _row(0.1, s=[float("nan")] + [0.0] * 7))
     reader, chunks = _read(path)
-    assert np.isnan(chunks[0].strain[1, 0]) and reader.skipped == {}
+    assert np.isnan(chunks[0].channels[1, 0]) and reader.skipped == {}
 
 
 def test_open_reader_takes_joints_from_the_header_and_any_tool(tmp_path):
@@ -105,4 +105,4 @@ def test_open_reader_takes_joints_from_the_header_and_any_tool(tmp_path):
     path.write_text(HEADER + _row(0.0, "X") + _row(0.1, "Y") + _row(0.2, "X"))
     with RecordingReader(path, None, None) as reader:
         chunk = next(iter(reader))
-    assert reader.joint_names == JOINTS and reader.tool_names == ["X", "Y"] and chunk.tool.tolist() == [0, 1, 0]
+    assert reader.joint_names == JOINTS and reader.tool_names == ["X", "Y"] and chunk.configuration.tolist() == [0, 1, 0]

@@ -9,9 +9,11 @@ import yaml
 
 from fts_calib import FileFormatError
 from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core import resources
-from fts_calib.core.resources import ROBOT_DATA_ENV, RobotDataNotFound, example_robot_data_dir, resolve, shipped
-from fts_calib.robot.definition import load_robot, parse_angle
+from fts_calib.core.exceptions import ConfigError, RobotDataNotFound, ShapeError
+from fts_calib.core.resources import ROBOT_DATA_ENV, example_robot_data_dir, resolve, shipped
+from fts_calib.robot.definition import LimitSpec, RobotDefinition, SensorMount, load_robot, parse_angle
 
 SHIPPED = ["kinova", "panda", "ur10", "ur5", "xarm7"]
 
@@ -115,6 +117,51 @@ def test_bad_robot_fields_are_named(tmp_path, changes, match):
         load_robot(_robot(tmp_path, **changes))
 
 
+def _mount(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)):
+    return SensorMount("tool0", xyz, rpy)
+
+
+def _definition(**changes):
+    return RobotDefinition(**{"name": "arm", "urdf": Path("arm.urdf"), "sensor": _mount(), **changes})
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: LimitSpec(velocity_fraction=1.5), r"limits: velocity_fraction=1.5 but expected a fraction in \(0, 1\]"),
+        (lambda: LimitSpec(velocity_fraction=0.0), r"limits: velocity_fraction=0.0 but expected a finite value > 0"),
+        (lambda: LimitSpec(acceleration={"*": 0.0}), r"limits: acceleration=0.0 but expected a finite value > 0"),
+        (lambda: LimitSpec(jerk={"wrist_3_joint": -1.0}), r"limits: jerk.wrist_3_joint=-1.0 but expected a finite value > 0"),
+        (lambda: LimitSpec(velocity={"j1": float("nan")}), r"limits: velocity.j1=nan but expected a finite value > 0"),
+        (lambda: LimitSpec(velocity={"*": 1.0}), r"limits: velocity must map joint -> rad/s \(use velocity_fraction for all joints\)"),
+        (lambda: _mount(xyz=(0.0, float("nan"), 0.0)), r"sensor mount on 'tool0': xyz=\[0.0, nan, 0.0\] but expected finite values"),
+        (lambda: _mount(rpy=(float("inf"), 0.0, 0.0)), r"sensor mount on 'tool0': rpy=\[inf, 0.0, 0.0\] but expected finite values"),
+        (
+            lambda: _definition(sweep_joints=("j6", "j6")),
+            r"robot 'arm': sweep_joints=\('j6', 'j6'\) but expected two different joint names",
+        ),
+        (lambda: _definition(home={"j1": float("nan")}), r"robot 'arm': home.j1=nan rad but expected a finite value"),
+        (lambda: _definition(locked_joints={"finger": "open"}), r"robot 'arm': locked_joints.finger='open' but expected a number"),
+        (lambda: _definition(floor_z=float("-inf")), r"robot 'arm': floor_z=-inf m but expected a finite value"),
+    ],
+)
+def test_the_python_api_refuses_what_the_robot_file_refuses(make, match):
+    with pytest.raises(ConfigError, match=match):
+        make()
+
+
+def test_a_sensor_mount_needs_three_numbers():
+    with pytest.raises(ShapeError, match=r"xyz.shape=\(2,\) but expected \(3,\)"):
+        _mount(xyz=(0.0, 0.0))
+
+
+def test_a_bad_value_the_loader_maps_names_the_file_field(tmp_path):
+    with pytest.raises(FileFormatError, match=r"robot.yaml: field 'collision.floor_z': is nan m but expected a finite value"):
+        load_robot(_robot(tmp_path, collision={"floor_z": float("nan")}))
+    with pytest.raises(FileFormatError, match=r"field 'limits.velocity': must map joint -> rad/s"):
+        load_robot(_robot(tmp_path, limits={"velocity": 1.0}))
+
+
 def test_cli_robots_lists_and_shows(capsys):
     assert main(["robots"]) == 0
     listing = capsys.readouterr().out
@@ -125,5 +172,5 @@ def test_cli_robots_lists_and_shows(capsys):
     assert re.search(r"panda_joint6 +revolute +-0.0175 +\+3.7525", details), details
     assert "locked joints: panda_finger_joint1 = 0, panda_finger_joint2 = 0" in details
     assert "sensor frame 'ft_sensor' on 'panda_link8'" in details
-    assert main(["robots", "nope"]) == 2
+    assert main(["robots", "nope"]) == ExitCode.FILE
     assert "shipped: kinova, panda, ur10, ur5, xarm7" in capsys.readouterr().err

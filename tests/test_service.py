@@ -7,9 +7,9 @@ import pytest
 
 from fts_calib import Calibration, ShapeError
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.robot.tool import load_tool
 from fts_calib.service.reader import GravityCompensator, WrenchReader
+from fts_calib.sim.sensor import load_simulated_sensor
 
 from .conftest import random_readings
 from .helpers import strains_eq22
@@ -19,7 +19,7 @@ FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N, N, N m, N m, 
 
 @pytest.fixture(scope="module")
 def world():
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
     return sensor, Calibration(sensor.C_bar, sensor.D), payload
 

@@ -8,6 +8,7 @@ from fts_calib.feeds.recording import RecordingReader
 from fts_calib.pipeline.session import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, CalibrationSession
 from fts_calib.pipeline.settings import LiveConfig, PipelineConfig
 from fts_calib.robot.tool import Tool, ToolConfiguration
+from fts_calib.sim.sensor import load_simulated_sensor
 
 
 def _chunks(path, kin, tool, rows=4000):
@@ -17,7 +18,7 @@ def _chunks(path, kin, tool, rows=4000):
 
 def _feed(session, chunks):
     for c in chunks:
-        session.add_batch(c.time, c.readings, c.strain, c.tool)
+        session.add_batch(c.time, c.joints, c.channels, c.configuration)
     session.flush()
 
 
@@ -27,7 +28,7 @@ def test_single_samples_and_batches_give_the_same_calibration(ur5, paper_tool, u
     _feed(batch, chunks)
     single = CalibrationSession(ur5, paper_tool)
     for c in chunks[:2]:
-        for t, q, s, k in zip(c.time, c.readings, c.strain, c.tool, strict=True):
+        for t, q, s, k in zip(c.time, c.joints, c.channels, c.configuration, strict=True):
             single.add(t, q, s, paper_tool.names[k])
     _feed(single, chunks[2:])
     a, b = batch.solve(), single.solve()
@@ -40,9 +41,9 @@ def test_single_samples_and_batches_give_the_same_calibration(ur5, paper_tool, u
 def test_progress_says_what_is_missing(ur5, paper_tool, ur5_recording):
     chunks = _chunks(ur5_recording, ur5, paper_tool)
     t = np.concatenate([c.time for c in chunks])
-    q = np.concatenate([c.readings for c in chunks])
-    s = np.concatenate([c.strain for c in chunks])
-    k = np.concatenate([c.tool for c in chunks])
+    q = np.concatenate([c.joints for c in chunks])
+    s = np.concatenate([c.channels for c in chunks])
+    k = np.concatenate([c.configuration for c in chunks])
     session = CalibrationSession(ur5, paper_tool)
     assert session.progress().missing.startswith("no quasi-static sample yet")
     words = []
@@ -61,16 +62,15 @@ def test_progress_says_what_is_missing(ur5, paper_tool, ur5_recording):
 def test_collinear_tool_is_explained(ur5, ur5_recording, paper_tool):
     """Strains made by a tool whose centres of mass lie on one line: rank 6 at most (eqs 19-20)."""
     from fts_calib.core.resources import resolve
-    from fts_calib.model.sensor_config import load_sensor_config
 
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     line = Tool(
         "line", 9.81, tuple(ToolConfiguration(n, 2.0, np.array([x, 0.0, 0.0])) for n, x in zip("ABC", (0.05, 0.1, 0.15), strict=True))
     )
     session = CalibrationSession(ur5, line)
     for c in _chunks(ur5_recording, ur5, paper_tool):
-        W = np.array([line.configurations[k].static_wrench(g) for k, g in zip(c.tool, ur5.g_sensor(c.readings), strict=True)])
-        session.add_batch(c.time, c.readings, sensor.strains(W), c.tool)
+        W = np.array([line.configurations[k].static_wrench(g) for k, g in zip(c.configuration, ur5.g_sensor(c.joints), strict=True)])
+        session.add_batch(c.time, c.joints, sensor.strains(W), c.configuration)
     session.flush()
     p = session.progress()
     assert p.rank == 6 and "lie on one line" in p.missing
@@ -80,7 +80,7 @@ def test_collinear_tool_is_explained(ur5, ur5_recording, paper_tool):
 
 def test_bad_samples_are_counted_and_the_run_goes_on(ur5, paper_tool, ur5_recording):
     c = _chunks(ur5_recording, ur5, paper_tool, rows=100_000)[0]
-    t, q, s, k = c.time.copy(), c.readings.copy(), c.strain.copy(), c.tool.copy()
+    t, q, s, k = c.time.copy(), c.joints.copy(), c.channels.copy(), c.configuration.copy()
     t[100] = t[50]  # backwards
     s[200, 3] = np.nan
     k[300] = -1
@@ -96,7 +96,7 @@ def test_readings_in_degrees_are_warned_about_once_and_skipped(ur5, paper_tool, 
     c = _chunks(ur5_recording, ur5, paper_tool, rows=100_000)[0]
     session = CalibrationSession(ur5, paper_tool)
     with pytest.warns(FtsCalibWarning, match="look like degrees"):
-        session.add_batch(c.time, np.degrees(c.readings), c.strain, c.tool)
+        session.add_batch(c.time, np.degrees(c.joints), c.channels, c.configuration)
     assert session.skipped[OUTSIDE_LIMITS] > 0.9 * len(c.time)
 
 
@@ -109,7 +109,7 @@ def test_checkpoint_and_resume_give_the_uninterrupted_result(tmp_path, ur5, pape
     config = PipelineConfig(live=LiveConfig(checkpoint_interval_s=1.0))
     first = CalibrationSession(ur5, paper_tool, config, checkpoint=tmp_path / "cp.json", clock=lambda: next(clock))
     for c in chunks[:3]:
-        first.add_batch(c.time, c.readings, c.strain, c.tool)
+        first.add_batch(c.time, c.joints, c.channels, c.configuration)
     # a crash here: the checkpoint written after the third chunk is all that is left
     resumed = CalibrationSession.resume(tmp_path / "cp.json", ur5, paper_tool, config)
     _feed(resumed, chunks)  # the whole recording again: what the checkpoint holds is skipped

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import FileFormatError, SimulatedSensor, project
+from fts_calib import ConfigError, FileFormatError, ShapeError, SimulatedSensor, project
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 
 from .helpers import C_BAR_TRUE, D_TRUE
 from .paper import TABLE_1
@@ -64,4 +64,66 @@ def test_sensor_config_errors_name_the_field(tmp_path):
         load_sensor_config(path)
     path.write_text(yaml.safe_dump({"name": "s", "full_scale": {"force": -5}}))
     with pytest.raises(FileFormatError, match="field 'full_scale.force': is -5.0 but expected a finite value > 0"):
+        load_sensor_config(path)
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"noise_std": -1e-6}, r"noise_std=\[-1e-06, .*\] but expected values >= 0"),
+        ({"drift_rate": [0.0] * 7 + [float("nan")]}, r"drift_rate=\[0.0, .*, nan\] but expected finite values"),
+        ({"D": [0.0, 0.0, float("inf"), 0.0, 0.0, 0.0]}, r"D=\[0.0, 0.0, inf, 0.0, 0.0, 0.0\] but expected finite values"),
+        ({"adc_bits": 7}, r"adc_bits=7 but expected 0 \(off\) or an integer from 8 to 32"),
+        ({"adc_bits": 12.5}, r"adc_bits=12.5 but expected 0 \(off\) or an integer from 8 to 32"),
+        ({"adc_full_scale": 0.0}, r"adc_full_scale=0.0 but expected a finite value > 0"),
+    ],
+)
+def test_the_simulation_section_refuses_bad_values_in_python(changes, match):
+    with pytest.raises(ConfigError, match=match):
+        SimulationSpec(C_BAR_TRUE, **changes)
+
+
+def test_per_bridge_values_take_one_number_or_eight():
+    assert SimulationSpec(C_BAR_TRUE, noise_std=2e-6).noise_std.tolist() == [2e-6] * 8
+    with pytest.raises(ShapeError, match=r"noise_std.shape=\(3,\) but expected \(\) or \(8,\)"):
+        SimulationSpec(C_BAR_TRUE, noise_std=[1e-6] * 3)
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"rate_hz": 0.0}, r"sensor 's': rate_hz=0.0 Hz but expected a finite value > 0"),
+        (
+            {"full_scale": [50.0, 50.0, -50.0, 5.0, 5.0, 5.0]},
+            r"sensor 's': full_scale=\[50.0, 50.0, -50.0, 5.0, 5.0, 5.0\] but expected finite values > 0",
+        ),
+    ],
+)
+def test_the_sensor_spec_refuses_bad_values_in_python(changes, match):
+    with pytest.raises(ConfigError, match=match):
+        SensorSpec(**{"name": "s", "strain_unit": "mV/V", "full_scale": [50.0] * 3 + [5.0] * 3, "rate_hz": 1000.0, **changes})
+
+
+@pytest.mark.parametrize(
+    ("data", "match"),
+    [
+        ({"rate_hz": 0}, r"s.yaml: field 'rate_hz': is 0.0 Hz but expected a finite value > 0"),
+        (
+            {"simulation": {"C_bar": C_BAR_TRUE.tolist(), "noise_std": -1.0}},
+            r"field 'simulation.noise_std': is \[-1.0, .*\] but expected values >= 0",
+        ),
+        (
+            {"simulation": {"C_bar": C_BAR_TRUE.tolist(), "adc": {"bits": 40}}},
+            r"field 'simulation.adc.bits': is 40 but expected 0 \(off\) or an integer",
+        ),
+        (
+            {"simulation": {"C_bar": C_BAR_TRUE.tolist(), "adc": {"bits": 12.5}}},
+            r"field 'simulation.adc.bits': is 12.5 but expected an integer",
+        ),
+    ],
+)
+def test_the_loader_names_the_file_and_field_of_a_refused_value(tmp_path, data, match):
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump({"name": "s", **data}))
+    with pytest.raises(FileFormatError, match=match):
         load_sensor_config(path)

@@ -24,9 +24,9 @@ def test_linear_motion_is_interpolated_exactly_at_strain_times(rng):
         sync.add_strain(t, [t] * 8)
     out = sync.pop()
     np.testing.assert_array_equal(out.time, strain_t)  # passed through, not computed
-    np.testing.assert_allclose(out.readings, np.column_stack(motion(strain_t)), atol=1e-12)
-    np.testing.assert_array_equal(out.strain[:, 0], strain_t)
-    assert out.tool == ["A"] * 200
+    np.testing.assert_allclose(out.joints, np.column_stack(motion(strain_t)), atol=1e-12)
+    np.testing.assert_array_equal(out.channels[:, 0], strain_t)
+    assert out.configuration.tolist() == [0] * 200 and sync.configurations == ["A"]
 
 
 def test_reordered_messages_are_placed_in_time_order(rng):
@@ -40,7 +40,7 @@ def test_reordered_messages_are_placed_in_time_order(rng):
         sync.add_strain(t, [0.0] * 8)
     out = sync.pop()
     np.testing.assert_array_equal(out.time, strain_t)  # passed through in time order, not computed
-    np.testing.assert_allclose(out.readings[:, 0], strain_t, atol=1e-12)
+    np.testing.assert_allclose(out.joints[:, 0], strain_t, atol=1e-12)
 
 
 def test_gaps_are_refused_and_counted():
@@ -61,7 +61,7 @@ def test_latency_is_compensated():
     _joints(sync, np.arange(0, 1, 0.01) + 0.03, lambda t: (t - 0.03, 0.0))  # stamped late
     sync.add_strain(0.5, [0.0] * 8)
     out = sync.pop()
-    np.testing.assert_allclose(out.readings[0, 0], 0.5, atol=1e-12)
+    np.testing.assert_allclose(out.joints[0, 0], 0.5, atol=1e-12)
 
 
 def test_continuous_joints_take_the_shorter_arc():
@@ -71,7 +71,7 @@ def test_continuous_joints_take_the_shorter_arc():
     sync.add_joints(0.02, {"a": -math.pi + 0.1, "b": 0.0})  # across +-pi: 0.2 rad, not 6.08 rad
     sync.add_strain(0.01, [0.0] * 8)
     out = sync.pop(final=True)
-    assert abs(math.remainder(out.readings[0, 0] - math.pi, 2 * math.pi)) < 1e-12
+    assert abs(math.remainder(out.joints[0, 0] - math.pi, 2 * math.pi)) < 1e-12
 
 
 def test_tool_changes_and_late_strains():
@@ -83,7 +83,7 @@ def test_tool_changes_and_late_strains():
     sync.add_strain(0.7, [0.0] * 8)
     sync.add_strain(1.2, [0.0] * 8)
     out = sync.pop()
-    assert out.tool == ["A", "B"] and sync.dropped == {NO_TOOL: 1}
+    assert [sync.configurations[k] for k in out.configuration] == ["A", "B"] and sync.dropped == {NO_TOOL: 1}
     sync.add_strain(0.8, [0.0] * 8)  # after 1.2 was placed
     assert sync.dropped[LATE] == 1
 

@@ -3,13 +3,14 @@
 import numpy as np
 import pytest
 
-from fts_calib import Calibration, load_calibration, save_calibration
+from fts_calib import Calibration, ConfigError, UnknownToolConfiguration, load_calibration, save_calibration
 from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
 from fts_calib.feeds.recording import RecordingWriter
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.robot.tool import load_tool
 from fts_calib.service.tare import tare_recording
+from fts_calib.sim.sensor import load_simulated_sensor
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.3, 0.7])
 SHIFT = np.array([0.8, -0.3, 0.25, 0.02, -0.015, 0.01])  # [N, N·m]: the offsets drifted by this
@@ -21,7 +22,7 @@ ATOL_SHIFT = 5e-4  # [N]
 
 @pytest.fixture(scope="module")
 def setup():
-    sensor = load_sensor_config(resolve("sensor", "configs")).simulated
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
     return sensor, Calibration(sensor.C_bar, sensor.D, provenance={"method": "test"})
 
 
@@ -62,7 +63,7 @@ def test_cli_tare_updates_the_file_and_keeps_the_history(tmp_path, setup, ur5, r
     updated = load_calibration(file)
     assert len(updated.offset_history) == 2 and updated.offset_history[0]["D"] == cal.D.tolist()
     np.testing.assert_allclose(updated.D - cal.D, SHIFT, atol=ATOL_SHIFT)
-    assert main(["tare", "--calibration", str(file), str(path), "--configuration", "A"]) == 2
+    assert main(["tare", "--calibration", str(file), str(path), "--configuration", "A"]) == ExitCode.CONFIG
     assert "needs --robot" in capsys.readouterr().err
 
 
@@ -110,3 +111,15 @@ def test_re_tare_from_a_live_window(setup, rng):
     assert np.all(np.abs(result.calibration.D - cal.D - SHIFT) < 5 * result.estimate.stderr_D)
     reason = result.calibration.offset_history[-1]["reason"]
     assert f"live window of 0.8 s on udp://127.0.0.1:{bound[0][1]}," in reason and bound[0][1] != 0, reason
+
+
+def test_re_tare_with_a_tool_needs_its_configuration_and_the_kinematics(tmp_path, setup, ur5, rng):
+    sensor, cal = setup
+    tool = load_tool(resolve("paper_tool", "configs"))
+    path = _recording(tmp_path / "tare.csv", sensor, ur5, np.zeros(6), rng, rows=20)
+    with pytest.raises(ConfigError, match=r"is mounted: give its configuration, one of \['A', 'B', 'C'\]"):
+        tare_recording(cal, path, ur5, tool)
+    with pytest.raises(UnknownToolConfiguration, match="'Z' is not in the tool file; configurations: A, B, C"):
+        tare_recording(cal, path, ur5, tool, "Z")
+    with pytest.raises(ConfigError, match="its load depends on the orientation, so give the kinematics"):
+        tare_recording(cal, path, None, tool, "A")

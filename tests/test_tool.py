@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import FileFormatError, FtsCalibWarning
+from fts_calib import ConfigError, FileFormatError, FtsCalibError, FtsCalibWarning, Tool, ToolConfiguration
+from fts_calib.core.exceptions import UnknownToolConfiguration
 from fts_calib.core.resources import resolve
-from fts_calib.robot.tool import UnknownToolConfiguration, load_tool
+from fts_calib.robot.tool import ToolShape, load_tool
 
 from .helpers import random_gravity, tool_wrench
 
@@ -71,3 +72,39 @@ def test_collinear_centres_of_mass_warn(tmp_path):
 def test_gravity_must_be_positive(tmp_path):
     with pytest.raises(FileFormatError, match="'gravity': is 0.0 m/s² but expected a finite value > 0"):
         load_tool(_tool(tmp_path, [{"name": "A", "mass": 1.0, "com": [0, 0, 0]}], gravity=0.0))
+
+
+def _config(name="A", mass=1.0, com=(0.0, 0.0, 0.1), inertia=None):
+    return ToolConfiguration(name, mass, np.array(com), inertia)
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: Tool("t", -9.81, (_config(),)), r"tool 't': gravity=-9.81 m/s² but expected a finite value > 0"),
+        (lambda: Tool("t", float("nan"), (_config(),)), r"tool 't': gravity=nan m/s² but expected a finite value > 0"),
+        (lambda: Tool("t", 9.81, ()), r"tool 't': configurations=\[\] but expected at least one configuration"),
+        (lambda: Tool("t", 9.81, (_config("A"), _config("A"))), r"tool 't': configurations has duplicate names \['A'\]"),
+        (lambda: _config(mass=0.0), r"configuration 'A': mass=0.0 kg but expected a finite value > 0"),
+        (lambda: _config(com=(0.0, float("inf"), 0.0)), r"configuration 'A': p_sensor_com=\[0.0, inf, 0.0\] but expected finite values"),
+        (lambda: _config(inertia=[[1, 0.5, 0], [0, 1, 0], [0, 0, 1]]), r"configuration 'A': inertia_com is not symmetric"),
+        (lambda: _config(inertia=np.diag([1.0, 1.0, 3.0])), r"configuration 'A': inertia_com has principal moments .* not physical"),
+        (lambda: ToolShape(radius=-0.05, length=0.1), r"tool shape: radius=-0.05 m but expected a finite value > 0"),
+        (lambda: ToolShape(radius=0.05, length=0.0), r"tool shape: length=0.0 m but expected a finite value > 0"),
+    ],
+)
+def test_the_python_api_refuses_what_the_tool_file_refuses(make, match):
+    with pytest.raises(ConfigError, match=match) as info:
+        make()
+    assert isinstance(info.value, FtsCalibError) and isinstance(info.value, ValueError)  # the CLI catches it; ValueError still works
+
+
+def test_a_bad_value_in_the_file_names_the_file_field_and_value(tmp_path):
+    path = _tool(tmp_path, [{"name": "A", "mass": 1.0, "com": [0, 0, 0]}], shape={"radius": -0.05, "length": 0.1})
+    with pytest.raises(FileFormatError, match=r"tool.yaml: field 'shape.radius': is -0.05 m but expected a finite value > 0") as info:
+        load_tool(path)
+    assert info.value.field == "shape.radius" and info.value.path == path
+    inertia = [[1, 0.5, 0], [0, 1, 0], [0, 0, 1]]
+    path = _tool(tmp_path, [{"name": "A", "mass": 1.0, "com": [0, 0, 0]}, {"name": "B", "mass": 1.0, "com": [0, 0, 1], "inertia": inertia}])
+    with pytest.raises(FileFormatError, match=r"field 'configurations\[1\].inertia': is not symmetric"):
+        load_tool(path)

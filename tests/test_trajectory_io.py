@@ -5,7 +5,7 @@ import gzip
 import numpy as np
 import pytest
 
-from fts_calib import RecordingError
+from fts_calib import ConfigError, RecordingError
 from fts_calib.planning.trajectory_io import read_trajectory, write_trajectory
 
 
@@ -46,3 +46,10 @@ def test_errors_name_line_and_column(tmp_path, text, match):
     path.write_text(text)
     with pytest.raises(RecordingError, match=match):
         read_trajectory(path)
+
+
+def test_a_tool_name_that_cannot_be_a_csv_cell_is_refused(tmp_path):
+    z = np.zeros((2, 1))
+    with pytest.raises(ConfigError, match=r"tool='A,B' but expected a configuration name without ','"):
+        write_trajectory(tmp_path / "t.csv", ["j"], np.arange(2.0), z, z, z, "A,B")
+    assert not list(tmp_path.iterdir())

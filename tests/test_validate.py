@@ -6,11 +6,12 @@ import pytest
 from fts_calib import Calibration, load_calibration
 from fts_calib.core.resources import resolve
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.planning.planner import sample_motion
+from fts_calib.planning.motion import sample_motion
 from fts_calib.planning.trajectory_io import TrajectoryFile
 from fts_calib.robot.tool import load_tool
 from fts_calib.service.validate import validate_recording
 from fts_calib.sim.recording import simulate_recording
+from fts_calib.sim.sensor import SimulatedSensor
 
 from .paper import ROUNDING, TABLE_1, TABLE_2
 
@@ -25,13 +26,14 @@ def setup(tmp_path_factory, _kinematics_cache, seed):
     kin = _kinematics(_kinematics_cache, "ur5")
     tool = load_tool(resolve("validation_tool", "configs"))
     spec = load_sensor_config(resolve("sensor", "configs"))
+    sensor = SimulatedSensor.from_spec(spec.simulated)
     rng = np.random.default_rng([seed, 0])  # the motion; [seed, 1] and [seed, 2] the noise of the recordings
     stops = HOME[[3, 4, 5]] + rng.uniform(-1.0, 1.0, (8, 3))
     t, q, qd, qdd = sample_motion(kin, HOME, JOINTS, stops, 0.0, 500.0)
     traj = [TrajectoryFile(kin.joint_names, t, q, qd, qdd, "V")]
     folder = tmp_path_factory.mktemp("validation")
-    static = simulate_recording(folder / "static.csv", kin, tool, traj, spec.simulated, np.random.default_rng([seed, 1]), dynamic=False)
-    moving = simulate_recording(folder / "moving.csv", kin, tool, traj, spec.simulated, np.random.default_rng([seed, 2]))
+    static = simulate_recording(folder / "static.csv", kin, tool, traj, sensor, np.random.default_rng([seed, 1]), dynamic=False)
+    moving = simulate_recording(folder / "moving.csv", kin, tool, traj, sensor, np.random.default_rng([seed, 2]))
     return kin, tool, spec, static, moving
 
 

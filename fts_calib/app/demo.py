@@ -23,25 +23,32 @@ from typing import TextIO
 
 import numpy as np
 
-from ..core.exceptions import FileFormatError
+from ..core.exceptions import FtsCalibError, TrajectoryError
 from ..core.resources import resolve
+from ..core.text import table
+from ..feeds.batch import SampleBatch
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration, load_calibration, save_calibration
 from ..model.estimator import OnlineEstimator
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
-from ..pipeline.calibrate import calibrate_recording, format_counts
+from ..pipeline.calibrate import calibrate_recording
 from ..pipeline.settings import load_pipeline_config
-from ..planning.planner import SweepPattern, sample_motion
-from ..planning.trajectory import plan_trajectories, write_run
+from ..planning.motion import sample_motion
+from ..planning.sweeps import SweepPattern
+from ..planning.trajectory import plan_trajectories
 from ..planning.trajectory_io import TrajectoryFile
 from ..robot.collision import CollisionChecker
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
+from ..robot.load import tool_load
 from ..robot.tool import load_tool
 from ..service.validate import AxisErrors, ValidationResult, validate_recording
 from ..sim.recording import simulate_recording
-from .report import table
+from ..sim.sensor import load_simulated_sensor
+from .calibrate import format_counts
+from .exit_codes import ExitCode, writing
+from .trajectory import write_run
 
 #: The paper's validation: "the measurement error of the force Fx is less than 10%".
 PAPER_ERROR_PERCENT = 10.0
@@ -117,17 +124,10 @@ def _validation_motion(kin: Kinematics, checker: CollisionChecker, home: np.ndar
 def _wrench_series(path: Path, kin: Kinematics, tool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Time, static tool wrench and configuration of a recording's samples (thinned to 20,000)."""
     with RecordingReader(path, kin.joint_names, tool.names) as reader:
-        chunks = list(reader)
-    t = np.concatenate([c.time for c in chunks])
-    q = np.concatenate([c.readings for c in chunks])
-    k = np.concatenate([c.tool for c in chunks])
-    step = max(1, len(t) // 20_000)
-    t, q, k = t[::step], q[::step], k[::step]
-    g = kin.g_sensor(q, tool.gravity)
-    W = np.zeros((len(t), 6))
-    for c, config in enumerate(tool.configurations):
-        W[k == c] = config.static_wrench(g[k == c])
-    return t, W, k
+        samples = SampleBatch.concatenate(list(reader))
+    step = max(1, len(samples) // 20_000)
+    t, q, k = samples.time[::step], samples.joints[::step], samples.configuration[::step]
+    return t, tool_load(kin, tool, q, k).static, k
 
 
 def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream: TextIO | None = None) -> DemoResult:
@@ -161,9 +161,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     vtool = load_tool(resolve("validation_tool", "configs"))
     sensor_path = resolve("sensor", "configs")
     spec = load_sensor_config(sensor_path)
-    if spec.simulated is None:
-        raise FileFormatError(sensor_path, "simulation", "missing: this sensor file defines no simulated sensor")
-    sensor = spec.simulated
+    sensor = load_simulated_sensor(sensor_path)
     pipeline = load_pipeline_config(resolve("pipeline", "configs"))
     rate = 100.0 if quick else 500.0
     pattern = SweepPattern(levels=3, stops=4, dwell=0.4) if quick else SweepPattern()
@@ -175,7 +173,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     say("[1/5] planning the calibration sweeps (ruckig) ...")
     run = plan_trajectories(robot_path, tool, spec, pipeline.filter, sensor.noise_std, pattern, rate)
     if run.problems:
-        raise RuntimeError(f"the demo's plan failed its checks: {run.problems}")
+        raise TrajectoryError(f"the demo's plan failed its checks: {run.problems}")
     run = write_run(run, out / "trajectories")
     plan = run.result.plan
     say(
@@ -186,7 +184,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     lap("plan")
 
     say("[2/5] simulating the calibration recording (moving tool, noise, 24-bit ADC) ...")
-    trajectories = [TrajectoryFile(plan.joint_names, plan.time, plan.q, plan.qd, plan.qdd, c.name) for c in tool.configurations]
+    trajectories = [plan.trajectory(name) for name in tool.names]
     rng = np.random.default_rng(seed)
     recording = simulate_recording(out / "recordings" / "calibration.csv", kin, tool, trajectories, sensor, rng)
     lap("simulate")
@@ -195,7 +193,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     kept: list[tuple[np.ndarray, ...]] = []
     result = calibrate_recording(recording, kin, tool, pipeline, on_kept=lambda t, W, s, k: kept.append((t, W, s, k)))
     if result.calibration is None:
-        raise RuntimeError(f"the demo's calibration failed: {result.error}")
+        raise result.error or FtsCalibError("the demo's calibration failed")  # the error: InsufficientExcitation
     calibration = result.calibration
     cal_path = save_calibration(calibration, out / "calibration.yaml")
     for line in format_counts(result.session):
@@ -327,7 +325,17 @@ def _report(
     say("time: " + ", ".join(f"{name} {s:.1f} s" for name, s in seconds.items()) + f"; total {sum(seconds.values()):.1f} s")
 
 
-def main(out: Path, seed: int = 0, quick: bool = False) -> int:
-    """Run the demo from the command line."""
-    run_demo(out, seed, quick)
-    return 0
+def run(*, out: str | Path = "out", seed: int = 0, quick: bool = False) -> int:
+    """Run the demo and print what it finds (``fts-calib demo``); see :func:`run_demo`.
+
+    Args:
+        out: Folder for everything written.
+        seed: Seed of the sensor noise and of the validation motion.
+        quick: A smaller run (3 levels x 4 stops at 100 Hz).
+
+    Returns:
+        0.
+    """
+    with writing(out):
+        run_demo(out, seed, quick)
+    return ExitCode.OK

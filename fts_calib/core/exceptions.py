@@ -6,6 +6,10 @@ controller can catch one class; the subclasses carry the data a caller needs to 
 problems that do not stop a run (a reading outside the joint limits, a sample skipped)
 are warnings of one class, :class:`FtsCalibWarning`, and are also counted in the
 result's quality.
+
+Every exception class of fts-calib is defined here (and exported by the package), so a
+caller finds them in one place; they hold data only and import nothing of the other
+stages.
 """
 
 from __future__ import annotations
@@ -146,3 +150,98 @@ class TrajectoryError(FtsCalibError):
     def __init__(self, message: str, result: str | None = None):
         self.result = result
         super().__init__(message)
+
+
+class ConfigError(FtsCalibError, ValueError):
+    """A setting, option or argument has a value fts-calib cannot use.
+
+    The configuration dataclasses raise it from ``__post_init__``, so the Python API
+    refuses what the file loaders refuse; a loader re-raises it as :class:`FileFormatError`
+    naming the file and the field, with :attr:`reason` as the message.
+
+    The message reads ``"{owner}: {field}={value} {unit} but expected {expected}"``
+    (``"configuration 'A': mass=-1.0 kg but expected a finite value > 0"``), or
+    ``"{owner}: {field} {reason}"`` when a reason is given, or ``message`` itself.
+
+    Attributes:
+        field: The field or argument at fault, as the raiser names it (e.g. 'gravity',
+            'filter.max_joint_speed'); a loader prefixes the section it was read from.
+        value: The value received.
+        expected: What was expected, in words (e.g. 'a finite value > 0').
+        reason: The problem without the field's name, as a loader shows it after the file
+            and field: 'is 0.0 m/s² but expected a finite value > 0' unless given.
+    """
+
+    def __init__(
+        self,
+        field: str,
+        value: object,
+        expected: str,
+        unit: str = "",
+        owner: str = "",
+        *,
+        reason: str | None = None,
+        message: str | None = None,
+    ):
+        self.field = field
+        self.value = value
+        self.expected = expected
+        shown = (repr(value) if isinstance(value, str) else str(value)) + (f" {unit}" if unit else "")
+        self.reason = reason or message or f"is {shown} but expected {expected}"
+        text = message or (f"{field} {reason}" if reason else f"{field}={shown} but expected {expected}")
+        super().__init__(f"{owner}: {text}" if owner else text)
+
+
+class UnknownToolConfiguration(FtsCalibError, KeyError):
+    """A tool configuration name is not in the tool file.
+
+    Attributes:
+        name: The name asked for.
+        available: The configuration names of the tool.
+    """
+
+    def __init__(self, name: str, available: Sequence[str]):
+        self.name = name
+        self.available = list(available)
+        super().__init__(name)
+
+    def __str__(self) -> str:
+        return f"tool configuration '{self.name}' is not in the tool file; configurations: {', '.join(self.available)}"
+
+
+class UnsupportedJoint(FtsCalibError):
+    """The URDF has a joint type the calibration cannot read from one number per joint."""
+
+
+class ProtocolError(FtsCalibError, ValueError):
+    """A datagram that is not a valid message.
+
+    Attributes:
+        reason: 'oversized' or 'malformed'.
+    """
+
+    def __init__(self, reason: str, detail: str):
+        self.reason = reason
+        super().__init__(f"{reason} datagram: {detail}")
+
+
+class PayloadError(FtsCalibError):
+    """The orientations cannot determine the payload; the message says which are missing or too close."""
+
+
+class ResourceNotFound(FtsCalibError, FileNotFoundError):
+    """Neither a file nor a shipped name.
+
+    Attributes:
+        name: What was asked for.
+        available: The shipped names of that kind.
+    """
+
+    def __init__(self, name: str, kind: str, available: list[str]):
+        self.name = name
+        self.available = available
+        super().__init__(f"no file '{name}' and no shipped {kind} of that name; shipped: {', '.join(available) or 'none'}")
+
+
+class RobotDataNotFound(FtsCalibError, FileNotFoundError):
+    """The example-robot-data folder cannot be found; the message says what to install."""

@@ -9,14 +9,15 @@ from __future__ import annotations
 import math
 import os
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import yaml
 
-from .exceptions import FileFormatError
+from .exceptions import ConfigError, FileFormatError
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:
@@ -34,22 +35,57 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically; see :func:`atomic_write_text`."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        # mkstemp makes the file private: give it the mode of the file it replaces, or the
-        # mode a plain open() would give
-        os.chmod(tmp, path.stat().st_mode & 0o7777 if path.exists() else new_file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    with AtomicFile(path) as target:
+        target.handle.write(data)
+    return target.path
+
+
+class AtomicFile:
+    """A file that appears at ``path`` only when complete: the one atomic writer of the package.
+
+    Bytes go to a temporary file in the same folder (``handle``, binary); :meth:`commit`
+    flushes and fsyncs it, gives it the mode of the file it replaces (or of a plain
+    ``open``), and renames it over ``path``; :meth:`abort` removes it. As a context manager
+    it commits on success and aborts on an exception, so a crash never leaves half a file.
+
+    Args:
+        path: Destination file; its folder is created when missing.
+    """
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd, self._tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
+        self.handle = os.fdopen(fd, "wb")
+
+    def commit(self) -> Path:
+        """Flush, fsync and rename into place; returns the destination."""
+        try:
+            self.handle.flush()
+            os.fsync(self.handle.fileno())
+            self.handle.close()
+            # mkstemp makes the file private: give it the mode of the file it replaces, or the
+            # mode a plain open() would give
+            os.chmod(self._tmp, self.path.stat().st_mode & 0o7777 if self.path.exists() else new_file_mode())
+            os.replace(self._tmp, self.path)
+        except BaseException:
+            self.abort()
+            raise
+        return self.path
+
+    def abort(self) -> None:
+        """Drop the temporary file (nothing is left behind)."""
+        self.handle.close()
+        Path(self._tmp).unlink(missing_ok=True)
+
+    def __enter__(self) -> AtomicFile:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.abort()
 
 
 def new_file_mode() -> int:
@@ -141,8 +177,26 @@ def read_array(value: Any, shape: tuple[int, ...], path: str | Path, field: str)
     return array
 
 
+def read_number(value: Any, path: str | Path, field: str, unit: str = "") -> float:
+    """Convert a YAML value into a float; its range is for the dataclass it goes into to check.
+
+    Args:
+        value: The raw value.
+        path: The file, for the message.
+        field: The field, for the message.
+        unit: Unit text for the message (e.g. 'kg'), or empty.
+
+    Raises:
+        FileFormatError: Not a number (the message shows the value).
+    """
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise FileFormatError(path, field, f"expected a number{' in ' + unit if unit else ''}, got {value!r}") from None
+
+
 def read_positive(value: Any, path: str | Path, field: str, unit: str = "") -> float:
-    """Convert a YAML value into a finite number > 0.
+    """Convert a YAML value into a finite number > 0, for a file field that no dataclass field holds.
 
     Args:
         value: The raw value.
@@ -154,13 +208,34 @@ def read_positive(value: Any, path: str | Path, field: str, unit: str = "") -> f
         FileFormatError: Not a number, or not finite and > 0 (the message shows the value).
     """
     suffix = f" {unit}" if unit else ""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise FileFormatError(path, field, f"expected a number{' in ' + unit if unit else ''}, got {value!r}") from None
+    number = read_number(value, path, field, unit)
     if not (math.isfinite(number) and number > 0):
         raise FileFormatError(path, field, f"is {number}{suffix} but expected a finite value > 0")
     return number
+
+
+@contextmanager
+def fields_of(path: str | Path, prefix: str = "", names: Mapping[str, str] | None = None) -> Iterator[None]:
+    """Re-raise the ConfigError of a dataclass built from a file as FileFormatError naming the file and field.
+
+    The dataclass checks its values (``__post_init__``); the loader only says where they
+    came from: ``with fields_of(path, "configurations[0].", {"p_sensor_com": "com"}): ...``.
+
+    Args:
+        path: The file the values were read from.
+        prefix: The section of the file the dataclass was read from (e.g. 'limits.'), or empty.
+        names: The file's name of each dataclass field named differently, e.g.
+            ``{"p_sensor_com": "com"}``; the first part of a dotted field is mapped.
+
+    Raises:
+        FileFormatError: Instead of the ConfigError, with its reason as the message.
+    """
+    try:
+        yield
+    except ConfigError as exc:
+        head, dot, rest = exc.field.partition(".")
+        field = (names or {}).get(head, head) + dot + rest
+        raise FileFormatError(path, prefix + field, exc.reason) from None
 
 
 def is_number(text: str) -> bool:

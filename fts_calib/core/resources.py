@@ -15,24 +15,10 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
-from .exceptions import FtsCalibError
+from .exceptions import ResourceNotFound, RobotDataNotFound
 
 #: The kinds of shipped data, one folder each.
 KINDS = ("robots", "configs", "trajectories")
-
-
-class ResourceNotFound(FtsCalibError, FileNotFoundError):
-    """Neither a file nor a shipped name.
-
-    Attributes:
-        name: What was asked for.
-        available: The shipped names of that kind.
-    """
-
-    def __init__(self, name: str, kind: str, available: list[str]):
-        self.name = name
-        self.available = available
-        super().__init__(f"no file '{name}' and no shipped {kind} of that name; shipped: {', '.join(available) or 'none'}")
 
 
 def data_dir(kind: str) -> Path:
@@ -48,7 +34,7 @@ def data_dir(kind: str) -> Path:
     Raises:
         ValueError: ``kind`` is not one of :data:`KINDS` (a programming error).
     """
-    if kind not in KINDS:
+    if kind not in KINDS:  # the callers pass literals, never a user's text: a programming error
         raise ValueError(f"kind={kind!r} but expected one of {KINDS}")
     installed = files("fts_calib").joinpath(kind)
     if installed.is_dir():
@@ -87,10 +73,6 @@ def resolve(name_or_path: str | Path, kind: str) -> Path:
     if path.suffix == "" and candidate.is_file():
         return candidate
     raise ResourceNotFound(str(name_or_path), kind.rstrip("s"), shipped(kind))
-
-
-class RobotDataNotFound(FtsCalibError, FileNotFoundError):
-    """The example-robot-data folder cannot be found; the message says what to install."""
 
 
 #: Environment variable naming the example-robot-data folder (the one holding ``robots/``).

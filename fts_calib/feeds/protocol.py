@@ -18,22 +18,10 @@ import json
 import math
 from dataclasses import dataclass
 
-from ..core.exceptions import FtsCalibError
+from ..core.exceptions import ProtocolError
 
 #: Largest datagram accepted, in bytes (a joints message of a 7-joint arm is ~250 bytes).
 MAX_DATAGRAM = 8192
-
-
-class ProtocolError(FtsCalibError, ValueError):
-    """A datagram that is not a valid message.
-
-    Attributes:
-        reason: 'oversized' or 'malformed'.
-    """
-
-    def __init__(self, reason: str, detail: str):
-        self.reason = reason
-        super().__init__(f"{reason} datagram: {detail}")
 
 
 @dataclass(frozen=True)

@@ -17,18 +17,17 @@ from __future__ import annotations
 
 import gzip
 import io
-import os
-import tempfile
 import warnings
+from collections import Counter
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from ..core.exceptions import FtsCalibWarning, RecordingError
-from ..core.fileio import is_number, new_file_mode
+from ..core.fileio import AtomicFile, is_number
+from .batch import SampleBatch
 
 #: Names of the strain columns.
 STRAIN_COLUMNS = tuple(f"strain_{k}" for k in range(1, 9))
@@ -41,27 +40,8 @@ MALFORMED = "malformed line"
 UNKNOWN_TOOL = "unknown tool configuration"
 
 
-@dataclass(frozen=True)
-class RecordingChunk:
-    """Consecutive valid rows of a recording.
-
-    Attributes:
-        first_line: Line number (1-based, the header is line 1) of the first row read.
-        time: Sample times [s]. Shape (n,).
-        readings: Joint readings [rad] in the robot's joint order. Shape (n, n_joints).
-        strain: Raw strains. Shape (n, 8).
-        tool: Index of each row's tool configuration in the tool's order. Shape (n,).
-    """
-
-    first_line: int
-    time: np.ndarray
-    readings: np.ndarray
-    strain: np.ndarray
-    tool: np.ndarray
-
-
 class RecordingReader:
-    """Read a recording chunk by chunk (see the module docstring).
+    """Read a recording chunk by chunk, as :class:`SampleBatch` es (see the module docstring).
 
     Args:
         path: The CSV file.
@@ -88,9 +68,9 @@ class RecordingReader:
         self.tool_codes = {name: k for k, name in enumerate(tool_names or [])}
         self._open_tools = tool_names is None
         self.block_bytes = int(block_bytes)
-        self.skipped: dict[str, int] = {}
+        self.skipped: Counter[str] = Counter()
         self.problems: list[str] = []
-        self.unknown_tools: dict[str, int] = {}
+        self.unknown_tools: Counter[str] = Counter()
         self.rows_read = 0
         try:
             self.size = self.path.stat().st_size
@@ -156,11 +136,11 @@ class RecordingReader:
         self.close()
 
     def _skip(self, reason: str, line: int, detail: str) -> None:
-        self.skipped[reason] = self.skipped.get(reason, 0) + 1
+        self.skipped[reason] += 1
         if len(self.problems) < 10:
             self.problems.append(f"{self.path}, line {line}: {detail}")
 
-    def __iter__(self) -> Iterator[RecordingChunk]:
+    def __iter__(self) -> Iterator[SampleBatch]:
         n_joints = len(self.joint_names)
         rest = b""
         while True:
@@ -175,7 +155,7 @@ class RecordingReader:
             if block:
                 yield from self._chunks(block, n_joints, fast=True, final=False)
 
-    def _chunks(self, block, n_joints: int, fast: bool, final: bool) -> Iterator[RecordingChunk]:
+    def _chunks(self, block, n_joints: int, fast: bool, final: bool) -> Iterator[SampleBatch]:
         first = self._line + 1
         table = None
         if fast:
@@ -203,12 +183,12 @@ class RecordingReader:
                         f"{self.path}, line {int(numbers[rows[0]])}: column 'tool': unknown tool configuration "
                         f"'{name}' (known: {', '.join(self.tool_codes)}); its rows are skipped"
                     )
-                self.unknown_tools[name] = self.unknown_tools.get(name, 0) + len(rows)
-            self.skipped[UNKNOWN_TOOL] = self.skipped.get(UNKNOWN_TOOL, 0) + int(unknown.sum())
+                self.unknown_tools[name] += len(rows)
+            self.skipped[UNKNOWN_TOOL] += int(unknown.sum())
             keep = ~unknown
             table, codes, numbers = table[keep], codes[keep], numbers[keep]
         if len(table):
-            yield RecordingChunk(int(numbers[0]), table[:, 0], table[:, 1 : 1 + n_joints], table[:, 1 + n_joints :], codes)
+            yield SampleBatch(table[:, 0], table[:, 1 : 1 + n_joints], table[:, 1 + n_joints :], codes, first_line=int(numbers[0]))
 
     def _codes(self, categories: list, index: np.ndarray) -> np.ndarray:
         """Configuration indices of rows given as (distinct names, index of each row's name)."""
@@ -271,14 +251,10 @@ class RecordingWriter:
 
     def __init__(self, path: str | Path, joint_names: Sequence[str]):
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         self.joint_names = list(joint_names)
-        fd, self._tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
-        os.close(fd)
-        if self.path.suffix == ".gz":
-            self._handle = gzip.open(self._tmp, "wt", encoding="utf-8", newline="")
-        else:
-            self._handle = open(self._tmp, "w", encoding="utf-8", newline="")
+        self._file = AtomicFile(self.path)
+        self._gzip = gzip.GzipFile(fileobj=self._file.handle, mode="wb") if self.path.suffix == ".gz" else None
+        self._handle = io.TextIOWrapper(self._gzip or self._file.handle, encoding="utf-8", newline="")
         self._handle.write(",".join(["time", *self.joint_names, *STRAIN_COLUMNS, "tool"]) + "\n")
         self.rows = 0
 
@@ -306,16 +282,23 @@ class RecordingWriter:
         self.rows += len(time)
 
     def close(self) -> Path:
-        """Finish the file and move it into place."""
-        self._handle.close()
-        os.chmod(self._tmp, new_file_mode())
-        os.replace(self._tmp, self.path)
-        return self.path
+        """Finish the file and move it into place (flushed and fsynced first)."""
+        self._handle.flush()
+        self._handle.detach()  # the atomic file closes the handle itself, after fsync
+        if self._gzip is not None:
+            self._gzip.close()  # writes the gzip trailer; the underlying file stays open
+        return self._file.commit()
 
     def abort(self) -> None:
         """Drop the partial file (nothing is left behind)."""
-        self._handle.close()
-        Path(self._tmp).unlink(missing_ok=True)
+        if not self._handle.closed:
+            try:
+                self._handle.detach()
+            except ValueError:  # already detached by a close that failed
+                pass
+        if self._gzip is not None:
+            self._gzip.close()
+        self._file.abort()
 
     def __enter__(self) -> RecordingWriter:
         return self

@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import validation
+from ..core.exceptions import ConfigError
 from .protocol import End, Joints, Message, Strain, ToolChange, encode
 from .recording import RecordingReader
 
@@ -47,14 +49,15 @@ class ReplayOptions:
     seed: int = 0
 
     def __post_init__(self):
-        if not (self.speed >= 0 and np.isfinite(self.speed)):
-            raise ValueError(f"speed={self.speed} but expected a finite value >= 0")
-        if self.joint_rate_hz is not None and not self.joint_rate_hz > 0:
-            raise ValueError(f"joint_rate_hz={self.joint_rate_hz} but expected > 0")
+        object.__setattr__(self, "speed", validation.non_negative("speed", self.speed))
+        if self.joint_rate_hz is not None:
+            object.__setattr__(self, "joint_rate_hz", validation.positive("joint_rate_hz", self.joint_rate_hz, "Hz"))
+        object.__setattr__(self, "latency_s", validation.number("latency_s", self.latency_s, "s"))
         for name in ("loss", "reorder"):
-            value = getattr(self, name)
+            value = validation.number(name, getattr(self, name))
             if not 0.0 <= value < 1.0:
-                raise ValueError(f"{name}={value} but expected a fraction in [0, 1)")
+                raise ConfigError(name, value, "a fraction in [0, 1)")
+            object.__setattr__(self, name, value)
 
 
 def messages(path: str | Path, options: ReplayOptions) -> Iterator[tuple[float, Message]]:
@@ -65,7 +68,7 @@ def messages(path: str | Path, options: ReplayOptions) -> Iterator[tuple[float, 
         period = 0.0 if options.joint_rate_hz is None else 1.0 / options.joint_rate_hz
         for chunk in reader:
             tools = reader.tool_names
-            for t, q, s, code in zip(chunk.time, chunk.readings, chunk.strain, chunk.tool, strict=True):
+            for t, q, s, code in zip(chunk.time, chunk.joints, chunk.channels, chunk.configuration, strict=True):
                 t = float(t)
                 if tools[code] != current or t >= next_tool:
                     # announced at each change and repeated every second: a receiver that

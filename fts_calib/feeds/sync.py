@@ -16,33 +16,18 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
+
+from .batch import SampleBatch, configuration_indices
 
 BEFORE_JOINTS = "strain before the first joint sample"
 JOINT_GAP = "joint gap longer than max_gap_s"
 AFTER_JOINTS = "strain after the last joint sample"
 NO_TOOL = "no tool configuration announced yet"
 LATE = "strain sample arrived too late (reordered beyond the hold)"
-
-
-@dataclass(frozen=True)
-class Synced:
-    """Strain samples with the joint readings interpolated at their times, in time order.
-
-    Attributes:
-        time: [s], shape (m,).
-        readings: Joint readings [rad], shape (m, n_joints).
-        strain: Raw strains, shape (m, 8).
-        tool: Tool configuration names, length m.
-    """
-
-    time: np.ndarray
-    readings: np.ndarray
-    strain: np.ndarray
-    tool: list[str]
 
 
 class Synchronizer:
@@ -55,6 +40,9 @@ class Synchronizer:
         latency_s: How late the joint stamps are relative to the strain stamps [s].
         hold_s: How far the joint stream must pass a strain time before it is placed [s];
             ``max_gap_s`` when None.
+        configurations: The tool's configuration names, in order: a placed sample's
+            configuration is its index there (-1 for a name not in it). None: indices in
+            order of first announcement (names in :attr:`configurations`).
 
     Attributes:
         dropped: Strain samples dropped, by reason.
@@ -63,12 +51,15 @@ class Synchronizer:
     def __init__(
         self,
         joint_names: Sequence[str],
-        continuous: Sequence[bool] | None = None,
+        continuous: Sequence[bool] | np.ndarray | None = None,
         max_gap_s: float = 0.05,
         latency_s: float = 0.0,
         hold_s: float | None = None,
+        configurations: Sequence[str] | None = None,
     ):
         self.joint_names = list(joint_names)
+        self._open_configurations = configurations is None
+        self.configurations: list[str] = list(configurations or [])
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.continuous = np.zeros(len(self.joint_names), dtype=bool) if continuous is None else np.asarray(continuous, dtype=bool)
         self.max_gap_s = float(max_gap_s)
@@ -80,7 +71,7 @@ class Synchronizer:
         self._strain: list[tuple[float, tuple[float, ...]]] = []
         self._tools: list[tuple[float, str]] = []
         self._placed_until = -math.inf
-        self.dropped: dict[str, int] = {}
+        self.dropped: Counter[str] = Counter()
         self.joint_messages = 0
         self.strain_messages = 0
 
@@ -102,6 +93,8 @@ class Synchronizer:
 
     def add_tool(self, t: float, name: str) -> None:
         """Announce the tool configuration mounted from ``t`` on (repeats change nothing)."""
+        if self._open_configurations and name not in self.configurations:
+            self.configurations.append(name)
         k = bisect.bisect_right(self._tools, (t, name))
         if k and self._tools[k - 1][1] == name:
             return  # the same configuration is already mounted at t
@@ -109,7 +102,7 @@ class Synchronizer:
 
     def _drop(self, reason: str, count: int) -> None:
         if count:
-            self.dropped[reason] = self.dropped.get(reason, 0) + count
+            self.dropped[reason] += count
 
     def _merge_joints(self) -> None:
         if not self._new_joints:
@@ -124,10 +117,11 @@ class Synchronizer:
         unique = np.concatenate([[True], np.diff(all_t) > 0])  # a repeated stamp keeps its first reading
         self._joint_t, self._joint_q = all_t[unique], all_q[unique]
 
-    def pop(self, final: bool = False) -> Synced:
+    def pop(self, final: bool = False) -> SampleBatch:
         """Place every strain sample the joint stream has passed (all of them when ``final``)."""
         self._merge_joints()
-        empty = Synced(np.zeros(0), np.zeros((0, len(self.joint_names))), np.zeros((0, 8)), [])
+        width = len(self._strain[0][1]) if self._strain else 8
+        empty = SampleBatch.empty(len(self.joint_names), width)
         if not self._strain:
             return empty
         self._strain.sort(key=lambda s: s[0])
@@ -167,9 +161,8 @@ class Synchronizer:
         oldest = self._strain[0][0] if self._strain else self._placed_until
         keep_from = max(0, int(np.searchsorted(jt, oldest - self.max_gap_s, side="left")) - 1)
         self._joint_t, self._joint_q = jt[keep_from:], jq[keep_from:]
-        # ok implies has_tool, so the name test only tells the type checker what is kept
-        kept_tools = [name for name, good in zip(tools, ok, strict=True) if good and name is not None]
-        return Synced(t[ok], readings[ok], strain[ok], kept_tools)
+        codes = configuration_indices(tools, self.configurations)
+        return SampleBatch(t[ok], readings[ok], strain[ok], codes[ok])
 
     def _tool_at(self, t: np.ndarray) -> list[str | None]:
         if not self._tools:

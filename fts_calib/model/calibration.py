@@ -18,9 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import FileFormatError
-from ..core.fileio import atomic_write_text, dump_yaml, load_yaml, read_array, require
+from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, require
 from .sensor import WRENCH_AXES, WRENCH_UNITS, P, wrench_from_strain
 
 #: Value of the ``format`` field of a calibration file.
@@ -105,9 +106,9 @@ class Calibration:
     C: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
-        C_bar = frozen(as_matrix(self.C_bar, (6, 6), "C_bar"))
+        C_bar = frozen(validation.finite_array("C_bar", as_matrix(self.C_bar, (6, 6), "C_bar")))
         object.__setattr__(self, "C_bar", C_bar)
-        object.__setattr__(self, "D", frozen(as_matrix(self.D, (6,), "D")))
+        object.__setattr__(self, "D", frozen(validation.finite_array("D", as_matrix(self.D, (6,), "D"))))
         object.__setattr__(self, "C", frozen(C_bar @ P))
         object.__setattr__(self, "provenance", dict(self.provenance))
         object.__setattr__(self, "offset_history", tuple(dict(h) for h in self.offset_history))
@@ -230,4 +231,5 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     history = data.get("offset_history") or []
     if not isinstance(history, list) or not all(isinstance(h, Mapping) for h in history):
         raise FileFormatError(path, "offset_history", "expected a list of mappings")
-    return Calibration(C_bar=C_bar, D=D, quality=quality, provenance=provenance, offset_history=tuple(history))
+    with fields_of(path):
+        return Calibration(C_bar=C_bar, D=D, quality=quality, provenance=provenance, offset_history=tuple(history))

@@ -1,4 +1,4 @@
-r"""Least-squares estimators of the calibration (paper eqs 9, 12-16) and the offset re-tare.
+r"""The online least-squares estimator of the calibration (paper eqs 12-16).
 
 The online estimator regresses the known wrench W (shape (6,), [N, N, N, N m, N m, N m])
 on the augmented projected strain ``x = [P Delta; 1]`` (shape (7,), eq 13) and keeps only
@@ -16,29 +16,25 @@ Weights are frequency weights: a sample of weight 2 counts exactly like the same
 given twice. The forgetting factor ``lam`` in (0, 1] multiplies the sums by ``lam``
 before each accepted sample (1 keeps everything).
 
-Rank: one tool centre of mass gives S_XX rank 4, two give 6, three non-collinear ones
-give the full 7 (paper eqs 18-20). The numerical rank counts the eigenvalues of S_XX,
-scaled to a unit diagonal, above ``rcond`` times the largest.
+The rank of S_XX and the solve of the normal equations are those of
+:mod:`fts_calib.model.least_squares`: three non-collinear tool centres of mass give the
+full rank 7 (paper eqs 18-20).
 """
 
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 
 from .._version import __version__
-from ..core.arrays import as_matrix, as_samples, frozen
-from ..core.exceptions import InsufficientExcitation, ShapeError
-from .calibration import Calibration, Quality, now_iso
-from .sensor import P, c_from_c_bar
-
-#: Default relative eigenvalue threshold for the numerical rank of the scaled S_XX.
-#: A direction whose strain amplitude is below about 3e-4 of the typical one
-#: (eigenvalue ratio 1e-7) counts as missing.
-RCOND = 1e-7
+from ..core.arrays import as_matrix, as_samples
+from ..core.exceptions import ConfigError, InsufficientExcitation, ShapeError
+from .calibration import Calibration, now_iso
+from .least_squares import RCOND, fit_quality, information_rank, solve_normal
+from .sensor import P
 
 _CHUNK = 1 << 16  # rows per block in batch updates: bounds temporary memory to ~7 MB
 _NON_FINITE = "non-finite wrench, strain or weight"
@@ -48,112 +44,6 @@ _RANK_ADVICE = (
     "give 7 (paper eqs 18-20); within each, the sensor must see gravity from directions "
     "that span 3-D."
 )
-
-
-def information_rank(S_XX, rcond: float = RCOND) -> tuple[int, float]:
-    """Numerical rank and condition number of an information matrix, after diagonal scaling.
-
-    The matrix is scaled to a unit diagonal first, so the result does not depend on the
-    strain unit; a zero diagonal entry is a missing direction.
-
-    Args:
-        S_XX: Symmetric positive semi-definite matrix. Shape (n, n).
-        rcond: Eigenvalues below ``rcond`` times the largest count as zero.
-
-    Returns:
-        ``(rank, condition_number)``; the condition number is inf when rank < n.
-    """
-    scaled, _ = _equilibrate(np.asarray(S_XX, dtype=float))
-    eig = np.linalg.eigvalsh(scaled)
-    top = eig[-1] if eig.size and eig[-1] > 0 else 0.0
-    rank = int(np.sum(eig > rcond * top)) if top > 0 else 0
-    condition = float(top / eig[0]) if rank == len(eig) else math.inf
-    return rank, condition
-
-
-def _equilibrate(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    d = np.diag(S).copy()
-    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 0.0)
-    return S * scale[:, None] * scale[None, :], scale
-
-
-def _solve_normal(S_XX: np.ndarray, S_WX: np.ndarray, rcond: float, min_norm: bool):
-    """Solve ``Theta S_XX = S_WX``; return (Theta, rank, condition, inverse of S_XX).
-
-    Full rank: Cholesky factor L of the scaled matrix, then triangular solves (no explicit
-    inverse of S_XX for Theta). Rank deficient with ``min_norm``: the minimum-norm solution
-    from the truncated eigen-decomposition.
-    """
-    scaled, scale = _equilibrate(S_XX)
-    eig, vec = np.linalg.eigh(scaled)
-    top = eig[-1] if eig[-1] > 0 else 0.0
-    keep = eig > rcond * top if top > 0 else np.zeros_like(eig, dtype=bool)
-    rank = int(keep.sum())
-    n = len(eig)
-    condition = float(top / eig[0]) if rank == n else math.inf
-    if rank == n:
-        L = np.linalg.cholesky(scaled)
-        y = np.linalg.solve(L, scale[:, None] * S_WX.T)
-        theta_t = scale[:, None] * np.linalg.solve(L.T, y)
-        L_inv = np.linalg.solve(L, np.eye(n))
-        inv = (L_inv.T @ L_inv) * scale[:, None] * scale[None, :]
-    elif min_norm:
-        v = vec[:, keep]
-        pinv_scaled = (v / eig[keep]) @ v.T
-        inv = pinv_scaled * scale[:, None] * scale[None, :]
-        theta_t = inv @ S_WX.T
-    else:
-        return None, rank, condition, None
-    return theta_t.T, rank, condition, inv
-
-
-def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
-    """Standard errors of the coefficients of an ordinary least-squares fit of W on x.
-
-    ``Cov(row j) = sigma_j^2 S_XX^-1``; for ``C = C_bar P``, ``Var(C_jk) = sigma_j^2 p_k^T
-    Cov6 p_k`` with ``p_k`` the column k of P and Cov6 the C_bar block.
-
-    Args:
-        sigma: Residual standard deviation per wrench axis, [N or N m]. Shape (6,).
-        inv: Inverse of S_XX. Shape (p, p), p = 6 or 7 (the last entry is the offset).
-
-    Returns:
-        ``(stderr of [C_bar, D] (6, p), stderr of C (6, 8))``.
-    """
-    sigma = np.asarray(sigma, dtype=float)
-    stderr_theta = sigma[:, None] * np.sqrt(np.maximum(np.diag(inv), 0.0))[None, :]
-    inv6 = inv[:6, :6]
-    stderr_C = sigma[:, None] * np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", P, inv6, P), 0.0))[None, :]
-    return stderr_theta, stderr_C
-
-
-def _quality(
-    S_WW, S_WX, S_XX, theta, inv, n_eff: float, used: int, seen: int, rank: int, condition: float, skipped: Mapping[str, int]
-) -> Quality:
-    """Residuals and standard errors of a least-squares fit from its normal matrices.
-
-    ``theta`` is (6, p) with p = 7 (C_bar and D) or 6 (C_bar only); ``inv`` is the (p, p)
-    (pseudo-)inverse of S_XX. The residual variance per axis is RSS / (n_eff - p).
-    """
-    p = theta.shape[1]
-    rss = np.diag(S_WW) - 2.0 * np.sum(theta * S_WX, axis=1) + np.sum((theta @ S_XX) * theta, axis=1)
-    rss = np.maximum(rss, 0.0)  # cancellation can leave -1e-16 relative on exact data
-    residual_rms = np.sqrt(rss / n_eff) if n_eff > 0 else np.full(6, np.nan)
-    dof = n_eff - p
-    sigma = np.sqrt(rss / dof) if dof > 0 else np.full(6, math.inf)
-    stderr_theta, stderr_C = coefficient_stderr(sigma, inv)
-    stderr_D = stderr_theta[:, 6] if p == 7 else np.zeros(6)
-    return Quality(
-        samples_used=used,
-        samples_seen=seen,
-        rank=rank,
-        condition_number=condition,
-        residual_rms=residual_rms,
-        stderr_C_bar=stderr_theta[:, :6],
-        stderr_D=stderr_D,
-        stderr_C=stderr_C,
-        skipped=skipped,
-    )
 
 
 class OnlineEstimator:
@@ -178,7 +68,7 @@ class OnlineEstimator:
 
     def __init__(self, forgetting: float = 1.0):
         if not (0.0 < forgetting <= 1.0):
-            raise ValueError(f"forgetting={forgetting!r} but expected a number in (0, 1]")
+            raise ConfigError("forgetting", forgetting, "a number in (0, 1]")
         self.forgetting = float(forgetting)
         self._sums = np.zeros((13, 13))
         self._staged = np.zeros((self._STAGE, 13))
@@ -188,7 +78,7 @@ class OnlineEstimator:
         self._weight_sum = 0.0
         self.samples_used = 0
         self.samples_seen = 0
-        self.skipped: dict[str, int] = {}
+        self.skipped: Counter[str] = Counter()
 
     # -- accumulation -------------------------------------------------------------------
 
@@ -204,18 +94,18 @@ class OnlineEstimator:
             True when the sample was used; False when it was skipped (a non-finite value)
             and counted in ``skipped``.
         """
-        w = np.asarray(w_sensor, dtype=float)
+        wrench = np.asarray(w_sensor, dtype=float)
         s = np.asarray(strain, dtype=float)
-        if w.shape != (6,) or s.shape != (8,):
-            raise ShapeError(f"w_sensor.shape={w.shape}, strain.shape={s.shape} but expected (6,) and (8,)")
+        if wrench.shape != (6,) or s.shape != (8,):
+            raise ShapeError(f"w_sensor.shape={wrench.shape}, strain.shape={s.shape} but expected (6,) and (8,)")
         self.samples_seen += 1
         # sums of squares: inf or NaN when any value is (or would overflow the sums), and
         # never inf - inf, so the check itself raises no floating-point warning
-        if not (math.isfinite(s.dot(s) + w.dot(w)) and math.isfinite(weight) and weight >= 0):
+        if not (math.isfinite(s.dot(s) + wrench.dot(wrench)) and math.isfinite(weight) and weight >= 0):
             self._skip(_NON_FINITE, 1)
             return False
         row = self._staged[self._n_staged]
-        row[:6] = w
+        row[:6] = wrench
         np.dot(P, s, out=row[6:12])
         self._staged_weight[self._n_staged] = weight
         self._n_staged += 1
@@ -300,7 +190,7 @@ class OnlineEstimator:
             self._n_staged = 0
 
     def _skip(self, reason: str, count: int) -> None:
-        self.skipped[reason] = self.skipped.get(reason, 0) + count
+        self.skipped[reason] += count
 
     def merge(self, other: OnlineEstimator) -> OnlineEstimator:
         """A new estimator holding the data of both (as one pass over both would).
@@ -309,7 +199,8 @@ class OnlineEstimator:
         count as the more recent.
         """
         if other.forgetting != self.forgetting:
-            raise ValueError(f"cannot merge estimators with forgetting {self.forgetting} and {other.forgetting}")
+            message = f"cannot merge estimators with forgetting {self.forgetting} and {other.forgetting}"
+            raise ConfigError("forgetting", other.forgetting, f"{self.forgetting}, the same as this estimator's", message=message)
         self._flush()
         other._flush()
         out = OnlineEstimator(self.forgetting)
@@ -374,10 +265,10 @@ class OnlineEstimator:
             raise InsufficientExcitation(0, 7, "no sample has been added yet.")
         sums = self._current()
         S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
-        theta, rank, condition, inv = _solve_normal(S_XX, S_WX, rcond, min_norm)
+        theta, rank, condition, inv = solve_normal(S_XX, S_WX, rcond, min_norm)
         if theta is None:
             raise InsufficientExcitation(rank, 7 - rank, _RANK_ADVICE)
-        quality = _quality(
+        quality = fit_quality(
             S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used, self.samples_seen, rank, condition, self.skipped
         )
         provenance = {
@@ -408,97 +299,5 @@ class OnlineEstimator:
         out._weight_sum = float(state["weight_sum"])
         out.samples_used = int(state["samples_used"])
         out.samples_seen = int(state["samples_seen"])
-        out.skipped = {str(k): int(v) for k, v in state.get("skipped", {}).items()}
+        out.skipped = Counter({str(k): int(v) for k, v in state.get("skipped", {}).items()})
         return out
-
-
-def jig_calibration(w_sensor, strain, rcond: float = 1e-12) -> Calibration:
-    """Offline calibration from a jig (paper eq 9 and its first validation stage).
-
-    Pure axial loads are applied step by step and the strains recorded with their offsets
-    already removed; C_bar is the least-squares solution through the pseudo-inverse of the
-    projected strains (SVD), and ``C = C_bar P`` (eq 7). D is zero by construction.
-
-    Args:
-        w_sensor: Applied wrenches, in [N, N, N, N m, N m, N m]. Shape (N, 6).
-        strain: Strains with offsets removed. Shape (N, 8).
-        rcond: Singular values below ``rcond`` times the largest count as zero.
-
-    Raises:
-        InsufficientExcitation: The projected strains do not span 6 directions.
-    """
-    W, _ = as_samples(w_sensor, 6, "w_sensor")
-    S, _ = as_samples(strain, 8, "strain")
-    if W.shape[0] != S.shape[0]:
-        raise ShapeError(f"w_sensor has {W.shape[0]} rows but strain has {S.shape[0]}: expected the same N")
-    ok = np.all(np.isfinite(W), axis=1) & np.all(np.isfinite(S), axis=1)
-    W, X = W[ok], S[ok] @ P.T
-    U, s, Vt = np.linalg.svd(X, full_matrices=False)
-    rank = int(np.sum(s > rcond * s[0])) if s.size and s[0] > 0 else 0
-    if rank < 6:
-        raise InsufficientExcitation(rank, 6 - rank, "the jig loads must include all six axes.", full=6)
-    C_bar = ((Vt.T / s) @ (U.T @ W)).T  # eq 9: W X^#, with X^# the pseudo-inverse
-    inv = (Vt.T / s**2) @ Vt
-    skipped = {"non-finite wrench or strain": int((~ok).sum())} if (~ok).any() else {}
-    _, condition = information_rank(X.T @ X)
-    quality = _quality(W.T @ W, W.T @ X, X.T @ X, C_bar, inv, float(len(W)), len(W), len(ok), rank, condition, skipped)
-    provenance = {
-        "method": "offline jig, pseudo-inverse (paper eq 9); offsets removed beforehand, D = 0",
-        "time": now_iso(),
-        "software_version": __version__,
-    }
-    return Calibration(C_bar=C_bar, D=np.zeros(6), quality=quality, provenance=provenance)
-
-
-@dataclass(frozen=True)
-class OffsetEstimate:
-    """Offsets estimated with C_bar known (re-tare).
-
-    Attributes:
-        D: Wrench offsets in [N, N, N, N m, N m, N m]. Shape (6,).
-        stderr_D: Standard error of each offset, same units. Shape (6,).
-        samples_used: Samples averaged.
-        samples_skipped: Samples with non-finite values, skipped.
-    """
-
-    D: np.ndarray
-    stderr_D: np.ndarray
-    samples_used: int
-    samples_skipped: int
-
-    def __post_init__(self):
-        object.__setattr__(self, "D", frozen(self.D))
-        object.__setattr__(self, "stderr_D", frozen(self.stderr_D))
-
-
-def estimate_offsets(C_bar, strain, w_sensor=None) -> OffsetEstimate:
-    """Re-tare: the offsets D alone, with C_bar known, from a few samples of a known load.
-
-    ``D = mean(W_known - C Delta)``: the frequent use the paper stresses (offset removal
-    just before use).
-
-    Args:
-        C_bar: Known modified calibration matrix. Shape (6, 6).
-        strain: Raw strains under the known load. Shape (N, 8) or (8,).
-        w_sensor: The known load in [N, N, N, N m, N m, N m], shape (N, 6) or (6,);
-            zero (nothing mounted) when None.
-
-    Raises:
-        InsufficientExcitation: No finite sample.
-    """
-    C = c_from_c_bar(C_bar)
-    S, _ = as_samples(strain, 8, "strain")
-    W = np.zeros((len(S), 6)) if w_sensor is None else as_samples(w_sensor, 6, "w_sensor")[0]
-    if len(W) == 1 and len(S) > 1:
-        W = np.repeat(W, len(S), axis=0)
-    if len(W) != len(S):
-        raise ShapeError(f"w_sensor has {len(W)} rows but strain has {len(S)}: expected the same N")
-    residual = W - S @ C.T
-    ok = np.all(np.isfinite(residual), axis=1)
-    n = int(ok.sum())
-    if n == 0:
-        raise InsufficientExcitation(0, 1, "no finite sample to estimate the offsets from.")
-    residual = residual[ok]
-    D = residual.mean(axis=0)
-    stderr = residual.std(axis=0, ddof=1) / math.sqrt(n) if n > 1 else np.full(6, math.inf)
-    return OffsetEstimate(D=D, stderr_D=stderr, samples_used=n, samples_skipped=int(len(ok) - n))

@@ -13,90 +13,16 @@ from __future__ import annotations
 
 import collections
 import signal
-import socket
 import threading
 import time
-from dataclasses import dataclass
 from typing import TextIO
 
-from ..feeds.protocol import End, Joints, ProtocolError, Strain, ToolChange, decode
+from ..core.exceptions import FtsCalibError
 from ..feeds.sync import Synchronizer
+from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from .session import CalibrationSession
 
 _BATCH_S = 0.02  # how often paired samples go to the session [s]
-_RECV_BUFFER = 1 << 22  # socket receive buffer [bytes]
-
-
-class UdpReceiver:
-    """Reads datagrams on a background thread into a queue.
-
-    Args:
-        host: Address to bind (127.0.0.1 by default: loopback only).
-        port: UDP port; 0 picks a free one (see :attr:`address`).
-    """
-
-    def __init__(self, host: str = "127.0.0.1", port: int = 5005):
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, _RECV_BUFFER)
-        self.sock.bind((host, port))
-        self.sock.settimeout(0.05)
-        self.address = self.sock.getsockname()
-        self.queue: collections.deque[bytes] = collections.deque()
-        self.received = 0
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="fts-calib-udp", daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                data = self.sock.recv(65536)
-            except TimeoutError:
-                continue
-            except OSError:
-                return
-            self.queue.append(data)
-            self.received += 1
-
-    def drain(self) -> list[bytes]:
-        """Every datagram received since the last call, in arrival order."""
-        out = []
-        while self.queue:
-            out.append(self.queue.popleft())
-        return out
-
-    def close(self) -> None:
-        """Stop the thread and close the socket."""
-        self._stop.set()
-        self._thread.join(timeout=1.0)
-        self.sock.close()
-
-
-@dataclass
-class LiveStats:
-    """Message counts of a live run.
-
-    Attributes:
-        received: Datagrams received.
-        joints: Joint messages used.
-        strain: Strain messages.
-        tool: Tool messages.
-        malformed: Malformed datagrams (counted, skipped).
-        oversized: Oversized datagrams (counted, skipped).
-        ended: The run ended on an 'end' message.
-        wall_s: Wall-clock time [s].
-        cpu_s: CPU time of the process [s].
-    """
-
-    received: int = 0
-    joints: int = 0
-    strain: int = 0
-    tool: int = 0
-    malformed: int = 0
-    oversized: int = 0
-    ended: bool = False
-    wall_s: float = 0.0
-    cpu_s: float = 0.0
 
 
 class LiveRunner:
@@ -105,7 +31,8 @@ class LiveRunner:
     Args:
         session: The calibration session (fresh or resumed).
         receiver: The UDP receiver.
-        sync: The synchronizer of the two streams.
+        sync: The synchronizer of the two streams, made with the session tool's
+            ``configurations`` (so that its indices are the tool's).
         status: Where to print the status line (None: no status).
         status_interval_s: Time between status lines [s].
     """
@@ -118,6 +45,11 @@ class LiveRunner:
         status: TextIO | None = None,
         status_interval_s: float = 0.5,
     ):
+        if sync.configurations != session.tool.names:
+            raise FtsCalibError(
+                f"the synchronizer indexes configurations {sync.configurations}, the session's tool has {session.tool.names}: "
+                "make it with Synchronizer(..., configurations=tool.names)"
+            )
         self.session = session
         self.receiver = receiver
         self.sync = sync
@@ -133,33 +65,12 @@ class LiveRunner:
         self._stopping = True
 
     def _handle(self, data: bytes) -> None:
-        self.stats.received += 1
-        try:
-            message = decode(data)
-        except ProtocolError as exc:
-            if exc.reason == "oversized":
-                self.stats.oversized += 1
-            else:
-                self.stats.malformed += 1
-            return
-        if isinstance(message, Strain):
-            self.stats.strain += 1
-            self.sync.add_strain(message.t, message.strain)
-        elif isinstance(message, Joints):
-            if self.sync.add_joints(message.t, message.q):
-                self.stats.joints += 1
-            else:
-                self.stats.malformed += 1
-        elif isinstance(message, ToolChange):
-            self.stats.tool += 1
-            self.sync.add_tool(message.t, message.name)
-        elif isinstance(message, End):
-            self.stats.ended = True
+        feed_datagram(data, self.sync, self.stats)
 
     def _feed(self, final: bool = False) -> None:
         batch = self.sync.pop(final)
         if len(batch.time):
-            self.session.add_batch(batch.time, batch.readings, batch.strain, batch.tool)
+            self.session.add_samples(batch)
 
     def status_line(self) -> str:
         """Rates, kept %, counts per configuration, rank and what is missing."""

@@ -18,6 +18,12 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
    ``max_dynamic_fraction`` of its weight, for the force and for the moment (relative to
    ``m g |c|``).
 
+The filter never computes kinematics: :meth:`QuasiStaticFilter.process` applies rules 1-3
+and returns the joint rates of the samples it decided; the caller computes the tool's load
+along that motion (:func:`fts_calib.robot.load.tool_load`) and
+:meth:`QuasiStaticFilter.dynamic_rule` applies rule 4 to it
+(:func:`fts_calib.pipeline.still.quasi_static` does both).
+
 Samples stream in chunks; the filter keeps the last window of each chunk as context and
 decides those samples with the next chunk, so that the result does not depend on where
 chunks end. Samples must come in time order. Each rule counts what it rejects; a sample can
@@ -34,7 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..robot.kinematics import Kinematics
+from ..feeds.batch import SampleBatch
+from ..robot.load import ToolLoad
 from ..robot.tool import Tool
 from .settings import FilterConfig
 
@@ -43,28 +50,25 @@ RULES = ("joint speed", "joint acceleration", "strain not stationary", "dynamic 
 
 _FLOOR_SAMPLES = 200  # still samples whose strain deviation sets the noise floor (its median to a few %)
 _FLOOR_WAIT_S = 120.0  # longest wait for them [s]; then the floor comes from what there is
-_PERIOD_SAMPLES = 100  # intervals that set the sample period
+PERIOD_SAMPLES = 100  # intervals that set the sample period
 
 
 @dataclass(frozen=True)
 class Decided:
-    """Samples the filter has decided, in time order.
+    """Samples the filter has decided, in time order; every array has one row per sample.
 
     Attributes:
-        time: [s], shape (m,).
-        readings: Joint readings [rad], shape (m, n_joints).
-        strain: Raw strains, shape (m, 8).
-        tool: Tool configuration indices, shape (m,).
-        keep: Quasi-static samples, shape (m,) bool.
-        g_sensor: Gravity in the sensor frame [m/s^2] of the kept samples, shape (k, 3).
+        samples: The decided samples. Length m.
+        still: Joints and strain still (rules 1-3 passed): candidates for the dynamic rule.
+            Shape (m,) bool.
+        joint_velocity: Estimated joint velocities in [rad/s]. Shape (m, n_joints).
+        joint_acceleration: Estimated joint accelerations in [rad/s^2]. Shape (m, n_joints).
     """
 
-    time: np.ndarray
-    readings: np.ndarray
-    strain: np.ndarray
-    tool: np.ndarray
-    keep: np.ndarray
-    g_sensor: np.ndarray
+    samples: SampleBatch
+    still: np.ndarray
+    joint_velocity: np.ndarray
+    joint_acceleration: np.ndarray
 
 
 def window_bounds(time: np.ndarray, index: np.ndarray, half: float) -> tuple[np.ndarray, np.ndarray]:
@@ -109,8 +113,19 @@ def windowed_std(values: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.
     return np.sqrt(np.maximum(var, 0.0))
 
 
+def sample_period(time: np.ndarray) -> float:
+    """A stream's sample period in [s], from its first intervals (the median of the first 100).
+
+    Estimated once per stream, from its start, so that chunking changes nothing.
+
+    Args:
+        time: Sample times in [s], at least 101 of them. Shape (N,).
+    """
+    return float(np.median(np.diff(time[: PERIOD_SAMPLES + 1])))
+
+
 def joint_rates(
-    T: np.ndarray, theta: np.ndarray, window_s: float, dt: float, continuous: np.ndarray | None = None
+    time: np.ndarray, joints: np.ndarray, window_s: float, dt: float, continuous: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Joint velocity and acceleration at every sample, estimated from readings alone.
 
@@ -121,8 +136,8 @@ def joint_rates(
     over the window. Continuous joints are unwrapped first.
 
     Args:
-        T: Sample times [s], non-decreasing. Shape (N,).
-        theta: Joint readings [rad]. Shape (N, n_joints).
+        time: Sample times [s], non-decreasing. Shape (N,).
+        joints: Joint readings [rad]. Shape (N, n_joints).
         window_s: Width of the window [s].
         dt: The stream's sample period [s] (0: differences everywhere).
         continuous: Which joints are continuous. Shape (n_joints,).
@@ -130,30 +145,30 @@ def joint_rates(
     Returns:
         ``(velocity [rad/s], acceleration [rad/s^2])``, each (N, n_joints).
     """
-    theta = np.array(theta, dtype=float)
-    if continuous is not None and np.any(continuous) and len(theta) > 1:
-        theta[:, continuous] = np.unwrap(theta[:, continuous], axis=0)
-    n = len(T)
-    velocity, acceleration = np.zeros_like(theta), np.zeros_like(theta)
+    joints = np.array(joints, dtype=float)
+    if continuous is not None and np.any(continuous) and len(joints) > 1:
+        joints[:, continuous] = np.unwrap(joints[:, continuous], axis=0)
+    n = len(time)
+    velocity, acceleration = np.zeros_like(joints), np.zeros_like(joints)
     fitted = np.zeros(n, dtype=bool)
     half = int(round(window_s / 2 / dt)) if dt > 0 else 0
     if half >= 1 and n >= 2 * half + 1:
         offsets = np.arange(-half, half + 1) * dt
         kernels = np.linalg.pinv(np.column_stack([np.ones_like(offsets), offsets, offsets * offsets]))
-        windows = np.lib.stride_tricks.sliding_window_view(theta, 2 * half + 1, axis=0)  # (n - 2 half, joints, 2 half + 1)
+        windows = np.lib.stride_tricks.sliding_window_view(joints, 2 * half + 1, axis=0)  # (n - 2 half, joints, 2 half + 1)
         inner = slice(half, n - half)
         velocity[inner] = windows @ kernels[1]
         acceleration[inner] = 2.0 * (windows @ kernels[2])
-        span = T[2 * half :] - T[: n - 2 * half]
+        span = time[2 * half :] - time[: n - 2 * half]
         fitted[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
     rest = np.nonzero(~fitted)[0]
     if len(rest):
-        left, right = window_bounds(T, rest, window_s / 2)
-        dt_total, dt_left, dt_right = T[right] - T[left], T[rest] - T[left], T[right] - T[rest]
+        left, right = window_bounds(time, rest, window_s / 2)
+        dt_total, dt_left, dt_right = time[right] - time[left], time[rest] - time[left], time[right] - time[rest]
         with np.errstate(divide="ignore", invalid="ignore"):
-            velocity[rest] = np.where((dt_total > 0)[:, None], (theta[right] - theta[left]) / dt_total[:, None], 0.0)
+            velocity[rest] = np.where((dt_total > 0)[:, None], (joints[right] - joints[left]) / dt_total[:, None], 0.0)
             both = ((dt_left > 0) & (dt_right > 0))[:, None]
-            slopes = (theta[right] - theta[rest]) / dt_right[:, None] - (theta[rest] - theta[left]) / dt_left[:, None]
+            slopes = (joints[right] - joints[rest]) / dt_right[:, None] - (joints[rest] - joints[left]) / dt_left[:, None]
             acceleration[rest] = np.where(both, 2.0 * slopes / dt_total[:, None], 0.0)
     return velocity, acceleration
 
@@ -162,25 +177,24 @@ class QuasiStaticFilter:
     """Stream filter of quasi-static samples (see the module docstring).
 
     Args:
-        config: Thresholds.
-        kin: Kinematics of the robot (for the dynamic rule and gravity).
-        tool: The tool (mass, centre of mass and inertia of each configuration), or None for
-            an unknown payload: then the dynamic rule is skipped and gravity has the
-            model's magnitude.
+        settings: Thresholds.
+        continuous: Which joints are continuous (unwrapped before differentiating), the
+            robot's joint order. Shape (n_joints,) bool.
+        tool: The tool (mass, centre of mass of each configuration, for the dynamic rule), or
+            None for an unknown payload: then the dynamic rule is skipped.
     """
 
-    def __init__(self, config: FilterConfig, kin: Kinematics, tool: Tool | None):
-        self.config = config
-        self.kin = kin
+    def __init__(self, settings: FilterConfig, continuous: np.ndarray, tool: Tool | None):
+        self.settings = settings
         self.tool = tool
         self.rejected = dict.fromkeys(RULES, 0)
         self.noise_floor: np.ndarray | None = None
         self._context = 0
-        self._buffer: tuple[np.ndarray, ...] | None = None
+        self._buffer: SampleBatch | None = None
         # context kept on each side of a decided sample: its strain window, and the derivative
         # window of every sample in it
-        self._half = (config.derivative_window_s + config.strain_window_s) / 2
-        self._continuous = np.array([j.kind == "continuous" for j in kin.joints])
+        self._half = (settings.derivative_window_s + settings.strain_window_s) / 2
+        self._continuous = np.asarray(continuous, dtype=bool)
         self._dt: float | None = None
 
     def state(self) -> dict:
@@ -193,72 +207,82 @@ class QuasiStaticFilter:
             self.noise_floor = np.asarray(state["noise_floor"], dtype=float)
         self.rejected.update({k: int(v) for k, v in state.get("rejected", {}).items() if k in self.rejected})
 
-    def process(self, time, readings, strain, tool, final: bool = False) -> Decided:
-        """Add samples (in time order) and return those that can now be decided.
+    def process(self, batch: SampleBatch, final: bool = False) -> Decided:
+        """Add samples (in time order) and return those that can now be decided (rules 1-3).
 
         Args:
-            time: [s], shape (n,), not before the previous samples.
-            readings: Joint readings [rad], shape (n, n_joints).
-            strain: Raw strains, shape (n, 8).
-            tool: Tool configuration indices, shape (n,).
+            batch: New samples, not before the previous ones.
             final: No more samples will come: decide everything.
         """
-        new = (
-            np.asarray(time, dtype=float),
-            np.asarray(readings, dtype=float),
-            np.asarray(strain, dtype=float),
-            np.asarray(tool, dtype=np.int64),
-        )
-        buf: tuple[np.ndarray, ...]
-        if self._buffer is None:
-            buf = new
-        else:
-            buf = tuple(np.concatenate([old, part]) for old, part in zip(self._buffer, new, strict=True))
-        T, theta, S, codes = buf
-        n = len(T)
+        buf = batch if self._buffer is None else SampleBatch.concatenate([self._buffer, batch])
+        time = buf.time
+        n = len(time)
         start = self._context
-        end = n if final else int(np.searchsorted(T, T[-1] - self._half, side="right")) if n else 0
+        end = n if final else int(np.searchsorted(time, time[-1] - self._half, side="right")) if n else 0
         end = max(end, start)
-        if self._waiting(T, theta, S, np.arange(start, end), final):
+        if self._waiting(buf, np.arange(start, end), final):
             self._buffer = buf  # nothing is decided before the noise floor is known
-            empty = np.zeros(0, dtype=bool)
-            return Decided(T[:0], theta[:0], S[:0], codes[:0], empty, np.zeros((0, 3)))
+            none = np.zeros(0, dtype=bool)
+            return Decided(buf.rows(0, 0), none, buf.joints[:0], buf.joints[:0])
         index = np.arange(start, end)
-        keep, g = self._decide(T, theta, S, codes, index)
-        decided = Decided(T[start:end], theta[start:end], S[start:end], codes[start:end], keep, g)
+        still, velocity, acceleration = self._decide(buf, index)
+        decided = Decided(buf.rows(start, end), still, velocity, acceleration)
         if final or end >= n:
             self._buffer, self._context = None, 0
         else:
-            first = int(np.searchsorted(T, T[end] - self._half, side="left"))
+            first = int(np.searchsorted(time, time[end] - self._half, side="left"))
             first = min(first, end)
-            self._buffer = tuple(a[first:] for a in buf)
+            self._buffer = buf.rows(first, n)
             self._context = end - first
         return decided
 
-    def _joint_rates(self, T, theta) -> tuple[np.ndarray, np.ndarray]:
-        if self._dt is None and len(T) > _PERIOD_SAMPLES:
-            # one sample period per stream, from its first intervals: chunking changes nothing
-            self._dt = float(np.median(np.diff(T[: _PERIOD_SAMPLES + 1])))
-        return joint_rates(T, theta, self.config.derivative_window_s, self._dt or 0.0, self._continuous)
+    def dynamic_rule(self, load: ToolLoad, configuration: np.ndarray) -> np.ndarray:
+        """Rule 4 on still samples: their dynamic wrench at most ``max_dynamic_fraction`` of the weight.
 
-    def _still(self, T, theta, index):
+        Args:
+            load: The tool's load at the samples, with the moving wrench. Length k.
+            configuration: Configuration index of each sample. Shape (k,).
+
+        Returns:
+            The samples that pass, shape (k,) bool (all of them without a tool).
+        """
+        fraction = np.zeros(len(configuration))
+        if self.tool is not None and load.moving is not None:
+            delta = load.moving - load.static
+            for c, tool_configuration in enumerate(self.tool.configurations):
+                mine = configuration == c
+                weight = tool_configuration.mass * self.tool.gravity
+                lever = max(float(np.linalg.norm(tool_configuration.p_sensor_com)), 1e-3)
+                fraction[mine] = np.maximum(
+                    np.linalg.norm(delta[mine, :3], axis=1) / weight, np.linalg.norm(delta[mine, 3:], axis=1) / (weight * lever)
+                )
+        ok = fraction <= self.settings.max_dynamic_fraction
+        self.rejected["dynamic wrench"] += int((~ok).sum())
+        return ok
+
+    def _joint_rates(self, time, joints) -> tuple[np.ndarray, np.ndarray]:
+        if self._dt is None and len(time) > PERIOD_SAMPLES:
+            self._dt = sample_period(time)
+        return joint_rates(time, joints, self.settings.derivative_window_s, self._dt or 0.0, self._continuous)
+
+    def _still(self, buf: SampleBatch, index):
         """Joint rules at ``index``: (speed ok, acceleration ok, velocity, acceleration, window bounds).
 
         The rules hold over the whole strain window, not only at the sample: the first
         milliseconds of a jerk-limited motion hardly show in any estimate.
         """
-        cfg = self.config
-        velocity_all, acceleration_all = self._joint_rates(T, theta)
-        slow = np.max(np.abs(velocity_all), axis=1) <= cfg.max_joint_speed
-        steady = np.max(np.abs(acceleration_all), axis=1) <= cfg.max_joint_acceleration
-        s_left, s_right = window_bounds(T, index, cfg.strain_window_s / 2)
+        settings = self.settings
+        velocity_all, acceleration_all = self._joint_rates(buf.time, buf.joints)
+        slow = np.max(np.abs(velocity_all), axis=1) <= settings.max_joint_speed
+        steady = np.max(np.abs(acceleration_all), axis=1) <= settings.max_joint_acceleration
+        s_left, s_right = window_bounds(buf.time, index, settings.strain_window_s / 2)
         bad_speed = np.concatenate([[0], np.cumsum(~slow)])
         bad_accel = np.concatenate([[0], np.cumsum(~steady)])
         speed_ok = bad_speed[s_right + 1] == bad_speed[s_left]
         accel_ok = bad_accel[s_right + 1] == bad_accel[s_left]
         return speed_ok, accel_ok, velocity_all[index], acceleration_all[index], s_left, s_right
 
-    def _waiting(self, T, theta, S, index, final: bool) -> bool:
+    def _waiting(self, buf: SampleBatch, index, final: bool) -> bool:
         """In ``auto`` mode, set the noise floor from the first still samples of the stream.
 
         The floor is the median, per bridge, of the strain deviation over the first 200
@@ -269,64 +293,38 @@ class QuasiStaticFilter:
         Returns:
             True while the samples must wait.
         """
-        if self.config.max_strain_std is not None or self.noise_floor is not None or len(index) == 0:
+        if self.settings.max_strain_std is not None or self.noise_floor is not None or len(index) == 0:
             return False
-        speed_ok, accel_ok, _, _, s_left, s_right = self._still(T, theta, index)
+        speed_ok, accel_ok, _, _, s_left, s_right = self._still(buf, index)
         still = np.nonzero(speed_ok & accel_ok)[0][:_FLOOR_SAMPLES]
-        give_up = final or T[index[-1]] - T[0] >= _FLOOR_WAIT_S
+        give_up = final or buf.time[index[-1]] - buf.time[0] >= _FLOOR_WAIT_S
         if len(still) < _FLOOR_SAMPLES and not give_up:
             return True
         if len(still):
-            self.noise_floor = np.median(windowed_std(S, s_left[still], s_right[still]), axis=0)
+            self.noise_floor = np.median(windowed_std(buf.channels, s_left[still], s_right[still]), axis=0)
         return False
 
-    def _decide(self, T, theta, S, codes, index) -> tuple[np.ndarray, np.ndarray]:
-        cfg = self.config
+    def _decide(self, buf: SampleBatch, index) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rules 1-3 at ``index``: (still (m,), joint velocity (m, n), joint acceleration (m, n))."""
+        settings = self.settings
+        channels = buf.channels
         if len(index) == 0:
-            return np.zeros(0, dtype=bool), np.zeros((0, 3))
-        speed_ok, accel_ok, velocity, acceleration, s_left, s_right = self._still(T, theta, index)
+            return np.zeros(0, dtype=bool), buf.joints[:0], buf.joints[:0]
+        speed_ok, accel_ok, velocity, acceleration, s_left, s_right = self._still(buf, index)
         joints_ok = speed_ok & accel_ok
         # strain stationarity, computed where the joints are still (the others are rejected anyway)
-        std = np.full((len(index), S.shape[1]), np.inf)
-        std[joints_ok] = windowed_std(S, s_left[joints_ok], s_right[joints_ok])
-        if cfg.max_strain_std is not None:
-            threshold = np.full(S.shape[1], cfg.max_strain_std)
+        std = np.full((len(index), channels.shape[1]), np.inf)
+        std[joints_ok] = windowed_std(channels, s_left[joints_ok], s_right[joints_ok])
+        if settings.max_strain_std is not None:
+            threshold = np.full(channels.shape[1], settings.max_strain_std)
         elif self.noise_floor is None:
-            threshold = np.full(S.shape[1], -1.0)  # no still sample at all: nothing is known to be stationary
+            threshold = np.full(channels.shape[1], -1.0)  # no still sample at all: nothing is known to be stationary
         else:
             # a tiny absolute floor keeps noiseless (simulated) data from failing on rounding
-            threshold = np.maximum(cfg.strain_std_factor * self.noise_floor, 1e-9 * np.max(np.abs(S)))
+            threshold = np.maximum(settings.strain_std_factor * self.noise_floor, 1e-9 * np.max(np.abs(channels)))
         strain_ok = np.all(std <= threshold, axis=1)
         # a moving sample is counted by the joint rules only: its strain was not looked at
-        strain_rejected = int((joints_ok & ~strain_ok).sum())
-        candidates = joints_ok & strain_ok
-        keep = candidates.copy()
-        g_kept = np.zeros((0, 3))
-        rows = index[candidates]
-        dynamic_rejected = 0
-        if len(rows):
-            motion = self.kin.sensor_motion(theta[rows], velocity[candidates], acceleration[candidates])
-            g = np.einsum("nji,j->ni", motion.R_world_sensor, self.kin.g_world(None if self.tool is None else self.tool.gravity))
-            fraction = np.zeros(len(rows))
-            if self.tool is not None:  # without a tool the dynamic rule is skipped (every fraction stays 0)
-                for c, config in enumerate(self.tool.configurations):
-                    mine = codes[rows] == c
-                    if not mine.any():
-                        continue
-                    static = config.static_wrench(g[mine])
-                    dynamic = config.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
-                    weight = config.mass * self.tool.gravity
-                    lever = max(float(np.linalg.norm(config.p_sensor_com)), 1e-3)
-                    delta = dynamic - static
-                    fraction[mine] = np.maximum(
-                        np.linalg.norm(delta[:, :3], axis=1) / weight, np.linalg.norm(delta[:, 3:], axis=1) / (weight * lever)
-                    )
-            dynamic_ok = fraction <= cfg.max_dynamic_fraction
-            dynamic_rejected = int((~dynamic_ok).sum())
-            keep[candidates] = dynamic_ok
-            g_kept = g[dynamic_ok]
         self.rejected["joint speed"] += int((~speed_ok).sum())
         self.rejected["joint acceleration"] += int((~accel_ok).sum())
-        self.rejected["strain not stationary"] += strain_rejected
-        self.rejected["dynamic wrench"] += dynamic_rejected
-        return keep, g_kept
+        self.rejected["strain not stationary"] += int((joints_ok & ~strain_ok).sum())
+        return joints_ok & strain_ok, velocity, acceleration

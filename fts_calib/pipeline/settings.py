@@ -18,12 +18,12 @@ excitation report of planned trajectories (default: the sensor file's).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..core.exceptions import FileFormatError
-from ..core.fileio import load_yaml, read_positive
+from ..core import validation
+from ..core.exceptions import ConfigError, FileFormatError
+from ..core.fileio import fields_of, load_yaml, read_number
 
 
 @dataclass(frozen=True)
@@ -47,11 +47,12 @@ class FilterConfig:
             "strain_std_factor",
             "max_dynamic_fraction",
         ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"filter.{name}={value} but expected a finite value > 0")
-        if self.max_strain_std is not None and not (math.isfinite(self.max_strain_std) and self.max_strain_std > 0):
-            raise ValueError(f"filter.max_strain_std={self.max_strain_std} but expected a value > 0 or 'auto'")
+            object.__setattr__(self, name, validation.positive(f"filter.{name}", getattr(self, name)))
+        if self.max_strain_std is not None:
+            std = validation.number("filter.max_strain_std", self.max_strain_std)
+            if not std > 0:
+                raise ConfigError("filter.max_strain_std", std, "a value > 0 or 'auto'")
+            object.__setattr__(self, "max_strain_std", std)
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,13 @@ class LiveConfig:
     max_gap_s: float = 0.05
     latency_s: float = 0.0
     checkpoint_interval_s: float = 5.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "max_gap_s", validation.positive("live.max_gap_s", self.max_gap_s, "s"))
+        object.__setattr__(self, "latency_s", validation.number("live.latency_s", self.latency_s, "s"))
+        object.__setattr__(
+            self, "checkpoint_interval_s", validation.positive("live.checkpoint_interval_s", self.checkpoint_interval_s, "s")
+        )
 
 
 @dataclass(frozen=True)
@@ -77,6 +85,10 @@ class PipelineConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
     live: LiveConfig = field(default_factory=LiveConfig)
     noise_std: float | None = None
+
+    def __post_init__(self):
+        if self.noise_std is not None:
+            object.__setattr__(self, "noise_std", validation.positive("design.noise_std", self.noise_std))
 
 
 def load_pipeline_config(path: str | Path) -> PipelineConfig:
@@ -101,24 +113,15 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
             raise FileFormatError(path, name, f"unknown keys {bad}; expected {sorted(known)}")
         values: dict[str, float | None] = {}
         for key, value in raw.items():
-            if key == "max_strain_std" and value == "auto":
-                values[key] = None
-            elif key == "latency_s":
-                try:
-                    values[key] = float(value)
-                except (TypeError, ValueError):
-                    raise FileFormatError(path, f"{name}.{key}", f"expected a number in s, got {value!r}") from None
-            else:
-                values[key] = read_positive(value, path, f"{name}.{key}")
-        try:
+            auto = key == "max_strain_std" and value == "auto"
+            values[key] = None if auto else read_number(value, path, f"{name}.{key}", "s" if key.endswith("_s") else "")
+        with fields_of(path):  # the dataclasses name their fields as the file does ('filter.max_joint_speed')
             return cls(**values)
-        except ValueError as exc:
-            raise FileFormatError(path, name, str(exc)) from None
 
     design = data.get("design") or {}
     noise = design.get("noise_std") if isinstance(design, dict) else None
-    return PipelineConfig(
-        filter=section("filter", FilterConfig),
-        live=section("live", LiveConfig),
-        noise_std=None if noise is None else read_positive(noise, path, "design.noise_std"),
-    )
+    filter_config, live = section("filter", FilterConfig), section("live", LiveConfig)
+    with fields_of(path):
+        return PipelineConfig(
+            filter=filter_config, live=live, noise_std=None if noise is None else read_number(noise, path, "design.noise_std")
+        )

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.arrays import frozen
-from ..model.estimator import RCOND, coefficient_stderr, information_rank
+from ..model.least_squares import RCOND, coefficient_stderr, information_rank
 from ..model.sensor import P
 from ..robot.tool import Tool
 

@@ -10,7 +10,6 @@ the report and the plot are still written, the trajectory files are not.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,9 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..app.report import table
-from ..core.fileio import atomic_write_text, dump_yaml
-from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..core.exceptions import ConfigError
 from ..model.sensor_config import SensorSpec
 from ..pipeline.settings import FilterConfig
 from ..robot.collision import CollisionChecker
@@ -28,8 +25,8 @@ from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .excitation import ExcitationReport, predict_excitation
-from .planner import MIN_CLEARANCE, PlanResult, SweepPattern, plan_calibration
-from .trajectory_io import write_trajectory
+from .planner import PlanResult, plan_calibration
+from .sweeps import MIN_CLEARANCE, SweepPattern
 
 
 @dataclass(frozen=True)
@@ -94,7 +91,13 @@ def plan_trajectories(
         pattern: Raster of stops.
         rate: Sample rate [Hz].
         min_clearance: Required clearance [m].
+
+    Raises:
+        ConfigError: The sensor configuration has no nominal model (checked before planning).
     """
+    if sensor.simulated is None:
+        message = "the sensor configuration needs a 'simulation' section (a nominal C) for the excitation report"
+        raise ConfigError("sensor.simulated", None, "a nominal sensor model", message=message)
     kin = Kinematics(load_robot(robot_path))
     if tool.shape is None:  # never: Tool.__post_init__ fills in the default envelope
         raise ValueError(f"tool '{tool.name}' has no shape for the collision checks")
@@ -102,8 +105,6 @@ def plan_trajectories(
     result = plan_calibration(kin, checker, pattern, rate, min_clearance)
     still = quasi_static(result, filter_config)
     g_all = kin.g_sensor(result.plan.q, tool.gravity)
-    if sensor.simulated is None:
-        raise ValueError("the sensor configuration needs a 'simulation' section (a nominal C) for the excitation report")
     excitation = predict_excitation(
         {c.name: g_all[still] for c in tool.configurations}, tool, sensor.simulated.C_bar, sensor.simulated.D, noise_std
     )
@@ -111,36 +112,6 @@ def plan_trajectories(
     if excitation.rank < 7:
         problems.append(excitation.advice)
     return TrajectoryRun(result, excitation, still, g_all, tool, problems, [], sensor.strain_unit)
-
-
-def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot: bool = True) -> TrajectoryRun:
-    """Write the trajectory files (only when every check passed), plan.yaml and plan.png."""
-    from ..app import plots
-
-    out = Path(out)
-    plan = run.result.plan
-    files = []
-    if not run.problems:
-        suffix = ".csv.gz" if compress else ".csv"
-        for config in run.tool.configurations:
-            files.append(
-                write_trajectory(out / f"{config.name}{suffix}", plan.joint_names, plan.time, plan.q, plan.qd, plan.qdd, config.name)
-            )
-    files.append(atomic_write_text(out / "plan.yaml", dump_yaml(plan_summary(run, [f.name for f in files]))))
-    if plot:
-        index = [plan.joint_names.index(j) for j in plan.sweep_joints]
-        files.append(
-            plots.plot_plan(
-                out / "plan.png",
-                plan.time,
-                plan.q[:, index],
-                plan.sweep_joints,
-                run.still,
-                run.g_sensor,
-                f"{plan.robot}: calibration sweep, {plan.duration:.1f} s per tool configuration",
-            )
-        )
-    return dataclasses.replace(run, files=files)
 
 
 def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
@@ -190,86 +161,3 @@ def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
         "files": files,
         "software_version": __version__,
     }
-
-
-def format_report(run: TrajectoryRun, robot_path: Path, tool_path: Path, compress: bool = False) -> str:
-    """The printed report of the ``trajectory`` job, with units."""
-    result, plan, ex = run.result, run.result.plan, run.excitation
-    lines = [
-        f"robot {plan.robot} ({robot_path}), tool '{run.tool.name}' ({tool_path}): configurations "
-        f"{', '.join(c.name for c in run.tool.configurations)}"
-    ]
-    home = result.home
-    how = (
-        (
-            "planned automatically: "
-            + (f"{home.tilt_joint} set so that the axis of {plan.sweep_joints[0]} is horizontal" if home.tilt_joint else "")
-        )
-        if home.source == "automatic"
-        else "from the robot definition"
-    )
-    lines.append(f"home ({how}):")
-    lines.append("  " + ", ".join(f"{j} {v:+.4f}" for j, v in zip(plan.joint_names, plan.home, strict=True)) + " rad")
-    lines.append(f"  axis of {plan.sweep_joints[0]} {home.axis_tilt_deg:.1f}° from horizontal; sweep axes {home.axes_angle_deg:.1f}° apart")
-    a, b = plan.sweep_joints
-    levels = np.unique(plan.waypoints[:, 0])
-    lines.append(
-        f"sweep: {a} at {len(levels)} levels {', '.join(f'{v:+.1f}' for v in np.degrees(levels))}° (chosen in "
-        f"[{np.degrees(plan.ranges[0, 0]):+.1f}°, {np.degrees(plan.ranges[0, 1]):+.1f}°] to spread gravity's latitude "
-        f"about the axis of {b}); {b} over [{np.degrees(plan.ranges[1, 0]):+.1f}°, {np.degrees(plan.ranges[1, 1]):+.1f}°] "
-        f"in {plan.pattern.stops} stops per level; dwell {plan.pattern.dwell:.2f} s at each of {len(plan.waypoints)} stops"
-    )
-    if result.ranges.note:
-        lines.append(f"  note: {result.ranges.note}")
-    rows = []
-    for j in plan.sweep_joints:
-        k = plan.joint_names.index(j)
-        peak, ratio = result.limits.peaks[j], result.limits.ratios[j]
-        rows.append(
-            [j]
-            + [f"{peak[q]:.3f} / {getattr(plan.limits, q)[k]:.3f} ({100 * ratio[q]:.1f} %)" for q in ("velocity", "acceleration", "jerk")]
-        )
-    lines.append("limits used, peak / limit:")
-    lines.append(table(["joint", "velocity [rad/s]", "acceleration [rad/s²]", "jerk [rad/s³]"], rows))
-    n_conf = len(run.tool.configurations)
-    lines.append(
-        f"duration: {plan.duration:.1f} s per configuration ({n_conf} configurations: {n_conf * plan.duration:.1f} s "
-        f"of motion, plus the tool changes at home), sampled at {plan.rate:g} Hz"
-    )
-    c, h = result.clearance, result.home_clearance
-    when = f" at t = {plan.time[c.index]:.2f} s" if c.index >= 0 else ""
-    lines.append(
-        f"clearance: {c.distance:.3f} m between '{c.pair[0]}' and '{c.pair[1]}'{when} along the sweep "
-        f"({result.checked_samples} samples checked); {h.distance:.3f} m between '{h.pair[0]}' and '{h.pair[1]}' "
-        f"at home (at least {result.min_clearance:.3f} m required)"
-    )
-    noise = ex.noise_std
-    noise_text = f"{noise[0]:.2g}" if np.all(noise == noise[0]) else str(noise.tolist())
-    counts = ", ".join(f"{k}: {v}" for k, v in ex.samples.items())
-    lines.append(f"excitation (strain noise {noise_text} {run.strain_unit} per bridge; quasi-static samples {counts}):")
-    cond = f"{ex.condition_number:.1f}" if math.isfinite(ex.condition_number) else "inf"
-    lines.append(
-        f"  predicted rank {ex.rank} of 7, condition number {cond}; every direction within "
-        f"{ex.coverage_deg:.1f}° of a gravity direction the sensor sees"
-    )
-    if ex.rank == 7:
-        lines.append("  predicted standard error of C, in % of each row's largest coefficient:")
-        rel = 100 * ex.relative_stderr_C
-        lines.append(
-            table(
-                ["", *[f"Δ{k + 1}" for k in range(8)]],
-                [[axis, *[f"{v:.5f}" for v in rel[i]]] for i, axis in enumerate(WRENCH_AXES)],
-                "    ",
-            )
-        )
-        lines.append(
-            f"  largest: {100 * ex.max_relative_stderr:.5f} %; predicted standard error of D: "
-            + ", ".join(f"{axis} {v:.2g} {u}" for axis, v, u in zip(WRENCH_AXES, ex.stderr_D, WRENCH_UNITS, strict=True))
-        )
-    for problem in run.problems:
-        lines.append(f"CHECK FAILED: {problem}")
-    if run.files:
-        lines.append("wrote: " + ", ".join(str(f) for f in run.files))
-    if run.problems:
-        lines.append("trajectory files not written: fix the failed checks first")
-    return "\n".join(lines)

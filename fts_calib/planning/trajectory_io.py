@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.arrays import frozen
-from ..core.exceptions import RecordingError
+from ..core.exceptions import ConfigError, RecordingError
 from ..core.fileio import atomic_write_bytes, is_number
 
 
@@ -57,9 +57,12 @@ def write_trajectory(path: str | Path, joint_names, time, q, qd, qdd, tool: str)
         qd: Velocities [rad/s], shape (N, n).
         qdd: Accelerations [rad/s^2], shape (N, n).
         tool: Tool configuration name (no comma).
+
+    Raises:
+        ConfigError: ``tool`` holds a comma or a line break.
     """
     if "," in tool or "\n" in tool:
-        raise ValueError(f"tool configuration name {tool!r} cannot be written in a CSV column")
+        raise ConfigError("tool", tool, "a configuration name without ',' or line breaks (it is written in a CSV column)")
     names = list(joint_names)
     header = ["time"] + [f"{j}{suffix}" for j in names for suffix in ("", "_vel", "_acc")] + ["tool"]
     n = len(names)
@@ -123,3 +126,9 @@ def read_trajectory(path: str | Path) -> TrajectoryFile:
         backwards = int(np.argmax(np.diff(table[:, 0]) < 0)) + 3
         raise RecordingError(path, backwards, "time", "time goes backwards")
     return TrajectoryFile(tuple(joints), table[:, 0], table[:, 1::3], table[:, 2::3], table[:, 3::3], tools.pop() if tools else "")
+
+
+def save_trajectory(path: str | Path, trajectory: TrajectoryFile) -> Path:
+    """Write a :class:`TrajectoryFile` (see :func:`write_trajectory`); returns the path."""
+    t = trajectory
+    return write_trajectory(path, t.joint_names, t.time, t.q, t.qd, t.qdd, t.tool)

@@ -11,6 +11,9 @@ not, the tool against the links of the first sweep joint, and every moving body 
 the floor. Bodies on the same joint or on a joint and its parent touch by design and are
 skipped, as are the robot's base against the floor and the link pairs the robot's SRDF
 disables. The pose of the arm itself (the home pose) is checked once for every other pair.
+
+The bodies are placed by :meth:`Kinematics.distances` (the only forward kinematics); this
+module builds the geometry and chooses the pairs. Distances in [m].
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from ..core.exceptions import FrameNotFound
+from .joints import locked_configuration
 from .kinematics import Kinematics
 from .tool import ToolShape
 
@@ -28,6 +33,29 @@ from .tool import ToolShape
 TOOL = "tool"
 #: Name of the floor's collision body.
 FLOOR = "floor"
+
+
+def collision_model(kin: Kinematics) -> pin.GeometryModel:
+    """The URDF's collision geometry for the kinematics' (reduced) model; meshes from the package dirs.
+
+    Links listed in the definition's ``collision.ignore_links`` are left out.
+
+    Raises:
+        FrameNotFound: An ignored link is not in the model (lists the frames).
+    """
+    robot, model = kin.robot, kin.model
+    geometry = pin.buildGeomFromUrdf(kin.full_model, str(robot.urdf), pin.COLLISION, package_dirs=[str(p) for p in robot.package_dirs])
+    lock_ids, q_lock = locked_configuration(kin.full_model, robot.locked_joints)
+    if lock_ids:
+        _, geometry = pin.buildReducedModel(kin.full_model, geometry, lock_ids, q_lock)
+    for name in robot.ignore_links:
+        if not model.existFrame(name):
+            raise FrameNotFound(name, [f.name for f in model.frames])
+    ignored = {model.getFrameId(n) for n in robot.ignore_links}
+    doomed = [obj.name for obj in geometry.geometryObjects if obj.parentFrame in ignored]
+    for name in doomed:  # names first: removing invalidates the objects
+        geometry.removeGeometryObject(name)
+    return geometry
 
 
 @dataclass(frozen=True)
@@ -57,7 +85,7 @@ class CollisionChecker:
     def __init__(self, kin: Kinematics, shape: ToolShape, moving_joint: str):
         self.kin = kin
         model = kin.model
-        geometry = kin.collision_model()
+        geometry = collision_model(kin)
         for obj in geometry.geometryObjects:
             if isinstance(obj.geometry, coal.BVHModelBase):
                 obj.geometry.buildConvexRepresentation(False)

@@ -32,9 +32,10 @@ from typing import Any
 
 import numpy as np
 
-from ..core.arrays import frozen
-from ..core.exceptions import FileFormatError
-from ..core.fileio import load_yaml, read_positive, require
+from ..core import validation
+from ..core.arrays import as_matrix, frozen
+from ..core.exceptions import ConfigError, FileFormatError
+from ..core.fileio import fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir
 
 #: Prefix of URDF paths inside the example-robot-data package.
@@ -88,8 +89,9 @@ class SensorMount:
     name: str = "ft_sensor"
 
     def __post_init__(self):
-        object.__setattr__(self, "xyz", frozen(self.xyz))
-        object.__setattr__(self, "rpy", frozen(self.rpy))
+        owner = f"sensor mount on '{self.parent_frame}'"
+        object.__setattr__(self, "xyz", frozen(validation.finite_array("xyz", as_matrix(self.xyz, (3,), "xyz"), owner)))
+        object.__setattr__(self, "rpy", frozen(validation.finite_array("rpy", as_matrix(self.rpy, (3,), "rpy"), owner)))
 
 
 @dataclass(frozen=True)
@@ -107,6 +109,21 @@ class LimitSpec:
     velocity: Mapping[str, float] = field(default_factory=dict)
     acceleration: Mapping[str, float] = field(default_factory=lambda: {"*": DEFAULT_ACCELERATION})
     jerk: Mapping[str, float] = field(default_factory=lambda: {"*": DEFAULT_JERK})
+
+    def __post_init__(self):
+        fraction = validation.positive("velocity_fraction", self.velocity_fraction, owner="limits")
+        if fraction > 1.0:
+            raise ConfigError("velocity_fraction", fraction, "a fraction in (0, 1]", owner="limits")
+        object.__setattr__(self, "velocity_fraction", fraction)
+        if "*" in self.velocity:
+            reason = "must map joint -> rad/s (use velocity_fraction for all joints)"
+            raise ConfigError("velocity", dict(self.velocity), "a mapping joint -> rad/s", owner="limits", reason=reason)
+        for name in ("velocity", "acceleration", "jerk"):
+            per_joint = {
+                str(joint): validation.positive(name if joint == "*" else f"{name}.{joint}", value, owner="limits")
+                for joint, value in getattr(self, name).items()
+            }
+            object.__setattr__(self, name, per_joint)
 
 
 @dataclass(frozen=True)
@@ -143,6 +160,19 @@ class RobotDefinition:
     floor_z: float = 0.0
     package_dirs: tuple[Path, ...] = ()
     source: Path | None = None
+
+    def __post_init__(self):
+        owner = f"robot '{self.name}'"
+        sweep = self.sweep_joints
+        if sweep is not None:
+            if len(sweep) != 2 or not all(isinstance(j, str) for j in sweep) or sweep[0] == sweep[1]:
+                raise ConfigError("sweep_joints", sweep, "two different joint names", owner=owner)
+            object.__setattr__(self, "sweep_joints", (sweep[0], sweep[1]))
+        if self.home is not None:
+            object.__setattr__(self, "home", {str(j): validation.number(f"home.{j}", v, "rad", owner) for j, v in self.home.items()})
+        locked = {str(j): validation.number(f"locked_joints.{j}", v, owner=owner) for j, v in self.locked_joints.items()}
+        object.__setattr__(self, "locked_joints", locked)
+        object.__setattr__(self, "floor_z", validation.number("floor_z", self.floor_z, "m", owner))
 
 
 def resolve_urdf(spec: str, base: Path, path: Path) -> tuple[Path, tuple[Path, ...]]:
@@ -194,13 +224,14 @@ def _mapping(value: Any, path: Path, field_name: str) -> Mapping[str, Any]:
     return value
 
 
-def _positive_per_joint(value: Any, path: Path, field_name: str, default: float | None) -> dict[str, float]:
+def _per_joint(value: Any, path: Path, field_name: str, default: float | None) -> dict[str, float]:
+    """One number for all joints (key ``"*"``) or a mapping joint -> number; LimitSpec checks the values."""
     if value is None:
         return {} if default is None else {"*": default}
     items = value.items() if isinstance(value, Mapping) else [("*", value)]
     out = {}
     for joint, raw in items:
-        out[str(joint)] = read_positive(raw, path, f"{field_name}.{joint}" if joint != "*" else field_name)
+        out[str(joint)] = read_number(raw, path, f"{field_name}.{joint}" if joint != "*" else field_name)
     return out
 
 
@@ -209,18 +240,14 @@ def _read_limits(raw: Any, path: Path) -> LimitSpec:
     unknown = sorted(set(raw) - {"velocity_fraction", "velocity", "acceleration", "jerk"})
     if unknown:
         raise FileFormatError(path, "limits", f"unknown keys {unknown}; expected velocity_fraction, velocity, acceleration, jerk")
-    fraction = _positive_per_joint(raw.get("velocity_fraction"), path, "limits.velocity_fraction", DEFAULT_VELOCITY_FRACTION)["*"]
-    if fraction > 1.0:
-        raise FileFormatError(path, "limits.velocity_fraction", f"is {fraction} but expected a fraction in (0, 1]")
-    velocity = _positive_per_joint(raw.get("velocity"), path, "limits.velocity", None)
-    if "*" in velocity:
-        raise FileFormatError(path, "limits.velocity", "expected a mapping joint -> rad/s (use velocity_fraction for all joints)")
-    return LimitSpec(
-        velocity_fraction=fraction,
-        velocity=velocity,
-        acceleration=_positive_per_joint(raw.get("acceleration"), path, "limits.acceleration", DEFAULT_ACCELERATION),
-        jerk=_positive_per_joint(raw.get("jerk"), path, "limits.jerk", DEFAULT_JERK),
-    )
+    fraction = raw.get("velocity_fraction", DEFAULT_VELOCITY_FRACTION)
+    with fields_of(path, "limits."):
+        return LimitSpec(
+            velocity_fraction=read_number(fraction, path, "limits.velocity_fraction"),
+            velocity=_per_joint(raw.get("velocity"), path, "limits.velocity", None),
+            acceleration=_per_joint(raw.get("acceleration"), path, "limits.acceleration", DEFAULT_ACCELERATION),
+            jerk=_per_joint(raw.get("jerk"), path, "limits.jerk", DEFAULT_JERK),
+        )
 
 
 def _angles(raw: Any, path: Path, field_name: str) -> dict[str, float]:
@@ -233,12 +260,9 @@ def _vector3(raw: Any, path: Path, field_name: str, angles: bool) -> np.ndarray:
     if angles:
         return np.array([parse_angle(v, path, f"{field_name}[{i}]") for i, v in enumerate(raw)])
     try:
-        out = np.array([float(v) for v in raw])
+        return np.array([float(v) for v in raw])  # finite: SensorMount checks
     except (TypeError, ValueError):
         raise FileFormatError(path, field_name, f"expected 3 numbers in m, got {raw!r}") from None
-    if not np.all(np.isfinite(out)):
-        raise FileFormatError(path, field_name, "contains NaN or inf")
-    return out
 
 
 def load_robot(path: str | Path) -> RobotDefinition:
@@ -257,12 +281,11 @@ def load_robot(path: str | Path) -> RobotDefinition:
     sensor_raw = require(data, "sensor", path)
     if not isinstance(sensor_raw, Mapping):
         raise FileFormatError(path, "sensor", "expected a mapping with parent_frame, xyz and rpy")
-    sensor = SensorMount(
-        parent_frame=str(require(sensor_raw, "parent_frame", path, "sensor.")),
-        xyz=_vector3(sensor_raw.get("xyz", [0, 0, 0]), path, "sensor.xyz", angles=False),
-        rpy=_vector3(sensor_raw.get("rpy", [0, 0, 0]), path, "sensor.rpy", angles=True),
-        name=str(sensor_raw.get("name", "ft_sensor")),
-    )
+    parent_frame = str(require(sensor_raw, "parent_frame", path, "sensor."))
+    xyz = _vector3(sensor_raw.get("xyz", [0, 0, 0]), path, "sensor.xyz", angles=False)
+    rpy = _vector3(sensor_raw.get("rpy", [0, 0, 0]), path, "sensor.rpy", angles=True)
+    with fields_of(path, "sensor."):
+        sensor = SensorMount(parent_frame=parent_frame, xyz=xyz, rpy=rpy, name=str(sensor_raw.get("name", "ft_sensor")))
     sweep = data.get("sweep_joints")
     if sweep is not None:
         if not isinstance(sweep, list) or len(sweep) != 2 or not all(isinstance(j, str) for j in sweep) or sweep[0] == sweep[1]:
@@ -273,25 +296,26 @@ def load_robot(path: str | Path) -> RobotDefinition:
     ignore = collision.get("ignore_links") or []
     if not isinstance(ignore, list):
         raise FileFormatError(path, "collision.ignore_links", f"expected a list of link names, got {ignore!r}")
-    try:
-        floor_z = float(collision.get("floor_z", 0.0))
-    except (TypeError, ValueError):
-        raise FileFormatError(path, "collision.floor_z", f"expected a height in m, got {collision.get('floor_z')!r}") from None
+    floor_z = read_number(collision.get("floor_z", 0.0), path, "collision.floor_z", "m")
     srdf = collision.get("srdf")
     allowed = read_srdf_pairs(str(srdf), base, path) if srdf else frozenset()
     extra_dirs = tuple((base / p).resolve() for p in (data.get("package_dirs") or []))
-    return RobotDefinition(
-        name=str(require(data, "name", path)),
-        urdf=urdf,
-        sensor=sensor,
-        urdf_spec=urdf_spec,
-        sweep_joints=sweep,
-        home=home,
-        locked_joints=_angles(data.get("locked_joints"), path, "locked_joints"),
-        limits=_read_limits(data.get("limits"), path),
-        ignore_links=tuple(str(x) for x in ignore),
-        allowed_pairs=allowed,
-        floor_z=floor_z,
-        package_dirs=package_dirs + extra_dirs + (urdf.parent,),
-        source=path,
-    )
+    name = str(require(data, "name", path))
+    locked = _angles(data.get("locked_joints"), path, "locked_joints")
+    limits = _read_limits(data.get("limits"), path)
+    with fields_of(path, "", {"floor_z": "collision.floor_z"}):
+        return RobotDefinition(
+            name=name,
+            urdf=urdf,
+            sensor=sensor,
+            urdf_spec=urdf_spec,
+            sweep_joints=sweep,
+            home=home,
+            locked_joints=locked,
+            limits=limits,
+            ignore_links=tuple(str(x) for x in ignore),
+            allowed_pairs=allowed,
+            floor_z=floor_z,
+            package_dirs=package_dirs + extra_dirs + (urdf.parent,),
+            source=path,
+        )

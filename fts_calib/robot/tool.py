@@ -13,7 +13,6 @@ give 6, and the full rank 7 needs three centres of mass that are not on one line
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -21,30 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import validation
 from ..core.arrays import as_matrix, frozen
-from ..core.exceptions import FileFormatError, FtsCalibError, FtsCalibWarning, ShapeError
-from ..core.fileio import atomic_write_text, dump_yaml, load_yaml, read_array, read_positive, require
-from .wrench import dynamic_wrench
+from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning, UnknownToolConfiguration
+from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, read_number, require
+from .wrench import apply_wrench_matrix, dynamic_wrench, wrench_matrix
 
 #: Default magnitude of gravity in [m/s^2].
 STANDARD_GRAVITY = 9.81
-
-
-class UnknownToolConfiguration(FtsCalibError, KeyError):
-    """A tool configuration name is not in the tool file.
-
-    Attributes:
-        name: The name asked for.
-        available: The configuration names of the tool.
-    """
-
-    def __init__(self, name: str, available: Sequence[str]):
-        self.name = name
-        self.available = list(available)
-        super().__init__(name)
-
-    def __str__(self) -> str:
-        return f"tool configuration '{self.name}' is not in the tool file; configurations: {', '.join(self.available)}"
 
 
 @dataclass(frozen=True)
@@ -65,15 +48,22 @@ class ToolConfiguration:
     inertia_com: np.ndarray | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "p_sensor_com", frozen(as_matrix(self.p_sensor_com, (3,), "p_sensor_com")))
+        owner = f"configuration '{self.name}'"
+        object.__setattr__(self, "mass", validation.positive("mass", self.mass, "kg", owner))
+        com = validation.finite_array("p_sensor_com", as_matrix(self.p_sensor_com, (3,), "p_sensor_com"), owner)
+        object.__setattr__(self, "p_sensor_com", frozen(com))
         if self.inertia_com is not None:
-            object.__setattr__(self, "inertia_com", frozen(as_matrix(self.inertia_com, (3, 3), "inertia_com")))
-        if not (math.isfinite(self.mass) and self.mass > 0):
-            raise ValueError(f"configuration '{self.name}': mass={self.mass} kg but expected a finite value > 0")
+            inertia = validation.finite_array("inertia_com", as_matrix(self.inertia_com, (3, 3), "inertia_com"), owner)
+            if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12):
+                raise ConfigError("inertia_com", inertia.tolist(), "a symmetric matrix", "kg·m²", owner, reason="is not symmetric")
+            eig = np.linalg.eigvalsh(inertia)
+            if eig[0] < 0 or eig[2] > eig[0] + eig[1] + 1e-12:
+                moments = eig.round(6).tolist()
+                reason = f"has principal moments {moments} kg·m², which are not physical (>= 0, triangle inequality)"
+                raise ConfigError("inertia_com", moments, "physical principal moments", "kg·m²", owner, reason=reason)
+            object.__setattr__(self, "inertia_com", frozen(inertia))
         # eqs 17-18 are linear in g: W = [m I; m [c]x] g, one product per sample
-        cx, cy, cz = self.p_sensor_com
-        skew = np.array([[0.0, -cz, cy], [cz, 0.0, -cx], [-cy, cx, 0.0]])
-        object.__setattr__(self, "wrench_matrix", frozen(self.mass * np.vstack([np.eye(3), skew])))
+        object.__setattr__(self, "wrench_matrix", frozen(wrench_matrix(self.mass, self.p_sensor_com)))
 
     #: ``[m I; m [c]x]``, the (6, 3) matrix with ``W = wrench_matrix @ g_sensor`` (eqs 17-18).
     wrench_matrix: np.ndarray = field(init=False, repr=False)
@@ -87,12 +77,7 @@ class ToolConfiguration:
         Returns:
             Shape (6,) or (N, 6).
         """
-        g = np.asarray(g_sensor, dtype=float)
-        if g.shape == (3,):
-            return self.wrench_matrix.dot(g)
-        if g.ndim != 2 or g.shape[1] != 3:
-            raise ShapeError(f"g_sensor.shape={g.shape} but expected (3,) or (N, 3)")
-        return g @ self.wrench_matrix.T
+        return apply_wrench_matrix(self.wrench_matrix, g_sensor)
 
     def dynamic_wrench(self, g_sensor, omega_sensor, alpha_sensor, a_sensor) -> np.ndarray:
         """Wrench of the moving tool (Newton-Euler); see :func:`fts_calib.robot.wrench.dynamic_wrench`.
@@ -121,6 +106,10 @@ class ToolShape:
     radius: float
     length: float
 
+    def __post_init__(self):
+        object.__setattr__(self, "radius", validation.positive("radius", self.radius, "m", "tool shape"))
+        object.__setattr__(self, "length", validation.positive("length", self.length, "m", "tool shape"))
+
 
 @dataclass(frozen=True)
 class Tool:
@@ -141,6 +130,15 @@ class Tool:
     source: Path | None = None
 
     def __post_init__(self):
+        owner = f"tool '{self.name}'"
+        object.__setattr__(self, "gravity", validation.positive("gravity", self.gravity, "m/s²", owner))
+        object.__setattr__(self, "configurations", tuple(self.configurations))
+        if not self.configurations:
+            raise ConfigError("configurations", [], "at least one configuration", owner=owner)
+        names = self.names
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise ConfigError("configurations", names, "unique names", owner=owner, reason=f"has duplicate names {duplicates}")
         if self.shape is None:
             object.__setattr__(self, "shape", default_shape(self.configurations))
 
@@ -155,9 +153,9 @@ class Tool:
         Raises:
             UnknownToolConfiguration: No such name; lists the names that exist.
         """
-        for config in self.configurations:
-            if config.name == name:
-                return config
+        for configuration in self.configurations:
+            if configuration.name == name:
+                return configuration
         raise UnknownToolConfiguration(name, self.names)
 
     def com_rank(self) -> int:
@@ -188,19 +186,11 @@ def _read_configuration(raw: object, index: int, path: Path) -> ToolConfiguratio
     if not isinstance(raw, Mapping):
         raise FileFormatError(path, field, "expected a mapping with name, mass and com")
     name = require(raw, "name", path, field + ".")
-    mass = read_positive(require(raw, "mass", path, field + "."), path, field + ".mass", "kg")
+    mass = read_number(require(raw, "mass", path, field + "."), path, field + ".mass", "kg")
     com = read_array(require(raw, "com", path, field + "."), (3,), path, field + ".com")
-    inertia = None
-    if raw.get("inertia") is not None:
-        inertia = read_array(raw["inertia"], (3, 3), path, field + ".inertia")
-        if not np.allclose(inertia, inertia.T, rtol=1e-9, atol=1e-12):
-            raise FileFormatError(path, field + ".inertia", "is not symmetric")
-        eig = np.linalg.eigvalsh(inertia)
-        if eig[0] < 0 or eig[2] > eig[0] + eig[1] + 1e-12:
-            raise FileFormatError(
-                path, field + ".inertia", f"principal moments {eig.round(6).tolist()} kg·m² are not physical (>= 0, triangle inequality)"
-            )
-    return ToolConfiguration(name=str(name), mass=mass, p_sensor_com=com, inertia_com=inertia)
+    inertia = None if raw.get("inertia") is None else read_array(raw["inertia"], (3, 3), path, field + ".inertia")
+    with fields_of(path, field + ".", {"p_sensor_com": "com", "inertia_com": "inertia"}):
+        return ToolConfiguration(name=str(name), mass=mass, p_sensor_com=com, inertia_com=inertia)
 
 
 def load_tool(path: str | Path) -> Tool:
@@ -216,25 +206,23 @@ def load_tool(path: str | Path) -> Tool:
     path = Path(path)
     data = load_yaml(path)
     name = str(require(data, "name", path))
-    gravity = read_positive(data.get("gravity", STANDARD_GRAVITY), path, "gravity", "m/s²")
+    gravity = read_number(data.get("gravity", STANDARD_GRAVITY), path, "gravity", "m/s²")
     raw_configs = require(data, "configurations", path)
     if not isinstance(raw_configs, list) or not raw_configs:
         raise FileFormatError(path, "configurations", "expected a non-empty list")
     configs = tuple(_read_configuration(raw, i, path) for i, raw in enumerate(raw_configs))
-    names = [c.name for c in configs]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
-    if duplicates:
-        raise FileFormatError(path, "configurations", f"duplicate names {duplicates}")
     shape = None
     if data.get("shape") is not None:
         raw_shape = data["shape"]
         if not isinstance(raw_shape, Mapping):
             raise FileFormatError(path, "shape", "expected {radius: m, length: m}")
-        shape = ToolShape(
-            radius=read_positive(require(raw_shape, "radius", path, "shape."), path, "shape.radius", "m"),
-            length=read_positive(require(raw_shape, "length", path, "shape."), path, "shape.length", "m"),
-        )
-    tool = Tool(name=name, gravity=gravity, configurations=configs, shape=shape, source=path)
+        radius = read_number(require(raw_shape, "radius", path, "shape."), path, "shape.radius", "m")
+        length = read_number(require(raw_shape, "length", path, "shape."), path, "shape.length", "m")
+        with fields_of(path, "shape."):
+            shape = ToolShape(radius=radius, length=length)
+    with fields_of(path):
+        tool = Tool(name=name, gravity=gravity, configurations=configs, shape=shape, source=path)
+    names = tool.names
     if len(configs) >= 3 and tool.com_rank() < 2:
         warnings.warn(
             f"{path}: the centres of mass of {names} are collinear; the calibration can reach rank 6 at most "

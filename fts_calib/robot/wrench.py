@@ -25,8 +25,29 @@ At rest (omega = alpha = a = 0) the moving wrench equals the static one.
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from ..core.arrays import as_matrix, as_samples
+
+
+def wrench_matrix(mass: float, p_sensor_com) -> np.ndarray:
+    """The (6, 3) matrix ``[m I; m [c]x]`` of eqs 17-18: ``W = wrench_matrix @ g_sensor``.
+
+    Args:
+        mass: Tool mass in [kg].
+        p_sensor_com: Centre of mass of the tool in the sensor frame, in [m]. Shape (3,).
+    """
+    c = as_matrix(p_sensor_com, (3,), "p_sensor_com")
+    return mass * np.vstack([np.eye(3), pin.skew(c)])
+
+
+def apply_wrench_matrix(matrix: np.ndarray, g_sensor) -> np.ndarray:
+    """``matrix @ g`` for one gravity vector (3,) or a batch (N, 3); shape (6,) or (N, 6)."""
+    g = np.asarray(g_sensor, dtype=float)
+    if g.shape == (3,):
+        return matrix.dot(g)
+    g, _ = as_samples(g, 3, "g_sensor")
+    return g @ matrix.T
 
 
 def static_wrench(mass: float, p_sensor_com, g_sensor) -> np.ndarray:
@@ -40,11 +61,7 @@ def static_wrench(mass: float, p_sensor_com, g_sensor) -> np.ndarray:
     Returns:
         ``[F, c x F]`` in [N, N m]. Shape (6,) or (N, 6).
     """
-    c = as_matrix(p_sensor_com, (3,), "p_sensor_com")
-    g, single = as_samples(g_sensor, 3, "g_sensor")
-    force = mass * g
-    out = np.concatenate([force, np.cross(c, force)], axis=1)
-    return out[0] if single else out
+    return apply_wrench_matrix(wrench_matrix(mass, p_sensor_com), g_sensor)
 
 
 def dynamic_wrench(mass: float, p_sensor_com, inertia_com, g_sensor, omega_sensor, alpha_sensor, a_sensor) -> np.ndarray:
@@ -66,11 +83,11 @@ def dynamic_wrench(mass: float, p_sensor_com, inertia_com, g_sensor, omega_senso
     c = as_matrix(p_sensor_com, (3,), "p_sensor_com")
     inertia = as_matrix(inertia_com, (3, 3), "inertia_com")
     g, single = as_samples(g_sensor, 3, "g_sensor")
-    w, _ = as_samples(omega_sensor, 3, "omega_sensor")
+    omega, _ = as_samples(omega_sensor, 3, "omega_sensor")
     al, _ = as_samples(alpha_sensor, 3, "alpha_sensor")
     a, _ = as_samples(a_sensor, 3, "a_sensor")
-    a_com = a + np.cross(al, c) + np.cross(w, np.cross(w, c))
+    a_com = a + np.cross(al, c) + np.cross(omega, np.cross(omega, c))
     force = mass * (g - a_com)
-    torque = np.cross(c, force) - (al @ inertia.T + np.cross(w, w @ inertia.T))
+    torque = np.cross(c, force) - (al @ inertia.T + np.cross(omega, omega @ inertia.T))
     out = np.concatenate([force, torque], axis=1)
     return out[0] if single and out.shape[0] == 1 else out

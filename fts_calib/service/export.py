@@ -19,9 +19,10 @@ from __future__ import annotations
 import json
 import re
 
+from ..core.exceptions import ConfigError
 from ..core.fileio import dump_yaml, to_plain
 from ..model.calibration import FORMAT, Calibration
-from ..robot.tool import ToolConfiguration
+from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 
 #: The formats :func:`export` writes.
 FORMATS = ("c-header", "json", "ros2")
@@ -156,7 +157,7 @@ def export(
     calibration: Calibration,
     fmt: str,
     payload: ToolConfiguration | None = None,
-    gravity: float = 9.81,
+    gravity: float = STANDARD_GRAVITY,
     name: str = "fts_calib",
     sensor_frame: str = "ft_sensor",
     world_frame: str = "world",
@@ -164,7 +165,7 @@ def export(
     """The text of an export in one of :data:`FORMATS`.
 
     Raises:
-        ValueError: Unknown format, or ``ros2`` without a payload.
+        ConfigError: Unknown format, or ``ros2`` without a payload.
     """
     if fmt == "c-header":
         return c_header(calibration, name)
@@ -172,6 +173,7 @@ def export(
         return json_text(calibration)
     if fmt == "ros2":
         if payload is None:
-            raise ValueError("the ros2 export describes the payload to compensate: give its tool file (--payload)")
+            message = "the ros2 export describes the payload to compensate: give its tool file (--payload)"
+            raise ConfigError("payload", None, "the payload's tool configuration", message=message)
         return ros2_parameters(payload, gravity, sensor_frame, world_frame)
-    raise ValueError(f"format {fmt!r} but expected one of {', '.join(FORMATS)}")
+    raise ConfigError("format", fmt, f"one of {', '.join(FORMATS)}")

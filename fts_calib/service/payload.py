@@ -22,21 +22,26 @@ centre of mass undetermined; the error says which.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..core.arrays import as_samples, frozen
-from ..core.exceptions import FtsCalibError, ShapeError
-from ..robot.tool import Tool, ToolConfiguration
+from ..core.exceptions import PayloadError, ShapeError
+from ..feeds.batch import SampleBatch
+from ..feeds.recording import RecordingReader
+from ..model.calibration import Calibration
+from ..pipeline.qsfilter import QuasiStaticFilter
+from ..pipeline.settings import FilterConfig
+from ..pipeline.still import quasi_static
+from ..robot.kinematics import Kinematics
+from ..robot.tool import STANDARD_GRAVITY, Tool, ToolConfiguration
 
 _SAME_POSE_DEG = 5.0  # gravity directions closer than this are one orientation
 _MAX_CONDITION = 1e8  # scaled normal matrix above this: the payload is not determined
-
-
-class PayloadError(FtsCalibError):
-    """The orientations cannot determine the payload; the message says which are missing or too close."""
 
 
 @dataclass(frozen=True)
@@ -73,7 +78,7 @@ class PayloadEstimate:
         for name in ("com", "stderr_com", "offsets", "stderr_offsets", "residual_rms", "poses"):
             object.__setattr__(self, name, frozen(getattr(self, name)))
 
-    def tool(self, name: str = "payload", gravity: float = 9.81) -> Tool:
+    def tool(self, name: str = "payload", gravity: float = STANDARD_GRAVITY) -> Tool:
         """The payload as a tool with one configuration (to save with :func:`fts_calib.robot.tool.save_tool`)."""
         return Tool(name=name, gravity=gravity, configurations=(ToolConfiguration(name, self.mass, self.com),))
 
@@ -234,3 +239,55 @@ def _with_mount(A: np.ndarray, W: np.ndarray, g: np.ndarray, x: np.ndarray, sigm
     delta = theta[10:]
     residual = W - np.einsum("nij,j->ni", _design(g - np.cross(delta, g)), theta[:10])
     return theta[:10], cov[:10, :10], delta.copy(), cov[10:, 10:], residual
+
+
+@dataclass(frozen=True)
+class RecordedPayload:
+    """A payload identified from a recording.
+
+    Attributes:
+        estimate: Mass, centre of mass, offsets and their standard errors.
+        rows: Samples read from the recording.
+    """
+
+    estimate: PayloadEstimate
+    rows: int
+
+
+def identify_payload_from_recording(
+    path: str | Path,
+    kin: Kinematics,
+    calibration: Calibration,
+    settings: FilterConfig | None = None,
+    mount: bool = False,
+    min_separation_deg: float = 15.0,
+) -> RecordedPayload:
+    """Identify an unknown payload from a recording of it held still in several orientations.
+
+    The quasi-static samples (the filter's rules without the dynamic one, the payload being
+    unknown) give the measured wrench through ``calibration`` and gravity in the sensor
+    frame through the kinematics (the robot model's gravity).
+
+    Args:
+        path: Recording (CSV or CSV.gz); its ``tool`` column is not used.
+        kin: Kinematics of the robot.
+        calibration: The sensor's calibration.
+        settings: Filter thresholds; the defaults when None.
+        mount: Also estimate a small rotation of the sensor mount.
+        min_separation_deg: Smallest angle between orientations, in [deg].
+
+    Raises:
+        RecordingError: The recording cannot be read.
+        PayloadError: No usable row, or orientations too few or too close.
+    """
+    with RecordingReader(path, kin.joint_names, None) as reader:
+        chunks = list(reader)
+    if not chunks:
+        raise PayloadError(f"{path}: no usable row")
+    samples = SampleBatch.concatenate(chunks)
+    samples = dataclasses.replace(samples, configuration=np.zeros(len(samples), dtype=np.int64))
+    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, None), kin, None, samples, final=True)
+    estimate = identify_payload(
+        calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_separation_deg=min_separation_deg
+    )
+    return RecordedPayload(estimate, len(samples))

@@ -22,9 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.arrays import as_matrix, as_samples
-from ..core.exceptions import ShapeError
+from ..core.exceptions import ConfigError, ShapeError
 from ..model.calibration import Calibration
-from ..robot.tool import ToolConfiguration
+from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 
 #: Frames the external wrench can be expressed in.
 FRAMES = ("sensor", "world")
@@ -83,7 +83,7 @@ class GravityCompensator:
         g_world: Gravity in the world frame [m/s^2], shape (3,).
     """
 
-    def __init__(self, calibration: Calibration, payload: ToolConfiguration, g_world=(0.0, 0.0, -9.81)):
+    def __init__(self, calibration: Calibration, payload: ToolConfiguration, g_world=(0.0, 0.0, -STANDARD_GRAVITY)):
         self.reader = WrenchReader(calibration)
         self.payload = payload
         self.g_world = np.array(as_matrix(g_world, (3,), "g_world"))
@@ -113,7 +113,7 @@ class GravityCompensator:
         if frame == "sensor":
             return self._w
         if frame != "world":
-            raise ValueError(f"frame={frame!r} but expected one of {FRAMES}")
+            raise ConfigError("frame", frame, f"one of {FRAMES}")
         np.dot(R_world_sensor, self._w[:3], out=self._rotated[:3])
         np.dot(R_world_sensor, self._w[3:], out=self._rotated[3:])
         return self._rotated
@@ -141,5 +141,5 @@ class GravityCompensator:
         if frame == "world":
             out = np.concatenate([np.einsum("nij,nj->ni", R, out[:, :3]), np.einsum("nij,nj->ni", R, out[:, 3:])], axis=1)
         elif frame != "sensor":
-            raise ValueError(f"frame={frame!r} but expected one of {FRAMES}")
+            raise ConfigError("frame", frame, f"one of {FRAMES}")
         return out

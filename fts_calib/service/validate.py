@@ -16,6 +16,7 @@ thinned as they grow, so memory does not grow with the recording's length.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,10 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from ..core.arrays import frozen
+from ..core.exceptions import ConfigError
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration
-from ..pipeline.qsfilter import joint_rates
+from ..pipeline.checks import BACKWARDS, NON_FINITE, forward_in_time
+from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
 from ..robot.kinematics import Kinematics
+from ..robot.load import tool_load
 from ..robot.tool import Tool
 
 _PLOT_POINTS = 20_000  # samples kept for the plot, at most twice this
@@ -141,23 +145,10 @@ def expected_wrench(
     Returns:
         Shape (N, 6), [N, N m].
     """
-    out = np.zeros((len(time), 6))
-    if dynamic:
-        continuous = np.array([j.kind == "continuous" for j in kin.joints])
-        velocity, acceleration = joint_rates(time, readings, _WINDOW_S, dt, continuous)
-        motion = kin.sensor_motion(readings, velocity, acceleration)
-        g = np.einsum("nji,j->ni", motion.R_world_sensor, kin.g_world(tool.gravity))
-    else:
-        g = kin.g_sensor(readings, tool.gravity)
-    for c, config in enumerate(tool.configurations):
-        mine = codes == c
-        if not mine.any():
-            continue
-        if dynamic:
-            out[mine] = config.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
-        else:
-            out[mine] = config.static_wrench(g[mine])
-    return out
+    if not dynamic:
+        return tool_load(kin, tool, readings, codes).static
+    velocity, acceleration = joint_rates(time, readings, _WINDOW_S, dt, kin.continuous)
+    return tool_load(kin, tool, readings, codes, velocity, acceleration).w_sensor
 
 
 def validate_recording(
@@ -175,15 +166,16 @@ def validate_recording(
 
     Raises:
         RecordingError: The recording cannot be read (missing, empty, a missing column).
-        ValueError: Not one or two calibrations.
+        ConfigError: Not one or two calibrations.
     """
     if not 1 <= len(calibrations) <= 2:
-        raise ValueError(f"{len(calibrations)} calibrations given but expected one or two")
+        message = f"{len(calibrations)} calibrations given but expected one or two"
+        raise ConfigError("calibrations", len(calibrations), "one or two calibrations", message=message)
     full_scale = np.asarray(full_scale, dtype=float)
     errors = [_Errors() for _ in calibrations]
     between = _Errors()
     plot = _Thinner(_PLOT_POINTS)
-    skipped: dict[str, int] = {}
+    skipped: Counter[str] = Counter()
     samples = 0
     dt, half = 0.0, 0
     last_time = -np.inf
@@ -193,7 +185,7 @@ def validate_recording(
 
     def skip(reason: str, count: int) -> None:
         if count:
-            skipped[reason] = skipped.get(reason, 0) + count
+            skipped[reason] += count
 
     def compare(rows: tuple[np.ndarray, ...], first: int, last: int) -> None:
         """Compare rows ``first:last``; the rows around them serve the rate estimates."""
@@ -214,18 +206,17 @@ def validate_recording(
 
     with RecordingReader(path, kin.joint_names, tool.names) as reader:
         for chunk in reader:
-            t, q, s, k = chunk.time, chunk.readings, chunk.strain, chunk.tool
+            t, q, s, k = chunk.time, chunk.joints, chunk.channels, chunk.configuration
             ok = np.isfinite(t) & np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(s), axis=1)
-            skip("non-finite value", int((~ok).sum()))
-            previous = np.maximum.accumulate(np.concatenate([[last_time], np.where(ok, t, -np.inf)]))[:-1]
-            forward = ok & (t >= previous)
-            skip("time going backwards", int((ok & ~forward).sum()))
+            skip(NON_FINITE, int((~ok).sum()))
+            forward = ok & forward_in_time(t, ok, last_time)
+            skip(BACKWARDS, int((ok & ~forward).sum()))
             if not forward.any():
                 continue
             new = (t[forward], q[forward], s[forward], k[forward])
             last_time = float(new[0][-1])
-            if dt == 0.0 and len(new[0]) > 100:
-                dt = float(np.median(np.diff(new[0][:101])))
+            if dt == 0.0 and len(new[0]) > PERIOD_SAMPLES:
+                dt = sample_period(new[0])
                 half = int(round(_WINDOW_S / 2 / dt)) if dt > 0 else 0
             rows = join(context, waiting, new)
             first = 0 if context is None else len(context[0])
@@ -244,7 +235,7 @@ def validate_recording(
     time, expected, *measured = plot.arrays(2 + len(calibrations))
     return ValidationResult(
         samples=samples,
-        skipped=skipped,
+        skipped=dict(skipped),
         errors=[e.result(samples, full_scale) for e in errors],
         between=between.result(samples, full_scale) if len(calibrations) == 2 else None,
         dynamic=dynamic,

@@ -20,6 +20,7 @@ from ..core.exceptions import FtsCalibError
 from ..feeds.recording import RecordingWriter
 from ..planning.trajectory_io import TrajectoryFile
 from ..robot.kinematics import Kinematics
+from ..robot.load import tool_load
 from ..robot.tool import Tool
 from .sensor import SimulatedSensor
 
@@ -41,12 +42,9 @@ def tool_wrenches(kin: Kinematics, tool: Tool, configuration: str, q, qd, qdd, d
     Returns:
         ``[Fx, Fy, Fz, Mx, My, Mz]`` in [N, N m], shape (N, 6).
     """
-    config = tool.configuration(configuration)
     if not dynamic:
-        return config.static_wrench(kin.g_sensor(q, tool.gravity))
-    motion = kin.sensor_motion(q, qd, qdd)
-    g = np.einsum("nji,j->ni", motion.R_world_sensor, kin.g_world(tool.gravity))
-    return config.dynamic_wrench(g, motion.omega, motion.alpha, motion.a)
+        return tool_load(kin, tool, q, configuration).static
+    return tool_load(kin, tool, q, configuration, qd, qdd).w_sensor
 
 
 def simulate_recording(

@@ -12,62 +12,25 @@ the shipped simulated sensor).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 
-from ..core.arrays import as_matrix, as_samples, frozen
-from ..model.sensor import P_NULL, P_PINV, c_from_c_bar
+from ..core.arrays import as_samples
+from ..core.exceptions import FileFormatError
+from ..model.sensor import P_NULL, P_PINV
+from ..model.sensor_config import SimulationSpec, load_sensor_config
 
 
 @dataclass(frozen=True)
-class SimulatedSensor:
-    """Strain generator for a sensor with known C_bar and D.
+class SimulatedSensor(SimulationSpec):
+    """Strain generator for a sensor with known C_bar and D (attributes: :class:`SimulationSpec`)."""
 
-    Attributes:
-        C_bar: True modified calibration matrix. Shape (6, 6).
-        D: True wrench offsets, [N, N, N, N m, N m, N m]. Shape (6,).
-        noise_std: White noise standard deviation per bridge, raw units. Shape (8,).
-        null_coupling: Strain in the two null patterns of P per unit wrench. Shape (2, 6).
-        null_offset: Constant strain in the two null patterns. Shape (2,).
-        drift_rate: Offset drift of each bridge, raw units per second. Shape (8,).
-        adc_bits: ADC resolution; 0 disables quantization.
-        adc_full_scale: Largest strain the ADC reads (reference / gain), raw units; beyond
-            it readings saturate.
-    """
-
-    C_bar: np.ndarray
-    D: np.ndarray = field(default_factory=lambda: np.zeros(6))
-    noise_std: np.ndarray = field(default_factory=lambda: np.zeros(8))
-    null_coupling: np.ndarray = field(default_factory=lambda: np.zeros((2, 6)))
-    null_offset: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    drift_rate: np.ndarray = field(default_factory=lambda: np.zeros(8))
-    adc_bits: int = 0
-    adc_full_scale: float = 1000.0 / 128.0
-
-    def __post_init__(self):
-        object.__setattr__(self, "C_bar", frozen(as_matrix(self.C_bar, (6, 6), "C_bar")))
-        object.__setattr__(self, "D", frozen(as_matrix(self.D, (6,), "D")))
-        object.__setattr__(self, "noise_std", frozen(np.broadcast_to(np.asarray(self.noise_std, float), (8,))))
-        object.__setattr__(self, "null_coupling", frozen(as_matrix(self.null_coupling, (2, 6), "null_coupling")))
-        object.__setattr__(self, "null_offset", frozen(as_matrix(self.null_offset, (2,), "null_offset")))
-        object.__setattr__(self, "drift_rate", frozen(np.broadcast_to(np.asarray(self.drift_rate, float), (8,))))
-        if np.any(self.noise_std < 0):
-            raise ValueError(f"noise_std={self.noise_std} but expected values >= 0")
-        if not (self.adc_bits == 0 or 8 <= self.adc_bits <= 32):
-            raise ValueError(f"adc_bits={self.adc_bits} but expected 0 (off) or 8 to 32")
-        if not self.adc_full_scale > 0:
-            raise ValueError(f"adc_full_scale={self.adc_full_scale} but expected > 0")
-
-    @property
-    def C(self) -> np.ndarray:
-        """True calibration matrix ``C_bar @ P``, shape (6, 8)."""
-        return c_from_c_bar(self.C_bar)
-
-    @property
-    def lsb(self) -> float:
-        """Quantization step of the ADC in raw strain units (0 when quantization is off)."""
-        return 2.0 * self.adc_full_scale / 2**self.adc_bits if self.adc_bits else 0.0
+    @classmethod
+    def from_spec(cls, spec: SimulationSpec) -> SimulatedSensor:
+        """The simulated sensor of a sensor file's ``simulation`` section."""
+        return spec if isinstance(spec, cls) else cls(**{f.name: getattr(spec, f.name) for f in fields(spec)})
 
     def strains(self, w_sensor, time=None, rng: np.random.Generator | None = None) -> np.ndarray:
         """Raw strains that the sensor reads under the given wrenches.
@@ -91,3 +54,15 @@ class SimulatedSensor:
             lsb = self.lsb
             strain = np.clip(np.round(strain / lsb) * lsb, -self.adc_full_scale, self.adc_full_scale - lsb)
         return strain[0] if single else strain
+
+
+def load_simulated_sensor(path: str | Path) -> SimulatedSensor:
+    """The simulated sensor of a sensor configuration file (its ``simulation`` section).
+
+    Raises:
+        FileFormatError: The file is malformed or has no ``simulation`` section.
+    """
+    spec = load_sensor_config(path).simulated
+    if spec is None:
+        raise FileFormatError(path, "simulation", "missing: this sensor file defines no simulated sensor")
+    return SimulatedSensor.from_spec(spec)

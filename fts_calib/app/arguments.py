@@ -1,0 +1,313 @@
+"""The argument parser of ``fts-calib``: one function per sub-command, each with an example.
+
+An option's destination is the parameter of the same name of ``fts_calib.app.NAME.run``,
+and its default is that parameter's default: the command line and Python take the same
+arguments (``tests/test_app.py`` checks it).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from .exit_codes import EXIT_CODES
+
+
+def _address(text: str) -> tuple[str, int]:
+    host, _, port = text.rpartition(":")
+    try:
+        return (host or "127.0.0.1"), int(port)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, e.g. 127.0.0.1:5005, got {text!r}") from None
+
+
+def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
+    return commands.add_parser(
+        name,
+        help=help_text,
+        description=description,
+        epilog=f"example:\n  {example}",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+
+
+def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True) -> None:
+    parser.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    parser.add_argument("--tool", default="paper_tool", help="tool file: a shipped name or a YAML path (default: paper_tool)")
+    if pipeline:
+        parser.add_argument("--pipeline", default="pipeline", help="pipeline configuration: filter thresholds, live settings")
+
+
+def _add_demo(commands) -> None:
+    demo = _add(
+        commands,
+        "demo",
+        "the whole loop in simulation on the built-in UR5, with plots",
+        "Plan the sweeps, simulate the recording (true C = Table 1 of the paper), calibrate with the quasi-static "
+        "filter, follow C_bar_11 sample by sample (paper Fig. 7) and validate on another motion with another tool; "
+        "print the results beside the truth and the targets, and write everything with PNG plots into one folder.",
+        "fts-calib demo --out out/",
+    )
+    demo.add_argument("--out", default="out", help="folder for the results (default: out/)")
+    demo.add_argument("--seed", type=int, default=0, help="seed of the sensor noise and the validation motion (default: 0)")
+    demo.add_argument("--quick", action="store_true", help="a smaller run: 3 levels x 4 stops at 100 Hz")
+
+
+def _add_robots(commands) -> None:
+    robots = _add(
+        commands,
+        "robots",
+        "list the shipped robots, or show one",
+        "Without NAME: the shipped robot definitions. With NAME (a shipped name or a YAML path): its joints, "
+        "limits, frames and sensor mount.",
+        "fts-calib robots ur5",
+    )
+    robots.add_argument("name", nargs="?", help="shipped robot name (e.g. ur5) or path to a robot YAML file")
+
+
+def _add_trajectory(commands) -> None:
+    traj = _add(
+        commands,
+        "trajectory",
+        "plan and check calibration sweeps for a robot and a tool",
+        "Plan jerk-limited sweeps of the last two joints (ruckig), once per tool configuration; check limits, "
+        "clearance and the predicted excitation before anything moves; write one CSV per configuration, plan.yaml "
+        "and plan.png. Exits 1 when a check fails (the CSVs are then not written).",
+        "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500",
+    )
+    _robot_and_tool(traj)
+    traj.add_argument("-o", "--out", required=True, help="output folder")
+    traj.add_argument("--rate", dest="rate_hz", type=float, default=500.0, help="sample rate of the files in Hz (default: 500)")
+    traj.add_argument("--levels", type=int, default=4, help="positions of the first sweep joint (default: 4)")
+    traj.add_argument("--stops", type=int, default=6, help="positions of the second sweep joint per level (default: 6)")
+    traj.add_argument("--dwell", dest="dwell_s", type=float, default=0.5, help="time still at each stop in s (default: 0.5)")
+    traj.add_argument("--margin", type=float, default=0.02, help="distance kept from position limits in rad (default: 0.02)")
+    traj.add_argument("--min-clearance", type=float, default=0.02, help="smallest distance allowed in m (default: 0.02)")
+    traj.add_argument("--tool-radius", type=float, help="override the tool envelope's radius in m")
+    traj.add_argument("--tool-length", type=float, help="override the tool envelope's length in m")
+    traj.add_argument("--sensor", default="sensor", help="sensor configuration (nominal model for the excitation report)")
+    traj.add_argument(
+        "--noise", dest="noise_std", type=float, help="strain noise per bridge for the excitation report (default: the pipeline's)"
+    )
+    traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
+    traj.add_argument("--no-plot", dest="plot", action="store_false", help="do not write plan.png")
+
+
+def _add_calibrate(commands) -> None:
+    cal = _add(
+        commands,
+        "calibrate",
+        "calibrate from a recording",
+        "Read a recording (CSV: time, joints, strain_1..8, tool), keep the quasi-static samples, accumulate the "
+        "least squares and write the calibration. Prints a progress bar, then a summary: samples kept and why the "
+        "rest were dropped, rank, condition, residuals, standard errors. Exits 1 when the data cannot determine C.",
+        "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml",
+    )
+    cal.add_argument("recording", help="recording CSV (or .csv.gz)")
+    _robot_and_tool(cal)
+    cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
+    cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
+    cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
+    cal.add_argument("--resume", action="store_true", help="continue from --checkpoint")
+    cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
+    cal.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_live(commands) -> None:
+    live = _add(
+        commands,
+        "live",
+        "calibrate from live UDP feeds of joints and strains",
+        "Listen for the JSON datagrams of the live protocol (joints, strain, tool, end), pair the two streams, keep "
+        "the quasi-static samples and show a status line; write the calibration on 'end' or Ctrl-C. Checkpoints "
+        "every few seconds; --resume continues after a crash.",
+        "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml",
+    )
+    _robot_and_tool(live)
+    live.add_argument(
+        "--listen", type=_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address to bind (default 127.0.0.1:5005)"
+    )
+    live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
+    live.add_argument("--checkpoint", help="checkpoint file (default: OUTPUT.checkpoint.json)")
+    live.add_argument("--resume", action="store_true", help="continue from the checkpoint")
+    live.add_argument("--latency", dest="latency_s", type=float, help="how late the joint stamps are, in s (default: the pipeline's)")
+    live.add_argument(
+        "--max-gap", dest="max_gap_s", type=float, help="longest joint gap interpolated across, in s (default: the pipeline's)"
+    )
+    live.add_argument("--idle-timeout", dest="idle_timeout_s", type=float, help="stop after this many seconds without data")
+    live.add_argument("--quiet", action="store_true", help="no status line")
+
+
+def _add_replay(commands) -> None:
+    rep = _add(
+        commands,
+        "replay",
+        "send a recording as the live protocol",
+        "Send a recording's rows as live datagrams (joints, strain, tool, end), with options for a slower joint "
+        "rate, added latency, loss and reordering, to test and show the live path without a robot.",
+        "fts-calib replay recording.csv --to 127.0.0.1:5005 --speed 1.0",
+    )
+    rep.add_argument("recording", help="recording CSV (or .csv.gz)")
+    rep.add_argument("--to", type=_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address (default 127.0.0.1:5005)")
+    rep.add_argument("--speed", type=float, default=1.0, help="time scale: 1 real time, 10 ten times faster, 0 no pacing")
+    rep.add_argument("--joint-rate", dest="joint_rate_hz", type=float, help="joint messages per second (default: one per row)")
+    rep.add_argument("--latency", dest="latency_s", type=float, default=0.0, help="joint stamps late by this many s (default 0)")
+    rep.add_argument("--loss", type=float, default=0.0, help="fraction of joint and strain messages dropped (default 0)")
+    rep.add_argument("--reorder", type=float, default=0.0, help="fraction of messages delayed by 1-5 places (default 0)")
+    rep.add_argument("--seed", type=int, default=0, help="seed of loss and reordering (default 0)")
+
+
+def _add_simulate(commands) -> None:
+    sim = _add(
+        commands,
+        "simulate",
+        "simulate a recording from planned trajectories",
+        "Play planned trajectories (one CSV per tool configuration) through the kinematics with the tool's full "
+        "dynamic wrench (mass, centre of mass, inertia) and the simulated sensor of the sensor file (true C, offsets, "
+        "noise, 24-bit ADC, null content, drift); write a recording in exactly the format a robot produces.",
+        "fts-calib simulate --robot ur5 --tool configs/paper_tool.yaml --trajectory out/trajectories -o recording.csv",
+    )
+    _robot_and_tool(sim, pipeline=False)
+    sim.add_argument("--trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
+    sim.add_argument("-o", "--output", required=True, help="recording to write (.csv or .csv.gz)")
+    sim.add_argument("--sensor", default="sensor", help="sensor configuration with a 'simulation' section (default: sensor)")
+    sim.add_argument("--noise", dest="noise_std", type=float, help="strain noise per bridge, raw units (default: the sensor file's)")
+    sim.add_argument("--noiseless", action="store_true", help="no noise at all")
+    sim.add_argument(
+        "--drift", dest="drift_rate", type=float, help="offset drift of every bridge, raw units per s (default: the sensor file's)"
+    )
+    sim.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
+    sim.add_argument("--tool-change", dest="tool_change_s", type=float, default=2.0, help="pause between configurations in s (default 2)")
+    sim.add_argument("--static", dest="dynamic", action="store_false", help="the tool's static wrench only (no dynamics)")
+
+
+def _add_validate(commands) -> None:
+    val = _add(
+        commands,
+        "validate",
+        "compare measured and expected wrenches over a recording",
+        "Over a recording made with another motion and another tool (the paper's third stage): the wrench measured "
+        "with the calibration against the tool's wrench from the kinematics (moving tool, Newton-Euler; --static for "
+        "its weight alone). Error per axis in N or N·m and in % of full scale; with two calibrations, the same "
+        "between them (paper: Table 1 against Table 2); --plot writes Fx and its error (paper Figs 9-10). "
+        "Exits 1 when an error exceeds --max-error.",
+        "fts-calib validate --calibration calibration.yaml --robot ur5 --tool configs/validation_tool.yaml "
+        "validation.csv --plot validation.png",
+    )
+    val.add_argument("recording", help="recording CSV (or .csv.gz)")
+    val.add_argument(
+        "--calibration",
+        dest="calibrations",
+        action="append",
+        required=True,
+        metavar="CALIBRATION",
+        help="calibration file (give two to compare them)",
+    )
+    _robot_and_tool(val, pipeline=False)
+    val.add_argument("--sensor", default="sensor", help="sensor configuration: full scale (default: sensor)")
+    val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
+    val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")
+    val.add_argument("--static", dest="dynamic", action="store_false", help="expect the tool's weight alone (no dynamics)")
+    val.add_argument("--plot", dest="plot_path", metavar="PNG", help="PNG of Fx and its error")
+    val.add_argument(
+        "--max-error", dest="max_error_percent", type=float, metavar="PERCENT", help="exit 1 when an error exceeds this %% of full scale"
+    )
+
+
+def _add_tare(commands) -> None:
+    tare = _add(
+        commands,
+        "tare",
+        "new offsets D for a calibration file, from a short still window",
+        "Estimate the offsets D again with C_bar kept, from a recording or a live window with the sensor still, "
+        "with nothing mounted or with a known tool configuration (then --robot gives its orientation). The file "
+        "keeps the previous offsets and when they were replaced.",
+        "fts-calib tare --calibration calibration.yaml tare.csv",
+    )
+    tare.add_argument("recording", nargs="?", help="recording with the sensor still")
+    tare.add_argument("--calibration", required=True, help="calibration file to update")
+    tare.add_argument("-o", "--output", help="where to write (default: update the calibration file)")
+    tare.add_argument("--listen", type=_address, metavar="HOST:PORT", help="re-tare from a live window on this address instead")
+    tare.add_argument("--seconds", dest="window_s", type=float, default=2.0, help="length of the live window in s (default 2)")
+    tare.add_argument("--robot", help="robot definition (needed with a mounted configuration)")
+    tare.add_argument("--tool", default="paper_tool", help="tool file of the mounted configuration (default: paper_tool)")
+    tare.add_argument("--configuration", help="the mounted configuration (default: nothing mounted)")
+    tare.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
+
+
+def _add_payload(commands) -> None:
+    pay = _add(
+        commands,
+        "payload",
+        "identify an unknown payload: mass, centre of mass, offsets",
+        "From a recording of the payload held still in at least three well-spread orientations: its mass, centre "
+        "of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for gravity "
+        "compensation. Refuses orientations that are too few or too close, and says which.",
+        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml",
+    )
+    pay.add_argument("recording", help="recording of the payload in several still orientations")
+    pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
+    pay.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    pay.add_argument("-o", "--output", required=True, help="tool file to write")
+    pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
+    pay.add_argument("--mount", action="store_true", help="also estimate a small rotation of the sensor mount")
+    pay.add_argument(
+        "--min-separation",
+        dest="min_separation_deg",
+        type=float,
+        default=15.0,
+        help="smallest angle between orientations in deg (default 15)",
+    )
+    pay.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
+
+
+def _add_export(commands) -> None:
+    exp = _add(
+        commands,
+        "export",
+        "export a calibration as a C header, JSON or ROS 2 parameters",
+        "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
+        "provenance; ros2: the parameters of control_toolbox's GravityCompensationWrench filter for a payload.",
+        "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h",
+    )
+    exp.add_argument("--format", dest="fmt", required=True, choices=["c-header", "json", "ros2"], help="what to write")
+    exp.add_argument("--calibration", required=True, help="calibration file")
+    exp.add_argument("-o", "--output", required=True, help="file to write")
+    exp.add_argument("--name", default="fts_calib", help="prefix of the C identifiers (default fts_calib)")
+    exp.add_argument("--payload", help="tool file of the payload (ros2); its gravity is the one exported")
+    exp.add_argument("--configuration", help="configuration of the payload's tool file (default: the first)")
+    exp.add_argument("--sensor-frame", default="ft_sensor", help="TF frame of the sensor (ros2, default ft_sensor)")
+    exp.add_argument("--world-frame", default="world", help="TF frame with z up (ros2, default world)")
+
+
+#: The sub-commands, in the order ``fts-calib --help`` lists them; ``NAME`` runs ``fts_calib.app.NAME.run``.
+COMMANDS = {
+    "demo": _add_demo,
+    "robots": _add_robots,
+    "trajectory": _add_trajectory,
+    "calibrate": _add_calibrate,
+    "live": _add_live,
+    "replay": _add_replay,
+    "simulate": _add_simulate,
+    "validate": _add_validate,
+    "tare": _add_tare,
+    "payload": _add_payload,
+    "export": _add_export,
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``fts-calib`` with all its sub-commands."""
+    from .._version import __version__
+
+    codes = "\n".join(f"  {int(entry.code):>3}  {entry.meaning}" for entry in EXIT_CODES)
+    parser = argparse.ArgumentParser(
+        prog="fts-calib",
+        description="In-situ calibration of six-axis strain-gauge force/torque sensors.",
+        epilog=f"Run 'fts-calib COMMAND --help' for the options and an example of each command.\n\nexit codes:\n{codes}",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"fts-calib {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for add in COMMANDS.values():
+        add(commands)
+    return parser

@@ -1,0 +1,150 @@
+"""The ``calibrate`` command: calibrate from a recording, with a progress bar and a printed summary, with units."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import TextIO
+
+from ..core.exceptions import FtsCalibError
+from ..core.text import table
+from ..model.calibration import save_calibration
+from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..pipeline.calibrate import CalibrateResult, calibrate_recording
+from ..pipeline.session import CalibrationSession
+from .exit_codes import ExitCode, writing
+from .setup import load_setup
+
+
+def run(
+    *,
+    recording: str | Path,
+    robot: str | Path,
+    tool: str | Path = "paper_tool",
+    pipeline: str | Path = "pipeline",
+    output: str | Path = "calibration.yaml",
+    use_filter: bool = True,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    joints_in_degrees: bool = False,
+    quiet: bool = False,
+) -> int:
+    """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
+
+    Args:
+        recording: Recording (CSV or CSV.gz): time, joints, strain_1..n, tool.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        tool: Tool file: a shipped name or a YAML path.
+        pipeline: Pipeline settings (filter thresholds).
+        output: Calibration file to write.
+        use_filter: Keep only the quasi-static samples (False: every valid one, for comparison).
+        checkpoint: Checkpoint file, written every few seconds; None for none.
+        resume: Continue from ``checkpoint``.
+        joints_in_degrees: The joint columns are in degrees.
+        quiet: No progress bar.
+
+    Returns:
+        0 with a calibration written, 1 when the data cannot determine C.
+    """
+    kin, loaded, settings = load_setup(robot, tool, pipeline)
+    recording = Path(recording)
+    size = recording.stat().st_size if recording.is_file() else 1
+    bar = None if quiet else ProgressBar(size, "rows")
+    result = calibrate_recording(
+        recording,
+        kin,
+        loaded,
+        settings,
+        use_filter=use_filter,
+        checkpoint=checkpoint,
+        resume=resume,
+        joints_in_degrees=joints_in_degrees,
+        progress=bar,
+    )
+    written = None
+    if result.calibration is not None:
+        with writing(output):
+            written = save_calibration(result.calibration, output)
+    print(format_summary(result, recording, written))
+    return ExitCode.OK if result.calibration is not None else ExitCode.CHECK_FAILED
+
+
+class ProgressBar:
+    """A progress bar on a terminal, or a line every quarter when the output is not one.
+
+    Args:
+        total: Units of the whole job (e.g. bytes of the file).
+        label: What is counted, e.g. 'rows'.
+        stream: Where to print (standard error by default).
+    """
+
+    def __init__(self, total: float, label: str = "rows", stream: TextIO | None = None):
+        self.total = max(float(total), 1.0)
+        self.label = label
+        self.stream = stream or sys.stderr
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.start = time.perf_counter()
+        self._last = 0.0
+        self._quarter = 0
+
+    def update(self, done: float, count: int) -> None:
+        """Show ``done`` of ``total`` units, with ``count`` items processed."""
+        now = time.perf_counter()
+        fraction = min(1.0, done / self.total)
+        rate = count / max(now - self.start, 1e-9)
+        text = f"[{'#' * int(30 * fraction):<30}] {100 * fraction:5.1f} %  {count:,} {self.label}  {rate / 1000:,.0f}k {self.label}/s"
+        if self.tty:
+            if now - self._last >= 0.1 or fraction >= 1.0:
+                self.stream.write("\r" + text)
+                self.stream.flush()
+                self._last = now
+        elif int(4 * fraction) > self._quarter:
+            self._quarter = int(4 * fraction)
+            self.stream.write(text + "\n")
+            self.stream.flush()
+
+    def close(self) -> None:
+        """End the bar's line."""
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def format_counts(session: CalibrationSession) -> list[str]:
+    """Lines: samples seen and kept, per configuration, and skipped by reason."""
+    p = session.progress()
+    per = ", ".join(f"{name} {n:,}" for name, n in p.kept_by_configuration.items())
+    lines = [f"samples: {p.seen:,} seen, {p.kept:,} kept ({100 * p.kept_fraction:.1f} %): {per}"]
+    if p.skipped:
+        lines.append("not kept, by reason (a filtered sample can fail several rules):")
+        lines.append(table(["reason", "samples"], [[r, f"{n:,}"] for r, n in sorted(p.skipped.items(), key=lambda x: -x[1])], "  "))
+    return lines
+
+
+def format_summary(result: CalibrateResult, recording: Path, output: Path | None) -> str:
+    """The printed summary of the ``calibrate`` job, with units."""
+    rate = result.rows / max(result.seconds, 1e-9)
+    lines = [f"recording {recording}: {result.rows:,} rows in {result.seconds:.2f} s ({rate / 1000:,.0f}k rows/s)"]
+    lines += format_counts(result.session)
+    for problem in result.problems:
+        lines.append(f"  note: {problem}")
+    if result.calibration is None:
+        lines.append(f"NO CALIBRATION: {result.error}")
+        return "\n".join(lines)
+    cal, q = result.calibration, result.calibration.quality
+    if q is None:  # CalibrationSession.solve always measures the fit
+        raise FtsCalibError("internal error: the calibration has no fit quality")
+    lines.append(f"rank {q.rank} of 7, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
+    rms = zip(WRENCH_AXES, q.residual_rms, WRENCH_UNITS, strict=True)
+    lines.append("residual RMS: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))
+    rel = 100 * q.relative_stderr_C(cal.C)
+    lines.append("C (N or N·m per strain unit) ± standard error (% of its row's largest coefficient):")
+    rows = [[axis, *[f"{cal.C[i, k]:9.4f} ±{rel[i, k]:.4f}%" for k in range(8)]] for i, axis in enumerate(WRENCH_AXES)]
+    lines.append(table(["", *[f"Δ{k + 1}" for k in range(8)]], rows, "  "))
+    lines.append(
+        "D: " + ", ".join(f"{a} {d:+.5f} ± {s:.1g} {u}" for a, d, s, u in zip(WRENCH_AXES, cal.D, q.stderr_D, WRENCH_UNITS, strict=True))
+    )
+    if output is not None:
+        lines.append(f"wrote {output}")
+    return "\n".join(lines)

@@ -1,0 +1,155 @@
+"""Exit codes of ``fts-calib``: one table, one code per family of errors.
+
+Every error a user can cause is an :class:`~fts_calib.core.exceptions.FtsCalibError`
+subclass; the command line prints it as one line on standard error
+(``fts-calib COMMAND: error: ...``) and exits with the code of its family below, so a
+script can tell a wrong file from a recording that lacks a column without reading the
+message. :data:`EXIT_CODES` is the table the README documents; :func:`exit_code` looks an
+error up in it.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..core.exceptions import (
+    ConfigError,
+    FileFormatError,
+    FrameNotFound,
+    FtsCalibError,
+    InsufficientExcitation,
+    JointError,
+    PayloadError,
+    ProtocolError,
+    RecordingError,
+    ResourceNotFound,
+    RobotDataNotFound,
+    ShapeError,
+    StructureError,
+    TrajectoryError,
+    UnknownToolConfiguration,
+    UnsupportedJoint,
+)
+
+
+class ExitCode(enum.IntEnum):
+    """The exit status of ``fts-calib``; :data:`EXIT_CODES` says what each means."""
+
+    OK = 0
+    CHECK_FAILED = 1
+    USAGE = 2
+    CONFIG = 3
+    FILE = 4
+    RECORDING = 5
+    ROBOT = 6
+    TOOL_CONFIGURATION = 7
+    EXCITATION = 8
+    TRAJECTORY = 9
+    PAYLOAD = 10
+    PROTOCOL = 11
+    ARRAY = 12
+    OTHER = 13
+    FILE_ACCESS = 14
+    INTERRUPTED = 130
+
+
+@dataclass(frozen=True)
+class ExitCodeEntry:
+    """One row of the exit-code table.
+
+    Attributes:
+        code: The exit status.
+        errors: The exception classes that exit with it (empty: not an exception).
+        meaning: What it means, in words.
+    """
+
+    code: ExitCode
+    errors: tuple[type[BaseException], ...]
+    meaning: str
+
+
+#: The exit codes, in the order an error is looked up: the first row whose classes match
+#: wins, so the catch-all rows (any other FtsCalibError, then OSError) come last.
+EXIT_CODES: tuple[ExitCodeEntry, ...] = (
+    ExitCodeEntry(ExitCode.OK, (), "success"),
+    ExitCodeEntry(
+        ExitCode.CHECK_FAILED,
+        (),
+        "the job ran but its result failed a check: no calibration for lack of excitation, a validation error "
+        "above --max-error, a failed trajectory check",
+    ),
+    ExitCodeEntry(ExitCode.USAGE, (), "command-line usage: an unknown option, a missing argument, a malformed value (argparse)"),
+    ExitCodeEntry(ExitCode.CONFIG, (ConfigError,), "a setting, option or argument has a value fts-calib cannot use"),
+    ExitCodeEntry(
+        ExitCode.FILE,
+        (FileFormatError, ResourceNotFound),
+        "a file or a shipped name does not resolve, or a file (robot, tool, calibration, settings) has a missing or wrong field",
+    ),
+    ExitCodeEntry(ExitCode.RECORDING, (RecordingError,), "a recording cannot be read (missing, empty, a missing column)"),
+    ExitCodeEntry(
+        ExitCode.ROBOT,
+        (FrameNotFound, JointError, UnsupportedJoint, RobotDataNotFound),
+        "the robot definition does not match its URDF (frame, joint, joint type), or the URDF's package is missing",
+    ),
+    ExitCodeEntry(ExitCode.TOOL_CONFIGURATION, (UnknownToolConfiguration,), "a tool configuration name is not in the tool file"),
+    ExitCodeEntry(ExitCode.EXCITATION, (InsufficientExcitation,), "the data cannot determine every coefficient (raised as an error)"),
+    ExitCodeEntry(ExitCode.TRAJECTORY, (TrajectoryError,), "planning or verifying a trajectory failed"),
+    ExitCodeEntry(ExitCode.PAYLOAD, (PayloadError,), "the orientations of a payload recording cannot determine the payload"),
+    ExitCodeEntry(ExitCode.PROTOCOL, (ProtocolError,), "a live-protocol datagram is not a valid message"),
+    ExitCodeEntry(ExitCode.ARRAY, (ShapeError, StructureError), "an array has the wrong shape, or C is not of the form C_bar P"),
+    ExitCodeEntry(ExitCode.OTHER, (FtsCalibError,), "any other fts-calib error"),
+    ExitCodeEntry(ExitCode.FILE_ACCESS, (OSError,), "the system refused to read or write a file or a socket"),
+    ExitCodeEntry(ExitCode.INTERRUPTED, (KeyboardInterrupt,), "interrupted (Ctrl-C)"),
+)
+
+
+def exit_code(error: BaseException) -> ExitCode:
+    """The exit code of an error: the first row of :data:`EXIT_CODES` whose classes match.
+
+    Raises:
+        TypeError: ``error`` belongs to no family (a bug, not a user error).
+    """
+    for entry in EXIT_CODES:
+        if entry.errors and isinstance(error, entry.errors):
+            return entry.code
+    raise TypeError(f"{type(error).__name__} has no exit code") from error
+
+
+def error_line(error: BaseException) -> str:
+    """The message of an error on one line (an OSError says what it could not do)."""
+    if isinstance(error, OSError) and not isinstance(error, FtsCalibError):
+        reason = error.strerror or str(error)
+        text = reason if error.filename is None else f"cannot access {error.filename}: {reason}"
+    else:
+        text = str(error)
+    return " ".join(part.strip() for part in text.splitlines() if part.strip()) or type(error).__name__
+
+
+@contextmanager
+def writing(path: str | Path) -> Iterator[None]:
+    """Say which file could not be written: an OSError inside becomes ``cannot write PATH: reason``.
+
+    The atomic writer works on a temporary file beside ``path``; the user asked for
+    ``path``, so that is the name the message shows.
+    """
+    try:
+        yield
+    except OSError as exc:
+        if isinstance(exc, FtsCalibError):
+            raise
+        raise OSError(exc.errno, f"cannot write {path}: {exc.strerror or exc}") from exc
+
+
+@contextmanager
+def using_udp(host: str, port: int) -> Iterator[None]:
+    """Say which address could not be used: an OSError inside becomes ``cannot use udp://HOST:PORT: reason``."""
+    try:
+        yield
+    except OSError as exc:
+        if isinstance(exc, FtsCalibError):
+            raise
+        raise OSError(exc.errno, f"cannot use udp://{host}:{port}: {exc.strerror or exc}") from exc

@@ -1,0 +1,57 @@
+"""The ``export`` command: a calibration as a C header, JSON or the parameters of a ROS 2 gravity compensation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..core.fileio import atomic_write_text
+from ..core.resources import resolve
+from ..model.calibration import load_calibration
+from ..robot.tool import STANDARD_GRAVITY, load_tool
+from ..service.export import export
+from .exit_codes import ExitCode, writing
+
+
+def run(
+    *,
+    fmt: str,
+    calibration: str | Path,
+    output: str | Path,
+    name: str = "fts_calib",
+    payload: str | Path | None = None,
+    configuration: str | None = None,
+    sensor_frame: str = "ft_sensor",
+    world_frame: str = "world",
+) -> int:
+    """Write an export of a calibration (``fts-calib export``).
+
+    Args:
+        fmt: 'c-header' (C and D as arrays and an inline wrench function), 'json' (C, C_bar,
+            D, quality, provenance) or 'ros2' (control_toolbox's GravityCompensationWrench
+            parameters for ``payload``).
+        calibration: Calibration file.
+        output: File to write.
+        name: Prefix of the C identifiers.
+        payload: Tool file of the payload (ros2): a shipped name or a YAML path; its gravity
+            is the one exported.
+        configuration: Configuration of the payload's tool file; the first when None.
+        sensor_frame: TF frame of the sensor (ros2).
+        world_frame: TF frame whose z axis points up (ros2).
+
+    Returns:
+        0.
+
+    Raises:
+        ConfigError: An unknown format, or ros2 without a payload.
+    """
+    loaded = load_calibration(calibration)
+    configuration_of_payload, gravity = None, STANDARD_GRAVITY
+    if payload is not None:
+        tool = load_tool(resolve(payload, "configs"))
+        configuration_of_payload = tool.configuration(configuration) if configuration else tool.configurations[0]
+        gravity = tool.gravity
+    text = export(loaded, fmt, configuration_of_payload, gravity, name, sensor_frame, world_frame)
+    with writing(output):
+        path = atomic_write_text(output, text)
+    print(f"wrote {path} ({fmt})")
+    return ExitCode.OK

@@ -1,0 +1,88 @@
+"""The ``live`` command: calibrate from live UDP feeds of joints and strains (the live protocol of DESIGN.md)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ..core.exceptions import FtsCalibError, InsufficientExcitation
+from ..feeds.sync import Synchronizer
+from ..feeds.udp import UdpReceiver
+from ..model.calibration import save_calibration
+from ..pipeline.live import LiveRunner, format_stats
+from ..pipeline.session import CalibrationSession
+from .calibrate import format_counts
+from .exit_codes import ExitCode, using_udp, writing
+from .setup import load_setup
+
+
+def run(
+    *,
+    robot: str | Path,
+    tool: str | Path = "paper_tool",
+    pipeline: str | Path = "pipeline",
+    listen: tuple[str, int] = ("127.0.0.1", 5005),
+    output: str | Path = "calibration.yaml",
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    latency_s: float | None = None,
+    max_gap_s: float | None = None,
+    idle_timeout_s: float | None = None,
+    quiet: bool = False,
+) -> int:
+    """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
+
+    Args:
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        tool: Tool file: a shipped name or a YAML path.
+        pipeline: Pipeline settings (filter thresholds, live settings).
+        listen: (host, port) to bind; port 0 takes any free port.
+        output: Calibration file to write.
+        checkpoint: Checkpoint file; ``OUTPUT.checkpoint.json`` when None.
+        resume: Continue from the checkpoint.
+        latency_s: How late the joint stamps are, in [s]; the pipeline's when None.
+        max_gap_s: Longest joint gap interpolated across, in [s]; the pipeline's when None.
+        idle_timeout_s: Stop after this long without data, in [s]; None waits forever.
+        quiet: No status line.
+
+    Returns:
+        0 with a calibration written, 1 when the data cannot determine C (the checkpoint is kept).
+    """
+    kin, loaded, settings = load_setup(robot, tool, pipeline)
+    checkpoint = Path(checkpoint or f"{output}.checkpoint.json")
+    host, port = listen
+    source = f"live udp://{host}:{port}"
+    if resume:
+        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source)
+        print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
+    else:
+        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source)
+    latency_s = settings.live.latency_s if latency_s is None else latency_s
+    max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
+    sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names)
+    with using_udp(host, port):
+        receiver = UdpReceiver(host, port)
+    print(
+        f"listening on udp://{receiver.address[0]}:{receiver.address[1]} for {kin.robot.name} with '{loaded.name}'; "
+        "Ctrl-C or an 'end' message writes the calibration",
+        flush=True,
+    )
+    try:
+        runner = LiveRunner(session, receiver, sync, status=None if quiet else sys.stderr)
+        stats = runner.run(idle_timeout_s=idle_timeout_s)
+    finally:
+        receiver.close()
+    print(format_stats(stats, sync))
+    print("\n".join(format_counts(session)))
+    try:
+        calibration = session.solve()
+    except InsufficientExcitation as exc:
+        print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
+        return ExitCode.CHECK_FAILED
+    with writing(output):
+        path = save_calibration(calibration, output)
+    quality = calibration.quality
+    if quality is None:  # CalibrationSession.solve always measures the fit
+        raise FtsCalibError("internal error: the calibration has no fit quality")
+    print(f"rank {quality.rank} of 7, condition number {quality.condition_number:.1f}; wrote {path}")
+    return ExitCode.OK

@@ -1,0 +1,81 @@
+"""The ``payload`` command: identify an unknown payload (mass, centre of mass, offsets) and write its tool file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..model.calibration import load_calibration
+from ..robot.tool import save_tool
+from ..service.payload import PayloadEstimate, identify_payload_from_recording
+from .exit_codes import ExitCode, writing
+from .setup import load_kinematics, load_settings
+
+
+def format_payload(estimate: PayloadEstimate, rows: int) -> str:
+    """The estimate with its standard errors, with units; ``rows`` samples were read."""
+    lines = [
+        f"payload from {estimate.samples:,} still samples ({rows - estimate.samples:,} moving or unsettled skipped) in "
+        f"{len(estimate.poses)} orientations:",
+        f"  mass {estimate.mass:.4f} ± {estimate.stderr_mass:.1g} kg",
+        "  centre of mass in the sensor frame "
+        + ", ".join(f"{a} {v:+.5f} ± {e:.1g}" for a, v, e in zip("xyz", estimate.com, estimate.stderr_com, strict=True))
+        + " m",
+        "  offsets " + ", ".join(f"{v:+.4f}" for v in estimate.offsets) + " [N, N, N, N·m, N·m, N·m] (add to D to re-tare)",
+    ]
+    # the two are estimated together: both arrays or both None
+    if estimate.mount_rotation is not None and estimate.stderr_mount_rotation is not None:
+        lines.append(
+            "  mount rotation "
+            + ", ".join(
+                f"{np.degrees(v):+.3f} ± {np.degrees(e):.1g}"
+                for v, e in zip(estimate.mount_rotation, estimate.stderr_mount_rotation, strict=True)
+            )
+            + " deg"
+        )
+    lines.append("  residual RMS " + ", ".join(f"{v:.2g}" for v in estimate.residual_rms) + " [N, N·m]")
+    return "\n".join(lines)
+
+
+def run(
+    *,
+    recording: str | Path,
+    calibration: str | Path,
+    robot: str | Path,
+    output: str | Path,
+    name: str = "payload",
+    mount: bool = False,
+    min_separation_deg: float = 15.0,
+    pipeline: str | Path = "pipeline",
+) -> int:
+    """Identify a payload held still in several orientations and write it as a tool file (``fts-calib payload``).
+
+    Args:
+        recording: Recording of the payload in at least three well-spread still orientations.
+        calibration: The sensor's calibration file.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        output: Tool file to write (for gravity compensation).
+        name: Name of the payload in the tool file.
+        mount: Also estimate a small rotation of the sensor mount.
+        min_separation_deg: Smallest angle between orientations, in [deg].
+        pipeline: Pipeline settings (filter thresholds).
+
+    Returns:
+        0.
+    """
+    kin = load_kinematics(robot)
+    settings = load_settings(pipeline)
+    found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_separation_deg)
+    estimate = found.estimate
+    print(format_payload(estimate, found.rows))
+    header = (
+        f"payload identified by fts-calib from {recording} ({estimate.samples} samples, {len(estimate.poses)} "
+        f"orientations)\nmass {estimate.mass:.6g} ± {estimate.stderr_mass:.2g} kg; com ± "
+        f"{', '.join(f'{e:.2g}' for e in estimate.stderr_com)} m"
+    )
+    gravity = float(np.linalg.norm(kin.g_world()))  # the robot model's: the one the estimate used
+    with writing(output):
+        path = save_tool(estimate.tool(name, gravity), output, header)
+    print(f"wrote {path}")
+    return ExitCode.OK

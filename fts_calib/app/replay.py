@@ -1,0 +1,45 @@
+"""The ``replay`` command: send a recording as the live protocol, to test the live path without a robot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..feeds.replay import ReplayOptions, replay
+from .exit_codes import ExitCode, using_udp
+
+
+def run(
+    *,
+    recording: str | Path,
+    to: tuple[str, int] = ("127.0.0.1", 5005),
+    speed: float = 1.0,
+    joint_rate_hz: float | None = None,
+    latency_s: float = 0.0,
+    loss: float = 0.0,
+    reorder: float = 0.0,
+    seed: int = 0,
+) -> int:
+    """Send a recording's rows as live datagrams and print what was sent (``fts-calib replay``).
+
+    Args:
+        recording: Recording (CSV or CSV.gz).
+        to: (host, port) to send to.
+        speed: Time scale: 1 real time, 10 ten times faster, 0 no pacing.
+        joint_rate_hz: Joint messages per second, in [Hz]; one per row when None.
+        latency_s: Joint stamps are late by this, in [s].
+        loss: Fraction of joint and strain messages dropped, in [0, 1).
+        reorder: Fraction of messages delayed by one to five places, in [0, 1).
+        seed: Seed of the loss and the reordering.
+
+    Returns:
+        0.
+    """
+    options = ReplayOptions(speed=speed, joint_rate_hz=joint_rate_hz, latency_s=latency_s, loss=loss, reorder=reorder, seed=seed)
+    host, port = to
+    print(f"replaying {recording} to udp://{host}:{port} at speed {speed:g}...", flush=True)
+    with using_udp(host, port):
+        stats = replay(recording, host, port, options)
+    print(
+        f"sent {stats.sent:,} datagrams in {stats.seconds:.1f} s ({stats.dropped:,} dropped and {stats.reordered:,} reordered on purpose)"
+    )
+    return ExitCode.OK

@@ -1,0 +1,51 @@
+"""The robot, the tool and the pipeline settings a command names: loaded in one place."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+from ..core.resources import resolve
+from ..pipeline.settings import PipelineConfig, load_pipeline_config
+from ..robot.definition import load_robot
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool, load_tool
+
+
+class Setup(NamedTuple):
+    """What a command works with.
+
+    Attributes:
+        kinematics: Kinematics of the robot.
+        tool: The tool file's tool.
+        settings: The pipeline settings.
+    """
+
+    kinematics: Kinematics
+    tool: Tool
+    settings: PipelineConfig
+
+
+def load_settings(pipeline: str | Path = "pipeline") -> PipelineConfig:
+    """The pipeline settings: a shipped name (``configs/NAME.yaml``) or a YAML path."""
+    return load_pipeline_config(resolve(pipeline, "configs"))
+
+
+def load_kinematics(robot: str | Path) -> Kinematics:
+    """Kinematics of a robot definition: a shipped name (``robots/NAME.yaml``) or a YAML path."""
+    return Kinematics(load_robot(resolve(robot, "robots")))
+
+
+def load_setup(robot: str | Path, tool: str | Path = "paper_tool", pipeline: str | Path = "pipeline") -> Setup:
+    """Load the robot's kinematics, the tool and the pipeline settings a command names.
+
+    Args:
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        tool: Tool file: a shipped name (``configs/NAME.yaml``) or a YAML path.
+        pipeline: Pipeline settings: a shipped name or a YAML path.
+
+    Raises:
+        ResourceNotFound: A name that is neither a file nor shipped.
+        FileFormatError: A file with a missing or wrong field.
+    """
+    return Setup(load_kinematics(robot), load_tool(resolve(tool, "configs")), load_settings(pipeline))

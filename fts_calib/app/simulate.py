@@ -1,0 +1,98 @@
+"""The ``simulate`` command: a recording from planned trajectories, through the simulated sensor."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from ..core.exceptions import FileFormatError
+from ..core.resources import resolve
+from ..model.sensor_config import load_sensor_config
+from ..planning.trajectory_io import TrajectoryFile, read_trajectory
+from ..robot.tool import Tool
+from ..sim.recording import simulate_recording
+from ..sim.sensor import load_simulated_sensor
+from .exit_codes import ExitCode, writing
+from .setup import load_setup
+
+
+def trajectories_for(tool: Tool, trajectory: str | Path) -> list[TrajectoryFile]:
+    """The first trajectory file for each configuration of ``tool``, in the tool's order.
+
+    Args:
+        tool: The tool whose configurations the files must name.
+        trajectory: A folder of trajectory files (``*.csv``, ``*.csv.gz``), or one file.
+
+    Raises:
+        FileFormatError: No trajectory file, or none for a configuration of the tool.
+    """
+    folder = Path(trajectory)
+    files = sorted(folder.glob("*.csv")) + sorted(folder.glob("*.csv.gz")) if folder.is_dir() else [folder]
+    if not files:
+        raise FileFormatError(folder, None, "no trajectory file (*.csv, *.csv.gz) in this folder")
+    found: dict[str, TrajectoryFile] = {}
+    for path in files:
+        traj = read_trajectory(path)
+        if traj.tool in tool.names:
+            found.setdefault(traj.tool, traj)
+    if not found:
+        raise FileFormatError(folder, None, f"no trajectory for the configurations {tool.names} of '{tool.name}'")
+    return [found[name] for name in tool.names if name in found]
+
+
+def run(
+    *,
+    robot: str | Path,
+    trajectory: str | Path,
+    output: str | Path,
+    tool: str | Path = "paper_tool",
+    sensor: str | Path = "sensor",
+    noise_std: float | None = None,
+    noiseless: bool = False,
+    drift_rate: float | None = None,
+    seed: int = 0,
+    tool_change_s: float = 2.0,
+    dynamic: bool = True,
+) -> int:
+    """Write a recording of planned trajectories, in the format a robot produces (``fts-calib simulate``).
+
+    Args:
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        trajectory: Folder of trajectory CSVs (one per configuration), or one file.
+        output: Recording to write (.csv or .csv.gz).
+        tool: Tool file: a shipped name or a YAML path.
+        sensor: Sensor configuration with a ``simulation`` section.
+        noise_std: Strain noise of every bridge, in raw units; the sensor file's when None.
+        noiseless: No noise at all.
+        drift_rate: Offset drift of every bridge, in raw units per [s]; the sensor file's when None.
+        seed: Seed of the noise.
+        tool_change_s: Pause between configurations, in [s].
+        dynamic: The tool's full dynamic wrench (False: its static weight only).
+
+    Returns:
+        0.
+    """
+    kin, loaded, _ = load_setup(robot, tool)
+    sensor_path = resolve(sensor, "configs")
+    spec = load_sensor_config(sensor_path)
+    simulated = load_simulated_sensor(sensor_path)
+    if noise_std is not None:
+        simulated = dataclasses.replace(simulated, noise_std=np.full(np.shape(simulated.noise_std), noise_std, dtype=float))
+    if drift_rate is not None:
+        simulated = dataclasses.replace(simulated, drift_rate=np.full(np.shape(simulated.drift_rate), drift_rate, dtype=float))
+    trajectories = trajectories_for(loaded, trajectory)
+    missing = [name for name in loaded.names if name not in {t.tool for t in trajectories}]
+    rng = None if noiseless else np.random.default_rng(seed)
+    with writing(output):
+        path = simulate_recording(output, kin, loaded, trajectories, simulated, rng, tool_change_s=tool_change_s, dynamic=dynamic)
+    rows = sum(len(t.time) for t in trajectories)
+    noise = "none" if rng is None else f"{simulated.noise_std.max():.2g} {spec.strain_unit} per bridge (seed {seed})"
+    wrench = "moving (Newton-Euler)" if dynamic else "static"
+    print(
+        f"wrote {path}: {rows:,} rows, configurations {', '.join(t.tool for t in trajectories)}"
+        + (f" (no trajectory for {missing})" if missing else "")
+        + f"; tool wrench {wrench}, noise {noise}, {simulated.adc_bits}-bit ADC"
+    )
+    return ExitCode.OK

@@ -1,0 +1,89 @@
+"""The ``tare`` command: new offsets D for a calibration file, from a short still window."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..core.exceptions import ConfigError
+from ..core.text import table
+from ..model.calibration import load_calibration, save_calibration
+from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool
+from ..service.tare import TareResult, tare_live, tare_recording
+from .exit_codes import ExitCode, using_udp, writing
+from .setup import load_settings, load_setup
+
+
+def format_tare(result: TareResult) -> str:
+    """The old and new offsets per axis, their change and standard error."""
+    estimate = result.estimate
+    rows = [
+        [axis, f"{old:+.5f}", f"{new:+.5f}", f"{new - old:+.5f}", f"{se:.1g}", unit]
+        for axis, old, new, se, unit in zip(WRENCH_AXES, result.previous, estimate.D, estimate.stderr_D, WRENCH_UNITS, strict=True)
+    ]
+    return f"re-tare from {estimate.samples_used:,} samples ({estimate.samples_skipped:,} skipped):\n" + table(
+        ["axis", "old D", "new D", "change", "stderr", "unit"], rows, "  "
+    )
+
+
+def run(
+    *,
+    calibration: str | Path,
+    recording: str | Path | None = None,
+    output: str | Path | None = None,
+    listen: tuple[str, int] | None = None,
+    window_s: float = 2.0,
+    robot: str | Path | None = None,
+    tool: str | Path = "paper_tool",
+    configuration: str | None = None,
+    pipeline: str | Path = "pipeline",
+) -> int:
+    """Estimate the offsets D again, C_bar kept, and write the calibration (``fts-calib tare``).
+
+    Args:
+        calibration: Calibration file to update.
+        recording: Recording with the sensor still; None to use ``listen``.
+        output: Where to write; None updates ``calibration`` in place.
+        listen: (host, port) to re-tare from a live window instead of a recording.
+        window_s: Length of the live window, in [s].
+        robot: Robot definition (a shipped name or a YAML path); needed with a mounted configuration.
+        tool: Tool file of the mounted configuration.
+        configuration: The mounted configuration of ``tool``; None for nothing mounted.
+        pipeline: Pipeline settings (filter thresholds).
+
+    Returns:
+        0.
+
+    Raises:
+        ConfigError: A configuration without a robot, or neither a recording nor ``listen``.
+    """
+    current = load_calibration(calibration)
+    kin: Kinematics | None = None
+    mounted: Tool | None = None
+    if configuration is not None:
+        if robot is None:
+            message = "a mounted configuration needs --robot: the load it puts on the sensor depends on the orientation"
+            raise ConfigError("robot", None, "a robot definition", message=message)
+        kin, mounted, _ = load_setup(robot, tool, pipeline)
+        mounted.configuration(configuration)  # a clear error for an unknown name, before any waiting
+    settings = load_settings(pipeline)
+    if recording is not None:
+        result = tare_recording(current, recording, kin, mounted, configuration, settings)
+    elif listen is not None:
+        host, port = listen
+
+        def listening(address: tuple[str, int]) -> None:  # the bound port, also when --listen gave port 0
+            print(f"listening on udp://{address[0]}:{address[1]} for {window_s:g} s: hold the sensor still...", flush=True)
+
+        with using_udp(host, port):
+            result = tare_live(current, host, port, window_s, kin, mounted, configuration, settings, listening)
+    else:
+        message = "give a recording or --listen HOST:PORT to re-tare from"
+        raise ConfigError("recording", None, "a recording or a live address", message=message)
+    target = calibration if output is None else output
+    with writing(target):
+        written = save_calibration(result.calibration, target)
+    print(format_tare(result))
+    print(f"wrote {written} (previous offsets kept in offset_history: {len(result.calibration.offset_history)} entries)")
+    return ExitCode.OK

@@ -1,0 +1,196 @@
+"""The ``trajectory`` command: plan and check the sweeps, write the files of the run, its plot and its report."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..core.exceptions import FtsCalibError
+from ..core.fileio import atomic_write_text, dump_yaml
+from ..core.resources import resolve
+from ..core.text import table
+from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..model.sensor_config import load_sensor_config
+from ..planning.sweeps import SweepPattern
+from ..planning.trajectory import TrajectoryRun, plan_summary, plan_trajectories
+from ..planning.trajectory_io import save_trajectory
+from ..robot.tool import ToolShape, load_tool
+from . import plots
+from .exit_codes import ExitCode, writing
+from .setup import load_settings
+
+
+def run(
+    *,
+    robot: str | Path,
+    out: str | Path,
+    tool: str | Path = "paper_tool",
+    pipeline: str | Path = "pipeline",
+    rate_hz: float = 500.0,
+    levels: int = 4,
+    stops: int = 6,
+    dwell_s: float = 0.5,
+    margin: float = 0.02,
+    min_clearance: float = 0.02,
+    tool_radius: float | None = None,
+    tool_length: float | None = None,
+    sensor: str | Path = "sensor",
+    noise_std: float | None = None,
+    compress: bool = False,
+    plot: bool = True,
+) -> int:
+    """Plan and check the calibration sweeps, write them and print the report (``fts-calib trajectory``).
+
+    Args:
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        out: Output folder: one CSV per tool configuration, plan.yaml and plan.png.
+        tool: Tool file: a shipped name or a YAML path.
+        pipeline: Pipeline settings (filter thresholds, design noise).
+        rate_hz: Sample rate of the trajectory files, in [Hz].
+        levels: Positions of the first sweep joint.
+        stops: Positions of the second sweep joint per level.
+        dwell_s: Time held still at each stop, in [s].
+        margin: Distance kept from the position limits, in [rad].
+        min_clearance: Smallest distance allowed between links, in [m].
+        tool_radius: Radius of the tool's collision envelope, in [m]; the tool file's when None.
+        tool_length: Length of the tool's collision envelope, in [m]; the tool file's when None.
+        sensor: Sensor configuration with a nominal model, for the excitation report.
+        noise_std: Strain noise per bridge for the excitation report, in raw units; the
+            pipeline's, else the sensor file's, when None.
+        compress: Write .csv.gz files.
+        plot: Write plan.png.
+
+    Returns:
+        0 when every check passed, 1 when one failed (the trajectory files are then not written).
+    """
+    robot_path, tool_path = resolve(robot, "robots"), resolve(tool, "configs")
+    loaded = load_tool(tool_path)
+    if tool_radius is not None or tool_length is not None:
+        if loaded.shape is None:  # never: Tool.__post_init__ fills in the default envelope
+            raise FtsCalibError(f"tool '{loaded.name}' has no shape for the collision checks")
+        shape = ToolShape(tool_radius or loaded.shape.radius, tool_length or loaded.shape.length)
+        loaded = dataclasses.replace(loaded, shape=shape)
+    spec = load_sensor_config(resolve(sensor, "configs"))
+    settings = load_settings(pipeline)
+    noise: float | np.ndarray | None = noise_std if noise_std is not None else settings.noise_std
+    if noise is None:
+        noise = spec.simulated.noise_std if spec.simulated is not None else 0.0
+    pattern = SweepPattern(levels=levels, stops=stops, dwell=dwell_s, margin=margin)
+    print(f"planning {robot_path.stem} sweeps for '{loaded.name}' ({len(loaded.configurations)} configurations)...", flush=True)
+    planned = plan_trajectories(robot_path, loaded, spec, settings.filter, noise, pattern, rate_hz, min_clearance)
+    with writing(out):
+        planned = write_run(planned, out, compress=compress, plot=plot)
+    print(format_report(planned, robot_path, tool_path))
+    return ExitCode.CHECK_FAILED if planned.problems else ExitCode.OK
+
+
+def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot: bool = True) -> TrajectoryRun:
+    """Write the trajectory files (only when every check passed), plan.yaml and plan.png."""
+    out = Path(out)
+    plan = run.result.plan
+    files = []
+    if not run.problems:
+        suffix = ".csv.gz" if compress else ".csv"
+        for config in run.tool.configurations:
+            files.append(save_trajectory(out / f"{config.name}{suffix}", plan.trajectory(config.name)))
+    files.append(atomic_write_text(out / "plan.yaml", dump_yaml(plan_summary(run, [f.name for f in files]))))
+    if plot:
+        index = [plan.joint_names.index(j) for j in plan.sweep_joints]
+        files.append(
+            plots.plot_plan(
+                out / "plan.png",
+                plan.time,
+                plan.q[:, index],
+                plan.sweep_joints,
+                run.still,
+                run.g_sensor,
+                f"{plan.robot}: calibration sweep, {plan.duration:.1f} s per tool configuration",
+            )
+        )
+    return dataclasses.replace(run, files=files)
+
+
+def format_report(run: TrajectoryRun, robot_path: Path, tool_path: Path, compress: bool = False) -> str:
+    """The printed report of the ``trajectory`` job, with units."""
+    result, plan, ex = run.result, run.result.plan, run.excitation
+    lines = [
+        f"robot {plan.robot} ({robot_path}), tool '{run.tool.name}' ({tool_path}): configurations "
+        f"{', '.join(c.name for c in run.tool.configurations)}"
+    ]
+    home = result.home
+    how = (
+        (
+            "planned automatically: "
+            + (f"{home.tilt_joint} set so that the axis of {plan.sweep_joints[0]} is horizontal" if home.tilt_joint else "")
+        )
+        if home.source == "automatic"
+        else "from the robot definition"
+    )
+    lines.append(f"home ({how}):")
+    lines.append("  " + ", ".join(f"{j} {v:+.4f}" for j, v in zip(plan.joint_names, plan.home, strict=True)) + " rad")
+    lines.append(f"  axis of {plan.sweep_joints[0]} {home.axis_tilt_deg:.1f}° from horizontal; sweep axes {home.axes_angle_deg:.1f}° apart")
+    a, b = plan.sweep_joints
+    levels = np.unique(plan.waypoints[:, 0])
+    lines.append(
+        f"sweep: {a} at {len(levels)} levels {', '.join(f'{v:+.1f}' for v in np.degrees(levels))}° (chosen in "
+        f"[{np.degrees(plan.ranges[0, 0]):+.1f}°, {np.degrees(plan.ranges[0, 1]):+.1f}°] to spread gravity's latitude "
+        f"about the axis of {b}); {b} over [{np.degrees(plan.ranges[1, 0]):+.1f}°, {np.degrees(plan.ranges[1, 1]):+.1f}°] "
+        f"in {plan.pattern.stops} stops per level; dwell {plan.pattern.dwell:.2f} s at each of {len(plan.waypoints)} stops"
+    )
+    if result.ranges.note:
+        lines.append(f"  note: {result.ranges.note}")
+    rows = []
+    for j in plan.sweep_joints:
+        k = plan.joint_names.index(j)
+        peak, ratio = result.limits.peaks[j], result.limits.ratios[j]
+        rows.append(
+            [j]
+            + [f"{peak[q]:.3f} / {getattr(plan.limits, q)[k]:.3f} ({100 * ratio[q]:.1f} %)" for q in ("velocity", "acceleration", "jerk")]
+        )
+    lines.append("limits used, peak / limit:")
+    lines.append(table(["joint", "velocity [rad/s]", "acceleration [rad/s²]", "jerk [rad/s³]"], rows))
+    n_conf = len(run.tool.configurations)
+    lines.append(
+        f"duration: {plan.duration:.1f} s per configuration ({n_conf} configurations: {n_conf * plan.duration:.1f} s "
+        f"of motion, plus the tool changes at home), sampled at {plan.rate:g} Hz"
+    )
+    c, h = result.clearance, result.home_clearance
+    when = f" at t = {plan.time[c.index]:.2f} s" if c.index >= 0 else ""
+    lines.append(
+        f"clearance: {c.distance:.3f} m between '{c.pair[0]}' and '{c.pair[1]}'{when} along the sweep "
+        f"({result.checked_samples} samples checked); {h.distance:.3f} m between '{h.pair[0]}' and '{h.pair[1]}' "
+        f"at home (at least {result.min_clearance:.3f} m required)"
+    )
+    noise = ex.noise_std
+    noise_text = f"{noise[0]:.2g}" if np.all(noise == noise[0]) else str(noise.tolist())
+    counts = ", ".join(f"{k}: {v}" for k, v in ex.samples.items())
+    lines.append(f"excitation (strain noise {noise_text} {run.strain_unit} per bridge; quasi-static samples {counts}):")
+    cond = f"{ex.condition_number:.1f}" if math.isfinite(ex.condition_number) else "inf"
+    lines.append(
+        f"  predicted rank {ex.rank} of 7, condition number {cond}; every direction within "
+        f"{ex.coverage_deg:.1f}° of a gravity direction the sensor sees"
+    )
+    if ex.rank == 7:
+        lines.append("  predicted standard error of C, in % of each row's largest coefficient:")
+        rel = 100 * ex.relative_stderr_C
+        lines.append(
+            table(
+                ["", *[f"Δ{k + 1}" for k in range(8)]],
+                [[axis, *[f"{v:.5f}" for v in rel[i]]] for i, axis in enumerate(WRENCH_AXES)],
+                "    ",
+            )
+        )
+        lines.append(
+            f"  largest: {100 * ex.max_relative_stderr:.5f} %; predicted standard error of D: "
+            + ", ".join(f"{axis} {v:.2g} {u}" for axis, v, u in zip(WRENCH_AXES, ex.stderr_D, WRENCH_UNITS, strict=True))
+        )
+    for problem in run.problems:
+        lines.append(f"CHECK FAILED: {problem}")
+    if run.files:
+        lines.append("wrote: " + ", ".join(str(f) for f in run.files))
+    if run.problems:
+        lines.append("trajectory files not written: fix the failed checks first")
+    return "\n".join(lines)

@@ -1,0 +1,103 @@
+"""The ``validate`` command: measured against expected wrenches over a recording (the paper's third stage)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..core.resources import resolve
+from ..core.text import table
+from ..model.calibration import load_calibration
+from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..model.sensor_config import load_sensor_config
+from ..service.validate import AxisErrors, validate_recording
+from .exit_codes import ExitCode, writing
+from .setup import load_setup
+
+
+def format_errors(label: str, errors: AxisErrors) -> str:
+    """A table of the errors per axis, in N or N·m and in % of full scale, under ``label``."""
+    rows = [
+        [
+            axis,
+            f"{errors.max_abs[i]:.4g} {unit}",
+            f"{errors.max_percent[i]:.4f} %",
+            f"{errors.rms[i]:.4g} {unit}",
+            f"{errors.rms_percent[i]:.4f} %",
+        ]
+        for i, (axis, unit) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))
+    ]
+    return label + ":\n" + table(["axis", "max error", "max, % FS", "RMS error", "RMS, % FS"], rows, "  ")
+
+
+def run(
+    *,
+    recording: str | Path,
+    calibrations: Sequence[str | Path],
+    robot: str | Path,
+    tool: str | Path = "paper_tool",
+    sensor: str | Path = "sensor",
+    full_scale_force: float | None = None,
+    full_scale_moment: float | None = None,
+    dynamic: bool = True,
+    plot_path: str | Path | None = None,
+    max_error_percent: float | None = None,
+) -> int:
+    """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
+
+    Args:
+        recording: Recording (CSV or CSV.gz) made with ``tool``.
+        calibrations: One calibration file, or two to compare them with each other too.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        tool: Tool file of the tool mounted during the recording.
+        sensor: Sensor configuration: its full scale.
+        full_scale_force: Full scale of the forces, in [N]; the sensor file's when None.
+        full_scale_moment: Full scale of the moments, in [N m]; the sensor file's when None.
+        dynamic: The moving tool's wrench, Newton-Euler (False: its weight alone).
+        plot_path: PNG of Fx and its error to write (the paper's Figs 9-10), or None.
+        max_error_percent: Largest error allowed, in [%] of full scale; None for no check.
+
+    Returns:
+        0, or 1 when an error exceeds ``max_error_percent``.
+    """
+    kin, loaded, _ = load_setup(robot, tool)
+    calibrations = list(calibrations)
+    loaded_calibrations = [load_calibration(p) for p in calibrations]
+    full_scale = load_sensor_config(resolve(sensor, "configs")).full_scale.copy()
+    if full_scale_force is not None:
+        full_scale[:3] = full_scale_force
+    if full_scale_moment is not None:
+        full_scale[3:] = full_scale_moment
+    result = validate_recording(recording, kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic)
+    print(
+        f"validation of {len(calibrations)} calibration(s) over {result.samples:,} samples of {recording} with "
+        f"'{loaded.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
+        f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)"
+    )
+    if result.skipped:
+        print("skipped: " + ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items()))
+    for path, errors in zip(calibrations, result.errors, strict=True):
+        print(format_errors(str(path), errors))
+    if result.between is not None:
+        print(format_errors(f"{calibrations[0]} against {calibrations[1]}", result.between))
+    if plot_path is not None:
+        from .plots import plot_validation
+
+        with writing(plot_path):
+            written = plot_validation(
+                plot_path,
+                result.time,
+                result.expected[:, 0],
+                [m[:, 0] for m in result.measured],
+                [Path(p).name for p in calibrations],
+                float(full_scale[0]),
+                f"validation over {Path(recording).name}",
+            )
+        print(f"wrote {written}")
+    worst = float(np.max([e.max_percent.max() for e in result.errors]))
+    if max_error_percent is not None and worst > max_error_percent:
+        print(f"FAILED: largest error {worst:.4f} % of full scale, above the limit of {max_error_percent:g} % (--max-error)")
+        return ExitCode.CHECK_FAILED
+    return ExitCode.OK

@@ -1,0 +1,125 @@
+"""SampleBatch: the one record that carries samples from the feeds to the pipeline.
+
+Every feed (recordings, the live synchronizer, replay, robot logs) yields these; every
+later stage takes them. The sample axis is first; joint readings are in the robot
+definition's joint order, in [rad]; channels are raw readings in the sensor's unit; a
+configuration is an index into the tool's configurations (-1: unknown, counted and
+skipped by the session's checks).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.exceptions import ShapeError
+
+#: Configuration index of a sample whose tool configuration is not in the tool file.
+UNKNOWN_CONFIGURATION = -1
+
+
+@dataclass(frozen=True)
+class SampleBatch:
+    """Consecutive samples of one feed, in time order.
+
+    Attributes:
+        time: Sample times in [s]. Shape (N,).
+        joints: Joint readings in [rad], the robot definition's order. Shape (N, n_joints).
+        channels: Raw channel readings (strains). Shape (N, n_channels).
+        configuration: Index of each sample's tool configuration in the tool's order, -1
+            when unknown. Shape (N,), int.
+        temperature: Sensor temperature in [°C], or None when the feed has none. Shape (N,).
+        first_line: For a recording, the file line (1-based, header = line 1) of the first
+            sample; None for other feeds.
+    """
+
+    time: np.ndarray
+    joints: np.ndarray
+    channels: np.ndarray
+    configuration: np.ndarray
+    temperature: np.ndarray | None = None
+    first_line: int | None = None
+
+    def __post_init__(self):
+        time = np.asarray(self.time, dtype=float).reshape(-1)
+        n = len(time)
+        joints = np.asarray(self.joints, dtype=float)
+        channels = np.asarray(self.channels, dtype=float)
+        configuration = np.asarray(self.configuration, dtype=np.int64).reshape(-1)
+        if joints.ndim != 2 or channels.ndim != 2 or len(joints) != n or len(channels) != n or len(configuration) != n:
+            raise ShapeError(
+                f"a sample batch needs one row per time: time {time.shape}, joints {joints.shape}, channels {channels.shape}, "
+                f"configuration {configuration.shape}; expected (N,), (N, n_joints), (N, n_channels), (N,)"
+            )
+        object.__setattr__(self, "time", time)
+        object.__setattr__(self, "joints", joints)
+        object.__setattr__(self, "channels", channels)
+        object.__setattr__(self, "configuration", configuration)
+        if self.temperature is not None:
+            temperature = np.asarray(self.temperature, dtype=float).reshape(-1)
+            if len(temperature) != n:
+                raise ShapeError(f"temperature.shape={temperature.shape} but expected ({n},)")
+            object.__setattr__(self, "temperature", temperature)
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+    @classmethod
+    def empty(cls, n_joints: int, n_channels: int) -> SampleBatch:
+        """A batch of no sample, with the widths of a feed."""
+        return cls(np.zeros(0), np.zeros((0, n_joints)), np.zeros((0, n_channels)), np.zeros(0, dtype=np.int64))
+
+    def rows(self, start: int, stop: int) -> SampleBatch:
+        """Samples ``start`` to ``stop - 1`` (views, no copy)."""
+        return SampleBatch(
+            self.time[start:stop],
+            self.joints[start:stop],
+            self.channels[start:stop],
+            self.configuration[start:stop],
+            None if self.temperature is None else self.temperature[start:stop],
+        )
+
+    def select(self, mask: np.ndarray) -> SampleBatch:
+        """The samples where ``mask`` (bool, shape (N,)) holds, in order (``first_line`` is dropped)."""
+        return SampleBatch(
+            self.time[mask],
+            self.joints[mask],
+            self.channels[mask],
+            self.configuration[mask],
+            None if self.temperature is None else self.temperature[mask],
+        )
+
+    @classmethod
+    def concatenate(cls, batches: Sequence[SampleBatch]) -> SampleBatch:
+        """One batch of several, in the given order (temperature kept only when all have it)."""
+        if not batches:
+            raise ValueError("concatenate needs at least one batch (a programming error, not a user's)")
+        temperature = None
+        if all(b.temperature is not None for b in batches):
+            temperature = np.concatenate([b.temperature for b in batches if b.temperature is not None])
+        return cls(
+            np.concatenate([b.time for b in batches]),
+            np.concatenate([b.joints for b in batches]),
+            np.concatenate([b.channels for b in batches]),
+            np.concatenate([b.configuration for b in batches]),
+            temperature,
+            batches[0].first_line,
+        )
+
+
+def configuration_indices(names: Sequence[str | None], known: Sequence[str]) -> np.ndarray:
+    """Index of each configuration name in ``known`` (the tool's order), -1 when unknown.
+
+    Args:
+        names: A configuration name per sample (None: none announced). Length N.
+        known: The tool's configuration names, in order.
+
+    Returns:
+        Shape (N,), int64.
+    """
+    lookup = {name: k for k, name in enumerate(known)}
+    return np.array(
+        [lookup.get(name, UNKNOWN_CONFIGURATION) if name is not None else UNKNOWN_CONFIGURATION for name in names], dtype=np.int64
+    )

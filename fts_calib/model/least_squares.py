@@ -1,0 +1,138 @@
+r"""Least-squares numerics shared by the estimators: rank, normal equations, standard errors.
+
+A fit regresses the wrench W (shape (6,), [N, N, N, N m, N m, N m]) on the projected
+strains x (shape (p,): ``P Delta``, p = 6, or with a trailing 1 for the offsets, p = 7)
+from its normal matrices, the sums ``S_WW = sum w W W^T`` (6, 6), ``S_WX = sum w W x^T``
+(6, p) and ``S_XX = sum w x x^T`` (p, p):
+
+.. math::
+
+    \Theta = S_{WX} S_{XX}^{-1}, \qquad
+    \mathrm{RSS}_j = (S_{WW} - 2\,\Theta S_{WX}^T + \Theta S_{XX} \Theta^T)_{jj}
+
+Rank: one tool centre of mass gives S_XX rank 4, two give 6, three non-collinear ones
+give the full 7 (paper eqs 18-20). The numerical rank counts the eigenvalues of S_XX,
+scaled to a unit diagonal, above ``rcond`` times the largest, so it does not depend on the
+strain unit.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from .calibration import Quality
+from .sensor import P
+
+#: Default relative eigenvalue threshold for the numerical rank of the scaled S_XX.
+#: A direction whose strain amplitude is below about 3e-4 of the typical one
+#: (eigenvalue ratio 1e-7) counts as missing.
+RCOND = 1e-7
+
+
+def information_rank(S_XX, rcond: float = RCOND) -> tuple[int, float]:
+    """Numerical rank and condition number of an information matrix, after diagonal scaling.
+
+    The matrix is scaled to a unit diagonal first, so the result does not depend on the
+    strain unit; a zero diagonal entry is a missing direction.
+
+    Args:
+        S_XX: Symmetric positive semi-definite matrix. Shape (n, n).
+        rcond: Eigenvalues below ``rcond`` times the largest count as zero.
+
+    Returns:
+        ``(rank, condition_number)``; the condition number is inf when rank < n.
+    """
+    scaled, _ = _equilibrate(np.asarray(S_XX, dtype=float))
+    eig = np.linalg.eigvalsh(scaled)
+    top = eig[-1] if eig.size and eig[-1] > 0 else 0.0
+    rank = int(np.sum(eig > rcond * top)) if top > 0 else 0
+    condition = float(top / eig[0]) if rank == len(eig) else math.inf
+    return rank, condition
+
+
+def _equilibrate(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    d = np.diag(S).copy()
+    scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 0.0)
+    return S * scale[:, None] * scale[None, :], scale
+
+
+def solve_normal(S_XX: np.ndarray, S_WX: np.ndarray, rcond: float, min_norm: bool):
+    """Solve ``Theta S_XX = S_WX``; return (Theta, rank, condition, inverse of S_XX).
+
+    Full rank: Cholesky factor L of the scaled matrix, then triangular solves (no explicit
+    inverse of S_XX for Theta). Rank deficient with ``min_norm``: the minimum-norm solution
+    from the truncated eigen-decomposition.
+    """
+    scaled, scale = _equilibrate(S_XX)
+    eig, vec = np.linalg.eigh(scaled)
+    top = eig[-1] if eig[-1] > 0 else 0.0
+    keep = eig > rcond * top if top > 0 else np.zeros_like(eig, dtype=bool)
+    rank = int(keep.sum())
+    n = len(eig)
+    condition = float(top / eig[0]) if rank == n else math.inf
+    if rank == n:
+        L = np.linalg.cholesky(scaled)
+        y = np.linalg.solve(L, scale[:, None] * S_WX.T)
+        theta_t = scale[:, None] * np.linalg.solve(L.T, y)
+        L_inv = np.linalg.solve(L, np.eye(n))
+        inv = (L_inv.T @ L_inv) * scale[:, None] * scale[None, :]
+    elif min_norm:
+        v = vec[:, keep]
+        pinv_scaled = (v / eig[keep]) @ v.T
+        inv = pinv_scaled * scale[:, None] * scale[None, :]
+        theta_t = inv @ S_WX.T
+    else:
+        return None, rank, condition, None
+    return theta_t.T, rank, condition, inv
+
+
+def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
+    """Standard errors of the coefficients of an ordinary least-squares fit of W on x.
+
+    ``Cov(row j) = sigma_j^2 S_XX^-1``; for ``C = C_bar P``, ``Var(C_jk) = sigma_j^2 p_k^T
+    Cov6 p_k`` with ``p_k`` the column k of P and Cov6 the C_bar block.
+
+    Args:
+        sigma: Residual standard deviation per wrench axis, [N or N m]. Shape (6,).
+        inv: Inverse of S_XX. Shape (p, p), p = 6 or 7 (the last entry is the offset).
+
+    Returns:
+        ``(stderr of [C_bar, D] (6, p), stderr of C (6, 8))``.
+    """
+    sigma = np.asarray(sigma, dtype=float)
+    stderr_theta = sigma[:, None] * np.sqrt(np.maximum(np.diag(inv), 0.0))[None, :]
+    inv6 = inv[:6, :6]
+    stderr_C = sigma[:, None] * np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", P, inv6, P), 0.0))[None, :]
+    return stderr_theta, stderr_C
+
+
+def fit_quality(
+    S_WW, S_WX, S_XX, theta, inv, n_eff: float, used: int, seen: int, rank: int, condition: float, skipped: Mapping[str, int]
+) -> Quality:
+    """Residuals and standard errors of a least-squares fit from its normal matrices.
+
+    ``theta`` is (6, p) with p = 7 (C_bar and D) or 6 (C_bar only); ``inv`` is the (p, p)
+    (pseudo-)inverse of S_XX. The residual variance per axis is RSS / (n_eff - p).
+    """
+    p = theta.shape[1]
+    rss = np.diag(S_WW) - 2.0 * np.sum(theta * S_WX, axis=1) + np.sum((theta @ S_XX) * theta, axis=1)
+    rss = np.maximum(rss, 0.0)  # cancellation can leave -1e-16 relative on exact data
+    residual_rms = np.sqrt(rss / n_eff) if n_eff > 0 else np.full(6, np.nan)
+    dof = n_eff - p
+    sigma = np.sqrt(rss / dof) if dof > 0 else np.full(6, math.inf)
+    stderr_theta, stderr_C = coefficient_stderr(sigma, inv)
+    stderr_D = stderr_theta[:, 6] if p == 7 else np.zeros(6)
+    return Quality(
+        samples_used=used,
+        samples_seen=seen,
+        rank=rank,
+        condition_number=condition,
+        residual_rms=residual_rms,
+        stderr_C_bar=stderr_theta[:, :6],
+        stderr_D=stderr_D,
+        stderr_C=stderr_C,
+        skipped=skipped,
+    )

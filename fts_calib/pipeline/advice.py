@@ -1,0 +1,54 @@
+"""What a calibration still needs, in words: the one advice text of the session and live progress.
+
+Identifiability (paper eqs 18-20): one tool centre of mass gives rank 4, two give 6, three
+not on one line give 7; within each configuration, gravity must be seen from directions
+that span 3-D.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..robot.tool import Tool
+
+#: Kept samples of a configuration before it counts in the advice.
+MIN_SAMPLES = 10
+
+
+def missing_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.ndarray) -> str:
+    """What is missing for rank 7, in words ('more quasi-static samples' when nothing specific).
+
+    Args:
+        tool: The calibration tool.
+        kept: Kept samples per configuration, the tool's order. Length k.
+        directions: Per configuration, the sum of ``[u; 1][u; 1]^T`` over the kept samples,
+            ``u`` the unit gravity direction in the sensor frame. Shape (k, 4, 4).
+    """
+    names = tool.names
+    seen = [k for k in range(len(names)) if kept[k] >= MIN_SAMPLES]
+    if not seen:
+        return "no quasi-static sample yet: hold the arm still at the stops of the sweep"
+    few = [names[k] for k in seen if np.linalg.matrix_rank(directions[k], tol=1e-6 * max(1.0, kept[k])) < 4]
+    words = []
+    if few:
+        words.append(f"configuration {', '.join(few)}: gravity seen from too few directions so far (keep sweeping)")
+    coms = np.array([c.p_sensor_com for c in tool.configurations])
+    others = [k for k in range(len(names)) if k not in seen]
+    if len(seen) == 1:
+        words.append(f"need a second centre of mass: mount configuration {' or '.join(names[k] for k in others) or '(none left)'}")
+    elif len(seen) >= 2:
+        base = coms[seen[0]]
+        span = np.linalg.matrix_rank(coms[seen] - base, tol=1e-6)
+        if span < 2:
+            label = " and ".join(names[k] for k in seen)
+            off = [names[k] for k in others if np.linalg.matrix_rank(np.vstack([coms[seen] - base, coms[k] - base]), tol=1e-6) == 2]
+            if off:
+                words.append(f"need a third centre of mass not on the line through {label}: mount configuration {' or '.join(off)}")
+            else:
+                words.append(
+                    f"the centres of mass of {label} and every other configuration lie on one line: the tool "
+                    "needs a configuration off that line (paper eqs 19-20)"
+                )
+    return "; ".join(words) or "more quasi-static samples"

@@ -1,0 +1,184 @@
+"""The sampled calibration motion: jerk-limited ruckig segments from home through the stops.
+
+Between stops the moving joints travel together along one ruckig state-to-state segment,
+from rest to rest, within the velocity, acceleration and jerk limits of the robot
+definition (and its position limits when they are finite); at each stop the arm dwells
+still for ``dwell`` seconds, which gives the quasi-static samples the calibration keeps.
+The motion starts and ends at home, where the tool configuration is changed. The other
+joints hold their home readings.
+
+Angles in [rad], times in [s], rates in [Hz]; samples are evenly spaced at the rate, the
+sample axis first, joints in :attr:`Kinematics.joint_names` order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import ruckig
+
+from ..core.arrays import frozen
+from ..core.exceptions import TrajectoryError
+from ..robot.joints import JointLimits
+from ..robot.kinematics import Kinematics
+from .sweeps import SweepPattern, raster
+from .trajectory_io import TrajectoryFile
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A sampled calibration motion (the same for every tool configuration).
+
+    Attributes:
+        robot: Robot name.
+        joint_names: Actuated joints, in order.
+        sweep_joints: The two sweep joints.
+        home: Base pose, [rad]. Shape (n_joints,).
+        ranges: Range swept by each sweep joint, [rad]. Shape (2, 2), rows (low, high).
+        waypoints: Stops of the sweep joints, in visiting order, [rad]. Shape (W, 2).
+        pattern: The raster.
+        limits: Limits of every joint used for planning.
+        rate: Sample rate in [Hz].
+        time: Sample times in [s]. Shape (N,).
+        q: Joint positions, [rad]. Shape (N, n_joints).
+        qd: Joint velocities, [rad/s]. Shape (N, n_joints).
+        qdd: Joint accelerations, [rad/s^2]. Shape (N, n_joints).
+    """
+
+    robot: str
+    joint_names: tuple[str, ...]
+    sweep_joints: tuple[str, str]
+    home: np.ndarray
+    ranges: np.ndarray
+    waypoints: np.ndarray
+    pattern: SweepPattern
+    limits: JointLimits
+    rate: float
+    time: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+
+    def __post_init__(self):
+        for name in ("home", "ranges", "waypoints", "time", "q", "qd", "qdd"):
+            object.__setattr__(self, name, frozen(getattr(self, name)))
+
+    @property
+    def duration(self) -> float:
+        """Length of the motion in [s]."""
+        return float(self.time[-1])
+
+    def trajectory(self, configuration: str) -> TrajectoryFile:
+        """The motion as the trajectory of one tool configuration (what a trajectory file holds)."""
+        return TrajectoryFile(self.joint_names, self.time, self.q, self.qd, self.qdd, configuration)
+
+    def still(self, max_speed: float, max_acceleration: float) -> np.ndarray:
+        """Quasi-static samples: every joint slower than ``max_speed`` [rad/s].
+
+        And accelerating less than ``max_acceleration`` [rad/s^2]. Shape (N,) bool.
+        """
+        return np.all(np.abs(self.qd) <= max_speed, axis=1) & np.all(np.abs(self.qdd) <= max_acceleration, axis=1)
+
+
+def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: SweepPattern, rate: float) -> Plan:
+    """Plan and sample the sweep motion from home, through every stop, back to home.
+
+    Args:
+        kin: Robot kinematics (sweep joints and limits).
+        home: Base pose, [rad]. Shape (n_joints,).
+        ranges: Range of each sweep joint, [rad]. Shape (2, 2).
+        pattern: The raster of stops.
+        rate: Sample rate in [Hz], > 0.
+
+    Raises:
+        TrajectoryError: Bad rate, or ruckig refusing a segment.
+    """
+    home = np.asarray(home, dtype=float)
+    stops = raster(kin, home, ranges, pattern)
+    time, q, qd, qdd = sample_motion(kin, home, kin.sweep_joints, stops, pattern.dwell, rate)
+    first, second = kin.sweep_joints  # two of them: raster has already unpacked them the same way
+    return Plan(kin.robot.name, kin.joint_names, (first, second), home, ranges, stops, pattern, kin.limits, rate, time, q, qd, qdd)
+
+
+def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, dwell: float, rate: float):
+    """Rest-to-rest ruckig segments of some joints from home, through stops, back to home.
+
+    Args:
+        kin: Kinematics (limits).
+        home: Base pose [rad], shape (n_joints,); the other joints stay there.
+        joints: Names of the joints that move.
+        stops: Their positions at each stop [rad], shape (W, len(joints)).
+        dwell: Time still at each stop [s].
+        rate: Sample rate [Hz], > 0.
+
+    Returns:
+        ``(time (N,), q, qd, qdd (N, n_joints))`` in [s, rad, rad/s, rad/s^2].
+
+    Raises:
+        TrajectoryError: Bad rate, or ruckig refusing a segment.
+    """
+    if not (math.isfinite(rate) and rate > 0):
+        raise TrajectoryError(f"rate={rate} Hz but expected a finite rate > 0", "invalid rate")
+    home = np.asarray(home, dtype=float)
+    index = [kin.joint_names.index(name) for name in joints]
+    start = home[index]
+    # (start time, duration, trajectory or None for a hold, held position)
+    pieces: list[tuple[float, float, ruckig.Trajectory | None, np.ndarray]] = []
+    t = 0.0
+    position = start
+    for target in [*stops, start]:
+        segment = _segment(position, target, kin.limits, index)
+        pieces.append((t, segment.duration, segment, target))
+        t += segment.duration
+        position = target
+        if dwell > 0 and target is not start:
+            pieces.append((t, dwell, None, target))
+            t += dwell
+    n = int(math.floor(t * rate + 1e-9)) + 1
+    time = np.arange(n) / rate
+    q = np.repeat(home[None, :], n, axis=0)
+    qd = np.zeros((n, len(home)))
+    qdd = np.zeros((n, len(home)))
+    starts = np.array([p[0] for p in pieces])
+    which = np.clip(np.searchsorted(starts, time, side="right") - 1, 0, len(pieces) - 1)
+    for k, (t0, duration, trajectory, held) in enumerate(pieces):
+        rows = np.nonzero(which == k)[0]
+        if trajectory is None:
+            q[np.ix_(rows, np.asarray(index, dtype=np.intp))] = held
+            continue
+        for row in rows:
+            p, v, a = trajectory.at_time(min(time[row] - t0, duration))
+            q[row, index], qd[row, index], qdd[row, index] = p, v, a
+    return time, q, qd, qdd
+
+
+def _segment(start: np.ndarray, target: np.ndarray, limits: JointLimits, index: list[int]) -> ruckig.Trajectory:
+    dofs = len(index)
+    inp = ruckig.InputParameter(dofs)
+    inp.current_position = [float(v) for v in start]
+    inp.current_velocity = [0.0] * dofs
+    inp.current_acceleration = [0.0] * dofs
+    inp.target_position = [float(v) for v in target]
+    inp.target_velocity = [0.0] * dofs
+    inp.target_acceleration = [0.0] * dofs
+    inp.max_velocity = [float(limits.velocity[k]) for k in index]
+    inp.max_acceleration = [float(limits.acceleration[k]) for k in index]
+    inp.max_jerk = [float(limits.jerk[k]) for k in index]
+    lower = [float(limits.lower[k]) for k in index]
+    upper = [float(limits.upper[k]) for k in index]
+    if all(math.isfinite(v) for v in lower + upper):
+        inp.min_position, inp.max_position = lower, upper
+    otg = ruckig.Ruckig(dofs)
+    where = f"segment from {np.round(start, 4).tolist()} to {np.round(target, 4).tolist()} rad"
+    trajectory = ruckig.Trajectory(dofs)
+    try:
+        otg.validate_input(inp, True, True)
+        result = otg.calculate(inp, trajectory)
+    except (RuntimeError, ruckig.RuckigError) as exc:
+        message = str(exc).strip().replace("[ruckig] ", "")
+        raise TrajectoryError(f"ruckig rejected the {where}: {message}", "ErrorInvalidInput") from None
+    if result not in (ruckig.Result.Working, ruckig.Result.Finished):
+        raise TrajectoryError(f"ruckig could not plan the {where}: {result.name}", result.name)
+    return trajectory

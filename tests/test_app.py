@@ -1,0 +1,215 @@
+"""The app stage: each command runs from Python with the CLI's defaults; errors exit with their family's code."""
+
+import inspect
+import json
+import shutil
+
+import pytest
+import yaml
+
+from fts_calib import load_calibration
+from fts_calib.app import arguments, cli, export, robots, setup, tare, trajectory
+from fts_calib.app.exit_codes import EXIT_CODES, ExitCode, error_line, exit_code
+from fts_calib.core import exceptions
+from fts_calib.core.exceptions import FtsCalibError, PayloadError
+from fts_calib.core.resources import resolve
+
+CALIBRATION = resolve("paper_table1_calibration", "configs")
+GRAVITY_ELSEWHERE = 9.7803  # [m/s²] at the equator: not the default, so the export must read it from the tool file
+
+
+def _subparsers():
+    parser = arguments.build_parser()
+    return next(a for a in parser._actions if a.dest == "command").choices
+
+
+def _recording(path, joint_names, rows=300, strain="0.1", strain_columns=8):
+    """A recording of the arm held still: ``rows`` samples at 100 Hz, every strain equal to ``strain``."""
+    header = ["time", *joint_names, *[f"strain_{k + 1}" for k in range(strain_columns)], "tool"]
+    joints = ["0.0", "-1.5", "1.5", "0.0", "0.3", "0.0"][: len(joint_names)]
+    lines = [",".join(header)] + [",".join([f"{0.01 * i:.2f}", *joints, *[strain] * strain_columns, "A"]) for i in range(rows)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def ur5_joints():
+    return setup.load_setup("ur5").kinematics.joint_names
+
+
+# --- the Python entry points, with the defaults of the command line ---------------------------------------------
+
+
+@pytest.mark.parametrize("command", sorted(arguments.COMMANDS))
+def test_every_option_is_a_parameter_of_the_run_function_with_the_same_default(command):
+    import importlib
+
+    run = importlib.import_module(f"fts_calib.app.{command}").run
+    parameters = inspect.signature(run).parameters
+    actions = [a for a in _subparsers()[command]._actions if a.dest != "help"]
+    assert {a.dest for a in actions} == set(parameters), f"options of '{command}' and parameters of its run() differ"
+    for action in actions:
+        parameter = parameters[action.dest]
+        required = action.required or (not action.option_strings and action.nargs is None)
+        if required:
+            assert parameter.default is inspect.Parameter.empty, f"{command}: {action.dest} is required on the command line only"
+        else:
+            assert parameter.default == action.default, f"{command}: default of {action.dest} differs: {parameter.default!r}"
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY
+
+
+def test_robots_from_python(capsys):
+    assert robots.run() == 0
+    assert "ur5" in capsys.readouterr().out
+    assert robots.run(name="ur5") == 0
+    assert "sweep joints: wrist_2_joint, wrist_3_joint" in capsys.readouterr().out
+
+
+def test_trajectory_from_python_with_the_defaults(tmp_path, capsys):
+    out = tmp_path / "traj"
+    assert trajectory.run(robot="ur5", out=out, rate_hz=50.0, plot=False) == ExitCode.OK
+    assert "predicted rank 7 of 7" in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == ["A.csv", "B.csv", "C.csv", "plan.yaml"]
+
+
+def test_export_from_python_takes_gravity_from_the_payload_file(tmp_path, capsys):
+    assert export.run(fmt="json", calibration=CALIBRATION, output=tmp_path / "c.json") == 0
+    assert json.loads((tmp_path / "c.json").read_text())["D"] == load_calibration(CALIBRATION).D.tolist()
+    tool = yaml.safe_load(resolve("paper_tool", "configs").read_text())
+    tool["gravity"] = GRAVITY_ELSEWHERE
+    (tmp_path / "tool.yaml").write_text(yaml.safe_dump(tool))
+    assert export.run(fmt="ros2", calibration=CALIBRATION, output=tmp_path / "r.yaml", payload=tmp_path / "tool.yaml") == 0
+    params = yaml.safe_load((tmp_path / "r.yaml").read_text())
+    force = params["force_torque_sensor_broadcaster"]["ros__parameters"]["sensor_filter_chain"]["filter1"]["params"]["CoG"]["force"]
+    mass = tool["configurations"][0]["mass"]
+    assert force[2] == pytest.approx(-mass * GRAVITY_ELSEWHERE, abs=1e-12)
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_load_setup_gives_kinematics_tool_and_settings():
+    kin, tool, settings = setup.load_setup("ur5")
+    assert kin.robot.name == "ur5" and tool.names == ["A", "B", "C"] and settings.filter is not None
+
+
+def test_tare_from_python_updates_the_file_in_place(tmp_path, ur5_joints, capsys):
+    path = shutil.copy(CALIBRATION, tmp_path / "cal.yaml")
+    assert tare.run(calibration=path, recording=_recording(tmp_path / "still.csv", ur5_joints)) == 0
+    assert len(load_calibration(path).offset_history) == 1
+    assert "re-tare from 300 samples" in capsys.readouterr().out
+
+
+def test_a_run_function_raises_the_error_the_command_line_maps(tmp_path, ur5_joints):
+    from fts_calib.app import payload
+
+    one_pose = _recording(tmp_path / "one.csv", ur5_joints)
+    with pytest.raises(PayloadError, match="at least 3 orientations"):
+        payload.run(recording=one_pose, calibration=CALIBRATION, robot="ur5", output=tmp_path / "p.yaml")
+
+
+# --- the exit-code table --------------------------------------------------------------------------------------------
+
+
+def test_the_documented_exit_codes_keep_their_numbers():
+    # the README lists these numbers: scripts depend on them
+    assert {entry.code.name: int(entry.code) for entry in EXIT_CODES} == {
+        "OK": 0,
+        "CHECK_FAILED": 1,
+        "USAGE": 2,
+        "CONFIG": 3,
+        "FILE": 4,
+        "RECORDING": 5,
+        "ROBOT": 6,
+        "TOOL_CONFIGURATION": 7,
+        "EXCITATION": 8,
+        "TRAJECTORY": 9,
+        "PAYLOAD": 10,
+        "PROTOCOL": 11,
+        "ARRAY": 12,
+        "OTHER": 13,
+        "FILE_ACCESS": 14,
+        "INTERRUPTED": 130,
+    }
+
+
+def test_the_exit_codes_are_distinct_and_cover_every_error_class():
+    codes = [entry.code for entry in EXIT_CODES]
+    assert len(codes) == len(set(codes)), f"an exit code appears twice: {codes}"
+    assert {ExitCode.OK, ExitCode.CHECK_FAILED, ExitCode.USAGE, ExitCode.INTERRUPTED} <= set(codes)
+    classes = [c for c in vars(exceptions).values() if isinstance(c, type) and issubclass(c, FtsCalibError) and c is not FtsCalibError]
+    for cls in classes:
+        code = exit_code(cls.__new__(cls))
+        assert code >= 3 and code != ExitCode.OTHER, f"{cls.__name__} has no family of its own in EXIT_CODES"
+    assert exit_code(FtsCalibError("x")) == ExitCode.OTHER
+    assert exit_code(PermissionError(13, "Permission denied", "out/cal.yaml")) == ExitCode.FILE_ACCESS
+    # ResourceNotFound and RobotDataNotFound are FileNotFoundErrors too: their fts-calib family wins
+    assert exit_code(exceptions.ResourceNotFound("x", "robot", [])) == ExitCode.FILE
+    assert exit_code(exceptions.RobotDataNotFound("install it")) == ExitCode.ROBOT
+
+
+def test_error_lines_are_one_line():
+    assert error_line(PermissionError(13, "Permission denied", "out/cal.yaml")) == "cannot access out/cal.yaml: Permission denied"
+    assert error_line(FtsCalibError("first\n  second\n")) == "first second"
+
+
+def _errors(tmp_path, ur5_joints):
+    """(argv, expected code, text in the message) for a representative error of each family."""
+    tool = yaml.safe_load(resolve("paper_tool", "configs").read_text())
+    tool["configurations"][0]["mass"] = -1.0
+    (tmp_path / "bad_tool.yaml").write_text(yaml.safe_dump(tool))
+    robot = resolve("ur5", "robots").read_text().replace("parent_frame: tool0", "parent_frame: no_such_frame")
+    (tmp_path / "robot.yaml").write_text(robot)
+    (tmp_path / "a_file").write_text("")
+    no_strain_8 = _recording(tmp_path / "no_strain_8.csv", ur5_joints, rows=3, strain_columns=7)
+    still = _recording(tmp_path / "still.csv", ur5_joints)
+    not_finite = _recording(tmp_path / "nan.csv", ur5_joints, rows=30, strain="nan")
+    cal, out = str(CALIBRATION), str(tmp_path / "out.yaml")
+    ros2 = ["export", "--format", "ros2", "--calibration", cal, "-o", out]
+    unwritable = str(tmp_path / "a_file" / "c.json")  # its folder is a file
+    return [
+        (["robots", str(tmp_path / "missing.yaml")], ExitCode.FILE, "no file"),
+        ([*ros2, "--payload", str(tmp_path / "bad_tool.yaml")], ExitCode.FILE, "mass"),
+        ([*ros2, "--payload", "paper_tool", "--configuration", "Z"], ExitCode.TOOL_CONFIGURATION, "'Z'"),
+        (ros2, ExitCode.CONFIG, "--payload"),
+        (["calibrate", "--robot", "ur5", str(no_strain_8), "--quiet", "-o", out], ExitCode.RECORDING, "strain_8"),
+        (["robots", str(tmp_path / "robot.yaml")], ExitCode.ROBOT, "no_such_frame"),
+        (["tare", "--calibration", cal, str(not_finite), "-o", out], ExitCode.EXCITATION, "no still sample"),
+        (["trajectory", "--robot", "ur5", "-o", str(tmp_path / "t"), "--rate", "0"], ExitCode.TRAJECTORY, "rate=0.0 Hz"),
+        (["payload", "--calibration", cal, "--robot", "ur5", str(still), "-o", out], ExitCode.PAYLOAD, "orientations"),
+        (["export", "--format", "json", "--calibration", cal, "-o", unwritable], ExitCode.FILE_ACCESS, "cannot write"),
+    ]
+
+
+def test_each_error_family_exits_with_its_code_and_one_line(tmp_path, ur5_joints, capsys):
+    for argv, code, text in _errors(tmp_path, ur5_joints):
+        assert cli.main(argv) == code, f"fts-calib {' '.join(argv)}"
+        captured = capsys.readouterr()
+        lines = captured.err.splitlines()
+        assert len(lines) == 1, f"fts-calib {argv[0]}: expected one line on stderr, got {lines}"
+        assert lines[0].startswith(f"fts-calib {argv[0]}: error: ") and text in lines[0], lines[0]
+        assert "Traceback" not in captured.out + captured.err
+
+
+def test_usage_errors_exit_2_and_ctrl_c_130(monkeypatch, capsys):
+    with pytest.raises(SystemExit) as info:
+        cli.main(["replay", "recording.csv", "--to", "no-port"])
+    assert info.value.code == ExitCode.USAGE
+    assert "expected HOST:PORT" in capsys.readouterr().err
+
+    def interrupted(**options):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(robots, "run", interrupted)
+    assert cli.main(["robots"]) == ExitCode.INTERRUPTED
+    assert capsys.readouterr().err.splitlines() == ["fts-calib robots: interrupted"]
+
+
+# --- help ------------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("command", sorted(arguments.COMMANDS))
+def test_every_command_help_has_an_example(command, capsys):
+    with pytest.raises(SystemExit) as info:
+        cli.main([command, "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "example:" in out and f"fts-calib {command}" in out

@@ -1,0 +1,115 @@
+"""The stage layout of DESIGN.md: imports go one way, modules stay small, the API stays whole."""
+
+import ast
+import builtins
+from pathlib import Path
+
+import pytest
+
+import fts_calib
+
+PACKAGE = Path(fts_calib.__file__).resolve().parent
+#: The stages in import order: a stage imports only from stages before it (DESIGN.md, "Architecture").
+STAGES = ("core", "model", "robot", "feeds", "pipeline", "planning", "service", "sim", "app")
+#: A module has one job: a few hundred lines at most.
+MAX_LINES = 400
+
+
+def _modules() -> list[Path]:
+    return sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)
+
+
+def _dotted(path: Path) -> str:
+    parts = ("fts_calib", *path.relative_to(PACKAGE).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    """Every fts_calib module that ``path`` imports, at any depth (lazy imports included)."""
+    return _imports_of(path.read_text(encoding="utf-8"), _dotted(path), path.name == "__init__.py")
+
+
+def _imports_of(source: str, dotted: str, is_package: bool) -> list[tuple[int, str]]:
+    """(line, module) of every fts_calib import in ``source``, the text of module ``dotted``."""
+    tree = ast.parse(source)
+    here = dotted.split(".")
+    package = here if is_package else here[:-1]
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            names = [target] if node.module else [f"{target}.{a.name}" for a in node.names]
+            found += [(node.lineno, n) for n in names]
+        elif isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names]
+    return [(line, name) for line, name in found if name == "fts_calib" or name.startswith("fts_calib.")]
+
+
+def _stage(dotted: str) -> str | None:
+    parts = dotted.split(".")
+    return parts[1] if len(parts) > 1 and parts[1] in STAGES else None
+
+
+def test_every_module_lives_in_a_stage():
+    loose = [p.name for p in PACKAGE.glob("*.py") if p.name not in ("__init__.py", "_version.py")]
+    assert not loose, f"modules outside the stage folders {STAGES}: {loose}"
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_imports_go_one_way(path):
+    stage = _stage(_dotted(path))
+    if stage is None:  # fts_calib/__init__.py re-exports the public API; _version.py imports nothing
+        return
+    rank = STAGES.index(stage)
+    against = []
+    for line, name in _imports(path):
+        if name == "fts_calib._version":
+            continue
+        target = _stage(name)
+        if target is None or STAGES.index(target) > rank:  # None: the package root, which imports every stage
+            against.append(f"line {line}: {stage} imports {name}")
+    assert not against, f"{path.relative_to(PACKAGE)} imports against the order {' <- '.join(STAGES)}:\n" + "\n".join(against)
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_a_module_is_a_few_hundred_lines_at_most(path):
+    lines = len(path.read_text(encoding="utf-8").splitlines())
+    assert lines <= MAX_LINES, f"{path.relative_to(PACKAGE)} has {lines} lines (at most {MAX_LINES}): split it by job"
+
+
+def test_the_checker_sees_imports_against_the_order_even_lazy_and_relative():
+    source = "from ..app import cli\n\ndef f():\n    from ..sim.sensor import SimulatedSensor\n    from . import sensor\n"
+    found = _imports_of(source, "fts_calib.model.estimator", is_package=False)
+    assert [name for _, name in found] == ["fts_calib.app", "fts_calib.sim.sensor", "fts_calib.model.sensor"]
+    assert [_stage(name) for _, name in found] == ["app", "sim", "model"]
+
+
+def _exception_classes(tree: ast.AST, known: set[str]) -> list[tuple[int, str]]:
+    """(line, name) of the classes in ``tree`` that derive from a builtin exception or from one of ``known``."""
+    builtin = {name for name, value in vars(builtins).items() if isinstance(value, type) and issubclass(value, BaseException)}
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ClassDef):
+            bases = {b.id if isinstance(b, ast.Name) else b.attr if isinstance(b, ast.Attribute) else "" for b in node.bases}
+            if bases & (builtin | known):
+                found.append((node.lineno, node.name))
+    return found
+
+
+def test_every_exception_lives_in_core_exceptions_and_is_exported():
+    """DESIGN.md: core/ holds the exceptions, all of them; the package exports each one."""
+    home = PACKAGE / "core" / "exceptions.py"
+    defined = {name for _, name in _exception_classes(ast.parse(home.read_text(encoding="utf-8")), set())}
+    assert {"FtsCalibError", "FtsCalibWarning", "ConfigError"} <= defined
+    elsewhere = [
+        f"{path.relative_to(PACKAGE)}:{line}: {name}"
+        for path in _modules()
+        if path != home
+        for line, name in _exception_classes(ast.parse(path.read_text(encoding="utf-8")), defined)
+    ]
+    assert not elsewhere, "exception classes outside core/exceptions.py:\n" + "\n".join(elsewhere)
+    assert not defined - set(fts_calib.__all__), f"not exported by fts_calib: {sorted(defined - set(fts_calib.__all__))}"
