@@ -54,7 +54,7 @@ class TrajectoryRun:
     strain_unit: str = "raw"
 
 
-def quasi_static(result: PlanResult, filter_config: FilterConfig) -> np.ndarray:
+def predicted_still(result: PlanResult, filter_config: FilterConfig) -> np.ndarray:
     """Samples the quasi-static filter would keep.
 
     Joints slow and steady, and at least half a strain window away from any motion (the
@@ -103,7 +103,7 @@ def plan_trajectories(
         raise ValueError(f"tool '{tool.name}' has no shape for the collision checks")
     checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])
     result = plan_calibration(kin, checker, pattern, rate, min_clearance)
-    still = quasi_static(result, filter_config)
+    still = predicted_still(result, filter_config)
     g_all = kin.g_sensor(result.plan.q, tool.gravity)
     excitation = predict_excitation(
         {c.name: g_all[still] for c in tool.configurations}, tool, sensor.simulated.C_bar, sensor.simulated.D, noise_std

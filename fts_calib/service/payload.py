@@ -34,6 +34,7 @@ from ..core.exceptions import PayloadError, ShapeError
 from ..feeds.batch import SampleBatch
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration
+from ..pipeline.checks import SampleChecks
 from ..pipeline.qsfilter import QuasiStaticFilter
 from ..pipeline.settings import FilterConfig
 from ..pipeline.still import quasi_static
@@ -286,6 +287,7 @@ def identify_payload_from_recording(
         raise PayloadError(f"{path}: no usable row")
     samples = SampleBatch.concatenate(chunks)
     samples = dataclasses.replace(samples, configuration=np.zeros(len(samples), dtype=np.int64))
+    samples = samples.select(SampleChecks(kin).accept(samples))  # a NaN or a row out of order never poisons a window
     still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, None), kin, None, samples, final=True)
     estimate = identify_payload(
         calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_separation_deg=min_separation_deg

@@ -108,8 +108,11 @@ class GravityCompensator:
         np.dot(R_world_sensor.T, self.g_world, out=self._g)
         np.dot(self._weight, self._g, out=self._w)
         np.subtract(measured, self._w, out=self._w)
-        if point is not None:
-            self._w[3:] -= np.cross(point, self._w[:3])
+        if point is not None:  # M -= point x F, component by component: no temporary array
+            f, m = self._w[:3], self._w[3:]
+            m[0] -= point[1] * f[2] - point[2] * f[1]
+            m[1] -= point[2] * f[0] - point[0] * f[2]
+            m[2] -= point[0] * f[1] - point[1] * f[0]
         if frame == "sensor":
             return self._w
         if frame != "world":

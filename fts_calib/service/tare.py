@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import validation
 from ..core.exceptions import ConfigError, InsufficientExcitation
 from ..feeds.batch import SampleBatch
 from ..feeds.protocol import Strain
@@ -130,11 +131,12 @@ def tare_live(
     settings: PipelineConfig | None = None,
     on_listening: Callable[[tuple[str, int]], None] | None = None,
 ) -> TareResult:
-    """Re-tare from a live window of ``seconds`` [s] on the UDP protocol (see :mod:`fts_calib.pipeline.live`).
+    """Re-tare from a live window of ``seconds`` [s] (> 0) on the UDP protocol (see :mod:`fts_calib.pipeline.live`).
 
     ``on_listening`` is called with the bound (host, port) once the socket listens (port 0
     picks a free one), before the window starts.
     """
+    validation.positive("seconds", seconds, "s")
     settings = settings or PipelineConfig()
     receiver = UdpReceiver(host, port)
     host, port = receiver.address[:2]
@@ -154,6 +156,9 @@ def tare_live(
     finally:
         receiver.close()
     reason = f"re-tare from a live window of {seconds:g} s on udp://{host}:{port}, {_what(tool, configuration)}"
+    if not strains:
+        heard = f"{stats.received:,} datagrams, none of them strain" if stats.received else "no datagram at all"
+        raise InsufficientExcitation(0, 1, f"{heard} on udp://{host}:{port} in {seconds:g} s: is the sender running, to this port?")
     if sync is None:
         s = np.array(strains, dtype=float).reshape(len(strains), -1)
         return _apply(calibration, s, np.zeros((len(s), 6)), reason, len(s))

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import validation
 from ..core.exceptions import FtsCalibError
 from ..feeds.recording import RecordingWriter
 from ..planning.trajectory_io import TrajectoryFile
@@ -73,7 +74,9 @@ def simulate_recording(
 
     Raises:
         FtsCalibError: A trajectory's joints differ from the robot's.
+        ConfigError: A negative pause between configurations (time would go backwards).
     """
+    validation.non_negative("tool_change_s", tool_change_s, "s")
     offset = start_time
     with RecordingWriter(path, kin.joint_names) as writer:
         for traj in trajectories:

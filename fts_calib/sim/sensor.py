@@ -20,7 +20,7 @@ import numpy as np
 from ..core.arrays import as_samples
 from ..core.exceptions import FileFormatError
 from ..model.sensor import P_NULL, P_PINV
-from ..model.sensor_config import SimulationSpec, load_sensor_config
+from ..model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 
 
 @dataclass(frozen=True)
@@ -62,7 +62,15 @@ def load_simulated_sensor(path: str | Path) -> SimulatedSensor:
     Raises:
         FileFormatError: The file is malformed or has no ``simulation`` section.
     """
-    spec = load_sensor_config(path).simulated
-    if spec is None:
+    return simulated_sensor(load_sensor_config(path), path)
+
+
+def simulated_sensor(spec: SensorSpec, path: str | Path) -> SimulatedSensor:
+    """The simulated sensor of an already loaded sensor file ``path``.
+
+    Raises:
+        FileFormatError: The file has no ``simulation`` section.
+    """
+    if spec.simulated is None:
         raise FileFormatError(path, "simulation", "missing: this sensor file defines no simulated sensor")
-    return SimulatedSensor.from_spec(spec)
+    return SimulatedSensor.from_spec(spec.simulated)
