@@ -127,6 +127,7 @@ def test_the_documented_exit_codes_keep_their_numbers():
         "ARRAY": 12,
         "OTHER": 13,
         "FILE_ACCESS": 14,
+        "POOR_FIT": 15,
         "INTERRUPTED": 130,
     }
 

@@ -6,9 +6,26 @@ from fts_calib.core.exceptions import ProtocolError
 from fts_calib.feeds.protocol import MAX_DATAGRAM, End, Joints, Strain, ToolChange, decode, encode
 
 
-@pytest.mark.parametrize("message", [Joints(1.5, {"j1": 0.1, "j2": -2.0}), Strain(2.0, tuple(range(8))), ToolChange(0.0, "B"), End()])
+@pytest.mark.parametrize(
+    "message",
+    [
+        Joints(1.5, {"j1": 0.1, "j2": -2.0}),
+        Strain(2.0, tuple(range(8))),
+        ToolChange(0.0, "B"),
+        End(),
+        Joints(1.5, {"j1": 0.1}, seq=7),
+        Strain(2.0, tuple(range(8)), seq=0),
+        ToolChange(0.0, "B", seq=12),
+        End(seq=13),
+    ],
+)
 def test_round_trip(message):
     assert decode(encode(message)) == message
+
+
+def test_seq_is_optional_and_written_only_when_given():
+    assert b"seq" not in encode(End()) and decode(b'{"type": "end"}').seq is None
+    assert decode(b'{"type": "strain", "t": 1, "strain": [0,0,0,0,0,0,0,0], "seq": 41}').seq == 41
 
 
 def test_documented_examples_decode():
@@ -27,6 +44,10 @@ def test_documented_examples_decode():
         (b'{"type": "tool", "t": 1}', "malformed", "'name'"),
         (b'{"type": "torque", "t": 1}', "malformed", "unknown type 'torque'"),
         (b"x" * (MAX_DATAGRAM + 1), "oversized", f"at most {MAX_DATAGRAM}"),
+        (b'{"type": "end", "seq": -1}', "malformed", "'seq' must be an integer >= 0"),
+        (b'{"type": "end", "seq": 1.5}', "malformed", "'seq' must be an integer >= 0"),
+        (b'{"type": "end", "seq": "3"}', "malformed", "'seq' must be an integer >= 0"),
+        (b'{"type": "end", "seq": true}', "malformed", "'seq' must be an integer >= 0"),
     ],
 )
 def test_bad_datagrams(data, reason, match):

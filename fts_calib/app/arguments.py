@@ -15,9 +15,12 @@ from .exit_codes import EXIT_CODES
 def _address(text: str) -> tuple[str, int]:
     host, _, port = text.rpartition(":")
     try:
-        return (host or "127.0.0.1"), int(port)
+        number = int(port)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected HOST:PORT, e.g. 127.0.0.1:5005, got {text!r}") from None
+    if not 0 <= number <= 65535:
+        raise argparse.ArgumentTypeError(f"port {number} in {text!r} but expected 0 to 65535 (0: any free port)")
+    return (host or "127.0.0.1"), number
 
 
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
@@ -99,7 +102,10 @@ def _add_calibrate(commands) -> None:
         "calibrate from a recording",
         "Read a recording (CSV: time, joints, strain_1..8, tool), keep the quasi-static samples, accumulate the "
         "least squares and write the calibration. Prints a progress bar, then a summary: samples kept and why the "
-        "rest were dropped, rank, condition, residuals, standard errors. Exits 1 when the data cannot determine C.",
+        "rest were dropped, rank, condition, residuals, standard errors, and the fit check: the residual of each axis "
+        "in each tool configuration against the strain noise of the data. A poor fit is refused (exit 15, no file) with "
+        "its likely cause (labels permuted, centre of mass in mm or cm, a mistyped mass, a collinear tool file). Exits "
+        "1 when the data cannot determine C.",
         "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml",
     )
     cal.add_argument("recording", help="recording CSV (or .csv.gz)")
@@ -107,8 +113,14 @@ def _add_calibrate(commands) -> None:
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
     cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
     cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
-    cal.add_argument("--resume", action="store_true", help="continue from --checkpoint")
+    cal.add_argument("--resume", action="store_true", help="continue from --checkpoint (it must be of this recording)")
+    cal.add_argument("--restart", action="store_true", help="start afresh, overwriting an existing --checkpoint")
     cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
+    cal.add_argument(
+        "--accept-poor-fit",
+        action="store_true",
+        help="write the calibration even when its fit check is poor (the file says so)",
+    )
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -129,11 +141,17 @@ def _add_live(commands) -> None:
     live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
     live.add_argument("--checkpoint", help="checkpoint file (default: OUTPUT.checkpoint.json)")
     live.add_argument("--resume", action="store_true", help="continue from the checkpoint")
+    live.add_argument("--restart", action="store_true", help="start afresh, overwriting an existing checkpoint")
     live.add_argument("--latency", dest="latency_s", type=float, help="how late the joint stamps are, in s (default: the pipeline's)")
     live.add_argument(
         "--max-gap", dest="max_gap_s", type=float, help="longest joint gap interpolated across, in s (default: the pipeline's)"
     )
     live.add_argument("--idle-timeout", dest="idle_timeout_s", type=float, help="stop after this many seconds without data")
+    live.add_argument(
+        "--accept-poor-fit",
+        action="store_true",
+        help="write the calibration even when its fit check is poor (the file says so)",
+    )
     live.add_argument("--quiet", action="store_true", help="no status line")
 
 

@@ -7,11 +7,13 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from ..core.exceptions import FtsCalibError
+from ..core.exceptions import FtsCalibError, PoorFit
+from ..core.paths import check_outputs
 from ..core.text import table
 from ..model.calibration import save_calibration
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
+from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
 from .setup import load_setup
@@ -27,7 +29,9 @@ def run(
     use_filter: bool = True,
     checkpoint: str | Path | None = None,
     resume: bool = False,
+    restart: bool = False,
     joints_in_degrees: bool = False,
+    accept_poor_fit: bool = False,
     quiet: bool = False,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
@@ -40,13 +44,20 @@ def run(
         output: Calibration file to write.
         use_filter: Keep only the quasi-static samples (False: every valid one, for comparison).
         checkpoint: Checkpoint file, written every few seconds; None for none.
-        resume: Continue from ``checkpoint``.
+        resume: Continue from ``checkpoint`` (it must be of this recording).
+        restart: Start afresh over an existing ``checkpoint``; without it or ``resume``, an
+            existing checkpoint is refused (exit 3): its samples are never lost silently.
         joints_in_degrees: The joint columns are in degrees.
+        accept_poor_fit: Write the calibration even when its fit check is poor (its quality
+            records the verdict).
         quiet: No progress bar.
 
     Returns:
-        0 with a calibration written, 1 when the data cannot determine C.
+        0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
+        check refused the calibration (nothing written).
     """
+    inputs = {"the recording": recording, "the robot file": robot, "the tool file": tool, "the pipeline file": pipeline}
+    check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     recording = Path(recording)
     size = recording.stat().st_size if recording.is_file() else 1
@@ -59,15 +70,19 @@ def run(
         use_filter=use_filter,
         checkpoint=checkpoint,
         resume=resume,
+        restart=restart,
         joints_in_degrees=joints_in_degrees,
         progress=bar,
+        accept_poor_fit=accept_poor_fit,
     )
     written = None
     if result.calibration is not None:
         with writing(output):
             written = save_calibration(result.calibration, output)
     print(format_summary(result, recording, written))
-    return ExitCode.OK if result.calibration is not None else ExitCode.CHECK_FAILED
+    if result.calibration is not None:
+        return ExitCode.OK
+    return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
 
 
 class ProgressBar:
@@ -122,6 +137,18 @@ def format_counts(session: CalibrationSession) -> list[str]:
     return lines
 
 
+def format_fit(check: FitCheck) -> list[str]:
+    """Lines: the fit verdict, and the residual RMS per configuration and axis beside the expected noise."""
+    lines = [check.summary()]
+    if check.residual_rms:
+        rows = [[name, *[f"{v:.3g}" for v in rms]] for name, rms in check.residual_rms.items()]
+        rows.append(["expected", *[f"{v:.3g}" for v in check.expected]])
+        units = [f"{a} [{u}]" for a, u in zip(WRENCH_AXES, WRENCH_UNITS, strict=True)]
+        lines.append("residual RMS per configuration, and the noise the data show (through C):")
+        lines.append(table(["", *units], rows, "  "))
+    return lines
+
+
 def format_summary(result: CalibrateResult, recording: Path, output: Path | None) -> str:
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
@@ -129,13 +156,20 @@ def format_summary(result: CalibrateResult, recording: Path, output: Path | None
     lines += format_counts(result.session)
     for problem in result.problems:
         lines.append(f"  note: {problem}")
+    if isinstance(result.error, PoorFit):
+        lines += format_fit(result.error.check)
     if result.calibration is None:
-        lines.append(f"NO CALIBRATION: {result.error}")
+        if isinstance(result.error, PoorFit):
+            lines.append("NO CALIBRATION written: the fit is poor (above); fix the cause, or accept it knowingly with --accept-poor-fit")
+        else:
+            lines.append(f"NO CALIBRATION: {result.error}")
         return "\n".join(lines)
     cal, q = result.calibration, result.calibration.quality
     if q is None:  # CalibrationSession.solve always measures the fit
         raise FtsCalibError("internal error: the calibration has no fit quality")
     lines.append(f"rank {q.rank} of 7, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
+    if q.fit is not None and not isinstance(result.error, PoorFit):
+        lines += format_fit(result.session.fit_check())
     rms = zip(WRENCH_AXES, q.residual_rms, WRENCH_UNITS, strict=True)
     lines.append("residual RMS: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))
     rel = 100 * q.relative_stderr_C(cal.C)

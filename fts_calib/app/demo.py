@@ -45,7 +45,7 @@ from ..robot.load import tool_load
 from ..robot.tool import load_tool
 from ..service.validate import AxisErrors, ValidationResult, validate_recording
 from ..sim.recording import simulate_recording
-from ..sim.sensor import load_simulated_sensor
+from ..sim.sensor import simulated_sensor
 from .calibrate import format_counts
 from .exit_codes import ExitCode, writing
 from .trajectory import write_run
@@ -161,7 +161,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     vtool = load_tool(resolve("validation_tool", "configs"))
     sensor_path = resolve("sensor", "configs")
     spec = load_sensor_config(sensor_path)
-    sensor = load_simulated_sensor(sensor_path)
+    sensor = simulated_sensor(spec, sensor_path)
     pipeline = load_pipeline_config(resolve("pipeline", "configs"))
     rate = 100.0 if quick else 500.0
     pattern = SweepPattern(levels=3, stops=4, dwell=0.4) if quick else SweepPattern()
@@ -193,11 +193,12 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     kept: list[tuple[np.ndarray, ...]] = []
     result = calibrate_recording(recording, kin, tool, pipeline, on_kept=lambda t, W, s, k: kept.append((t, W, s, k)))
     if result.calibration is None:
-        raise result.error or FtsCalibError("the demo's calibration failed")  # the error: InsufficientExcitation
+        raise result.error or FtsCalibError("the demo's calibration failed")  # InsufficientExcitation or PoorFit
     calibration = result.calibration
     cal_path = save_calibration(calibration, out / "calibration.yaml")
     for line in format_counts(result.session):
         say("      " + line.replace("\n", "\n      "))
+    say("      " + result.session.fit_check().summary())
     lap("calibrate")
 
     say("[4/5] following the estimate sample by sample (paper Fig. 7) ...")

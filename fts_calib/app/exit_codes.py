@@ -24,6 +24,7 @@ from ..core.exceptions import (
     InsufficientExcitation,
     JointError,
     PayloadError,
+    PoorFit,
     ProtocolError,
     RecordingError,
     ResourceNotFound,
@@ -54,6 +55,7 @@ class ExitCode(enum.IntEnum):
     ARRAY = 12
     OTHER = 13
     FILE_ACCESS = 14
+    POOR_FIT = 15
     INTERRUPTED = 130
 
 
@@ -97,6 +99,11 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
     ),
     ExitCodeEntry(ExitCode.TOOL_CONFIGURATION, (UnknownToolConfiguration,), "a tool configuration name is not in the tool file"),
     ExitCodeEntry(ExitCode.EXCITATION, (InsufficientExcitation,), "the data cannot determine every coefficient (raised as an error)"),
+    ExitCodeEntry(
+        ExitCode.POOR_FIT,
+        (PoorFit,),
+        "the calibration does not fit its data at their noise level: refused, no file written (the diagnosis names the likely cause)",
+    ),
     ExitCodeEntry(ExitCode.TRAJECTORY, (TrajectoryError,), "planning or verifying a trajectory failed"),
     ExitCodeEntry(ExitCode.PAYLOAD, (PayloadError,), "the orientations of a payload recording cannot determine the payload"),
     ExitCodeEntry(ExitCode.PROTOCOL, (ProtocolError,), "a live-protocol datagram is not a valid message"),

@@ -5,13 +5,15 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ..core.exceptions import FtsCalibError, InsufficientExcitation
+from ..core.exceptions import FtsCalibError, InsufficientExcitation, PoorFit
+from ..core.paths import check_outputs
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import UdpReceiver
 from ..model.calibration import save_calibration
+from ..pipeline.checkpoint import check_start, live_source
 from ..pipeline.live import LiveRunner, format_stats
 from ..pipeline.session import CalibrationSession
-from .calibrate import format_counts
+from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import load_setup
 
@@ -25,9 +27,11 @@ def run(
     output: str | Path = "calibration.yaml",
     checkpoint: str | Path | None = None,
     resume: bool = False,
+    restart: bool = False,
     latency_s: float | None = None,
     max_gap_s: float | None = None,
     idle_timeout_s: float | None = None,
+    accept_poor_fit: bool = False,
     quiet: bool = False,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
@@ -39,24 +43,33 @@ def run(
         listen: (host, port) to bind; port 0 takes any free port.
         output: Calibration file to write.
         checkpoint: Checkpoint file; ``OUTPUT.checkpoint.json`` when None.
-        resume: Continue from the checkpoint.
+        resume: Continue from the checkpoint (one of a live run).
+        restart: Start afresh over an existing checkpoint; without it or ``resume``, an
+            existing checkpoint is refused (exit 3): its samples are never lost silently.
         latency_s: How late the joint stamps are, in [s]; the pipeline's when None.
         max_gap_s: Longest joint gap interpolated across, in [s]; the pipeline's when None.
         idle_timeout_s: Stop after this long without data, in [s]; None waits forever.
+        accept_poor_fit: Write the calibration even when its fit check is poor (the file
+            records the verdict).
         quiet: No status line.
 
     Returns:
-        0 with a calibration written, 1 when the data cannot determine C (the checkpoint is kept).
+        0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
+        refused it (the checkpoint is kept in both cases).
+        Ctrl-C, SIGTERM and SIGHUP end the run the same way: checkpoint and calibration written.
     """
-    kin, loaded, settings = load_setup(robot, tool, pipeline)
     checkpoint = Path(checkpoint or f"{output}.checkpoint.json")
     host, port = listen
-    source = f"live udp://{host}:{port}"
+    inputs = {"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline}
+    check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
+    check_start(checkpoint, resume, restart)
+    kin, loaded, settings = load_setup(robot, tool, pipeline)
+    source, record = f"live udp://{host}:{port}", live_source(host, port)
     if resume:
-        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source)
+        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record)
         print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
     else:
-        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source)
+        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record)
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
     sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names)
@@ -75,10 +88,16 @@ def run(
     print(format_stats(stats, sync))
     print("\n".join(format_counts(session)))
     try:
-        calibration = session.solve()
+        calibration = session.solve(accept_poor_fit=accept_poor_fit)
     except InsufficientExcitation as exc:
         print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
         return ExitCode.CHECK_FAILED
+    except PoorFit as exc:
+        print("\n".join(format_fit(exc.check)))
+        print(f"NO CALIBRATION written: the fit is poor (above); checkpoint kept in {checkpoint}")
+        print("fix the cause, or run again with --resume --accept-poor-fit to write it with the verdict")
+        return ExitCode.POOR_FIT
+    print(session.fit_check().summary())
     with writing(output):
         path = save_calibration(calibration, output)
     quality = calibration.quality

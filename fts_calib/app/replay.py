@@ -19,7 +19,7 @@ def run(
     reorder: float = 0.0,
     seed: int = 0,
 ) -> int:
-    """Send a recording's rows as live datagrams and print what was sent (``fts-calib replay``).
+    """Send a recording's rows as live datagrams, numbered by ``seq``, and print what was sent (``fts-calib replay``).
 
     Args:
         recording: Recording (CSV or CSV.gz).
@@ -39,7 +39,9 @@ def run(
     print(f"replaying {recording} to udp://{host}:{port} at speed {speed:g}...", flush=True)
     with using_udp(host, port):
         stats = replay(recording, host, port, options)
+    numbered = stats.sent + stats.dropped  # every message has its seq, the dropped ones too: the receiver counts them as lost
     print(
-        f"sent {stats.sent:,} datagrams in {stats.seconds:.1f} s ({stats.dropped:,} dropped and {stats.reordered:,} reordered on purpose)"
+        f"sent {stats.sent:,} datagrams in {stats.seconds:.1f} s, seq 0 to {numbered - 1:,} "
+        f"({stats.dropped:,} dropped and {stats.reordered:,} reordered on purpose)"
     )
     return ExitCode.OK

@@ -8,14 +8,21 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import FileFormatError
+from ..core.paths import check_outputs
 from ..core.resources import resolve
 from ..model.sensor_config import load_sensor_config
 from ..planning.trajectory_io import TrajectoryFile, read_trajectory
 from ..robot.tool import Tool
 from ..sim.recording import simulate_recording
-from ..sim.sensor import load_simulated_sensor
+from ..sim.sensor import simulated_sensor
 from .exit_codes import ExitCode, writing
 from .setup import load_setup
+
+
+def trajectory_files(trajectory: str | Path) -> list[Path]:
+    """The trajectory files a ``--trajectory`` names: a folder's ``*.csv`` and ``*.csv.gz``, or the one file."""
+    folder = Path(trajectory)
+    return sorted(folder.glob("*.csv")) + sorted(folder.glob("*.csv.gz")) if folder.is_dir() else [folder]
 
 
 def trajectories_for(tool: Tool, trajectory: str | Path) -> list[TrajectoryFile]:
@@ -29,7 +36,7 @@ def trajectories_for(tool: Tool, trajectory: str | Path) -> list[TrajectoryFile]
         FileFormatError: No trajectory file, or none for a configuration of the tool.
     """
     folder = Path(trajectory)
-    files = sorted(folder.glob("*.csv")) + sorted(folder.glob("*.csv.gz")) if folder.is_dir() else [folder]
+    files = trajectory_files(trajectory)
     if not files:
         raise FileFormatError(folder, None, "no trajectory file (*.csv, *.csv.gz) in this folder")
     found: dict[str, TrajectoryFile] = {}
@@ -73,11 +80,17 @@ def run(
 
     Returns:
         0.
+
+    Raises:
+        ConfigError: ``output`` is one of the trajectory files (or the robot, tool or sensor file).
+        OSError: ``output`` cannot be written (checked before the simulation runs).
     """
+    inputs = {f"the trajectory file {path.name}": path for path in trajectory_files(trajectory)}
+    check_outputs({"-o": output}, {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor})
     kin, loaded, _ = load_setup(robot, tool)
     sensor_path = resolve(sensor, "configs")
     spec = load_sensor_config(sensor_path)
-    simulated = load_simulated_sensor(sensor_path)
+    simulated = simulated_sensor(spec, sensor_path)
     if noise_std is not None:
         simulated = dataclasses.replace(simulated, noise_std=np.full(np.shape(simulated.noise_std), noise_std, dtype=float))
     if drift_rate is not None:

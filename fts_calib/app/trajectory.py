@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.exceptions import FtsCalibError
+from ..core.exceptions import FileFormatError, FtsCalibError
 from ..core.fileio import atomic_write_text, dump_yaml
 from ..core.resources import resolve
 from ..core.text import table
@@ -73,7 +73,14 @@ def run(
             raise FtsCalibError(f"tool '{loaded.name}' has no shape for the collision checks")
         shape = ToolShape(tool_radius or loaded.shape.radius, tool_length or loaded.shape.length)
         loaded = dataclasses.replace(loaded, shape=shape)
-    spec = load_sensor_config(resolve(sensor, "configs"))
+    sensor_path = resolve(sensor, "configs")
+    spec = load_sensor_config(sensor_path)
+    if spec.simulated is None:  # before anything is planned: the report needs the nominal model
+        message = (
+            "missing: the excitation report needs the sensor's nominal model (C or C_bar, D, noise_std); give --sensor "
+            "a file with a 'simulation' section (e.g. the shipped 'sensor')"
+        )
+        raise FileFormatError(sensor_path, "simulation", message)
     settings = load_settings(pipeline)
     noise: float | np.ndarray | None = noise_std if noise_std is not None else settings.noise_std
     if noise is None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -60,7 +61,8 @@ def run(
         max_error_percent: Largest error allowed, in [%] of full scale; None for no check.
 
     Returns:
-        0, or 1 when an error exceeds ``max_error_percent``.
+        0, or 1 when an error exceeds ``max_error_percent`` or when no sample could be
+        compared (every row skipped: the errors would be zeros that mean nothing).
     """
     kin, loaded, _ = load_setup(robot, tool)
     calibrations = list(calibrations)
@@ -76,8 +78,15 @@ def run(
         f"'{loaded.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
         f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)"
     )
-    if result.skipped:
-        print("skipped: " + ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items()))
+    skipped = ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items())
+    if skipped:
+        print("skipped: " + skipped)
+    for problem in result.problems:
+        print(f"  note: {problem}")
+    if result.samples == 0:  # zeros would read as a perfect calibration
+        why = f"every row was skipped ({skipped})" if skipped else "the recording has no usable row"
+        print(f"fts-calib validate: error: no sample was compared: {why}; nothing is validated", file=sys.stderr)
+        return ExitCode.CHECK_FAILED
     for path, errors in zip(calibrations, result.errors, strict=True):
         print(format_errors(str(path), errors))
     if result.between is not None:

@@ -49,6 +49,25 @@ class StructureError(FtsCalibError, ValueError):
         )
 
 
+class PoorFit(FtsCalibError):
+    """The data do not fit the model at the noise level they show: the calibration is refused.
+
+    Attributes:
+        check: The fit check (:class:`fts_calib.pipeline.fit.FitCheck`): verdict, residuals
+            per configuration and axis, the expected noise and the diagnosis.
+        calibration: The refused calibration (with the verdict in its quality), for a caller
+            that decides to keep it anyway.
+    """
+
+    def __init__(self, check, calibration):
+        self.check = check
+        self.calibration = calibration
+        super().__init__(
+            f"the calibration does not fit its data: {check.summary()}. No calibration written; "
+            "fix the cause, or accept it knowingly (--accept-poor-fit, accept_poor_fit=True)"
+        )
+
+
 class InsufficientExcitation(FtsCalibError):
     """The data do not determine every coefficient: the information matrix is singular.
 

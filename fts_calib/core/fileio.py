@@ -6,10 +6,11 @@ over the target: a crash leaves either the old file or the new one, never half a
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -139,8 +140,13 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise FileFormatError(path, None, "file not found") from None
+    except IsADirectoryError:
+        raise FileFormatError(path, None, "is a folder, not a YAML file") from None
     except OSError as exc:
         raise FileFormatError(path, None, f"cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:  # a binary file (or a compressed one) given for a YAML file
+        byte = exc.object[exc.start : exc.start + 1].hex()
+        raise FileFormatError(path, None, f"not a text file (byte 0x{byte} at offset {exc.start} is not UTF-8): expected YAML") from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -151,6 +157,26 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise FileFormatError(path, None, f"expected a mapping at the top level, got {type(data).__name__}")
     return data
+
+
+def check_keys(data: Mapping[str, Any], known: Iterable[str], path: str | Path, section: str | None = None) -> None:
+    """Refuse the keys of a file's mapping that the loader does not know (a typo such as ``mas``).
+
+    Args:
+        data: The mapping read from the file.
+        known: The keys the file format has.
+        path: The file, for the message.
+        section: The field the mapping was read from (e.g. 'configurations[0]'), or None for
+            the top level.
+
+    Raises:
+        FileFormatError: Some keys are unknown; the message lists them and the known keys.
+    """
+    names = list(known)
+    unknown = [str(key) for key in data if key not in names]
+    if unknown:
+        hint = "".join(f" ('{key}': did you mean '{close[0]}'?)" for key in unknown if (close := difflib.get_close_matches(key, names, 1)))
+        raise FileFormatError(path, section, f"unknown keys {unknown}{hint}; known keys: {', '.join(names)}")
 
 
 def require(data: Mapping[str, Any], key: str, path: str | Path, prefix: str = "") -> Any:

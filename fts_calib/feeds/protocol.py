@@ -2,14 +2,17 @@
 
 ::
 
-    {"type": "joints", "t": 12.345, "q": {"shoulder_pan_joint": 0.1, ...}}
-    {"type": "strain", "t": 12.346, "strain": [s1, ..., s8]}
-    {"type": "tool",   "t": 12.0,   "name": "B"}
-    {"type": "end"}
+    {"type": "joints", "t": 12.345, "q": {"shoulder_pan_joint": 0.1, ...}, "seq": 41}
+    {"type": "strain", "t": 12.346, "strain": [s1, ..., s8], "seq": 42}
+    {"type": "tool",   "t": 12.0,   "name": "B", "seq": 43}
+    {"type": "end", "seq": 44}
 
 ``t`` is the sender's clock in [s], one clock for both streams; joint readings in [rad];
-strains raw. A datagram larger than :data:`MAX_DATAGRAM` bytes, or one that is not such an
-object, raises :class:`ProtocolError`, which a receiver counts and skips.
+strains raw. ``seq`` is optional, in every message: an integer >= 0 that each sender
+increases by one per datagram it sends (all types in one sequence), so that a receiver
+counts the datagrams lost on the way (:class:`fts_calib.feeds.udp.SeqGaps`); a datagram without it is valid.
+A datagram larger than :data:`MAX_DATAGRAM` bytes, or one that is not such an object,
+raises :class:`ProtocolError`, which a receiver counts and skips.
 """
 
 from __future__ import annotations
@@ -26,31 +29,36 @@ MAX_DATAGRAM = 8192
 
 @dataclass(frozen=True)
 class Joints:
-    """Joint readings at time ``t`` [s]: joint name -> [rad]."""
+    """Joint readings at time ``t`` [s]: joint name -> [rad]; ``seq``: the sender's datagram number, or None."""
 
     t: float
     q: dict[str, float]
+    seq: int | None = None
 
 
 @dataclass(frozen=True)
 class Strain:
-    """Raw strains of the 8 bridges at time ``t`` [s]."""
+    """Raw strains of the 8 bridges at time ``t`` [s]; ``seq``: the sender's datagram number, or None."""
 
     t: float
     strain: tuple[float, ...]
+    seq: int | None = None
 
 
 @dataclass(frozen=True)
 class ToolChange:
-    """The tool configuration mounted from time ``t`` [s] on."""
+    """The tool configuration mounted from time ``t`` [s] on; ``seq``: the sender's datagram number, or None."""
 
     t: float
     name: str
+    seq: int | None = None
 
 
 @dataclass(frozen=True)
 class End:
-    """The end of the run."""
+    """The end of the run; ``seq``: the sender's datagram number, or None."""
+
+    seq: int | None = None
 
 
 Message = Joints | Strain | ToolChange | End
@@ -61,6 +69,15 @@ def _time(obj: dict) -> float:
     if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
         raise ProtocolError("malformed", f"'t' must be a finite number of seconds, got {t!r}")
     return float(t)
+
+
+def _seq(obj: dict) -> int | None:
+    seq = obj.get("seq")
+    if seq is None:
+        return None
+    if isinstance(seq, bool) or not isinstance(seq, int) or seq < 0:
+        raise ProtocolError("malformed", f"'seq' must be an integer >= 0 (the sender's datagram number), got {seq!r}")
+    return seq
 
 
 def decode(data: bytes) -> Message:
@@ -78,6 +95,7 @@ def decode(data: bytes) -> Message:
     if not isinstance(obj, dict):
         raise ProtocolError("malformed", "expected a JSON object")
     kind = obj.get("type")
+    seq = _seq(obj)
     if kind == "strain":
         values = obj.get("strain")
         if (
@@ -86,7 +104,7 @@ def decode(data: bytes) -> Message:
             or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
         ):
             raise ProtocolError("malformed", "'strain' must be a list of 8 numbers")
-        return Strain(_time(obj), tuple(float(v) for v in values))
+        return Strain(_time(obj), tuple(float(v) for v in values), seq)
     if kind == "joints":
         q = obj.get("q")
         if (
@@ -95,19 +113,20 @@ def decode(data: bytes) -> Message:
             or not all(isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) for k, v in q.items())
         ):
             raise ProtocolError("malformed", "'q' must map joint names to numbers")
-        return Joints(_time(obj), {k: float(v) for k, v in q.items()})
+        return Joints(_time(obj), {k: float(v) for k, v in q.items()}, seq)
     if kind == "tool":
         name = obj.get("name")
         if not isinstance(name, str) or not name:
             raise ProtocolError("malformed", "'name' must be a configuration name")
-        return ToolChange(_time(obj), name)
+        return ToolChange(_time(obj), name, seq)
     if kind == "end":
-        return End()
+        return End(seq)
     raise ProtocolError("malformed", f"unknown type {kind!r}; expected joints, strain, tool or end")
 
 
 def encode(message: Message) -> bytes:
-    """The datagram of a message (compact JSON)."""
+    """The datagram of a message (compact JSON); ``seq`` only when the message has one."""
+    obj: dict[str, object]
     if isinstance(message, Strain):
         obj = {"type": "strain", "t": message.t, "strain": list(message.strain)}
     elif isinstance(message, Joints):
@@ -116,4 +135,6 @@ def encode(message: Message) -> bytes:
         obj = {"type": "tool", "t": message.t, "name": message.name}
     else:
         obj = {"type": "end"}
+    if message.seq is not None:
+        obj["seq"] = message.seq
     return json.dumps(obj, separators=(",", ":")).encode("utf-8")

@@ -3,21 +3,31 @@
 Columns (header required): ``time`` [s, non-decreasing], one column per actuated joint
 named exactly as in the URDF [rad], ``strain_1`` ... ``strain_8`` [raw units], ``tool`` (a
 configuration name of the tool file). Extra columns are ignored with a notice; a missing
-one is an error that names it. A name ending in ``.gz`` is read and written compressed.
+one is an error that names it (with a hint when the file is delimited by ';' or tabs). A
+name ending in ``.gz`` is written compressed; a file is read compressed when its content
+is gzip, whatever its name (a mismatch is warned about), and a UTF-8 byte-order mark
+before the header is ignored. A compressed file that ends early (truncated) is refused:
+its last rows cannot be read.
 
 The reader keeps one block of the file in memory (8 MiB, whole lines) whatever the file's
 length. A block is parsed by pandas' C parser in one call (about five times faster than
 numpy's loadtxt, which is what lets a 2-core machine calibrate from 250,000 rows a second);
 only when that fails is it parsed line by line, so that a malformed line (a bad number, a
 missing value, a truncated last line) is skipped, counted and reported with its line and
-column while the run goes on.
+column while the run goes on. Rows with a non-finite value, a channel beyond
+``max_abs_channel`` or a time earlier than a row before them are passed on (the session's
+checks skip and count them) and noted with their line and column. The first problems
+are kept in :attr:`RecordingReader.problems` (:mod:`fts_calib.feeds.row_notes`);
+:meth:`RecordingReader.notes` ends them with how many more were found.
 """
 
 from __future__ import annotations
 
 import gzip
 import io
+import math
 import warnings
+import zlib
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -28,12 +38,15 @@ import pandas as pd
 from ..core.exceptions import FtsCalibWarning, RecordingError
 from ..core.fileio import AtomicFile, is_number
 from .batch import SampleBatch
+from .row_notes import MAX_NOTES, ProblemNotes, value_problems
 
 #: Names of the strain columns.
 STRAIN_COLUMNS = tuple(f"strain_{k}" for k in range(1, 9))
 
 #: Bytes read at a time: about 36,000 rows of a six-joint recording.
 BLOCK_BYTES = 8 << 20
+
+_GZIP_MAGIC = b"\x1f\x8b"
 
 #: Skip reasons counted by the reader.
 MALFORMED = "malformed line"
@@ -50,26 +63,35 @@ class RecordingReader:
         tool_names: Tool configuration names, in the tool's order; None to accept any name
             (indices in order of appearance, names in :attr:`tool_names`).
         block_bytes: Bytes read at a time (a chunk is the whole lines they hold).
+        max_abs_channel: Largest plausible magnitude of a channel, in raw units: a row with
+            a channel beyond it is noted (the session's checks skip it); None for no limit.
 
     Raises:
-        RecordingError: The file is missing or empty, or a required column is missing or
-            repeated (the message names it).
+        RecordingError: The file is missing, empty, not text, or a required column is
+            missing or repeated (the message names it); while iterating, the file has no
+            data row, or its compressed stream ends early.
 
     Attributes:
         skipped: Rows skipped so far, by reason.
-        problems: The first problems found, each with its line and column, for reporting.
         extra_columns: Columns present but ignored.
     """
 
     def __init__(
-        self, path: str | Path, joint_names: Sequence[str] | None, tool_names: Sequence[str] | None, block_bytes: int = BLOCK_BYTES
+        self,
+        path: str | Path,
+        joint_names: Sequence[str] | None,
+        tool_names: Sequence[str] | None,
+        block_bytes: int = BLOCK_BYTES,
+        max_abs_channel: float | None = None,
     ):
         self.path = Path(path)
+        self.max_abs_channel = math.inf if max_abs_channel is None else float(max_abs_channel)
         self.tool_codes = {name: k for k, name in enumerate(tool_names or [])}
         self._open_tools = tool_names is None
         self.block_bytes = int(block_bytes)
         self.skipped: Counter[str] = Counter()
-        self.problems: list[str] = []
+        self._notes = ProblemNotes(self.path)
+        self._last_time = -math.inf  # latest time of a valid row so far [s]
         self.unknown_tools: Counter[str] = Counter()
         self.rows_read = 0
         try:
@@ -79,10 +101,21 @@ class RecordingReader:
             raise RecordingError(self.path, None, None, "file not found") from None
         except OSError as exc:
             raise RecordingError(self.path, None, None, f"cannot read: {exc.strerror}") from None
-        self._stream = gzip.GzipFile(fileobj=self._raw) if self.path.suffix == ".gz" else self._raw
+        self.compressed = self._raw.read(2) == _GZIP_MAGIC  # the content decides, not the name
+        self._raw.seek(0)
+        if self.compressed != (self.path.suffix == ".gz"):
+            actual = "gzip-compressed" if self.compressed else "not compressed"
+            message = f"{self.path}: the file is {actual} although its name ends in '{self.path.suffix}'; read as such"
+            warnings.warn(message, FtsCalibWarning, stacklevel=2)
+        self._stream = gzip.GzipFile(fileobj=self._raw) if self.compressed else self._raw
         try:
-            header = self._stream.readline().decode("utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
+            raw_header = self._stream.readline(1 << 20)
+            header = raw_header.decode("utf-8").removeprefix("\ufeff")  # a byte-order mark (Excel's UTF-8 CSV)
+        except UnicodeDecodeError as exc:
+            byte = exc.object[exc.start : exc.start + 1].hex()
+            message = f"not a text CSV file (byte 0x{byte} at offset {exc.start} is not UTF-8): expected a comma-separated recording"
+            raise RecordingError(self.path, 1, None, message) from None
+        except (OSError, EOFError, zlib.error) as exc:
             raise RecordingError(self.path, 1, None, f"cannot read the header: {exc}") from None
         self.columns = [c.strip() for c in header.strip().split(",")]
         if joint_names is None:
@@ -101,7 +134,13 @@ class RecordingReader:
             raise RecordingError(self.path, 1, repeated[0], f"column repeated: {repeated}")
         missing = [c for c in required if c not in self.columns]
         if missing:
-            raise RecordingError(self.path, 1, missing[0], f"missing column(s) {missing}; the header has {self.columns}")
+            delimiter = next((name for d, name in ((";", "';'"), ("\t", "tabs")) if len(self.columns) == 1 and d in header), None)
+            hint = (
+                f": the file is delimited by {delimiter}, but a recording is comma-separated ('.' as the decimal mark)"
+                if delimiter
+                else f"; the header has {self.columns}"
+            )
+            raise RecordingError(self.path, 1, missing[0], f"missing column(s) {missing}{hint}")
         self.extra_columns = [c for c in self.columns if c not in required]
         if self.extra_columns:
             warnings.warn(f"{self.path}: ignoring extra columns {self.extra_columns}", FtsCalibWarning, stacklevel=2)
@@ -135,19 +174,50 @@ class RecordingReader:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    @property
+    def problems(self) -> list[str]:
+        """The first problems found, each with its line and column."""
+        return self._notes.problems
+
+    @property
+    def unlisted(self) -> int:
+        """Problems found beyond those in :attr:`problems`."""
+        return self._notes.unlisted
+
+    def notes(self) -> list[str]:
+        """The problems kept, then how many more were found (when any): for a report."""
+        return self._notes.lines()
+
     def _skip(self, reason: str, line: int, detail: str) -> None:
         self.skipped[reason] += 1
-        if len(self.problems) < 10:
-            self.problems.append(f"{self.path}, line {line}: {detail}")
+        self._notes.note(line, detail, reason)
+
+    def _read(self, size: int) -> bytes:
+        if not self.compressed:
+            return self._stream.read(size)
+        parts: list[bytes] = []  # read1 by read1: at a truncation, what came before is known
+        try:
+            while sum(map(len, parts)) < size and (part := self._stream.read1(size)):
+                parts.append(part)
+        except (EOFError, OSError, zlib.error):
+            line = self._line + sum(p.count(b"\n") for p in parts)
+            message = (
+                f"the compressed stream ends before its end marker: the file is truncated or damaged after line {line}; "
+                f"`gzip -dc {self.path.name} > recovered.csv` saves the rows before it"
+            )
+            raise RecordingError(self.path, None, None, message) from None
+        return b"".join(parts)
 
     def __iter__(self) -> Iterator[SampleBatch]:
         n_joints = len(self.joint_names)
         rest = b""
         while True:
-            data = self._stream.read(self.block_bytes)
+            data = self._read(self.block_bytes)
             if not data:
                 if rest.strip():  # a last line without a line end: kept when it is complete
                     yield from self._chunks([rest.decode("utf-8", "replace")], n_joints, fast=False, final=True)
+                if self.rows_read == 0:
+                    raise RecordingError(self.path, 2, None, "no data rows: the file has a header line and nothing after it")
                 return
             data = rest + data
             cut = data.rfind(b"\n") + 1
@@ -178,17 +248,28 @@ class RecordingReader:
             for category in np.unique(index[unknown]):  # each unknown name once, at its first row
                 rows = np.nonzero(index == category)[0]
                 name = str(categories[category]).strip()
-                if name not in self.unknown_tools and len(self.problems) < 10:
-                    self.problems.append(
-                        f"{self.path}, line {int(numbers[rows[0]])}: column 'tool': unknown tool configuration "
-                        f"'{name}' (known: {', '.join(self.tool_codes)}); its rows are skipped"
-                    )
+                if name not in self.unknown_tools:
+                    known = ", ".join(self.tool_codes)
+                    detail = f"column 'tool': unknown tool configuration '{name}' (known: {known}); its rows are skipped"
+                    self._notes.note(int(numbers[rows[0]]), detail, "tool")
                 self.unknown_tools[name] += len(rows)
             self.skipped[UNKNOWN_TOOL] += int(unknown.sum())
             keep = ~unknown
             table, codes, numbers = table[keep], codes[keep], numbers[keep]
+        self._note_values(table, numbers)
+        self._notes.flush()
         if len(table):
             yield SampleBatch(table[:, 0], table[:, 1 : 1 + n_joints], table[:, 1 + n_joints :], codes, first_line=int(numbers[0]))
+
+    def _note_values(self, table: np.ndarray, numbers: np.ndarray) -> None:
+        """Note the rows the session's checks will skip (see :func:`fts_calib.feeds.row_notes.value_problems`)."""
+        names = ["time", *self.joint_names, *STRAIN_COLUMNS]
+        n_joints, bound = len(self.joint_names), self.max_abs_channel
+        found, counts, self._last_time = value_problems(table, names, n_joints, bound, self._last_time, MAX_NOTES)
+        for row, kind, detail in found:
+            self._notes.note(int(numbers[row]), detail, kind)
+        for kind, count in counts.items():
+            self._notes.count(count - sum(1 for _, k, _ in found if k == kind), kind)
 
     def _codes(self, categories: list, index: np.ndarray) -> np.ndarray:
         """Configuration indices of rows given as (distinct names, index of each row's name)."""

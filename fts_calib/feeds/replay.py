@@ -4,14 +4,17 @@ Every row becomes a strain message; joint messages go at ``joint_rate_hz`` (ever
 default, with the row's readings) and carry stamps late by ``latency_s`` (as a joint feed
 with a constant latency would); a tool message announces each configuration when it
 starts and is repeated every second (so that a receiver restarted mid-run learns it); an
-``end`` message closes the run. ``loss`` drops that fraction of the joint and
-strain messages and ``reorder`` delays that fraction by one to five messages (seeded).
+``end`` message closes the run. Every message carries ``seq``, its number in the
+sender's sequence (0, 1, 2, ...), so that the receiver counts what the network loses.
+``loss`` drops that fraction of the joint and strain messages (after numbering them: they
+show as gaps) and ``reorder`` delays that fraction by one to five messages (seeded).
 Messages leave at their recorded times divided by ``speed`` (0: as fast as the socket
 takes them).
 """
 
 from __future__ import annotations
 
+import itertools
 import socket
 import time
 from collections.abc import Iterator
@@ -61,7 +64,8 @@ class ReplayOptions:
 
 
 def messages(path: str | Path, options: ReplayOptions) -> Iterator[tuple[float, Message]]:
-    """(recorded time [s], message) pairs of a recording, before loss and reordering."""
+    """(recorded time [s], message) pairs of a recording, before loss and reordering; ``seq`` 0, 1, 2, ..."""
+    seq = itertools.count()
     with RecordingReader(path, None, None) as reader:
         names = reader.joint_names
         current, next_joint, next_tool, last = None, -np.inf, -np.inf, 0.0
@@ -74,13 +78,13 @@ def messages(path: str | Path, options: ReplayOptions) -> Iterator[tuple[float, 
                     # announced at each change and repeated every second: a receiver that
                     # (re)starts mid-run learns the mounted configuration within a second
                     current, next_tool = tools[code], t + _TOOL_REPEAT_S
-                    yield t, ToolChange(t, current)
+                    yield t, ToolChange(t, current, next(seq))
                 if t >= next_joint:
                     next_joint = t + period if period else t
-                    yield t, Joints(t + options.latency_s, dict(zip(names, q.tolist(), strict=True)))
-                yield t, Strain(t, tuple(s.tolist()))
+                    yield t, Joints(t + options.latency_s, dict(zip(names, q.tolist(), strict=True)), next(seq))
+                yield t, Strain(t, tuple(s.tolist()), next(seq))
                 last = t
-    yield last, End()
+    yield last, End(next(seq))
 
 
 @dataclass(frozen=True)

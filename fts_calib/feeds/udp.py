@@ -2,9 +2,11 @@
 
 Datagrams are JSON messages of the live protocol (:mod:`fts_calib.feeds.protocol`): joint
 readings, strains, tool changes and the end of a run. :class:`UdpReceiver` reads them on a
-background thread (a 4 MiB socket buffer absorbs bursts); :func:`feed_datagram` decodes
-one, counts it in :class:`LiveStats` and hands it to the synchronizer. The socket binds to
-127.0.0.1 unless told otherwise; port 0 picks a free port (see ``UdpReceiver.address``).
+background thread (a 4 MiB socket buffer absorbs bursts), with the address of their sender;
+:func:`feed_datagram` decodes one, counts it in :class:`LiveStats` (the datagrams lost on
+the way too, from the optional ``seq`` numbers of each sender: :class:`SeqGaps`) and hands
+it to the synchronizer. The socket binds to 127.0.0.1 unless told otherwise; port 0 picks
+a free port (see ``UdpReceiver.address``).
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from __future__ import annotations
 import collections
 import socket
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..core.exceptions import ProtocolError
 from .protocol import End, Joints, Message, Strain, ToolChange, decode
@@ -35,7 +37,7 @@ class UdpReceiver:
         self.sock.bind((host, port))
         self.sock.settimeout(0.05)
         self.address = self.sock.getsockname()
-        self.queue: collections.deque[bytes] = collections.deque()
+        self.queue: collections.deque[tuple[bytes, object]] = collections.deque()  # (datagram, sender address)
         self.received = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="fts-calib-udp", daemon=True)
@@ -44,16 +46,20 @@ class UdpReceiver:
     def _run(self) -> None:
         while not self._stop.is_set():
             try:
-                data = self.sock.recv(65536)
+                data, sender = self.sock.recvfrom(65536)
             except TimeoutError:
                 continue
             except OSError:
                 return
-            self.queue.append(data)
+            self.queue.append((data, sender))
             self.received += 1
 
     def drain(self) -> list[bytes]:
         """Every datagram received since the last call, in arrival order."""
+        return [data for data, _ in self.drain_from()]
+
+    def drain_from(self) -> list[tuple[bytes, object]]:
+        """Every (datagram, sender address) received since the last call, in arrival order."""
         out = []
         while self.queue:
             out.append(self.queue.popleft())
@@ -64,6 +70,48 @@ class UdpReceiver:
         self._stop.set()
         self._thread.join(timeout=1.0)
         self.sock.close()
+
+
+class SeqGaps:
+    """Datagrams lost on the way, from the ``seq`` numbers of each sender.
+
+    A number above the next one expected opens a gap of the numbers skipped; one of those
+    arriving late (reordered) closes its place in the gap again. :attr:`missing` is the
+    count of numbers not received so far, over every sender. A number far below the
+    expected one (more than :attr:`window` back) is a sender that started again from 0: a
+    new sequence, not a loss. Gaps older than ``window`` numbers stay counted as lost.
+
+    Args:
+        window: How many numbers back a late datagram may fill its gap, and how far back
+            a number means a restarted sender.
+    """
+
+    def __init__(self, window: int = 4096):
+        self.window = window
+        self.missing = 0
+        self.sequenced = 0
+        self._next: dict[object, int] = {}
+        self._open: dict[object, set[int]] = {}
+
+    def observe(self, sender: object, seq: int) -> None:
+        """Count datagram number ``seq`` from ``sender`` (any hashable key, e.g. its address)."""
+        self.sequenced += 1
+        expected = self._next.get(sender)
+        if expected is None or seq < expected - self.window:  # a new sender, or one that started again
+            self._next[sender], self._open[sender] = seq + 1, set()
+            return
+        holes = self._open[sender]
+        if seq >= expected:
+            skipped = seq - expected
+            self.missing += skipped
+            if skipped:
+                holes.update(range(max(expected, seq - self.window), seq))
+            self._next[sender] = seq + 1
+            if len(holes) > 2 * self.window:  # forget gaps too old to be filled: lost for good
+                holes.difference_update([h for h in holes if h < seq - self.window])
+        elif seq in holes:
+            holes.discard(seq)
+            self.missing -= 1
 
 
 @dataclass
@@ -80,6 +128,8 @@ class LiveStats:
         ended: The run ended on an 'end' message.
         wall_s: Wall-clock time [s].
         cpu_s: CPU time of the process [s].
+        seq: The ``seq`` numbers seen, per sender: ``seq.missing`` datagrams lost on the way
+            (gaps), of the ``seq.sequenced`` that carried a number.
     """
 
     received: int = 0
@@ -91,15 +141,22 @@ class LiveStats:
     ended: bool = False
     wall_s: float = 0.0
     cpu_s: float = 0.0
+    seq: SeqGaps = field(default_factory=SeqGaps, repr=False)
+
+    @property
+    def gaps(self) -> int:
+        """Datagrams lost on the way: the ``seq`` numbers missing so far, over every sender."""
+        return self.seq.missing
 
 
-def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats) -> Message | None:
+def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, sender: object = None) -> Message | None:
     """Decode one datagram, count it and hand it to the synchronizer.
 
     Args:
         data: The datagram's bytes.
         sync: Where joint, strain and tool messages go; None to only decode and count.
-        stats: Counts to update (received, per kind, malformed, oversized, ended).
+        stats: Counts to update (received, per kind, malformed, oversized, ended, seq gaps).
+        sender: Who sent it (its address), whose ``seq`` numbers it continues.
 
     Returns:
         The message, or None for a malformed or oversized datagram (counted, skipped: never fatal).
@@ -113,6 +170,8 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats) -> M
         else:
             stats.malformed += 1
         return None
+    if message.seq is not None:
+        stats.seq.observe(sender, message.seq)
     if isinstance(message, Strain):
         stats.strain += 1
         if sync is not None:

@@ -55,6 +55,9 @@ class Quality:
         stderr_D: Standard error of every offset, in [N, N, N, N m, N m, N m]. Shape (6,).
         stderr_C: Standard error of every coefficient of C. Shape (6, 8).
         skipped: Samples skipped, by reason (e.g. ``{"non-finite strain": 3}``).
+        fit: The fit check's verdict as plain data (verdict, residual RMS per
+            configuration and axis, the expected noise, the diagnosis), or None when the
+            fit was not checked (see :mod:`fts_calib.pipeline.fit`).
     """
 
     samples_used: int
@@ -66,6 +69,7 @@ class Quality:
     stderr_D: np.ndarray
     stderr_C: np.ndarray
     skipped: Mapping[str, int] = field(default_factory=dict)
+    fit: Mapping[str, Any] | None = None
 
     def __post_init__(self):
         for name, shape in (("residual_rms", (6,)), ("stderr_C_bar", (6, 6)), ("stderr_D", (6,)), ("stderr_C", (6, 8))):
@@ -147,6 +151,7 @@ def _quality_to_dict(quality: Quality) -> dict[str, Any]:
         "stderr_C_bar": quality.stderr_C_bar,
         "stderr_D": quality.stderr_D,
         "stderr_C": quality.stderr_C,
+        **({"fit": dict(quality.fit)} if quality.fit is not None else {}),
     }
 
 
@@ -195,6 +200,7 @@ def _quality_from_dict(raw: Any, path: Path) -> Quality:
             stderr_D=read_array(require(raw, "stderr_D", path, "quality."), (6,), path, "quality.stderr_D"),
             stderr_C=read_array(require(raw, "stderr_C", path, "quality."), (6, 8), path, "quality.stderr_C"),
             skipped={str(k): int(v) for k, v in (raw.get("skipped") or {}).items()},
+            fit=dict(raw["fit"]) if isinstance(raw.get("fit"), Mapping) else None,
         )
     except (TypeError, ValueError) as exc:
         raise FileFormatError(path, "quality", str(exc)) from None

@@ -6,7 +6,8 @@ Fields: ``name``; ``strain_unit`` (text); ``full_scale`` ``{force [N], moment [N
 simulated sensor: ``C`` (6x8, must be of the form C_bar P) or ``C_bar`` (6x6), ``D`` (6),
 ``noise_std`` (one number or 8, raw units), ``null_coupling`` (2x6), ``null_offset`` (2),
 ``drift_rate`` (one number or 8, raw units per s) and ``adc`` ``{bits, gain, reference}``
-(full scale of the ADC = reference / gain, in raw units).
+(full scale of the ADC = reference / gain, in raw units). An unknown key (a typo) is
+refused with the known keys listed.
 """
 
 from __future__ import annotations
@@ -19,8 +20,14 @@ import numpy as np
 from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError, ShapeError, StructureError
-from ..core.fileio import fields_of, load_yaml, read_array, read_number, read_positive, require
+from ..core.fileio import check_keys, fields_of, load_yaml, read_array, read_number, read_positive, require
 from .sensor import c_bar_from_c, c_from_c_bar
+
+#: The keys of a sensor file and of its sections (any other is refused).
+SENSOR_FILE_KEYS = ("name", "strain_unit", "full_scale", "rate_hz", "simulation")
+FULL_SCALE_KEYS = ("force", "moment")
+SIMULATION_KEYS = ("C", "C_bar", "D", "noise_std", "null_coupling", "null_offset", "drift_rate", "adc")
+ADC_KEYS = ("bits", "gain", "reference")
 
 
 @dataclass(frozen=True)
@@ -116,6 +123,7 @@ def _per_bridge(value, path: Path, field: str) -> np.ndarray:
 def _read_simulation(raw, path: Path) -> SimulationSpec:
     if not isinstance(raw, dict):
         raise FileFormatError(path, "simulation", "expected a mapping")
+    check_keys(raw, SIMULATION_KEYS, path, "simulation")
     if "C_bar" in raw:
         C_bar = read_array(raw["C_bar"], (6, 6), path, "simulation.C_bar")
     else:
@@ -127,6 +135,7 @@ def _read_simulation(raw, path: Path) -> SimulationSpec:
     adc = raw.get("adc") or {}
     if not isinstance(adc, dict):
         raise FileFormatError(path, "simulation.adc", "expected {bits, gain, reference}")
+    check_keys(adc, ADC_KEYS, path, "simulation.adc")
     bits = read_number(adc.get("bits", 0), path, "simulation.adc.bits")
     if not bits.is_integer():  # the type of the field; its range is SimulationSpec's to check
         raise FileFormatError(path, "simulation.adc.bits", f"is {bits} but expected an integer number of bits")
@@ -151,13 +160,15 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     """Read a sensor configuration file (see the module docstring).
 
     Raises:
-        FileFormatError: A missing or malformed field; the message names file and field.
+        FileFormatError: A missing, unknown or malformed field; the message names file and field.
     """
     path = Path(path)
     data = load_yaml(path)
+    check_keys(data, SENSOR_FILE_KEYS, path)
     full = data.get("full_scale") or {}
     if not isinstance(full, dict):
         raise FileFormatError(path, "full_scale", "expected {force: N, moment: N·m}")
+    check_keys(full, FULL_SCALE_KEYS, path, "full_scale")
     # force and moment fill the six entries of SensorSpec.full_scale: checked here, by their names
     force = read_positive(full.get("force", 50.0), path, "full_scale.force")
     moment = read_positive(full.get("moment", 5.0), path, "full_scale.moment")

@@ -17,16 +17,19 @@ from typing import Protocol
 
 import numpy as np
 
-from ..core.exceptions import InsufficientExcitation
+from ..core.exceptions import InsufficientExcitation, PoorFit
+from ..core.paths import check_distinct
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
+from .checkpoint import check_start, recording_source
+from .clock import clock_checked
 from .session import CalibrationSession
 from .settings import PipelineConfig
 
 
-class Progress(Protocol):
+class ProgressSink(Protocol):
     """Where a long job reports how far it is (the command line's progress bar is one)."""
 
     total: float
@@ -56,7 +59,7 @@ class CalibrateResult:
     problems: list[str]
     rows: int
     seconds: float
-    error: InsufficientExcitation | None = None
+    error: InsufficientExcitation | PoorFit | None = None
 
 
 def calibrate_recording(
@@ -68,8 +71,10 @@ def calibrate_recording(
     checkpoint: str | Path | None = None,
     resume: bool = False,
     joints_in_degrees: bool = False,
-    progress: Progress | None = None,
+    progress: ProgressSink | None = None,
+    restart: bool = False,
     on_kept=None,
+    accept_poor_fit: bool = False,
 ) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
@@ -80,35 +85,52 @@ def calibrate_recording(
         settings: Pipeline settings; the defaults when None.
         use_filter: Keep only quasi-static samples (True) or every valid one.
         checkpoint: Checkpoint file, or None.
-        resume: Continue from ``checkpoint``.
+        resume: Continue from ``checkpoint``; it must be of this recording (the same first
+            MiB, at least as long).
         joints_in_degrees: The joint columns are in degrees (converted to rad).
         progress: A progress bar over the file's bytes, or None.
+        accept_poor_fit: Keep a calibration whose fit check is poor (its quality records the
+            verdict) instead of refusing it.
         on_kept: Passed to the session (see :class:`fts_calib.pipeline.session.CalibrationSession`).
+        restart: Start afresh over an existing ``checkpoint`` (overwriting it).
 
     Raises:
-        RecordingError: The file cannot be read at all (missing, empty, a missing column).
+        RecordingError: The file cannot be read at all (missing, no data row, a missing
+            column, a truncated .csv.gz), or its clock is not one in s for its joints
+            (:mod:`fts_calib.pipeline.clock`): refused before anything is solved or written.
+        ConfigError: ``checkpoint`` exists and neither ``resume`` nor ``restart`` is given,
+            both are, ``resume`` without a checkpoint, or ``checkpoint`` is the recording.
+        FileFormatError: ``resume`` with the checkpoint of another robot, tool or recording.
     """
     start = time.perf_counter()
     source = str(path)
-    if resume and checkpoint is not None and Path(checkpoint).exists():
-        session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source)
-    else:
-        session = CalibrationSession(kin, tool, settings, checkpoint=checkpoint, use_filter=use_filter, source=source, on_kept=on_kept)
-    with RecordingReader(path, kin.joint_names, tool.names) as reader:
-        for chunk in reader:
-            session.add_samples(dataclasses.replace(chunk, joints=np.radians(chunk.joints)) if joints_in_degrees else chunk)
+    check_start(checkpoint, resume, restart)
+    check_distinct({"--checkpoint": checkpoint}, {"the recording": path})
+    settings = settings or PipelineConfig()
+    with RecordingReader(path, kin.joint_names, tool.names, max_abs_channel=settings.checks.max_abs_channel) as reader:
+        record = None if checkpoint is None else recording_source(path)
+        if resume and checkpoint is not None and Path(checkpoint).exists():
+            session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source, source_record=record)
+        else:
+            session = CalibrationSession(
+                kin, tool, settings, checkpoint=checkpoint, use_filter=use_filter, source=source, on_kept=on_kept, source_record=record
+            )
+        chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if joints_in_degrees else c for c in reader)
+        for chunk in clock_checked(path, chunks, kin, settings.filter if use_filter else None, joints_in_degrees):
+            session.add_samples(chunk)
             if progress is not None:
                 progress.update(reader.bytes_read, reader.rows_read)
         for reason, count in reader.skipped.items():
             session.note_skipped(reason, count)
-        problems, rows = list(reader.problems), reader.rows_read
+        problems, rows = reader.notes(), reader.rows_read
     session.flush()
     if progress is not None:
         progress.update(progress.total, rows)
         progress.close()
     session.checkpoint()
+    hint = "the joint columns may be in rad already: run without --joints-in-degrees" if joints_in_degrees else ""
     try:
-        calibration, error = session.solve(), None
-    except InsufficientExcitation as exc:
+        calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint), None
+    except (InsufficientExcitation, PoorFit) as exc:
         calibration, error = None, exc
     return CalibrateResult(calibration, session, problems, rows, time.perf_counter() - start, error)

@@ -1,9 +1,13 @@
-"""Sample checks before the filter: time order, finite values, known configuration, joint limits.
+"""Sample checks before the filter: valid values, time order, known configuration, joint limits.
 
-A sample that fails a check is skipped and counted by reason; the run goes on. The time
-order is the stream's: a sample earlier than one already accepted is dropped (the one
-time-order check of the pipeline). Joint readings far beyond 2π on a revolute joint are
-taken for degrees and warned about once.
+A sample that fails a check is skipped and counted by reason; the run goes on. A value is
+valid when it is finite and, for a channel, within the plausible range
+(``checks.max_abs_channel`` of the pipeline settings): one corrupt cell (1e160) is one bad
+sample, never fed to the filter's stationarity windows, where it would make every sample
+near it look moving. The time order is the stream's: a sample earlier than one already
+accepted is dropped (the one time-order check of the pipeline). Joint readings far beyond
+2π on a revolute joint are taken for degrees and warned about once (only finite ones: an
+``inf`` is a non-finite value, not a degree).
 """
 
 from __future__ import annotations
@@ -17,13 +21,33 @@ import numpy as np
 from ..core.exceptions import FtsCalibWarning
 from ..feeds.batch import SampleBatch
 from ..robot.kinematics import Kinematics
+from .settings import DEFAULT_MAX_ABS_CHANNEL
 
 #: Skip reasons counted by the checks.
 BEFORE_CHECKPOINT = "before the checkpoint (already counted)"
 BACKWARDS = "time going backwards"
 NON_FINITE = "non-finite value"
+OUT_OF_RANGE = "channel out of range"
 UNKNOWN_TOOL = "unknown tool configuration"
 OUTSIDE_LIMITS = "outside joint limits"
+
+
+def valid_values(time: np.ndarray, joints: np.ndarray, channels: np.ndarray, max_abs_channel: float) -> tuple[np.ndarray, np.ndarray]:
+    """Which samples have finite values, and which of those have every channel in range.
+
+    Args:
+        time: Sample times in [s]. Shape (N,).
+        joints: Joint readings in [rad]. Shape (N, n_joints).
+        channels: Raw channel readings. Shape (N, n_channels).
+        max_abs_channel: Largest plausible magnitude of a channel, in raw units.
+
+    Returns:
+        ``(finite (N,) bool, in_range (N,) bool)``; ``in_range`` is False where ``finite`` is.
+    """
+    finite = np.isfinite(time) & np.all(np.isfinite(joints), axis=1) & np.all(np.isfinite(channels), axis=1)
+    with np.errstate(invalid="ignore"):
+        in_range = finite & np.all(np.abs(channels) <= max_abs_channel, axis=1)
+    return finite, in_range
 
 
 def forward_in_time(time: np.ndarray, ok: np.ndarray, last_time: float) -> np.ndarray:
@@ -46,6 +70,8 @@ class SampleChecks:
 
     Args:
         kin: Kinematics of the robot (joint limits).
+        max_abs_channel: Largest plausible magnitude of a channel reading, in raw units
+            (``checks.max_abs_channel`` of the pipeline settings).
 
     Attributes:
         skipped: Samples skipped, by reason.
@@ -53,8 +79,9 @@ class SampleChecks:
         resume_time: Samples up to this time are already in a checkpoint [s] (-inf: none).
     """
 
-    def __init__(self, kin: Kinematics):
+    def __init__(self, kin: Kinematics, max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL):
         self.kin = kin
+        self.max_abs_channel = float(max_abs_channel)
         self.skipped: Counter[str] = Counter()
         self.last_time = -math.inf
         self.resume_time = -math.inf
@@ -65,17 +92,20 @@ class SampleChecks:
         time = batch.time
         ok = time > self.resume_time
         self._count(BEFORE_CHECKPOINT, ~ok)
-        finite = np.isfinite(time) & np.all(np.isfinite(batch.joints), axis=1) & np.all(np.isfinite(batch.channels), axis=1)
+        finite, in_range = valid_values(time, batch.joints, batch.channels, self.max_abs_channel)
         self._count(NON_FINITE, ok & ~finite)
-        ok &= finite
+        self._count(OUT_OF_RANGE, ok & finite & ~in_range)
+        ok &= in_range
         forward = forward_in_time(time, ok, self.last_time)
         self._count(BACKWARDS, ok & ~forward)
         ok &= forward
         known = batch.configuration >= 0
         self._count(UNKNOWN_TOOL, ok & ~known)
         ok &= known
-        _, outside, degrees = self.kin.reading_problems(batch.joints)
-        self._count(OUTSIDE_LIMITS, ok & outside)
+        # only the samples still in: an inf or a corrupt row must not look like degrees
+        outside = np.zeros(len(time), dtype=bool)
+        _, outside[ok], degrees = self.kin.reading_problems(batch.joints[ok])
+        self._count(OUTSIDE_LIMITS, outside)
         ok &= ~outside
         if degrees and not self._warned_degrees:
             self._warned_degrees = True

@@ -3,8 +3,10 @@
 A background thread only reads datagrams (a 4 MiB socket buffer absorbs bursts); the main
 thread decodes them (:mod:`fts_calib.feeds.protocol`), pairs the two streams
 (:mod:`fts_calib.feeds.sync`) and feeds the session (:mod:`fts_calib.pipeline.session`) every 20 ms, and
-prints a status line. The run ends on an ``end`` message, Ctrl-C, SIGTERM or an optional
-idle timeout; then the calibration is written. The session checkpoints every few seconds,
+prints a status line. The run ends on an ``end`` message, Ctrl-C, SIGTERM, SIGHUP (the
+terminal closed) or an optional idle timeout; then the calibration is written. Datagrams
+lost on the way are counted from the protocol's optional ``seq`` numbers, per sender, and
+shown in the status line and the summary. The session checkpoints every few seconds,
 so ``--resume`` after a crash loses at most that interval. The socket binds to 127.0.0.1
 unless told otherwise.
 """
@@ -23,6 +25,8 @@ from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from .session import CalibrationSession
 
 _BATCH_S = 0.02  # how often paired samples go to the session [s]
+#: Signals that end a run like Ctrl-C: checkpoint and calibration written (SIGHUP: the terminal closed).
+_STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
 
 
 class LiveRunner:
@@ -64,8 +68,8 @@ class LiveRunner:
         """Ask the run to end (signal handler)."""
         self._stopping = True
 
-    def _handle(self, data: bytes) -> None:
-        feed_datagram(data, self.sync, self.stats)
+    def _handle(self, data: bytes, sender: object = None) -> None:
+        feed_datagram(data, self.sync, self.stats, sender)
 
     def _feed(self, final: bool = False) -> None:
         batch = self.sync.pop(final)
@@ -87,6 +91,8 @@ class LiveRunner:
         )
         if bad:
             text += f" | bad datagrams {bad}"
+        if self.stats.gaps:
+            text += f" | lost datagrams {self.stats.gaps}"
         if p.missing:
             text += f" | missing: {p.missing}"
         return text
@@ -110,15 +116,15 @@ class LiveRunner:
         last_data = last_feed = last_status = start
         previous = {}
         if threading.current_thread() is threading.main_thread():
-            previous = {sig: signal.signal(sig, self.stop) for sig in (signal.SIGTERM,)}
+            previous = {sig: signal.signal(sig, self.stop) for sig in _STOP_SIGNALS}
         try:
             while not self._stopping and not self.stats.ended:
-                datagrams = self.receiver.drain()
+                datagrams = self.receiver.drain_from()
                 now = time.monotonic()
                 if datagrams:
                     last_data = now
-                    for data in datagrams:
-                        self._handle(data)
+                    for data, sender in datagrams:
+                        self._handle(data, sender)
                         if self.stats.ended:
                             break
                 else:
@@ -138,8 +144,8 @@ class LiveRunner:
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
-        for data in self.receiver.drain():  # whatever arrived with the end
-            self._handle(data)
+        for data, sender in self.receiver.drain_from():  # whatever arrived with the end
+            self._handle(data, sender)
         self._feed(final=True)
         self.session.flush()
         self.session.checkpoint()
@@ -154,10 +160,17 @@ def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
     """Message counts and CPU use of a live run, one line each."""
     lines = [
         f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
-        f"{stats.malformed} malformed and {stats.oversized} oversized skipped; "
+        f"{stats.malformed} malformed and {stats.oversized} oversized skipped, {_lost(stats)}; "
         f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
         f"({100 * stats.cpu_s / max(stats.wall_s, 1e-9):.0f} % of one core)"
     ]
     if sync.dropped:
         lines.append("strain samples not paired: " + ", ".join(f"{r}: {n:,}" for r, n in sync.dropped.items()))
     return "\n".join(lines)
+
+
+def _lost(stats: LiveStats) -> str:
+    """The datagrams lost on the way, in words: counted from ``seq``, or not measurable without it."""
+    if not stats.seq.sequenced:
+        return "losses not counted (no datagram with a seq number)"
+    return f"{stats.gaps:,} lost on the way (gaps in seq)"

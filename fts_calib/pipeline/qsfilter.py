@@ -31,7 +31,10 @@ fail both joint rules, and the strain and dynamic rules count only samples whose
 were still.
 
 The windowed standard deviations use running sums restarted every block of samples, so
-their rounding error stays at the level of one window whatever the length of the feed.
+their rounding error stays at the level of one window whatever the length of the feed,
+about values centred on their median, so that one wild reading spoils only the windows
+near it. (Readings beyond the plausible range never get here: the session's checks skip
+them.)
 """
 
 from __future__ import annotations
@@ -92,7 +95,9 @@ def windowed_std(values: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.
     n, width = values.shape
     if n == 0 or len(left) == 0:
         return np.zeros((len(left), width))
-    y = values - values.mean(axis=0)
+    # centred on the median, not the mean: one wild value (1e8 among readings of 1) then spoils the
+    # sums of its own block only, where a mean would carry it into every window's cancellation
+    y = values - np.median(values, axis=0)
     block = int(max(1, np.max(right - left + 1)))  # a window spans at most two blocks
     padded = np.zeros((-(-n // block) * block, width))
     padded[:n] = y
@@ -320,8 +325,10 @@ class QuasiStaticFilter:
         elif self.noise_floor is None:
             threshold = np.full(channels.shape[1], -1.0)  # no still sample at all: nothing is known to be stationary
         else:
-            # a tiny absolute floor keeps noiseless (simulated) data from failing on rounding
-            threshold = np.maximum(settings.strain_std_factor * self.noise_floor, 1e-9 * np.max(np.abs(channels)))
+            # a tiny absolute floor keeps noiseless (simulated) data from failing on rounding; at the scale
+            # of the typical reading (a median: one wild value must not loosen the threshold of all)
+            scale = float(np.max(np.median(np.abs(channels), axis=0)))
+            threshold = np.maximum(settings.strain_std_factor * self.noise_floor, 1e-9 * scale)
         strain_ok = np.all(std <= threshold, axis=1)
         # a moving sample is counted by the joint rules only: its strain was not looked at
         self.rejected["joint speed"] += int((~speed_ok).sum())

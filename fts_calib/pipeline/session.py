@@ -1,7 +1,7 @@
 """A calibration session: samples in, a calibration out, for recordings, live feeds and controllers.
 
-Data flow, one way, one :class:`SampleBatch` at a time: checks (time order, finite values,
-known tool configuration, joint limits; :mod:`fts_calib.pipeline.checks`) -> quasi-static
+Data flow, one way, one :class:`SampleBatch` at a time: checks (finite values in range, time
+order, known tool configuration, joint limits; :mod:`fts_calib.pipeline.checks`) -> quasi-static
 filter decisions from joint rates and strain stationarity -> the sensor motion and the
 tool's load (:func:`fts_calib.robot.load.tool_load`, the only kinematics) -> the filter's
 dynamic rule -> online least squares on the static wrench (paper eqs 12-18).
@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, ShapeError
+from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
 from ..feeds.batch import SampleBatch
 from ..model.calibration import Calibration
 from ..model.estimator import OnlineEstimator
@@ -41,6 +41,7 @@ from ..robot.tool import Tool
 from .advice import missing_words
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
+from .fit import FitCheck, check_fit, fit_rows
 from .qsfilter import QuasiStaticFilter
 from .settings import PipelineConfig
 from .still import quasi_static
@@ -102,6 +103,8 @@ class CalibrationSession:
         on_kept: Called with ``(time (k,), w_sensor (k, 6), strain (k, 8), configuration
             indices (k,))`` for the samples entering the least squares, in order (e.g. to plot
             the convergence); None for nothing.
+        source_record: What the checkpoint records of the source, to resume only with it
+            (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
     """
 
     def __init__(
@@ -114,19 +117,22 @@ class CalibrationSession:
         source: str = "",
         clock: Callable[[], float] = _time.monotonic,
         on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+        source_record: dict | None = None,
     ):
         self.kin = kin
         self.tool = tool
         self.settings = settings or PipelineConfig()
         self.checkpoint_path = Path(checkpoint) if checkpoint else None
         self.source = source
+        self.source_record = source_record
         self.estimator = OnlineEstimator()
         self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous, tool) if use_filter else None
-        self.checks = SampleChecks(kin)
+        self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel)
         n = len(tool.configurations)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
         self._directions = np.zeros((n, 4, 4))  # sum of [u; 1][u; 1]^T per configuration, u = g / |g|
+        self._fit_sums = np.zeros((n, 10, 10))  # sum of y y^T per configuration, y = [g; P Delta; 1] (fit checks)
         self._codes = {name: k for k, name in enumerate(tool.names)}
         self._staged: list[tuple] = []
         self._clock = clock
@@ -150,8 +156,11 @@ class CalibrationSession:
             configuration: Tool configuration name.
         """
         readings, _ = self.kin.readings(joints)
+        channels = np.array(strain, dtype=float)  # a copy: a controller may refill its buffer for the next tick
+        if channels.shape != (8,):
+            raise ShapeError(f"strain.shape={channels.shape} but expected (8,)")
         code = self._codes.get(configuration, -1)
-        self._staged.append((float(t), readings[0], np.asarray(strain, dtype=float).reshape(-1), code))
+        self._staged.append((float(t), readings[0].copy(), channels, code))
         if len(self._staged) >= _STAGE:
             self._flush_staged()
 
@@ -222,9 +231,12 @@ class CalibrationSession:
             self._on_kept(kept.time, W, kept.channels, codes)
         self.kept += np.bincount(codes, minlength=len(self.kept))
         unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
+        rows = fit_rows(g, kept.channels)
         for c in np.unique(codes):
-            u = unit[codes == c]
+            mine = codes == c
+            u = unit[mine]
             self._directions[c] += u.T @ u
+            self._fit_sums[c] += rows[mine].T @ rows[mine]
 
     def flush(self) -> None:
         """Decide the samples the filter still holds (call when the stream ends)."""
@@ -256,11 +268,31 @@ class CalibrationSession:
             last_time=None if last == -math.inf else last,
         )
 
-    def solve(self) -> Calibration:
-        """The calibration from everything kept so far.
+    def fit_check(self, hint: str = "") -> FitCheck:
+        """Whether the kept samples fit the tool's model at the noise level of the data.
+
+        The noise is the filter's noise floor (the strain scatter of the still windows);
+        without the filter, or with a fixed strain threshold, none is measured and the
+        verdict is 'unchecked'. See :mod:`fts_calib.pipeline.fit`.
+
+        Args:
+            hint: Words added to a poor fit's diagnosis when no alternative explains it.
+        """
+        noise = None if self.filter is None else self.filter.noise_floor
+        return check_fit(self.tool, self._fit_sums, self.kept, noise, hint)
+
+    def solve(self, accept_poor_fit: bool = False, hint: str = "") -> Calibration:
+        """The calibration from everything kept so far, with its fit check in the quality.
+
+        Args:
+            accept_poor_fit: Return a calibration whose fit is poor (its quality records the
+                verdict) instead of raising :class:`PoorFit`.
+            hint: See :meth:`fit_check`.
 
         Raises:
             InsufficientExcitation: Rank below 7; the message says what is missing, in words.
+            PoorFit: The data do not fit the model (and ``accept_poor_fit`` is False); it
+                carries the check, with the likely cause, and the refused calibration.
         """
         self._flush_staged()
         try:
@@ -269,8 +301,12 @@ class CalibrationSession:
             raise InsufficientExcitation(exc.rank, exc.missing, missing_words(self.tool, self.kept, self._directions)) from None
         if calibration.quality is None:  # the estimator always measures the fit
             raise FtsCalibError("the estimator returned a calibration without its quality")
-        quality = replace(calibration.quality, samples_seen=self.seen, skipped=self.all_skipped())
-        return replace(calibration, quality=quality, provenance={**calibration.provenance, **self._provenance()})
+        check = self.fit_check(hint)
+        quality = replace(calibration.quality, samples_seen=self.seen, skipped=self.all_skipped(), fit=check.as_dict())
+        calibration = replace(calibration, quality=quality, provenance={**calibration.provenance, **self._provenance()})
+        if not check.ok and not accept_poor_fit:
+            raise PoorFit(check, calibration)
+        return calibration
 
     def _provenance(self) -> dict:
         robot, mount = self.kin.robot, self.kin.robot.sensor
@@ -304,12 +340,14 @@ class CalibrationSession:
         state = {
             "robot": self.kin.robot.name,
             "tool": self.tool.name,
+            "source": self.source_record,
             "configurations": self.tool.names,
             "estimator": self.estimator.state(),
             "kept": self.kept.tolist(),
             "seen": self.seen,
             "skipped": dict(self.checks.skipped),
             "directions": self._directions.tolist(),
+            "fit_sums": self._fit_sums.tolist(),
             "last_time": None if last == -math.inf else last,
             "filter": None if self.filter is None else self.filter.state(),
         }
@@ -325,21 +363,29 @@ class CalibrationSession:
         settings: PipelineConfig | None = None,
         source: str = "",
         clock: Callable[[], float] = _time.monotonic,
+        source_record: dict | None = None,
     ) -> CalibrationSession:
         """A session continuing from a checkpoint; samples up to its last time are skipped.
 
+        The arguments are those of :class:`CalibrationSession`; the checkpoint must be of
+        ``source_record`` (None: not checked).
+
         Raises:
-            FileFormatError: Not a checkpoint, or one of another robot or tool.
+            FileFormatError: Not a checkpoint, or one of another robot, tool or source.
         """
         path = Path(checkpoint)
-        state = read_checkpoint(path, kin.robot.name, tool)
-        session = cls(kin, tool, settings, checkpoint=path, use_filter=state.get("filter") is not None, source=source, clock=clock)
+        state = read_checkpoint(path, kin.robot.name, tool, source_record)
+        record = source_record if source_record is not None else state.get("source")
+        use_filter = state.get("filter") is not None
+        session = cls(kin, tool, settings, checkpoint=path, use_filter=use_filter, source=source, clock=clock, source_record=record)
         try:
             session.estimator = OnlineEstimator.from_state(state["estimator"])
             session.kept = np.array(state["kept"], dtype=np.int64)
             session.seen = int(state["seen"])
             session.checks.skipped = Counter({str(k): int(v) for k, v in state["skipped"].items()})
             session._directions = np.array(state["directions"], dtype=float)
+            if "fit_sums" in state:
+                session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
         if state.get("last_time") is not None:

@@ -12,8 +12,17 @@ measured on still samples), and when the dynamic part of the tool's wrench is at
 interpolates across; ``latency_s`` [s], added to joint times to align them with strain
 times; ``checkpoint_interval_s`` [s], how often the session's accumulators are saved.
 
+``checks``: ``max_abs_channel`` [raw units], the largest plausible magnitude of a channel
+reading (default 1e9, above the counts of a 24-bit ADC): a sample with a channel beyond it
+is a bad sample, skipped and counted as "channel out of range" by the sample checks, so
+that one corrupt value never reaches the filter's stationarity windows. Lower it to the
+sensor's range to catch smaller glitches; raise it for a sensor that delivers larger raw
+numbers (e.g. 32-bit ADC counts).
+
 ``design``: ``noise_std``, the strain noise per bridge [raw units] assumed by the
 excitation report of planned trajectories (default: the sensor file's).
+
+An unknown section or key (a typo) is refused with the known ones listed.
 """
 
 from __future__ import annotations
@@ -23,7 +32,14 @@ from pathlib import Path
 
 from ..core import validation
 from ..core.exceptions import ConfigError, FileFormatError
-from ..core.fileio import fields_of, load_yaml, read_number
+from ..core.fileio import check_keys, fields_of, load_yaml, read_number
+
+#: Default of ``checks.max_abs_channel`` [raw units]: larger than any reading of a sensor
+#: delivering mV/V, N or 24-bit ADC counts (2^23 = 8.4e6), far below a corrupt cell (1e160).
+DEFAULT_MAX_ABS_CHANNEL = 1e9
+
+#: The sections of a pipeline settings file.
+SECTIONS = ("filter", "live", "checks", "design")
 
 
 @dataclass(frozen=True)
@@ -72,12 +88,23 @@ class LiveConfig:
 
 
 @dataclass(frozen=True)
+class ChecksConfig:
+    """Sample-check settings (see the module docstring)."""
+
+    max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL  # [raw units]
+
+    def __post_init__(self):
+        object.__setattr__(self, "max_abs_channel", validation.positive("checks.max_abs_channel", self.max_abs_channel))
+
+
+@dataclass(frozen=True)
 class PipelineConfig:
     """All pipeline settings.
 
     Attributes:
         filter: Quasi-static filter.
         live: Live feeds.
+        checks: Sample checks (plausible channel range).
         noise_std: Strain noise per bridge for experiment design [raw units], or None for
             the sensor file's.
     """
@@ -85,6 +112,7 @@ class PipelineConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
     live: LiveConfig = field(default_factory=LiveConfig)
     noise_std: float | None = None
+    checks: ChecksConfig = field(default_factory=ChecksConfig)
 
     def __post_init__(self):
         if self.noise_std is not None:
@@ -99,18 +127,13 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
     """
     path = Path(path)
     data = load_yaml(path)
-    unknown = sorted(set(data) - {"filter", "live", "design"})
-    if unknown:
-        raise FileFormatError(path, None, f"unknown sections {unknown}; expected filter, live, design")
+    check_keys(data, SECTIONS, path)
 
     def section(name: str, cls):
         raw = data.get(name) or {}
         if not isinstance(raw, dict):
             raise FileFormatError(path, name, "expected a mapping")
-        known = set(cls.__dataclass_fields__)
-        bad = sorted(set(raw) - known)
-        if bad:
-            raise FileFormatError(path, name, f"unknown keys {bad}; expected {sorted(known)}")
+        check_keys(raw, cls.__dataclass_fields__, path, name)
         values: dict[str, float | None] = {}
         for key, value in raw.items():
             auto = key == "max_strain_std" and value == "auto"
@@ -119,9 +142,15 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
             return cls(**values)
 
     design = data.get("design") or {}
-    noise = design.get("noise_std") if isinstance(design, dict) else None
-    filter_config, live = section("filter", FilterConfig), section("live", LiveConfig)
+    if not isinstance(design, dict):
+        raise FileFormatError(path, "design", "expected a mapping")
+    check_keys(design, ("noise_std",), path, "design")
+    noise = design.get("noise_std")
+    filter_config, live, checks = section("filter", FilterConfig), section("live", LiveConfig), section("checks", ChecksConfig)
     with fields_of(path):
         return PipelineConfig(
-            filter=filter_config, live=live, noise_std=None if noise is None else read_number(noise, path, "design.noise_std")
+            filter=filter_config,
+            live=live,
+            noise_std=None if noise is None else read_number(noise, path, "design.noise_std"),
+            checks=checks,
         )

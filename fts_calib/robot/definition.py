@@ -15,7 +15,8 @@ is left out, e.g. a gripper the sensor replaces; ``srdf``: an SRDF, path or
 the YAML file).
 
 Angles may be written as numbers or as simple expressions of pi: ``pi/2``, ``-pi``,
-``3*pi/4``.
+``3*pi/4``; a sensor ``rpy`` beyond ±2π is refused as degrees. An unknown key (a typo) is
+refused with the known keys listed.
 
 This module only reads and checks the file; joint and frame names are checked against the
 URDF by :class:`fts_calib.robot.kinematics.Kinematics`.
@@ -35,7 +36,7 @@ import numpy as np
 from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError
-from ..core.fileio import fields_of, load_yaml, read_number, require
+from ..core.fileio import check_keys, fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir
 
 #: Prefix of URDF paths inside the example-robot-data package.
@@ -45,6 +46,12 @@ ROBOT_DATA_PREFIX = "example-robot-data:"
 DEFAULT_VELOCITY_FRACTION = 0.5
 DEFAULT_ACCELERATION = 2.0  # [rad/s^2]
 DEFAULT_JERK = 15.0  # [rad/s^3]
+
+#: The keys of a robot definition and of its sections (any other is refused: a typo is never ignored).
+ROBOT_KEYS = ("name", "urdf", "sensor", "sweep_joints", "home", "locked_joints", "limits", "collision", "package_dirs")
+SENSOR_KEYS = ("parent_frame", "xyz", "rpy", "name")
+COLLISION_KEYS = ("ignore_links", "srdf", "floor_z")
+LIMIT_KEYS = ("velocity_fraction", "velocity", "acceleration", "jerk")
 
 _PI_EXPR = re.compile(r"^\s*([+-])?\s*(?:(\d+(?:\.\d*)?)\s*\*\s*)?pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
 
@@ -91,7 +98,14 @@ class SensorMount:
     def __post_init__(self):
         owner = f"sensor mount on '{self.parent_frame}'"
         object.__setattr__(self, "xyz", frozen(validation.finite_array("xyz", as_matrix(self.xyz, (3,), "xyz"), owner)))
-        object.__setattr__(self, "rpy", frozen(validation.finite_array("rpy", as_matrix(self.rpy, (3,), "rpy"), owner)))
+        rpy = validation.finite_array("rpy", as_matrix(self.rpy, (3,), "rpy"), owner)
+        if np.any(np.abs(rpy) > 2 * math.pi + 1e-9):  # no mount needs more than a turn: these are degrees
+            reason = (
+                f"is {rpy.tolist()} rad, beyond ±2π: it looks like degrees; write the angles in rad, "
+                f"e.g. {[round(float(a), 4) for a in np.radians(rpy)]} or pi/2"
+            )
+            raise ConfigError("rpy", rpy.tolist(), "angles in rad within ±2π", "rad", owner, reason=reason)
+        object.__setattr__(self, "rpy", frozen(rpy))
 
 
 @dataclass(frozen=True)
@@ -237,9 +251,7 @@ def _per_joint(value: Any, path: Path, field_name: str, default: float | None) -
 
 def _read_limits(raw: Any, path: Path) -> LimitSpec:
     raw = _mapping(raw, path, "limits")
-    unknown = sorted(set(raw) - {"velocity_fraction", "velocity", "acceleration", "jerk"})
-    if unknown:
-        raise FileFormatError(path, "limits", f"unknown keys {unknown}; expected velocity_fraction, velocity, acceleration, jerk")
+    check_keys(raw, LIMIT_KEYS, path, "limits")
     fraction = raw.get("velocity_fraction", DEFAULT_VELOCITY_FRACTION)
     with fields_of(path, "limits."):
         return LimitSpec(
@@ -269,18 +281,20 @@ def load_robot(path: str | Path) -> RobotDefinition:
     """Read and check a robot definition file (see the module docstring).
 
     Raises:
-        FileFormatError: A missing or malformed field, or a URDF that does not exist; the
-            message names the file and the field.
+        FileFormatError: A missing, unknown or malformed field (a sensor ``rpy`` in degrees),
+            or a URDF that does not exist; the message names the file and the field.
         RobotDataNotFound: The URDF is in example-robot-data, which is not installed.
     """
     path = Path(path)
     data = load_yaml(path)
+    check_keys(data, ROBOT_KEYS, path)
     base = path.resolve().parent
     urdf_spec = str(require(data, "urdf", path))
     urdf, package_dirs = resolve_urdf(urdf_spec, base, path)
     sensor_raw = require(data, "sensor", path)
     if not isinstance(sensor_raw, Mapping):
         raise FileFormatError(path, "sensor", "expected a mapping with parent_frame, xyz and rpy")
+    check_keys(sensor_raw, SENSOR_KEYS, path, "sensor")
     parent_frame = str(require(sensor_raw, "parent_frame", path, "sensor."))
     xyz = _vector3(sensor_raw.get("xyz", [0, 0, 0]), path, "sensor.xyz", angles=False)
     rpy = _vector3(sensor_raw.get("rpy", [0, 0, 0]), path, "sensor.rpy", angles=True)
@@ -293,6 +307,7 @@ def load_robot(path: str | Path) -> RobotDefinition:
         sweep = (sweep[0], sweep[1])
     home = _angles(data["home"], path, "home") if data.get("home") is not None else None
     collision = _mapping(data.get("collision"), path, "collision")
+    check_keys(collision, COLLISION_KEYS, path, "collision")
     ignore = collision.get("ignore_links") or []
     if not isinstance(ignore, list):
         raise FileFormatError(path, "collision.ignore_links", f"expected a list of link names, got {ignore!r}")

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +27,9 @@ from ..core.arrays import frozen
 from ..core.exceptions import ConfigError
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration
-from ..pipeline.checks import BACKWARDS, NON_FINITE, forward_in_time
+from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, forward_in_time, valid_values
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
+from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL
 from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
 from ..robot.tool import Tool
@@ -71,7 +72,7 @@ class ValidationResult:
     """What ``validate`` measured.
 
     Attributes:
-        samples: Samples compared.
+        samples: Samples compared (0: the errors are zeros and mean nothing).
         skipped: Rows or samples not compared, by reason.
         errors: Per calibration, its errors against the expected wrench.
         between: The first calibration against the second, or None.
@@ -79,6 +80,7 @@ class ValidationResult:
         time: Times of the plotted samples [s], shape (M,).
         expected: Expected wrench at those samples, shape (M, 6).
         measured: Per calibration, the measured wrench at those samples, (M, 6) each.
+        problems: The first problems of the recording, with their line and column.
     """
 
     samples: int
@@ -89,6 +91,7 @@ class ValidationResult:
     time: np.ndarray
     expected: np.ndarray
     measured: list[np.ndarray]
+    problems: list[str] = field(default_factory=list)
 
 
 class _Errors:
@@ -152,7 +155,13 @@ def expected_wrench(
 
 
 def validate_recording(
-    path: str | Path, kin: Kinematics, tool: Tool, calibrations: Sequence[Calibration], full_scale: np.ndarray, dynamic: bool = True
+    path: str | Path,
+    kin: Kinematics,
+    tool: Tool,
+    calibrations: Sequence[Calibration],
+    full_scale: np.ndarray,
+    dynamic: bool = True,
+    max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL,
 ) -> ValidationResult:
     """Compare measured and expected wrenches over a recording (see the module docstring).
 
@@ -163,6 +172,8 @@ def validate_recording(
         calibrations: One or two calibrations.
         full_scale: Full scale per axis [N, N, N, N m, N m, N m], shape (6,).
         dynamic: Include the moving tool's dynamics in the expected wrench.
+        max_abs_channel: Largest plausible magnitude of a channel, in raw units: a sample
+            beyond it is skipped as a bad sample (``checks.max_abs_channel``).
 
     Raises:
         RecordingError: The recording cannot be read (missing, empty, a missing column).
@@ -204,11 +215,12 @@ def validate_recording(
         parts = [p for p in parts if p is not None]
         return tuple(np.concatenate(columns) for columns in zip(*parts, strict=True))
 
-    with RecordingReader(path, kin.joint_names, tool.names) as reader:
+    with RecordingReader(path, kin.joint_names, tool.names, max_abs_channel=max_abs_channel) as reader:
         for chunk in reader:
             t, q, s, k = chunk.time, chunk.joints, chunk.channels, chunk.configuration
-            ok = np.isfinite(t) & np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(s), axis=1)
-            skip(NON_FINITE, int((~ok).sum()))
+            finite, ok = valid_values(t, q, s, max_abs_channel)
+            skip(NON_FINITE, int((~finite).sum()))
+            skip(OUT_OF_RANGE, int((finite & ~ok).sum()))
             forward = ok & forward_in_time(t, ok, last_time)
             skip(BACKWARDS, int((ok & ~forward).sum()))
             if not forward.any():
@@ -229,6 +241,7 @@ def validate_recording(
                 waiting = join(waiting, new)
         for reason, count in reader.skipped.items():
             skip(reason, count)
+        problems = reader.notes()
     if waiting is not None and len(waiting[0]):
         rows = join(context, waiting)
         compare(rows, 0 if context is None else len(context[0]), len(rows[0]))
@@ -242,4 +255,5 @@ def validate_recording(
         time=time,
         expected=expected,
         measured=measured,
+        problems=problems,
     )

@@ -1,0 +1,283 @@
+r"""Fit checks after every solve: do the data fit the model, at the noise level they show?
+
+A calibration always fits *something*; the check asks whether the residual of each wrench
+axis, within each tool configuration, is what the strain noise measured in the same data
+explains. Per configuration ``c`` the session keeps the sums of ``y y^T`` with
+``y = [g_sensor; P Delta; 1]`` (10 x 10), so any hypothesis about the tool (its wrench
+matrices ``M_c = m_c [I; [c_c]x]``, eqs 17-18) is solved and judged without reading the
+data again:
+
+.. math::
+
+    [\bar C, D] = \Big(\sum_c M_c S_{gx,c}\Big)\Big(\sum_c S_{xx,c}\Big)^{-1}, \qquad
+    \mathrm{RSS}_c = \mathrm{diag}\big(M_c S_{gg,c} M_c^T - 2\,\Theta S_{gx,c}^T M_c^T
+    + \Theta S_{xx,c} \Theta^T\big)
+
+The expected residual is the strain noise through C, ``sigma_W = sqrt(diag(C Sigma C^T))``
+with ``Sigma`` the filter's noise floor per bridge (the scatter of the still windows), or
+a floor of ``1e-6`` of the tool's weight (and of its moment ``m g |c|``) where the noise
+is below it (noiseless or quantized data). A fit is *consistent* when every ratio
+``rms_c / sigma_W`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap
+alternatives are tried on the same sums: configuration labels permuted, centres of mass
+written in mm or cm, one configuration's mass mistyped, and a collinear tool file (which
+no strain data can fit when the mounted tool was not collinear). The first that fits is
+named in the diagnosis. Two mistakes scale C without leaving a residual, so their values
+are checked instead: a centre of mass beyond 1 m (mm or cm for m) and a gravity outside
+9.7-9.9 m/s^2.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model.sensor import WRENCH_AXES, P
+from ..robot.tool import Tool
+from ..robot.wrench import wrench_matrix
+
+#: Largest accepted ratio of a configuration's residual RMS to the expected noise, per axis.
+#: A consistent fit over hundreds of samples gives 1 +- a few %: 3 leaves room for the
+#: unmodelled dynamics the filter lets through, wrong data give 1e3 to 1e7.
+MAX_RATIO = 3.0
+#: Floor of the expected residual, relative to the tool's weight (forces) and moment (moments).
+RELATIVE_FLOOR = 1e-6
+#: Largest plausible distance of a calibration tool's centre of mass from the sensor, in [m].
+MAX_COM_M = 1.0
+#: Smallest distance a unit correction may bring it to, in [m] (below, the unit is not guessed).
+MIN_COM_M = 0.005
+#: A typical calibration tool's centre of mass distance, in [m]: picks mm or cm when both are plausible.
+TYPICAL_COM_M = 0.1
+#: The range accepted for the magnitude of gravity, in [m/s^2] (9.78 to 9.83 on Earth's surface).
+GRAVITY_RANGE = (9.7, 9.9)
+#: Tool configurations up to which every permutation of the labels is tried.
+MAX_PERMUTED = 4
+#: Mass factors tried for one configuration (0.01x to 100x).
+_MASS_FACTORS = np.logspace(-2, 2, 161)
+
+
+@dataclass(frozen=True)
+class FitCheck:
+    """The verdict on a fit.
+
+    Attributes:
+        verdict: 'consistent', 'poor', or 'unchecked' (no noise level was measured).
+        max_ratio: The largest residual-to-noise ratio over axes and configurations.
+        residual_rms: Per configuration name, the residual RMS per axis in
+            [N, N, N, N m, N m, N m], shape (6,) each.
+        expected: The expected residual (noise through C, or the floor) per axis, shape (6,).
+        diagnosis: The likely cause of a poor fit, in words ('' when consistent or unknown).
+    """
+
+    verdict: str
+    max_ratio: float
+    residual_rms: dict[str, np.ndarray]
+    expected: np.ndarray
+    diagnosis: str = ""
+    worst: str = field(default="")
+
+    @property
+    def ok(self) -> bool:
+        """True unless the fit is poor."""
+        return self.verdict != "poor"
+
+    def as_dict(self) -> dict:
+        """Plain data for the calibration file's quality."""
+        return {
+            "verdict": self.verdict,
+            "max_ratio": float(self.max_ratio),
+            "max_ratio_allowed": MAX_RATIO,
+            "worst": self.worst,
+            "expected_residual": self.expected.tolist(),
+            "residual_rms_by_configuration": {k: v.tolist() for k, v in self.residual_rms.items()},
+            "diagnosis": self.diagnosis,
+        }
+
+    def summary(self) -> str:
+        """One line for a person: the verdict, the worst ratio and where it is."""
+        text = f"fit {self.verdict}: largest residual {self.max_ratio:.3g}x the expected noise"
+        text += f" ({self.worst})" if self.worst else ""
+        return text + (f"; likely cause: {self.diagnosis}" if self.diagnosis else "")
+
+
+def fit_rows(g_sensor: np.ndarray, channels: np.ndarray) -> np.ndarray:
+    """The rows ``y = [g_sensor; P Delta; 1]`` whose outer products the fit check sums. Shape (N, 10)."""
+    return np.hstack([g_sensor, channels @ P.T, np.ones((len(g_sensor), 1))])
+
+
+def _solve(matrices: Sequence[np.ndarray], sums: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(Theta (6, 7), RSS per configuration and axis (k, 6)) for wrench matrices M_c; None when singular."""
+    S_WX = sum(M @ s[:3, 3:] for M, s in zip(matrices, sums, strict=True))
+    S_XX = sums[:, 3:, 3:].sum(axis=0)
+    scale = 1.0 / np.sqrt(np.maximum(np.diag(S_XX), 1e-300))
+    try:
+        theta = np.linalg.solve((S_XX * scale[:, None] * scale[None, :]).T, (S_WX * scale[None, :]).T).T * scale[None, :]
+    except np.linalg.LinAlgError:
+        return None
+    per_configuration = []
+    for M, s in zip(matrices, sums, strict=True):
+        S_gg, S_gx, S_xx = s[:3, :3], s[:3, 3:], s[3:, 3:]
+        W_x = M @ S_gx  # this configuration's S_WX, (6, 7)
+        per_configuration.append(
+            np.diag(M @ S_gg @ M.T) - 2.0 * np.einsum("ij,ij->i", theta, W_x) + np.einsum("ij,jk,ik->i", theta, S_xx, theta)
+        )
+    return theta, np.maximum(np.array(per_configuration), 0.0)
+
+
+def _ratios(tool: Tool, matrices, sums, counts, noise_std) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(ratio (k, 6), rms (k, 6), expected (6,)) of a hypothesis; None when it cannot be solved."""
+    solved = _solve(matrices, sums)
+    if solved is None:
+        return None
+    theta, rss = solved
+    seen = counts > 0
+    rms = np.sqrt(rss / np.maximum(counts, 1)[:, None])
+    C = theta[:, :6] @ P
+    sigma = np.sqrt(np.maximum(np.einsum("ij,j,ij->i", C, np.asarray(noise_std, dtype=float) ** 2, C), 0.0))
+    weight = max(c.mass for c in tool.configurations) * tool.gravity
+    moment = max(c.mass * float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations) * tool.gravity
+    floor = RELATIVE_FLOOR * np.array([weight] * 3 + [max(moment, 1e-3 * weight)] * 3)
+    expected = np.maximum(sigma, floor)
+    ratio = np.where(seen[:, None], rms / expected[None, :], 0.0)
+    return ratio, rms, expected
+
+
+def _golden(f, low: float, high: float, iterations: int = 60) -> tuple[float, float]:
+    """Minimum of a unimodal ``f`` on [low, high] by golden-section search: (argument, value)."""
+    ratio = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = low, high
+    c, d = b - ratio * (b - a), a + ratio * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(iterations):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - ratio * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + ratio * (b - a)
+            fd = f(d)
+    return (c, fc) if fc < fd else (d, fd)
+
+
+def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std) -> list[tuple[str, float]]:
+    """(cause in words, its largest ratio) of each alternative that fits, best first."""
+    names = tool.names
+    configs = tool.configurations
+    fits: list[tuple[str, float]] = []
+
+    def judge(label: str, matrices) -> None:
+        judged = _ratios(tool, matrices, sums, counts, noise_std)
+        if judged is not None and judged[0].max() <= MAX_RATIO:
+            fits.append((label, float(judged[0].max())))
+
+    if len(configs) <= MAX_PERMUTED:
+        for order in itertools.permutations(range(len(configs))):
+            if order != tuple(range(len(configs))):
+                moved = ", ".join(f"the data labelled {names[k]} fit configuration {names[j]}" for k, j in enumerate(order) if k != j)
+                judge(f"configuration labels permuted: {moved}", [configs[j].wrench_matrix for j in order])
+    for unit, factor in (("mm", 1e-3), ("cm", 1e-2)):
+        judge(
+            f"the centres of mass of the tool file are in {unit}, not m (divide them by {1 / factor:g})",
+            [wrench_matrix(c.mass, c.p_sensor_com * factor) for c in configs],
+        )
+    for k, config in enumerate(configs):
+
+        def worst(log_factor: float, k: int = k) -> float:
+            f = math.exp(log_factor)
+            judged = _ratios(tool, [c.wrench_matrix * (f if j == k else 1.0) for j, c in enumerate(configs)], sums, counts, noise_std)
+            return math.inf if judged is None else float(judged[0].max())
+
+        grid = np.log(_MASS_FACTORS)
+        start = int(np.argmin([worst(x) for x in grid]))
+        log_factor, ratio = _golden(worst, grid[max(start - 1, 0)], grid[min(start + 1, len(grid) - 1)])
+        factor = math.exp(log_factor)
+        if ratio <= MAX_RATIO and not math.isclose(factor, 1.0, rel_tol=1e-3):
+            fits.append((f"the mass of configuration {names[k]} is about {factor * config.mass:.4g} kg, not {config.mass:g} kg", ratio))
+    return sorted(fits, key=lambda item: item[1])
+
+
+def _implausible_gravity(tool: Tool) -> str:
+    """Why the tool file's gravity cannot be the Earth's, or ''.
+
+    A wrong magnitude of gravity scales every wrench, so C absorbs it and the residuals do not
+    show it; only its value does. On Earth it is 9.78 to 9.83 m/s^2.
+    """
+    low, high = GRAVITY_RANGE
+    if low <= tool.gravity <= high:
+        return ""
+    unit = (
+        " (it looks like cm/s^2)" if low <= tool.gravity / 100 <= high else " (it looks like g, not m/s^2)" if tool.gravity == 1.0 else ""
+    )
+    return f"the tool file's gravity is {tool.gravity:g} m/s^2, expected {low:g} to {high:g} m/s^2 on Earth{unit}"
+
+
+def _implausible_geometry(tool: Tool) -> str:
+    """Why the tool file's centres of mass cannot be a calibration tool's, or ''.
+
+    Scaling every centre of mass by the same factor scales the moment rows of C and fits the
+    data as well: the mistake shows only in the size. A centre of mass beyond
+    :data:`MAX_COM_M` is taken for mm or cm when that unit brings it to a plausible size.
+    """
+    largest = max(float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations)
+    if largest <= MAX_COM_M:
+        return ""
+    plausible = [(unit, f) for unit, f in (("mm", 1e-3), ("cm", 1e-2)) if MIN_COM_M <= largest * f <= MAX_COM_M]
+    if plausible:  # the unit that brings it nearest a typical tool's 0.1 m (log scale)
+        unit, factor = min(plausible, key=lambda u: abs(math.log(largest * u[1] / TYPICAL_COM_M)))
+        return (
+            f"the centres of mass of the tool file are in {unit}, not m: the largest is {largest:g} m from the sensor "
+            f"(divide them by {1 / factor:g})"
+        )
+    return f"the tool file's largest centre of mass is {largest:g} m from the sensor: expected at most {MAX_COM_M:g} m"
+
+
+def check_fit(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std: np.ndarray | None, hint: str = "") -> FitCheck:
+    """Judge the fit of the tool's model to the kept samples (see the module docstring).
+
+    Args:
+        tool: The tool file in use.
+        sums: Per configuration, the sum of ``y y^T`` over its kept samples (:func:`fit_rows`).
+            Shape (k, 10, 10).
+        counts: Kept samples per configuration. Shape (k,).
+        noise_std: Strain noise per bridge measured in the data (raw units, shape (8,)), or
+            None when none was measured (then the verdict is 'unchecked').
+        hint: Added to the diagnosis of a poor fit that no alternative explains (e.g. a
+            command-line option that may be wrong).
+
+    Returns:
+        The verdict; its diagnosis names the first alternative that fits.
+    """
+    counts = np.asarray(counts, dtype=float)
+    noise = np.zeros(8) if noise_std is None else np.asarray(noise_std, dtype=float)
+    implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
+    judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise)
+    if judged is None:
+        return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
+    ratio, rms, expected = judged
+    residual = {name: rms[k] for k, name in enumerate(tool.names) if counts[k] > 0}
+    k, axis = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    worst = f"configuration {tool.names[k]}, {WRENCH_AXES[axis]}"
+    if implausible:  # a uniform scale of every centre of mass fits any data: only its size shows it
+        return FitCheck("poor", float(ratio.max()), residual, expected, implausible, worst)
+    if noise_std is None:
+        return FitCheck("unchecked", float(ratio.max()), residual, expected, "", worst)
+    if ratio.max() <= MAX_RATIO:
+        return FitCheck("consistent", float(ratio.max()), residual, expected, "", worst)
+    causes = _alternatives(tool, sums, counts, noise)
+    if causes:
+        diagnosis = causes[0][0]
+    elif tool.com_rank() < 2:
+        diagnosis = (
+            "the tool file's centres of mass lie on one line (paper eqs 19-20) while the strains determine every "
+            "coefficient: the tool mounted is not the one in the file"
+        )
+    else:
+        diagnosis = hint or (
+            "no simple alternative fits: check the tool file (masses, centres of mass in m in the sensor frame), the "
+            "configuration labels, the joint units and the sensor mount"
+        )
+    return FitCheck("poor", float(ratio.max()), residual, expected, diagnosis, worst)
