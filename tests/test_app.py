@@ -214,3 +214,25 @@ def test_every_command_help_has_an_example(command, capsys):
     assert info.value.code == 0
     out = capsys.readouterr().out
     assert "example:" in out and f"fts-calib {command}" in out
+
+
+def test_network_mistakes_are_one_line_with_their_code(tmp_path, capsys):
+    """A port in use, an unknown host, a port out of range: no traceback."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as busy:
+        busy.bind(("127.0.0.1", 0))
+        port = busy.getsockname()[1]
+        live = ["live", "--robot", "ur5", "--listen", f"127.0.0.1:{port}", "-o", str(tmp_path / "l.yaml"), "--idle-timeout", "1"]
+        assert cli.main(live) == ExitCode.FILE_ACCESS
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and f"cannot use udp://127.0.0.1:{port}: Address already in use" in err, err
+    recording = tmp_path / "r.csv"
+    strains = ",".join(f"strain_{k}" for k in range(1, 9))
+    recording.write_text(f"time,joint,{strains},tool\n0.0,0.1,{','.join(['0.0'] * 8)},A\n")
+    assert cli.main(["replay", str(recording), "--to", "no-such-host.invalid:5005"]) == ExitCode.FILE_ACCESS
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "cannot use udp://no-such-host.invalid:5005" in err, err
+    with pytest.raises(SystemExit) as usage:
+        cli.main(["replay", str(recording), "--to", "127.0.0.1:99999"])
+    assert usage.value.code == ExitCode.USAGE and "port 99999" in capsys.readouterr().err

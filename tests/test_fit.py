@@ -99,3 +99,9 @@ def test_cli_refuses_a_poor_fit_writes_nothing_and_accepts_it_on_request(tmp_pat
 def test_a_wrong_gravity_is_named_although_c_absorbs_it(ur5_recording, ur5, paper_tool, gravity, words):
     check = _refused(ur5_recording, ur5, dataclasses.replace(paper_tool, gravity=gravity))
     assert f"gravity is {gravity:g} m/s^2" in check.diagnosis and words in check.diagnosis
+
+
+def test_joints_in_degrees_on_a_file_in_rad_is_named(ur5_recording, ur5, paper_tool):
+    result = calibrate_recording(ur5_recording, ur5, paper_tool, joints_in_degrees=True)
+    assert isinstance(result.error, PoorFit), result.error
+    assert "run without --joints-in-degrees" in result.error.check.diagnosis

@@ -31,15 +31,15 @@ def _stream(path, kin, tool):
 
 def _decide(settings, kin, tool, t, q, s, k):
     """The filter's whole decision (its four rules) over one batch: the kept mask, shape (N,)."""
-    filt = QuasiStaticFilter(settings, kin.continuous, tool)
+    filt = QuasiStaticFilter(settings, kin.continuous)
     return filt, quasi_static(filt, kin, tool, SampleBatch(t, q, s, k), final=True).keep
 
 
 def test_decisions_do_not_depend_on_where_chunks_end(ur5, paper_tool, ur5_recording, rng):
     stream = _stream(ur5_recording, ur5, paper_tool)
     n = len(stream)
-    whole = quasi_static(QuasiStaticFilter(FilterConfig(), ur5.continuous, paper_tool), ur5, paper_tool, stream, final=True)
-    filt = QuasiStaticFilter(FilterConfig(), ur5.continuous, paper_tool)
+    whole = quasi_static(QuasiStaticFilter(FilterConfig(), ur5.continuous), ur5, paper_tool, stream, final=True)
+    filt = QuasiStaticFilter(FilterConfig(), ur5.continuous)
     cuts = np.sort(rng.choice(n, 25, replace=False))
     parts = [quasi_static(filt, ur5, paper_tool, stream.rows(i, j)) for i, j in zip([0, *cuts], [*cuts, n], strict=True)]
     parts.append(quasi_static(filt, ur5, paper_tool, stream.rows(0, 0), final=True))
@@ -90,7 +90,7 @@ def test_the_filter_alone_decides_from_rates_and_stationarity_and_returns_the_ra
     q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
     q[:, 4] = 0.1 * t**2  # velocity 0.2 t rad/s, acceleration 0.2 rad/s²
     loose = FilterConfig(max_joint_speed=1.0, max_joint_acceleration=1.0, max_strain_std=1.0)
-    decided = QuasiStaticFilter(loose, ur5.continuous, paper_tool).process(
+    decided = QuasiStaticFilter(loose, ur5.continuous).process(
         SampleBatch(t, q, np.full((len(t), 8), 0.1), np.zeros(len(t), dtype=np.int64)), final=True
     )
     assert decided.still.all() and len(decided.samples) == len(t)

@@ -123,3 +123,19 @@ def test_re_tare_with_a_tool_needs_its_configuration_and_the_kinematics(tmp_path
         tare_recording(cal, path, ur5, tool, "Z")
     with pytest.raises(ConfigError, match="its load depends on the orientation, so give the kinematics"):
         tare_recording(cal, path, None, tool, "A")
+
+
+def test_cli_tare_with_nothing_mounted_warns_when_the_offsets_moved_by_a_tool_weight(tmp_path, setup, ur5, rng, capsys):
+    """The 2 kg configuration A still on the sensor, re-tared as if nothing were mounted."""
+    sensor, cal = setup
+    tool = load_tool(resolve("paper_tool", "configs"))
+    weight = tool.configuration("A").static_wrench(ur5.g_sensor(HOME, tool.gravity))  # 19.6 N along gravity
+    file = save_calibration(cal, tmp_path / "cal.yaml")
+    path = _recording(tmp_path / "mounted.csv", sensor, ur5, weight, rng)
+    assert main(["tare", "--calibration", str(file), str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "about the weight of configuration A of 'RIM calibration tool' (2 kg, 19.62 N)" in err, err
+    # nothing on the sensor: no warning (the offsets moved by SHIFT only)
+    fresh = save_calibration(cal, tmp_path / "fresh.yaml")
+    assert main(["tare", "--calibration", str(fresh), str(_recording(tmp_path / "empty.csv", sensor, ur5, np.zeros(6), rng))]) == 0
+    assert "about the weight" not in capsys.readouterr().err

@@ -98,3 +98,14 @@ def test_validate_refuses_three_calibrations(setup):
     np.testing.assert_array_equal(two.between.max_abs, np.zeros(6))
     np.testing.assert_array_equal(two.errors[0].rms, one.errors[0].rms)
     np.testing.assert_array_equal(two.errors[1].rms, one.errors[0].rms)
+
+
+@pytest.mark.parametrize("value", ["-50", "0", "nan"])
+def test_a_full_scale_that_is_not_positive_is_refused_before_reading(tmp_path, value, capsys):
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+
+    table1 = str(resolve("paper_table1_calibration", "configs"))
+    command = ["validate", "--calibration", table1, "--robot", "ur5", str(tmp_path / "unread.csv"), "--full-scale-force", value]
+    assert main(command) == ExitCode.CONFIG
+    assert "full_scale=" in capsys.readouterr().err

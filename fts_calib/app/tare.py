@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
-from ..core.exceptions import ConfigError
+import numpy as np
+
+from ..core.exceptions import ConfigError, FtsCalibWarning
+from ..core.resources import resolve
 from ..core.text import table
 from ..model.calibration import load_calibration, save_calibration
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..robot.kinematics import Kinematics
-from ..robot.tool import Tool
+from ..robot.tool import Tool, load_tool
 from ..service.tare import TareResult, tare_live, tare_recording
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import load_settings, load_setup
@@ -81,9 +85,35 @@ def run(
     else:
         message = "give a recording or --listen HOST:PORT to re-tare from"
         raise ConfigError("recording", None, "a recording or a live address", message=message)
+    if mounted is None:
+        _warn_if_a_tool_seems_mounted(result, load_tool(resolve(tool, "configs")))
     target = calibration if output is None else output
     with writing(target):
         written = save_calibration(result.calibration, target)
     print(format_tare(result))
     print(f"wrote {written} (previous offsets kept in offset_history: {len(result.calibration.offset_history)} entries)")
     return ExitCode.OK
+
+
+#: How close the change of the force offsets must come to a configuration's weight to be taken for it.
+WEIGHT_MATCH = 0.15
+
+
+def _warn_if_a_tool_seems_mounted(result: TareResult, tool: Tool) -> None:
+    """Warn when a re-tare 'with nothing mounted' moved the force offsets by about a tool's weight.
+
+    The offsets then hold the weight of a tool that is still on the sensor, and every later
+    wrench is off by it (a 2 kg tool: 19.6 N).
+    """
+    shift = float(np.linalg.norm(result.calibration.D[:3] - result.previous[:3]))
+    for configuration in tool.configurations:
+        weight = configuration.mass * tool.gravity
+        if abs(shift - weight) <= WEIGHT_MATCH * weight:
+            warnings.warn(
+                f"re-tared with nothing mounted, but the force offsets moved by {shift:.2f} N, about the weight of "
+                f"configuration {configuration.name} of '{tool.name}' ({configuration.mass:g} kg, {weight:.2f} N): if it is "
+                f"still mounted, re-tare with --robot ROBOT --configuration {configuration.name}",
+                FtsCalibWarning,
+                stacklevel=2,
+            )
+            return

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -67,11 +68,13 @@ def run(
     kin, loaded, _ = load_setup(robot, tool)
     calibrations = list(calibrations)
     loaded_calibrations = [load_calibration(p) for p in calibrations]
-    full_scale = load_sensor_config(resolve(sensor, "configs")).full_scale.copy()
+    spec = load_sensor_config(resolve(sensor, "configs"))
+    full_scale = spec.full_scale.copy()
     if full_scale_force is not None:
         full_scale[:3] = full_scale_force
     if full_scale_moment is not None:
         full_scale[3:] = full_scale_moment
+    full_scale = dataclasses.replace(spec, full_scale=full_scale).full_scale  # the sensor spec refuses <= 0, NaN
     result = validate_recording(recording, kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic)
     print(
         f"validation of {len(calibrations)} calibration(s) over {result.samples:,} samples of {recording} with "

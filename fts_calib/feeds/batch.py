@@ -18,6 +18,8 @@ from ..core.exceptions import ShapeError
 
 #: Configuration index of a sample whose tool configuration is not in the tool file.
 UNKNOWN_CONFIGURATION = -1
+#: The skip reason of such a sample (the recording reader and the session's checks count it).
+UNKNOWN_TOOL = "unknown tool configuration"
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,7 @@ import pandas as pd
 
 from ..core.exceptions import FtsCalibWarning, RecordingError
 from ..core.fileio import AtomicFile, is_number
-from .batch import SampleBatch
+from .batch import UNKNOWN_TOOL, SampleBatch
 from .row_notes import MAX_NOTES, ProblemNotes, value_problems
 
 #: Names of the strain columns.
@@ -50,7 +50,6 @@ _GZIP_MAGIC = b"\x1f\x8b"
 
 #: Skip reasons counted by the reader.
 MALFORMED = "malformed line"
-UNKNOWN_TOOL = "unknown tool configuration"
 
 
 class RecordingReader:

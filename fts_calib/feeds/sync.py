@@ -75,16 +75,26 @@ class Synchronizer:
         self.joint_messages = 0
         self.strain_messages = 0
 
-    def add_joints(self, t: float, q: dict[str, float]) -> bool:
-        """Add a joint message; False (nothing added) when its joints are not exactly the robot's."""
-        if len(q) != len(self._index) or any(name not in self._index for name in q):
+    def add_joints(self, t: float, joints: dict[str, float]) -> bool:
+        """Add a joint message; False (nothing added) when its joints are not exactly the robot's.
+
+        Args:
+            t: The sender's time stamp, in [s] (the latency is taken off).
+            joints: Joint name -> reading in [rad], one per joint of the robot.
+        """
+        if len(joints) != len(self._index) or any(name not in self._index for name in joints):
             return False
         self.joint_messages += 1
-        self._new_joints.append((t - self.latency_s, np.array([q[n] for n in self.joint_names])))
+        self._new_joints.append((t - self.latency_s, np.array([joints[n] for n in self.joint_names])))
         return True
 
     def add_strain(self, t: float, strain: Sequence[float]) -> None:
-        """Add a strain message."""
+        """Add a strain message.
+
+        Args:
+            t: The sender's time stamp, in [s].
+            strain: Raw channel readings. Length n_channels.
+        """
         self.strain_messages += 1
         if t <= self._placed_until:
             self._drop(LATE, 1)

@@ -19,7 +19,7 @@ from collections import Counter
 import numpy as np
 
 from ..core.exceptions import FtsCalibWarning
-from ..feeds.batch import SampleBatch
+from ..feeds.batch import UNKNOWN_TOOL, SampleBatch
 from ..robot.kinematics import Kinematics
 from .settings import DEFAULT_MAX_ABS_CHANNEL
 
@@ -28,7 +28,6 @@ BEFORE_CHECKPOINT = "before the checkpoint (already counted)"
 BACKWARDS = "time going backwards"
 NON_FINITE = "non-finite value"
 OUT_OF_RANGE = "channel out of range"
-UNKNOWN_TOOL = "unknown tool configuration"
 OUTSIDE_LIMITS = "outside joint limits"
 
 

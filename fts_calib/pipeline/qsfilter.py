@@ -185,13 +185,10 @@ class QuasiStaticFilter:
         settings: Thresholds.
         continuous: Which joints are continuous (unwrapped before differentiating), the
             robot's joint order. Shape (n_joints,) bool.
-        tool: The tool (mass, centre of mass of each configuration, for the dynamic rule), or
-            None for an unknown payload: then the dynamic rule is skipped.
     """
 
-    def __init__(self, settings: FilterConfig, continuous: np.ndarray, tool: Tool | None):
+    def __init__(self, settings: FilterConfig, continuous: np.ndarray):
         self.settings = settings
-        self.tool = tool
         self.rejected = dict.fromkeys(RULES, 0)
         self.noise_floor: np.ndarray | None = None
         self._context = 0
@@ -241,22 +238,23 @@ class QuasiStaticFilter:
             self._context = end - first
         return decided
 
-    def dynamic_rule(self, load: ToolLoad, configuration: np.ndarray) -> np.ndarray:
+    def dynamic_rule(self, load: ToolLoad, configuration: np.ndarray, tool: Tool) -> np.ndarray:
         """Rule 4 on still samples: their dynamic wrench at most ``max_dynamic_fraction`` of the weight.
 
         Args:
             load: The tool's load at the samples, with the moving wrench. Length k.
             configuration: Configuration index of each sample. Shape (k,).
+            tool: The tool (the weight and lever of each configuration).
 
         Returns:
-            The samples that pass, shape (k,) bool (all of them without a tool).
+            The samples that pass, shape (k,) bool (all of them without a moving wrench).
         """
         fraction = np.zeros(len(configuration))
-        if self.tool is not None and load.moving is not None:
+        if load.moving is not None:
             delta = load.moving - load.static
-            for c, tool_configuration in enumerate(self.tool.configurations):
+            for c, tool_configuration in enumerate(tool.configurations):
                 mine = configuration == c
-                weight = tool_configuration.mass * self.tool.gravity
+                weight = tool_configuration.mass * tool.gravity
                 lever = max(float(np.linalg.norm(tool_configuration.p_sensor_com)), 1e-3)
                 fraction[mine] = np.maximum(
                     np.linalg.norm(delta[mine, :3], axis=1) / weight, np.linalg.norm(delta[mine, 3:], axis=1) / (weight * lever)

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
-from ..feeds.batch import SampleBatch
+from ..feeds.batch import SampleBatch, configuration_indices
 from ..model.calibration import Calibration
 from ..model.estimator import OnlineEstimator
 from ..robot.kinematics import Kinematics
@@ -126,14 +126,13 @@ class CalibrationSession:
         self.source = source
         self.source_record = source_record
         self.estimator = OnlineEstimator()
-        self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous, tool) if use_filter else None
+        self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous) if use_filter else None
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel)
         n = len(tool.configurations)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
         self._directions = np.zeros((n, 4, 4))  # sum of [u; 1][u; 1]^T per configuration, u = g / |g|
         self._fit_sums = np.zeros((n, 10, 10))  # sum of y y^T per configuration, y = [g; P Delta; 1] (fit checks)
-        self._codes = {name: k for k, name in enumerate(tool.names)}
         self._staged: list[tuple] = []
         self._clock = clock
         self._last_checkpoint = clock()
@@ -159,7 +158,7 @@ class CalibrationSession:
         channels = np.array(strain, dtype=float)  # a copy: a controller may refill its buffer for the next tick
         if channels.shape != (8,):
             raise ShapeError(f"strain.shape={channels.shape} but expected (8,)")
-        code = self._codes.get(configuration, -1)
+        code = int(configuration_indices([configuration], self.tool.names)[0])
         self._staged.append((float(t), readings[0].copy(), channels, code))
         if len(self._staged) >= _STAGE:
             self._flush_staged()
@@ -180,13 +179,13 @@ class CalibrationSession:
         readings, _ = self.kin.readings(joints)
         t = np.asarray(t, dtype=float).reshape(-1)
         if isinstance(configuration, str):
-            codes = np.full(len(t), self._codes.get(configuration, -1), dtype=np.int64)
+            codes = np.repeat(configuration_indices([configuration], self.tool.names), len(t))
         else:
             given = np.asarray(configuration)
             if given.dtype.kind in "iu":
                 codes = given.astype(np.int64)
             else:
-                codes = np.array([self._codes.get(str(x), -1) for x in given], dtype=np.int64)
+                codes = configuration_indices([str(x) for x in given], self.tool.names)
         strain = np.asarray(strain, dtype=float)
         if not (len(readings) == len(t) == len(strain) == len(codes)):
             raise ShapeError(f"add_batch: {len(t)} times, {len(readings)} readings, {len(strain)} strains and {len(codes)} tools")

@@ -62,6 +62,6 @@ def quasi_static(filter_: QuasiStaticFilter, kin: Kinematics, tool: Tool | None,
         return StillSamples(decided.samples, keep, g, None)
     velocity, acceleration = decided.joint_velocity[decided.still], decided.joint_acceleration[decided.still]
     load = tool_load(kin, tool, still.joints, still.configuration, velocity, acceleration)
-    ok = filter_.dynamic_rule(load, still.configuration)
+    ok = filter_.dynamic_rule(load, still.configuration, tool)
     keep[decided.still] = ok
     return StillSamples(decided.samples, keep, load.g_sensor[ok], load.static[ok])

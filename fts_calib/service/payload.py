@@ -288,7 +288,7 @@ def identify_payload_from_recording(
     samples = SampleBatch.concatenate(chunks)
     samples = dataclasses.replace(samples, configuration=np.zeros(len(samples), dtype=np.int64))
     samples = samples.select(SampleChecks(kin).accept(samples))  # a NaN or a row out of order never poisons a window
-    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, None), kin, None, samples, final=True)
+    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous), kin, None, samples, final=True)
     estimate = identify_payload(
         calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_separation_deg=min_separation_deg
     )

@@ -69,7 +69,7 @@ def _known_load(
         message = f"tool '{tool.name}' is mounted: its load depends on the orientation, so give the kinematics"
         raise ConfigError("kin", None, "the robot's kinematics", message=message)
     mounted = dataclasses.replace(samples, configuration=np.full(len(samples), config_index))
-    still = quasi_static(QuasiStaticFilter(settings.filter, kin.continuous, tool), kin, tool, mounted, final=True)
+    still = quasi_static(QuasiStaticFilter(settings.filter, kin.continuous), kin, tool, mounted, final=True)
     return still.samples.channels, still.w_sensor if still.w_sensor is not None else np.zeros((0, 6))
 
 

@@ -29,13 +29,13 @@ from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration
 from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, forward_in_time, valid_values
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
-from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL
+from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
 from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
 from ..robot.tool import Tool
 
 _PLOT_POINTS = 20_000  # samples kept for the plot, at most twice this
-_WINDOW_S = 0.05  # derivative window of the joint-rate estimates [s]
+_WINDOW_S = FilterConfig().derivative_window_s  # the joint-rate window [s]: the filter's, so both see the same rates
 
 
 @dataclass(frozen=True)
