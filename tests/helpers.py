@@ -1,5 +1,7 @@
 """Synthetic ground truth shared by the tests (independent of the code under test)."""
 
+import time
+
 import numpy as np
 
 from .paper import TABLE_1
@@ -65,3 +67,15 @@ def paper_simulation(n_per_config: int, rng: np.random.Generator, noise_std: flo
         Ss.append(S)
         idx.append(np.full(n_per_config, k))
     return np.vstack(Ws), np.vstack(Ss), np.concatenate(idx)
+
+
+POLL_S = 0.005  # [s] how often a wait looks again for its event
+DEADLINE_S = 60.0  # [s] how long a wait may take before the test fails
+
+
+def wait_for(condition, what: str, timeout_s: float = DEADLINE_S) -> None:
+    """Poll ``condition`` until it holds; fail after ``timeout_s`` [s] saying what was awaited."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"waited {timeout_s:g} s for {what}"
+        time.sleep(POLL_S)

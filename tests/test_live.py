@@ -26,6 +26,8 @@ from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.pipeline.live import LiveRunner
 from fts_calib.pipeline.session import CalibrationSession
 
+from .helpers import DEADLINE_S, wait_for
+
 ROOT = Path(__file__).resolve().parents[1]
 
 # Left out of the seed sweep: each test streams the whole simulated recording over loopback,
@@ -91,18 +93,6 @@ def test_loss_reordering_and_bad_datagrams(ur5, paper_tool, ur5_recording, refer
     # calibration within the reported standard errors (4 sigma over 48 coefficients)
     assert got.quality.samples_used < reference.quality.samples_used
     assert np.all(np.abs(got.C - reference.C) <= 4 * got.quality.stderr_C)
-
-
-POLL_S = 0.01  # [s] how often a wait looks again for its event
-DEADLINE_S = 60.0  # [s] how long a wait may take before the test fails
-
-
-def _wait_for(condition, what, timeout_s=DEADLINE_S):
-    """Poll ``condition`` until it holds; fail after ``timeout_s``."""
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < deadline, f"waited {timeout_s:g} s for {what}"
-        time.sleep(POLL_S)
 
 
 class _Process:
@@ -201,7 +191,7 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
         first = _Process(command, env)
         processes.append(first.proc)
         feed.to(first.port())
-        _wait_for(lambda: (k := kept()) is not None and k[1] > 0, "a checkpoint with samples of configuration B")
+        wait_for(lambda: (k := kept()) is not None and k[1] > 0, "a checkpoint with samples of configuration B")
         feed.hold()
         first.proc.send_signal(signal.SIGKILL)  # a crash: no clean shutdown
         first.proc.wait(timeout=DEADLINE_S)

@@ -8,7 +8,6 @@ import shutil
 import signal
 import socket
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -16,6 +15,7 @@ import pytest
 from fts_calib import FileFormatError, FtsCalibWarning, load_calibration
 from fts_calib.app import live as live_app
 from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import data_dir
 from fts_calib.feeds.protocol import End, Strain, ToolChange, encode
 from fts_calib.feeds.replay import ReplayOptions, messages, replay
@@ -25,16 +25,7 @@ from fts_calib.pipeline.checkpoint import HASHED_BYTES, live_source, recording_s
 from fts_calib.pipeline.live import LiveRunner, format_stats
 from fts_calib.pipeline.session import CalibrationSession
 
-EXIT_CONFIG, EXIT_FILE, EXIT_FILE_ACCESS = 3, 4, 14  # fts_calib.app.exit_codes
-POLL_S = 0.002  # [s] how often a wait looks again for its event
-DEADLINE_S = 30.0  # [s] how long a wait may take before the test fails
-
-
-def _wait_for(condition, what, timeout_s=DEADLINE_S):
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < deadline, f"waited {timeout_s:g} s for {what}"
-        time.sleep(POLL_S)
+from .helpers import DEADLINE_S, wait_for
 
 
 def _calibrate(recording, output, *extra):
@@ -62,7 +53,7 @@ def checkpointed(tmp_path_factory, ur5_recording):
 def test_calibrate_refuses_an_existing_checkpoint_without_resume_or_restart(tmp_path, ur5_recording, capsys):
     checkpoint = tmp_path / "cp.json"
     checkpoint.write_text("a crashed run's samples")
-    assert _calibrate(ur5_recording, tmp_path / "cal.yaml", "--checkpoint", str(checkpoint)) == EXIT_CONFIG
+    assert _calibrate(ur5_recording, tmp_path / "cal.yaml", "--checkpoint", str(checkpoint)) == ExitCode.CONFIG
     line, out = _one_error_line(capsys, "calibrate")
     assert str(checkpoint) in line and "--resume" in line and "--restart" in line, line
     assert checkpoint.read_text() == "a crashed run's samples"
@@ -73,7 +64,7 @@ def test_live_refuses_its_default_checkpoint_without_resume_or_restart(tmp_path,
     output = tmp_path / "cal.yaml"
     checkpoint = tmp_path / "cal.yaml.checkpoint.json"  # live's default: OUTPUT.checkpoint.json
     checkpoint.write_text("a crashed run's samples")
-    assert main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"]) == EXIT_CONFIG
+    assert main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"]) == ExitCode.CONFIG
     line, out = _one_error_line(capsys, "live")
     assert str(checkpoint) in line and "--resume" in line and "--restart" in line, line
     assert checkpoint.read_text() == "a crashed run's samples" and "listening" not in out
@@ -85,7 +76,7 @@ def test_live_refuses_its_default_checkpoint_without_resume_or_restart(tmp_path,
 )
 def test_contradictory_or_incomplete_checkpoint_flags_are_refused(tmp_path, ur5_recording, capsys, flags, match):
     extra = flags + (["--checkpoint", str(tmp_path / "cp.json")] if "--restart" in flags else [])
-    assert _calibrate(ur5_recording, tmp_path / "cal.yaml", *extra) == EXIT_CONFIG
+    assert _calibrate(ur5_recording, tmp_path / "cal.yaml", *extra) == ExitCode.CONFIG
     assert match in _one_error_line(capsys, "calibrate")[0]
 
 
@@ -134,7 +125,7 @@ def test_resume_with_the_checkpoint_of_another_recording_is_refused(tmp_path, ch
     truncated = tmp_path / "truncated.csv"
     truncated.write_bytes(ur5_recording.read_bytes()[: ur5_recording.stat().st_size // 2])
     for other in (_another_recording(tmp_path / "other.csv", ur5_recording), truncated):
-        assert _calibrate(other, tmp_path / "cal.yaml", "--checkpoint", str(tmp_path / "cp.json"), "--resume") == EXIT_FILE
+        assert _calibrate(other, tmp_path / "cal.yaml", "--checkpoint", str(tmp_path / "cp.json"), "--resume") == ExitCode.FILE
         line, _ = _one_error_line(capsys, "calibrate")
         assert f"checkpoint of recording {ur5_recording.resolve()}" in line and f"not of recording {other.resolve()}" in line, line
         assert (tmp_path / "cp.json").read_bytes() == before and not (tmp_path / "cal.yaml").exists()
@@ -184,7 +175,7 @@ def test_output_equal_to_an_input_is_refused_before_any_work(tmp_path, ur5_recor
         (tmp_path / "cal.yaml", ["--checkpoint", str(tmp_path / "cal.yaml")], "--checkpoint", "the file of -o"),
     ]
     for output, extra, flag, what in cases:
-        assert _calibrate(recording, output, *extra) == EXIT_CONFIG
+        assert _calibrate(recording, output, *extra) == ExitCode.CONFIG
         line, out = _one_error_line(capsys, "calibrate")
         assert f"{flag} " in line and f"is {what}" in line and "choose another file" in line, line
         assert out == "" and recording.read_bytes() == before and not (tmp_path / "cal.yaml").exists()
@@ -195,7 +186,7 @@ def test_simulate_refuses_to_write_over_a_trajectory(tmp_path, capsys):
     shutil.copyfile(data_dir("trajectories") / "ur5" / "A.csv.gz", trajectory)
     before = trajectory.read_bytes()
     for given in (tmp_path, trajectory):  # the folder of trajectories, or the one file
-        assert main(["simulate", "--robot", "ur5", "--trajectory", str(given), "-o", str(trajectory)]) == EXIT_CONFIG
+        assert main(["simulate", "--robot", "ur5", "--trajectory", str(given), "-o", str(trajectory)]) == ExitCode.CONFIG
         line, out = _one_error_line(capsys, "simulate")
         assert f"-o {trajectory} is the trajectory file A.csv.gz" in line, line
         assert trajectory.read_bytes() == before and out == ""
@@ -205,15 +196,15 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, u
     (tmp_path / "a_file").write_text("")
     checkpoint = tmp_path / "cp.json"
     for output, reason in [(tmp_path, "it is a folder"), (tmp_path / "a_file" / "cal.yaml", "is not a folder")]:
-        assert _calibrate(ur5_recording, output, "--checkpoint", str(checkpoint)) == EXIT_FILE_ACCESS
+        assert _calibrate(ur5_recording, output, "--checkpoint", str(checkpoint)) == ExitCode.FILE_ACCESS
         line, out = _one_error_line(capsys, "calibrate")
         assert f"cannot write {output}: " in line and reason in line, line
         assert out == "" and not checkpoint.exists(), "work was done before the output was checked"
-    assert _calibrate(ur5_recording, tmp_path / "cal.yaml", "--checkpoint", str(tmp_path)) == EXIT_FILE_ACCESS
+    assert _calibrate(ur5_recording, tmp_path / "cal.yaml", "--checkpoint", str(tmp_path)) == ExitCode.FILE_ACCESS
     assert f"cannot write {tmp_path}: it is a folder" in _one_error_line(capsys, "calibrate")[0]
     assert main(["simulate", "--robot", "ur5", "--trajectory", str(data_dir("trajectories") / "ur5"), "-o", str(tmp_path)]) == 14
     assert "it is a folder" in _one_error_line(capsys, "simulate")[0]
-    assert main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(tmp_path), "--quiet"]) == EXIT_FILE_ACCESS
+    assert main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(tmp_path), "--quiet"]) == ExitCode.FILE_ACCESS
     line, out = _one_error_line(capsys, "live")
     assert "it is a folder" in line and "listening" not in out
 
@@ -224,7 +215,7 @@ def test_a_read_only_folder_is_refused_before_any_work(tmp_path, ur5_recording, 
     folder.mkdir()
     folder.chmod(0o555)
     try:
-        assert _calibrate(ur5_recording, folder / "cal.yaml", "--checkpoint", str(tmp_path / "cp.json")) == EXIT_FILE_ACCESS
+        assert _calibrate(ur5_recording, folder / "cal.yaml", "--checkpoint", str(tmp_path / "cp.json")) == ExitCode.FILE_ACCESS
         line, out = _one_error_line(capsys, "calibrate")
         assert f"cannot write {folder / 'cal.yaml'}: Permission denied" in line and out == "", line
         assert not (tmp_path / "cp.json").exists()
@@ -248,12 +239,12 @@ def test_sighup_ends_live_with_its_checkpoint_and_calibration_written(tmp_path, 
 
     def feed():
         try:
-            _wait_for(lambda: receivers, "the receiver")
-            _wait_for(lambda: isinstance(getattr(signal.getsignal(signal.SIGHUP), "__self__", None), LiveRunner), "the SIGHUP handler")
+            wait_for(lambda: receivers, "the receiver")
+            wait_for(lambda: isinstance(getattr(signal.getsignal(signal.SIGHUP), "__self__", None), LiveRunner), "the SIGHUP handler")
             receiver, sent = receivers[0], 0
 
             def caught_up(count):
-                _wait_for(lambda: receiver.received >= count, f"{count} datagrams received")
+                wait_for(lambda: receiver.received >= count, f"{count} datagrams received")
 
             with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
                 for _, message in messages(ur5_recording, ReplayOptions()):
@@ -313,7 +304,7 @@ def test_replay_numbers_its_datagrams_and_the_receiver_counts_what_was_dropped(t
     receiver, stats = UdpReceiver("127.0.0.1", 0), LiveStats()
     try:
         replayed = replay(tmp_path / "rec.csv", *receiver.address, ReplayOptions(speed=0.0, loss=0.1, reorder=0.1, seed=3))
-        _wait_for(lambda: receiver.received >= replayed.sent, "every datagram sent")
+        wait_for(lambda: receiver.received >= replayed.sent, "every datagram sent")
         for data, sender in receiver.drain_from():
             feed_datagram(data, None, stats, sender)
     finally:
