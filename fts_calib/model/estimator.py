@@ -39,7 +39,8 @@ from .sensor import P
 _CHUNK = 1 << 16  # rows per block in batch updates: bounds temporary memory to ~7 MB
 _NON_FINITE = "non-finite wrench, strain or weight"
 
-_RANK_ADVICE = (
+#: What rank 7 needs, in words: the one advice text of the estimator and the excitation report.
+RANK_ADVICE = (
     "One tool centre of mass gives at most rank 4, two give 6, three non-collinear ones "
     "give 7 (paper eqs 18-20); within each, the sensor must see gravity from directions "
     "that span 3-D."
@@ -267,7 +268,7 @@ class OnlineEstimator:
         S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
         theta, rank, condition, inv = solve_normal(S_XX, S_WX, rcond, min_norm)
         if theta is None:
-            raise InsufficientExcitation(rank, 7 - rank, _RANK_ADVICE)
+            raise InsufficientExcitation(rank, 7 - rank, RANK_ADVICE)
         quality = fit_quality(
             S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used, self.samples_seen, rank, condition, self.skipped
         )

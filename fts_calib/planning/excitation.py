@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.arrays import frozen
+from ..model.estimator import RANK_ADVICE
 from ..model.least_squares import RCOND, coefficient_stderr, information_rank
 from ..model.sensor import P
 from ..robot.tool import Tool
@@ -133,8 +134,7 @@ def predict_excitation(
         used = [name for name, n in counts.items() if n]
         advice = (
             f"predicted rank {rank} of 7 ({7 - rank} direction(s) missing) with quasi-static samples from "
-            f"{len(used)} configuration(s) {used}: one centre of mass gives at most 4, two give 6, three that are "
-            "not on one line give 7, and within each the gravity directions must span 3-D"
+            f"{len(used)} configuration(s) {used}. {RANK_ADVICE}"
         )
     coverage = coverage_angle(np.vstack(directions)) if directions else 180.0
     return ExcitationReport(
