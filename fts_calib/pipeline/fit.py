@@ -278,6 +278,7 @@ def check_fit(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std: np.nd
     else:
         diagnosis = hint or (
             "no simple alternative fits: check the tool file (masses, centres of mass in m in the sensor frame), the "
-            "configuration labels, the joint units and the sensor mount"
+            "configuration labels, the joint units and the sensor mount; offsets that drift during the run (warm-up, "
+            "temperature) or move at a tool change also leave such residuals"
         )
     return FitCheck("poor", float(ratio.max()), residual, expected, diagnosis, worst)
