@@ -115,3 +115,15 @@ def test_joint_columns_in_degrees(tmp_path, ur5_recording, capsys):
     captured = capsys.readouterr()
     assert "the joint columns look like degrees" in captured.err and "--joints-in-degrees" in captured.err
     assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet", "--joints-in-degrees"]) == 0
+
+
+def test_a_robot_with_continuous_joints_calibrates(tmp_path, capsys):
+    """Kinova's Gen3 has continuous joints: the clock check and the filter unwrap them."""
+    from fts_calib.app.exit_codes import ExitCode
+    from fts_calib.core.resources import data_dir
+
+    recording = tmp_path / "kinova.csv"
+    assert main(["simulate", "--robot", "kinova", "--trajectory", str(data_dir("trajectories") / "kinova"), "-o", str(recording)]) == 0
+    assert main(["calibrate", "--robot", "kinova", str(recording), "-o", str(tmp_path / "cal.yaml"), "--quiet"]) == ExitCode.OK
+    assert "fit consistent" in capsys.readouterr().out
+    assert load_calibration(tmp_path / "cal.yaml").quality.rank == 7

@@ -118,3 +118,24 @@ def test_drifting_offsets_are_refused_and_drift_is_named_among_the_causes(tmp_pa
     path = simulate_recording(tmp_path / "drift.csv", ur5, paper_tool, trajectories, drifting, np.random.default_rng(seed))
     check = _refused(path, ur5, paper_tool)
     assert check.max_ratio > MAX_RATIO and "offsets that drift during the run" in check.diagnosis
+
+
+def test_a_checkpoint_without_fit_sums_is_judged_on_the_samples_it_holds(tmp_path, ur5_recording, ur5, paper_tool):
+    """A checkpoint of an older version has no fit sums: the verdict is 'unchecked', never 'consistent'."""
+    import json
+
+    wrong = _with(paper_tool, A={"mass": 1.25 * paper_tool.configuration("A").mass})
+    rows = ur5_recording.read_text().splitlines()
+    half = tmp_path / "half.csv"
+    half.write_text("\n".join(rows[: len(rows) // 2]) + "\n")
+    checkpoint = tmp_path / "cp.json"
+    calibrate_recording(half, ur5, wrong, checkpoint=checkpoint, accept_poor_fit=True)
+    state = json.loads(checkpoint.read_text())
+    state.pop("fit_sums")
+    checkpoint.write_text(json.dumps(state))
+    resumed = calibrate_recording(ur5_recording, ur5, wrong, checkpoint=checkpoint, resume=True)
+    check = resumed.session.fit_check()
+    assert check.verdict == "unchecked" and "without fit sums: run again with --restart" in check.diagnosis, check
+    assert resumed.calibration.quality.fit["verdict"] == "unchecked"
+    # and with --restart the whole run is judged: refused, the mistyped mass named
+    assert "mass of configuration A" in _refused(ur5_recording, ur5, wrong).diagnosis

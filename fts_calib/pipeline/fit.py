@@ -98,6 +98,11 @@ class FitCheck:
 
     def summary(self) -> str:
         """One line for a person: the verdict, the worst ratio and where it is."""
+        if not math.isfinite(self.max_ratio):
+            return "fit unchecked: " + (self.diagnosis or "no sample to judge")
+        if self.verdict == "unchecked" and not self.diagnosis:
+            measured = "no noise level was measured: no filter, or a fixed max_strain_std"
+            return f"fit unchecked ({measured}); largest residual {self.max_ratio:.3g}x the floor"
         text = f"fit {self.verdict}: largest residual {self.max_ratio:.3g}x the expected noise"
         text += f" ({self.worst})" if self.worst else ""
         return text + (f"; likely cause: {self.diagnosis}" if self.diagnosis else "")
@@ -252,6 +257,8 @@ def check_fit(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std: np.nd
         The verdict; its diagnosis names the first alternative that fits.
     """
     counts = np.asarray(counts, dtype=float)
+    if not counts.sum() > 0:  # no sample in the sums: nothing to judge
+        return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
     noise = np.zeros(8) if noise_std is None else np.asarray(noise_std, dtype=float)
     implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
     judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise)

@@ -278,7 +278,12 @@ class CalibrationSession:
             hint: Words added to a poor fit's diagnosis when no alternative explains it.
         """
         noise = None if self.filter is None else self.filter.noise_floor
-        return check_fit(self.tool, self._fit_sums, self.kept, noise, hint)
+        in_sums = self._fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
+        missing = int(self.kept.sum() - round(float(in_sums.sum())))
+        if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
+            reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
+            return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
+        return check_fit(self.tool, self._fit_sums, in_sums, noise, hint)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "") -> Calibration:
         """The calibration from everything kept so far, with its fit check in the quality.

@@ -89,7 +89,8 @@ class Kinematics:
         self.limits = resolve_limits(self.joints, robot.limits)
         self._chain = Chain(model, self.joints, self.sensor_frame_id)
         self._plain_q = all(j.kind != "continuous" for j in self.joints) and model.nq == len(self.joints)
-        self.continuous = frozen(np.array([j.kind == "continuous" for j in self.joints]))
+        self.continuous = np.array([j.kind == "continuous" for j in self.joints], dtype=bool)  # a mask: stays bool
+        self.continuous.setflags(write=False)
         self._bounded = np.array([j.kind == "revolute" for j in self.joints])
         self._g_cache: dict[float | None, np.ndarray] = {}
 
