@@ -113,15 +113,23 @@ def _add_calibrate(commands) -> None:
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
     cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
     cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
-    cal.add_argument("--resume", action="store_true", help="continue from --checkpoint (it must be of this recording)")
-    cal.add_argument("--restart", action="store_true", help="start afresh, overwriting an existing --checkpoint")
+    _resume_or_restart(cal, "continue from --checkpoint (it must be of this recording)")
     cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
-    cal.add_argument(
-        "--accept-poor-fit",
-        action="store_true",
-        help="write the calibration even when its fit check is poor (the file says so)",
-    )
+    _accept_poor_fit(cal)
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _resume_or_restart(parser: argparse.ArgumentParser, resume_help: str) -> None:
+    """--resume and --restart: what to do with an existing checkpoint (never overwritten silently)."""
+    parser.add_argument("--resume", action="store_true", help=resume_help)
+    parser.add_argument("--restart", action="store_true", help="start afresh, overwriting an existing checkpoint")
+
+
+def _accept_poor_fit(parser: argparse.ArgumentParser) -> None:
+    """--accept-poor-fit: write a calibration whose fit check is poor (calibrate, live)."""
+    parser.add_argument(
+        "--accept-poor-fit", action="store_true", help="write the calibration even when its fit check is poor (the file says so)"
+    )
 
 
 def _add_live(commands) -> None:
@@ -140,18 +148,13 @@ def _add_live(commands) -> None:
     )
     live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
     live.add_argument("--checkpoint", help="checkpoint file (default: OUTPUT.checkpoint.json)")
-    live.add_argument("--resume", action="store_true", help="continue from the checkpoint")
-    live.add_argument("--restart", action="store_true", help="start afresh, overwriting an existing checkpoint")
+    _resume_or_restart(live, "continue from the checkpoint")
     live.add_argument("--latency", dest="latency_s", type=float, help="how late the joint stamps are, in s (default: the pipeline's)")
     live.add_argument(
         "--max-gap", dest="max_gap_s", type=float, help="longest joint gap interpolated across, in s (default: the pipeline's)"
     )
     live.add_argument("--idle-timeout", dest="idle_timeout_s", type=float, help="stop after this many seconds without data")
-    live.add_argument(
-        "--accept-poor-fit",
-        action="store_true",
-        help="write the calibration even when its fit check is poor (the file says so)",
-    )
+    _accept_poor_fit(live)
     live.add_argument("--quiet", action="store_true", help="no status line")
 
 

@@ -10,6 +10,7 @@ error up in it.
 
 from __future__ import annotations
 
+import contextlib
 import enum
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -137,26 +138,25 @@ def error_line(error: BaseException) -> str:
 
 
 @contextmanager
-def writing(path: str | Path) -> Iterator[None]:
+def _naming(what: str) -> Iterator[None]:
+    """An OSError inside becomes ``cannot WHAT: reason`` (an fts-calib error passes as it is)."""
+    try:
+        yield
+    except OSError as exc:
+        if isinstance(exc, FtsCalibError):
+            raise
+        raise OSError(exc.errno, f"cannot {what}: {exc.strerror or exc}") from exc
+
+
+def writing(path: str | Path) -> contextlib.AbstractContextManager[None]:
     """Say which file could not be written: an OSError inside becomes ``cannot write PATH: reason``.
 
     The atomic writer works on a temporary file beside ``path``; the user asked for
     ``path``, so that is the name the message shows.
     """
-    try:
-        yield
-    except OSError as exc:
-        if isinstance(exc, FtsCalibError):
-            raise
-        raise OSError(exc.errno, f"cannot write {path}: {exc.strerror or exc}") from exc
+    return _naming(f"write {path}")
 
 
-@contextmanager
-def using_udp(host: str, port: int) -> Iterator[None]:
+def using_udp(host: str, port: int) -> contextlib.AbstractContextManager[None]:
     """Say which address could not be used: an OSError inside becomes ``cannot use udp://HOST:PORT: reason``."""
-    try:
-        yield
-    except OSError as exc:
-        if isinstance(exc, FtsCalibError):
-            raise
-        raise OSError(exc.errno, f"cannot use udp://{host}:{port}: {exc.strerror or exc}") from exc
+    return _naming(f"use udp://{host}:{port}")
