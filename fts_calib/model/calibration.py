@@ -2,8 +2,8 @@
 
 Units: C and C_bar in [N or N m per strain unit] (rows Fx, Fy, Fz in N, rows Mx, My, Mz
 in N m), D in [N, N, N, N m, N m, N m]. C is always derived from C_bar (``C = C_bar P``,
-paper eq 7), so the two can never disagree; a file whose C does not match its C_bar is
-refused.
+paper eq 7, with P the sensor's channel layout, :mod:`fts_calib.model.channels`), so the
+two can never disagree; a file whose C does not match its C_bar is refused.
 
 The file is written atomically: a crash never leaves half a file.
 """
@@ -20,9 +20,10 @@ import numpy as np
 
 from ..core import validation
 from ..core.arrays import as_matrix, frozen
-from ..core.exceptions import FileFormatError
+from ..core.exceptions import FileFormatError, ShapeError
 from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, require
-from .sensor import WRENCH_AXES, WRENCH_UNITS, P, wrench_from_strain
+from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
+from .sensor import WRENCH_AXES, WRENCH_UNITS, wrench_from_strain
 
 #: Value of the ``format`` field of a calibration file.
 FORMAT = "fts-calib/1"
@@ -53,7 +54,7 @@ class Quality:
             Shape (6,).
         stderr_C_bar: Standard error of every coefficient of C_bar. Shape (6, 6).
         stderr_D: Standard error of every offset, in [N, N, N, N m, N m, N m]. Shape (6,).
-        stderr_C: Standard error of every coefficient of C. Shape (6, 8).
+        stderr_C: Standard error of every coefficient of C. Shape (6, n), n channels.
         skipped: Samples skipped, by reason (e.g. ``{"non-finite strain": 3}``).
         fit: The fit check's verdict as plain data (verdict, residual RMS per
             configuration and axis, the expected noise, the diagnosis), or None when the
@@ -72,7 +73,8 @@ class Quality:
     fit: Mapping[str, Any] | None = None
 
     def __post_init__(self):
-        for name, shape in (("residual_rms", (6,)), ("stderr_C_bar", (6, 6)), ("stderr_D", (6,)), ("stderr_C", (6, 8))):
+        n = np.shape(self.stderr_C)[-1] if np.ndim(self.stderr_C) == 2 else -1
+        for name, shape in (("residual_rms", (6,)), ("stderr_C_bar", (6, 6)), ("stderr_D", (6,)), ("stderr_C", (6, n))):
             object.__setattr__(self, name, frozen(as_matrix(getattr(self, name), shape, name)))
         object.__setattr__(self, "skipped", dict(self.skipped))
 
@@ -80,10 +82,10 @@ class Quality:
         """Standard error of each coefficient of C relative to the largest |coefficient| of its row.
 
         Args:
-            C: The calibration matrix the errors belong to. Shape (6, 8).
+            C: The calibration matrix the errors belong to. Shape (6, n).
 
         Returns:
-            Dimensionless ratios, shape (6, 8).
+            Dimensionless ratios, shape (6, n).
         """
         return self.stderr_C / np.max(np.abs(C), axis=1, keepdims=True)
 
@@ -99,7 +101,9 @@ class Calibration:
         provenance: Where it came from: robot, sensor frame, tools, time, software version.
         offset_history: Earlier offsets, oldest first, each ``{"D": [...], "replaced": time,
             "reason": text}``.
-        C: Calibration matrix ``C_bar @ P``, shape (6, 8) (derived, not an argument).
+        layout: The sensor's channel layout (its projection P, 6 x n); the paper's 8-bridge
+            sensor when not given.
+        C: Calibration matrix ``C_bar @ P``, shape (6, n) (derived, not an argument).
     """
 
     C_bar: np.ndarray
@@ -107,13 +111,18 @@ class Calibration:
     quality: Quality | None = None
     provenance: Mapping[str, Any] = field(default_factory=dict)
     offset_history: tuple[Mapping[str, Any], ...] = ()
+    layout: ChannelLayout = MALTESE_CROSS_8
     C: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
         C_bar = frozen(validation.finite_array("C_bar", as_matrix(self.C_bar, (6, 6), "C_bar")))
         object.__setattr__(self, "C_bar", C_bar)
         object.__setattr__(self, "D", frozen(validation.finite_array("D", as_matrix(self.D, (6,), "D"))))
-        object.__setattr__(self, "C", frozen(C_bar @ P))
+        layout = channel_layout(self.layout)
+        object.__setattr__(self, "layout", layout)
+        object.__setattr__(self, "C", frozen(C_bar @ layout.projection))
+        if self.quality is not None and self.quality.stderr_C.shape != self.C.shape:
+            raise ShapeError(f"quality.stderr_C.shape={self.quality.stderr_C.shape} but expected {self.C.shape}, the shape of C")
         object.__setattr__(self, "provenance", dict(self.provenance))
         object.__setattr__(self, "offset_history", tuple(dict(h) for h in self.offset_history))
 
@@ -121,7 +130,7 @@ class Calibration:
         """Wrench on the sensor from raw strains, ``C Delta + D``.
 
         Args:
-            strain: Raw bridge strains. Shape (8,) or (N, 8).
+            strain: Raw channel readings. Shape (n,) or (N, n), n = ``layout.n_channels``.
 
         Returns:
             ``[Fx, Fy, Fz, Mx, My, Mz]`` in S, in [N] and [N m]. Shape (6,) or (N, 6).
@@ -168,6 +177,7 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
     data: dict[str, Any] = {
         "format": FORMAT,
         "units": _UNITS,
+        "channels": calibration.layout.to_config(),
         "C": calibration.C,
         "C_bar": calibration.C_bar,
         "D": calibration.D,
@@ -180,7 +190,7 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
     return atomic_write_text(path, header + dump_yaml(data))
 
 
-def _quality_from_dict(raw: Any, path: Path) -> Quality:
+def _quality_from_dict(raw: Any, path: Path, n: int) -> Quality:
     if not isinstance(raw, Mapping):
         raise FileFormatError(path, "quality", "expected a mapping")
     rms = require(raw, "residual_rms", path, "quality.")
@@ -198,7 +208,7 @@ def _quality_from_dict(raw: Any, path: Path) -> Quality:
             residual_rms=read_array(rms, (6,), path, "quality.residual_rms"),
             stderr_C_bar=read_array(require(raw, "stderr_C_bar", path, "quality."), (6, 6), path, "quality.stderr_C_bar"),
             stderr_D=read_array(require(raw, "stderr_D", path, "quality."), (6,), path, "quality.stderr_D"),
-            stderr_C=read_array(require(raw, "stderr_C", path, "quality."), (6, 8), path, "quality.stderr_C"),
+            stderr_C=read_array(require(raw, "stderr_C", path, "quality."), (6, n), path, "quality.stderr_C"),
             skipped={str(k): int(v) for k, v in (raw.get("skipped") or {}).items()},
             fit=dict(raw["fit"]) if isinstance(raw.get("fit"), Mapping) else None,
         )
@@ -212,6 +222,8 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     Args:
         path: The YAML file.
         rtol: Accepted mismatch between the file's C and ``C_bar @ P``, relative to max|C|.
+            P is the projection of the file's ``channels`` layout (the paper's 8-bridge one
+            when the field is absent, as in files written before layouts existed).
 
     Raises:
         FileFormatError: Another format, a missing field, a wrong shape, a non-finite
@@ -224,13 +236,15 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
         raise FileFormatError(path, "format", f"is {fmt!r} but expected {FORMAT!r}: not a calibration file of this version")
     C_bar = read_array(require(data, "C_bar", path), (6, 6), path, "C_bar")
     D = read_array(require(data, "D", path), (6,), path, "D")
-    C = read_array(require(data, "C", path), (6, 8), path, "C")
-    mismatch = float(np.max(np.abs(C - C_bar @ P)))
+    with fields_of(path):
+        layout = channel_layout(data.get("channels"))
+    C = read_array(require(data, "C", path), (6, layout.n_channels), path, "C")
+    mismatch = float(np.max(np.abs(C - C_bar @ layout.projection)))
     if mismatch > rtol * max(float(np.max(np.abs(C))), 1e-300):
         raise FileFormatError(
             path, "C", f"does not equal C_bar @ P (largest difference {mismatch:.3g}); the file was edited inconsistently"
         )
-    quality = _quality_from_dict(data["quality"], path) if data.get("quality") is not None else None
+    quality = _quality_from_dict(data["quality"], path, layout.n_channels) if data.get("quality") is not None else None
     provenance = data.get("provenance") or {}
     if not isinstance(provenance, Mapping):
         raise FileFormatError(path, "provenance", "expected a mapping")
@@ -238,4 +252,4 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     if not isinstance(history, list) or not all(isinstance(h, Mapping) for h in history):
         raise FileFormatError(path, "offset_history", "expected a list of mappings")
     with fields_of(path):
-        return Calibration(C_bar=C_bar, D=D, quality=quality, provenance=provenance, offset_history=tuple(history))
+        return Calibration(C_bar=C_bar, D=D, quality=quality, provenance=provenance, offset_history=tuple(history), layout=layout)

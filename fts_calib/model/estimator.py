@@ -2,7 +2,8 @@ r"""The online least-squares estimator of the calibration (paper eqs 12-16).
 
 The online estimator regresses the known wrench W (shape (6,), [N, N, N, N m, N m, N m])
 on the augmented projected strain ``x = [P Delta; 1]`` (shape (7,), eq 13) and keeps only
-sums, so its memory does not grow with the number of samples:
+sums, so its memory does not grow with the number of samples. P is the sensor's channel
+layout (6 x n, :mod:`fts_calib.model.channels`): the paper's 6 x 8 by default.
 
 .. math::
 
@@ -33,8 +34,8 @@ from .._version import __version__
 from ..core.arrays import as_matrix, as_samples
 from ..core.exceptions import ConfigError, InsufficientExcitation, ShapeError
 from .calibration import Calibration, now_iso
+from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .least_squares import RCOND, fit_quality, information_rank, solve_normal
-from .sensor import P
 
 _CHUNK = 1 << 16  # rows per block in batch updates: bounds temporary memory to ~7 MB
 _NON_FINITE = "non-finite wrench, strain or weight"
@@ -63,14 +64,18 @@ class OnlineEstimator:
 
     Args:
         forgetting: Exponential forgetting factor in (0, 1]; 1 weighs all samples equally.
+        layout: The sensor's channel layout (or its sensor-YAML ``channels`` value); the
+            paper's 8-bridge sensor by default.
     """
 
     _STAGE = 64  # rows staged by update() before they are added to the sums
 
-    def __init__(self, forgetting: float = 1.0):
+    def __init__(self, forgetting: float = 1.0, layout: ChannelLayout | str | None = MALTESE_CROSS_8):
         if not (0.0 < forgetting <= 1.0):
             raise ConfigError("forgetting", forgetting, "a number in (0, 1]")
         self.forgetting = float(forgetting)
+        self.layout = channel_layout(layout)
+        self._P = self.layout.projection
         self._sums = np.zeros((13, 13))
         self._staged = np.zeros((self._STAGE, 13))
         self._staged[:, 12] = 1.0
@@ -88,7 +93,7 @@ class OnlineEstimator:
 
         Args:
             w_sensor: Known wrench on the sensor, in [N, N, N, N m, N m, N m]. Shape (6,).
-            strain: Raw bridge strains. Shape (8,).
+            strain: Raw channel readings. Shape (n,), n = ``layout.n_channels``.
             weight: Frequency weight >= 0.
 
         Returns:
@@ -97,8 +102,9 @@ class OnlineEstimator:
         """
         wrench = np.asarray(w_sensor, dtype=float)
         s = np.asarray(strain, dtype=float)
-        if wrench.shape != (6,) or s.shape != (8,):
-            raise ShapeError(f"w_sensor.shape={wrench.shape}, strain.shape={s.shape} but expected (6,) and (8,)")
+        n = self.layout.n_channels
+        if wrench.shape != (6,) or s.shape != (n,):
+            raise ShapeError(f"w_sensor.shape={wrench.shape}, strain.shape={s.shape} but expected (6,) and ({n},)")
         self.samples_seen += 1
         # sums of squares: inf or NaN when any value is (or would overflow the sums), and
         # never inf - inf, so the check itself raises no floating-point warning
@@ -107,7 +113,7 @@ class OnlineEstimator:
             return False
         row = self._staged[self._n_staged]
         row[:6] = wrench
-        np.dot(P, s, out=row[6:12])
+        np.dot(self._P, s, out=row[6:12])
         self._staged_weight[self._n_staged] = weight
         self._n_staged += 1
         self.samples_used += 1
@@ -120,14 +126,14 @@ class OnlineEstimator:
 
         Args:
             w_sensor: Known wrenches, in [N, N, N, N m, N m, N m]. Shape (N, 6).
-            strain: Raw bridge strains. Shape (N, 8).
+            strain: Raw channel readings. Shape (N, n), n = ``layout.n_channels``.
             weight: Frequency weights >= 0, shape (N,); all 1 when None.
 
         Returns:
             Number of samples used; rows with a non-finite value are skipped and counted.
         """
         W, _ = as_samples(w_sensor, 6, "w_sensor")
-        S, _ = as_samples(strain, 8, "strain")
+        S, _ = as_samples(strain, self.layout.n_channels, "strain")
         if W.shape[0] != S.shape[0]:
             raise ShapeError(f"w_sensor has {W.shape[0]} rows but strain has {S.shape[0]}: expected the same N")
         n = W.shape[0]
@@ -149,7 +155,7 @@ class OnlineEstimator:
         Z[:, :6] = W
         Z[:, 12] = 1.0
         with np.errstate(over="ignore", invalid="ignore"):  # bad rows are found below
-            np.matmul(S, P.T, out=Z[:, 6:12])
+            np.matmul(S, self._P.T, out=Z[:, 6:12])
             if weight is None and self.forgetting == 1.0:
                 gram = Z.T @ Z  # fast path: one bad row makes the whole sum non-finite
                 if np.all(np.isfinite(gram)):
@@ -196,15 +202,18 @@ class OnlineEstimator:
     def merge(self, other: OnlineEstimator) -> OnlineEstimator:
         """A new estimator holding the data of both (as one pass over both would).
 
-        Both must have the same forgetting factor; with forgetting < 1, ``other``'s data
-        count as the more recent.
+        Both must have the same forgetting factor and channel layout; with forgetting < 1,
+        ``other``'s data count as the more recent.
         """
         if other.forgetting != self.forgetting:
             message = f"cannot merge estimators with forgetting {self.forgetting} and {other.forgetting}"
             raise ConfigError("forgetting", other.forgetting, f"{self.forgetting}, the same as this estimator's", message=message)
+        if other.layout != self.layout:
+            message = f"cannot merge estimators of channel layouts {self.layout.name} and {other.layout.name}"
+            raise ConfigError("channels", other.layout.name, self.layout.name, message=message)
         self._flush()
         other._flush()
-        out = OnlineEstimator(self.forgetting)
+        out = OnlineEstimator(self.forgetting, self.layout)
         decay = self.forgetting**other.samples_used
         out._sums = self._sums * decay + other._sums
         out._weight_sum = self._weight_sum * decay + other._weight_sum
@@ -270,14 +279,14 @@ class OnlineEstimator:
         if theta is None:
             raise InsufficientExcitation(rank, 7 - rank, RANK_ADVICE)
         quality = fit_quality(
-            S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used, self.samples_seen, rank, condition, self.skipped
+            S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used, self.samples_seen, rank, condition, self.skipped, self._P
         )
         provenance = {
             "method": "online least squares (paper eqs 12-16)",
             "time": now_iso(),
             "software_version": __version__,
         }
-        return Calibration(C_bar=theta[:, :6], D=theta[:, 6], quality=quality, provenance=provenance)
+        return Calibration(C_bar=theta[:, :6], D=theta[:, 6], quality=quality, provenance=provenance, layout=self.layout)
 
     # -- checkpoints --------------------------------------------------------------------
 
@@ -285,6 +294,7 @@ class OnlineEstimator:
         """Everything needed to resume: plain types, safe to write as YAML or JSON."""
         return {
             "forgetting": self.forgetting,
+            "channels": self.layout.to_config(),
             "S": self._current().tolist(),
             "weight_sum": self._weight_sum,
             "samples_used": self.samples_used,
@@ -295,7 +305,7 @@ class OnlineEstimator:
     @classmethod
     def from_state(cls, state: Mapping) -> OnlineEstimator:
         """Rebuild an estimator from :meth:`state`."""
-        out = cls(float(state["forgetting"]))
+        out = cls(float(state["forgetting"]), channel_layout(state.get("channels")))
         out._sums = as_matrix(state["S"], (13, 13), "state['S']").copy()
         out._weight_sum = float(state["weight_sum"])
         out.samples_used = int(state["samples_used"])

@@ -24,7 +24,6 @@ from collections.abc import Mapping
 import numpy as np
 
 from .calibration import Quality
-from .sensor import P
 
 #: Default relative eigenvalue threshold for the numerical rank of the scaled S_XX.
 #: A direction whose strain amplitude is below about 3e-4 of the typical one
@@ -89,7 +88,7 @@ def solve_normal(S_XX: np.ndarray, S_WX: np.ndarray, rcond: float, min_norm: boo
     return theta_t.T, rank, condition, inv
 
 
-def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
+def coefficient_stderr(sigma, inv, projection) -> tuple[np.ndarray, np.ndarray]:
     """Standard errors of the coefficients of an ordinary least-squares fit of W on x.
 
     ``Cov(row j) = sigma_j^2 S_XX^-1``; for ``C = C_bar P``, ``Var(C_jk) = sigma_j^2 p_k^T
@@ -97,11 +96,14 @@ def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
 
     Args:
         sigma: Residual standard deviation per wrench axis, [N or N m]. Shape (6,).
-        inv: Inverse of S_XX. Shape (p, p), p = 6 or 7 (the last entry is the offset).
+        inv: Inverse of S_XX. Shape (p, p), p >= 6: the C_bar block first, then the
+            offset terms.
+        projection: The channel layout's P, shape (6, n).
 
     Returns:
-        ``(stderr of [C_bar, D] (6, p), stderr of C (6, 8))``.
+        ``(stderr of every regression coefficient (6, p), stderr of C (6, n))``.
     """
+    P = np.asarray(projection, dtype=float)
     sigma = np.asarray(sigma, dtype=float)
     stderr_theta = sigma[:, None] * np.sqrt(np.maximum(np.diag(inv), 0.0))[None, :]
     inv6 = inv[:6, :6]
@@ -110,12 +112,24 @@ def coefficient_stderr(sigma, inv) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fit_quality(
-    S_WW, S_WX, S_XX, theta, inv, n_eff: float, used: int, seen: int, rank: int, condition: float, skipped: Mapping[str, int]
+    S_WW,
+    S_WX,
+    S_XX,
+    theta,
+    inv,
+    n_eff: float,
+    used: int,
+    seen: int,
+    rank: int,
+    condition: float,
+    skipped: Mapping[str, int],
+    projection,
 ) -> Quality:
     """Residuals and standard errors of a least-squares fit from its normal matrices.
 
     ``theta`` is (6, p) with p = 7 (C_bar and D) or 6 (C_bar only); ``inv`` is the (p, p)
-    (pseudo-)inverse of S_XX. The residual variance per axis is RSS / (n_eff - p).
+    (pseudo-)inverse of S_XX; ``projection`` the layout's P (6, n). The residual variance
+    per axis is RSS / (n_eff - p).
     """
     p = theta.shape[1]
     rss = np.diag(S_WW) - 2.0 * np.sum(theta * S_WX, axis=1) + np.sum((theta @ S_XX) * theta, axis=1)
@@ -123,7 +137,7 @@ def fit_quality(
     residual_rms = np.sqrt(rss / n_eff) if n_eff > 0 else np.full(6, np.nan)
     dof = n_eff - p
     sigma = np.sqrt(rss / dof) if dof > 0 else np.full(6, math.inf)
-    stderr_theta, stderr_C = coefficient_stderr(sigma, inv)
+    stderr_theta, stderr_C = coefficient_stderr(sigma, inv, projection)
     stderr_D = stderr_theta[:, 6] if p == 7 else np.zeros(6)
     return Quality(
         samples_used=used,

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.arrays import as_matrix, as_samples, frozen
-from ..core.exceptions import StructureError
+from ..core.exceptions import ShapeError, StructureError
 
 #: Projection of the 8 bridge strains onto the 6 wrench-like combinations (paper eq 6).
 P = frozen(
@@ -75,7 +75,7 @@ def c_from_c_bar(C_bar) -> np.ndarray:
     return as_matrix(C_bar, (6, 6), "C_bar") @ P
 
 
-def c_bar_from_c(C, rtol: float = 1e-6) -> np.ndarray:
+def c_bar_from_c(C, rtol: float = 1e-6, projection=None) -> np.ndarray:
     """Modified calibration matrix from a full one: ``C_bar = C pinv(P)``, with a structure check.
 
     The check refuses a C that does not satisfy the two column identities of ``C = C_bar P``
@@ -84,8 +84,10 @@ def c_bar_from_c(C, rtol: float = 1e-6) -> np.ndarray:
     below 5e-5 (its rounding), about 2e-7 of its largest entry.
 
     Args:
-        C: Calibration matrix, in [N or N m per strain unit]. Shape (6, 8).
+        C: Calibration matrix, in [N or N m per strain unit]. Shape (6, n): (6, 8) for the
+            paper's P.
         rtol: Accepted residual, relative to the largest absolute entry of C.
+        projection: The layout's P, shape (6, n); the paper's when None.
 
     Returns:
         C_bar, shape (6, 6).
@@ -93,9 +95,10 @@ def c_bar_from_c(C, rtol: float = 1e-6) -> np.ndarray:
     Raises:
         StructureError: C is not of the form C_bar P; carries the residual.
     """
-    C = as_matrix(C, (6, 8), "C")
-    C_bar = C @ P_PINV
-    residual = float(np.max(np.abs(C - C_bar @ P)))
+    projection = P if projection is None else np.asarray(projection, dtype=float)
+    C = as_matrix(C, projection.shape, "C")
+    C_bar = C @ (P_PINV if projection is P else np.linalg.pinv(projection))
+    residual = float(np.max(np.abs(C - C_bar @ projection)))
     tolerance = rtol * float(np.max(np.abs(C)))
     if not residual <= tolerance:
         raise StructureError(residual, tolerance)
@@ -106,15 +109,18 @@ def wrench_from_strain(C, strain, D=None) -> np.ndarray:
     """Wrench from raw strains (eq 3): ``W = C Delta + D``.
 
     Args:
-        C: Calibration matrix, in [N or N m per strain unit]. Shape (6, 8).
-        strain: Raw bridge strains. Shape (8,) or (N, 8).
+        C: Calibration matrix, in [N or N m per strain unit]. Shape (6, n), n channels
+            (8 for the paper's sensor).
+        strain: Raw channel readings. Shape (n,) or (N, n).
         D: Wrench offsets in [N, N, N, N m, N m, N m]. Shape (6,); zero when None.
 
     Returns:
         Wrench on the sensor in S, ``[Fx, Fy, Fz, Mx, My, Mz]``. Shape (6,) or (N, 6).
     """
-    C = as_matrix(C, (6, 8), "C")
-    batch, single = as_samples(strain, 8, "strain")
+    C = np.asarray(C, dtype=float)
+    if C.ndim != 2 or C.shape[0] != 6:
+        raise ShapeError(f"C.shape={C.shape} but expected (6, n)")
+    batch, single = as_samples(strain, C.shape[1], "strain")
     out = batch @ C.T
     if D is not None:
         out = out + as_matrix(D, (6,), "D")

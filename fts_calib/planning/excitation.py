@@ -127,7 +127,7 @@ def predict_excitation(
         sigma_W = np.sqrt(np.diag(C @ np.diag(noise**2) @ C.T))
         scale = 1.0 / np.sqrt(np.diag(S_XX))
         inv = np.linalg.solve(S_XX * scale[:, None] * scale[None, :], np.eye(7)) * scale[:, None] * scale[None, :]
-        stderr_theta, stderr_C = coefficient_stderr(sigma_W, inv)
+        stderr_theta, stderr_C = coefficient_stderr(sigma_W, inv, P)
         advice = ""
     else:
         stderr_theta, stderr_C = np.full((6, 7), math.inf), np.full((6, 8), math.inf)

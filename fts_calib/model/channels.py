@@ -1,0 +1,164 @@
+"""Channel layouts: how a sensor's n raw channels map onto the six wrench-like combinations.
+
+The sensor model is ``W = C Delta + D`` with ``C = C_bar P`` (paper eq 7), where P is a
+6 x n projection of full row rank and C_bar is 6 x 6. The layout is part of the sensor
+configuration (the sensor YAML's ``channels`` key) and of every calibration file:
+
+- ``maltese-cross-8`` (default): the paper's 8 half-bridges and its P (eq 6).
+- ``wrench-6``: P = I. The channels already are a wrench (a factory-calibrated sensor,
+  e.g. ATI, Robotiq, Bota or a UR's built-in one, in [N, N, N, N m, N m, N m]); the result
+  is the 6 x 6 correction C_bar and the offsets.
+- ``projection``: an explicit 6 x n matrix for any other strain-gauge layout.
+
+The estimator regresses W on ``P Delta``, so everything downstream of the projection is
+six-dimensional whatever n is.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..core.arrays import as_matrix, as_samples, frozen
+from ..core.exceptions import ConfigError, ShapeError
+from .sensor import P, c_bar_from_c
+
+#: Names a layout can have, in the order the documentation gives them.
+LAYOUT_NAMES = ("maltese-cross-8", "wrench-6", "projection")
+
+
+@dataclass(frozen=True, eq=False)
+class ChannelLayout:
+    """A channel layout: its name and its 6 x n projection of full row rank.
+
+    Attributes:
+        name: One of :data:`LAYOUT_NAMES`.
+        projection: P, shape (6, n): ``P @ channels`` are the six wrench-like combinations.
+        pinv: Moore-Penrose pseudo-inverse of P, shape (n, 6) (derived).
+
+    Raises:
+        ConfigError: Unknown name, or a projection that is not 6 x n with n >= 6, not
+            finite, or not of full row rank 6.
+    """
+
+    name: str
+    projection: np.ndarray
+    pinv: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        if self.name not in LAYOUT_NAMES:
+            raise ConfigError("channels", self.name, f"one of {', '.join(LAYOUT_NAMES)}")
+        projection = np.asarray(self.projection, dtype=float)
+        if projection.ndim != 2 or projection.shape[0] != 6 or projection.shape[1] < 6:
+            raise ConfigError("projection", f"shape {projection.shape}", "a 6 x n matrix with n >= 6 (one column per channel)")
+        if not np.all(np.isfinite(projection)):
+            raise ConfigError("projection", "a NaN or inf entry", "finite numbers")
+        singular = np.linalg.svd(projection, compute_uv=False)
+        if singular[-1] <= 1e-9 * singular[0]:
+            raise ConfigError("projection", f"rank {int(np.sum(singular > 1e-9 * singular[0]))}", "full row rank 6 (six independent rows)")
+        object.__setattr__(self, "projection", frozen(projection))
+        object.__setattr__(self, "pinv", frozen(np.linalg.pinv(projection)))
+
+    @property
+    def n_channels(self) -> int:
+        """Number of raw channels n."""
+        return int(self.projection.shape[1])
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ChannelLayout):
+            return NotImplemented
+        return self.name == other.name and np.array_equal(self.projection, other.projection)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.projection.tobytes()))
+
+    def project(self, channels) -> np.ndarray:
+        """The six combinations ``P Delta`` of raw channels.
+
+        Args:
+            channels: Raw channel readings. Shape (n,) or (N, n).
+
+        Returns:
+            Shape (6,) or (N, 6).
+        """
+        batch, single = as_samples(channels, self.n_channels, "channels")
+        out = batch @ self.projection.T
+        return out[0] if single else out
+
+    def c_from_c_bar(self, C_bar) -> np.ndarray:
+        """Full calibration matrix ``C = C_bar P``, shape (6, n), in [N or N m per channel unit]."""
+        return as_matrix(C_bar, (6, 6), "C_bar") @ self.projection
+
+    def c_bar_from_c(self, C, rtol: float = 1e-6) -> np.ndarray:
+        """C_bar from a full C (``C pinv(P)``), refusing a C that is not of the form C_bar P.
+
+        Args:
+            C: Calibration matrix, shape (6, n).
+            rtol: Accepted largest entry of ``C - C_bar P``, relative to max|C|.
+
+        Raises:
+            StructureError: C is not of the form C_bar P; carries the residual.
+        """
+        return c_bar_from_c(C, rtol, self.projection)
+
+    def to_config(self) -> Any:
+        """The sensor-YAML / calibration-file value: the name, or ``{"projection": rows}``."""
+        if self.name == "projection":
+            return {"projection": self.projection.tolist()}
+        return self.name
+
+
+#: The paper's sensor: 8 half-bridges on a Maltese cross (eq 6).
+MALTESE_CROSS_8 = ChannelLayout("maltese-cross-8", P)
+#: A sensor whose channels already are a wrench: P = I.
+WRENCH_6 = ChannelLayout("wrench-6", np.eye(6))
+
+
+def channel_layout(value: Any = None) -> ChannelLayout:
+    """The layout named by a sensor-YAML ``channels`` value.
+
+    Args:
+        value: None or ``"maltese-cross-8"`` (the default), ``"wrench-6"``, a 6 x n list of
+            rows, ``{"projection": rows}``, or a :class:`ChannelLayout` (returned as is).
+
+    Raises:
+        ConfigError: An unknown name or a bad matrix; the message says what is expected.
+    """
+    if isinstance(value, ChannelLayout):
+        return value
+    if value is None or (isinstance(value, str) and value == "maltese-cross-8"):
+        return MALTESE_CROSS_8
+    if isinstance(value, str) and value == "wrench-6":
+        return WRENCH_6
+    if isinstance(value, Mapping):
+        if set(value) != {"projection"}:
+            raise ConfigError("channels", dict(value), "maltese-cross-8, wrench-6 or {projection: 6 x n rows}")
+        value = value["projection"]
+    if isinstance(value, str):
+        raise ConfigError("channels", value, "maltese-cross-8, wrench-6 or {projection: 6 x n rows}")
+    try:
+        matrix = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError("channels", value, "maltese-cross-8, wrench-6 or {projection: 6 x n rows}") from None
+    return ChannelLayout("projection", matrix)
+
+
+def check_channels(layout: ChannelLayout, n: int, where: str) -> None:
+    """Refuse data with another number of channels than the layout's.
+
+    Args:
+        layout: The sensor's layout.
+        n: Number of channels the data have.
+        where: What carries the data, for the message (e.g. 'run.csv').
+
+    Raises:
+        ShapeError: ``n`` differs from ``layout.n_channels``.
+    """
+    if n != layout.n_channels:
+        raise ShapeError(
+            f"{where} has {n} channels but the sensor's layout {layout.name} has {layout.n_channels}; "
+            "select the sensor with --sensor FILE (its 'channels' key)"
+        )
