@@ -26,7 +26,7 @@ import math
 import time as _time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +42,7 @@ from .advice import missing_words
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
 from .fit import FitCheck, check_fit, fit_rows
+from .progress import Progress
 from .qsfilter import QuasiStaticFilter
 from .settings import PipelineConfig
 from .still import quasi_static
@@ -57,36 +58,6 @@ __all__ = [
 ]
 
 _STAGE = 256  # single samples from add() are processed in groups of this size
-
-
-@dataclass(frozen=True)
-class Progress:
-    """Where a session stands.
-
-    Attributes:
-        seen: Samples offered.
-        kept: Samples that entered the least squares.
-        kept_by_configuration: Kept samples per tool configuration name.
-        rank: Rank of S_XX (7 determines every coefficient).
-        condition_number: Of the scaled S_XX (inf below rank 7).
-        missing: What is still missing, in words ('' at rank 7).
-        skipped: Samples not kept, by reason (checks and filter rules).
-        last_time: Time of the last sample [s], or None.
-    """
-
-    seen: int
-    kept: int
-    kept_by_configuration: dict[str, int]
-    rank: int
-    condition_number: float
-    missing: str
-    skipped: dict[str, int]
-    last_time: float | None
-
-    @property
-    def kept_fraction(self) -> float:
-        """Kept samples over seen samples (0 when none seen)."""
-        return self.kept / self.seen if self.seen else 0.0
 
 
 class CalibrationSession:
