@@ -11,6 +11,7 @@ frame S; sample axis first.
 
 from ._version import __version__
 from .core.exceptions import (
+    BagError,
     ConfigError,
     FileFormatError,
     FrameNotFound,
@@ -49,6 +50,7 @@ from .service.reader import GravityCompensator, WrenchReader
 from .sim.sensor import SimulatedSensor, load_simulated_sensor
 
 __all__ = [
+    "BagError",
     "Calibration",
     "CalibrationSession",
     "ConfigError",

@@ -124,6 +124,21 @@ class RecordingError(FtsCalibError, ValueError):
         super().__init__(f"{where}: {message}")
 
 
+class BagError(RecordingError):
+    """A ROS 2 bag cannot be read as a robot log (a topic missing or of another type, a joint missing).
+
+    Attributes:
+        path: The bag (a storage file or a bag folder).
+        topic: The topic at fault, or None.
+    """
+
+    def __init__(self, path: str | Path, topic: str | None, message: str):
+        self.topic = topic
+        where = f", topic '{topic}'" if topic is not None else ""
+        FtsCalibError.__init__(self, f"{path}{where}: {message}")
+        self.path, self.line, self.column = Path(path), None, None
+
+
 class FrameNotFound(FtsCalibError, KeyError):
     """A frame name is not in the robot model.
 

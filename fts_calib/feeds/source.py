@@ -1,0 +1,80 @@
+"""The one place a recording argument becomes a reader: a CSV recording or ROS 2 bags, by name.
+
+- ``RUN.csv`` or ``RUN.csv.gz``: :class:`fts_calib.feeds.recording.RecordingReader`;
+- ``RUN.mcap``, ``RUN.db3``, a bag folder (with its ``metadata.yaml``), or several of them,
+  each optionally ``:CONFIGURATION`` (the tool configuration it holds throughout):
+  :class:`fts_calib.feeds.bag.BagReader`.
+
+Both readers yield :class:`fts_calib.feeds.batch.SampleBatch` es and count what they skip
+(``skipped``, ``rows_read``, ``bytes_read`` of ``size``, ``notes()``), so the jobs that read
+recordings (calibrate, validate, replay) take either without knowing which.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..core.exceptions import RecordingError
+from .bag import BagReader
+from .bag_log import BagTopics, is_bag, parse_bag_argument
+from .recording import RecordingReader
+
+#: Suffixes of a CSV recording.
+CSV_SUFFIXES = (".csv", ".gz")
+
+#: The accepted kinds of recording, in words (for errors and help texts).
+ACCEPTED = (
+    "a CSV recording (.csv, .csv.gz), or ROS 2 bags (.mcap, .db3 or a bag folder with metadata.yaml, each optionally BAG:CONFIGURATION)"
+)
+
+
+def recording_paths(recording: str | Path | Sequence[str | Path]) -> list[str | Path]:
+    """A recording argument as a list: one path, or several bags."""
+    return [recording] if isinstance(recording, (str, Path)) else list(recording)
+
+
+def open_recording(
+    recording: str | Path | Sequence[str | Path],
+    joint_names: Sequence[str] | None,
+    tool_names: Sequence[str] | None,
+    max_abs_channel: float | None = None,
+    topics: BagTopics | None = None,
+    continuous: Sequence[bool] | np.ndarray | None = None,
+    max_gap_s: float = 0.05,
+    latency_s: float = 0.0,
+) -> RecordingReader | BagReader:
+    """The reader of a recording (see the module docstring).
+
+    Args:
+        recording: One CSV path, or one or more bags (``PATH`` or ``PATH:CONFIGURATION``).
+        joint_names: The robot's joints, in its order; None for the file's.
+        tool_names: The tool's configuration names, in order; None to accept any.
+        max_abs_channel: Largest plausible channel magnitude, raw units (CSV notes rows beyond it).
+        topics: Topic names of a bag (the defaults when None).
+        continuous: Which joints are continuous, shape (n_joints,) (a bag's synchronizer).
+        max_gap_s: Longest joint gap a bag's synchronizer interpolates across [s].
+        latency_s: How late a bag's joint stamps are relative to its channel stamps [s].
+
+    Raises:
+        RecordingError: Not one of the accepted kinds (the message lists them), several
+            files that are not all bags, or the reader's own errors (a
+            :class:`~fts_calib.core.exceptions.BagError` for a bag).
+    """
+    paths = recording_paths(recording)
+    if not paths:
+        raise RecordingError(Path("."), None, None, f"no recording given: expected {ACCEPTED}")
+    parts = [parse_bag_argument(p) for p in paths]
+    if all(is_bag(part.path) for part in parts):
+        return BagReader(parts, joint_names, tool_names, topics, continuous, max_gap_s, latency_s)
+    first = Path(paths[0])
+    if len(paths) > 1:
+        other = next(p.path for p in parts if not is_bag(p.path))
+        raise RecordingError(other, None, None, f"several recordings are read only as ROS 2 bags, and this is not one: expected {ACCEPTED}")
+    if first.is_dir():
+        raise RecordingError(first, None, None, f"a folder without a metadata.yaml is not a ROS 2 bag: expected {ACCEPTED}")
+    if first.suffix not in CSV_SUFFIXES:
+        raise RecordingError(first, None, None, f"unknown kind of recording '{first.suffix or first.name}': expected {ACCEPTED}")
+    return RecordingReader(first, joint_names, tool_names, max_abs_channel=max_abs_channel)
