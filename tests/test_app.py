@@ -171,7 +171,11 @@ def _errors(tmp_path, ur5_joints):
         ([*ros2, "--payload", str(tmp_path / "bad_tool.yaml")], ExitCode.FILE, "mass"),
         ([*ros2, "--payload", "paper_tool", "--configuration", "Z"], ExitCode.TOOL_CONFIGURATION, "'Z'"),
         (ros2, ExitCode.CONFIG, "--payload"),
-        (["calibrate", "--robot", "ur5", str(no_strain_8), "--quiet", "-o", out], ExitCode.RECORDING, "strain_8"),
+        (
+            ["calibrate", "--robot", "ur5", str(no_strain_8), "--quiet", "-o", out],
+            ExitCode.ARRAY,
+            "7 channels but the sensor's layout maltese-cross-8 has 8",
+        ),
         (["robots", str(tmp_path / "robot.yaml")], ExitCode.ROBOT, "no_such_frame"),
         (["tare", "--calibration", cal, str(not_finite), "-o", out], ExitCode.EXCITATION, "no still sample"),
         (["trajectory", "--robot", "ur5", "-o", str(tmp_path / "t"), "--rate", "0"], ExitCode.TRAJECTORY, "rate=0.0 Hz"),

@@ -38,7 +38,8 @@ def test_documented_examples_decode():
     [
         (b"\xff\xfe", "malformed", "not JSON"),
         (b"[1, 2]", "malformed", "expected a JSON object"),
-        (b'{"type": "strain", "t": 1, "strain": [1, 2]}', "malformed", "list of 8 numbers"),
+        (b'{"type": "strain", "t": 1, "strain": []}', "malformed", "non-empty list of numbers, one per channel"),
+        (b'{"type": "strain", "t": 1, "strain": [1, "2"]}', "malformed", "non-empty list of numbers, one per channel"),
         (b'{"type": "strain", "t": "now", "strain": [0,0,0,0,0,0,0,0]}', "malformed", "'t' must be a finite number"),
         (b'{"type": "joints", "t": 1, "q": {"j": "x"}}', "malformed", "'q' must map joint names to numbers"),
         (b'{"type": "tool", "t": 1}', "malformed", "'name'"),

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from fts_calib import FtsCalibWarning, RecordingError
+from fts_calib.core.exceptions import ShapeError
 from fts_calib.feeds.recording import MALFORMED, UNKNOWN_TOOL, RecordingReader, RecordingWriter
 
 JOINTS = ["j1", "j2"]
@@ -56,6 +57,22 @@ def test_missing_column_is_an_error_naming_it(tmp_path):
     path.write_text(HEADER.replace("j2,", "") + "0,0.1,0,0,0,0,0,0,0,0,A\n")
     with pytest.raises(RecordingError, match=r"column 'j2': missing column"):
         RecordingReader(path, JOINTS, ["A"])
+
+
+@pytest.mark.parametrize("n", [6, 7, 12])
+def test_any_number_of_channels_round_trips(tmp_path, rng, n):
+    s = rng.standard_normal((50, n))
+    with RecordingWriter(tmp_path / "r.csv", JOINTS, n) as writer:
+        writer.write(np.arange(50) / 100, np.zeros((50, 2)), s, "A")
+    assert (tmp_path / "r.csv").read_text().startswith("time,j1,j2," + ",".join(f"strain_{k}" for k in range(1, n + 1)) + ",tool\n")
+    reader, chunks = _read(tmp_path / "r.csv")
+    assert reader.n_channels == n and chunks[0].channels.shape == (50, n)
+    np.testing.assert_allclose(chunks[0].channels, s, rtol=1e-9)
+    with (
+        pytest.raises(ShapeError, match=rf"strain.shape=\(1, 8\) but expected \(n, {n}\)"),
+        RecordingWriter(tmp_path / "w.csv", JOINTS, n) as w,
+    ):
+        w.write([0.0], [[0, 0]], [[0] * 8], "A")
 
 
 def test_empty_and_missing_files(tmp_path):

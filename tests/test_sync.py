@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from fts_calib.feeds.sync import BEFORE_JOINTS, JOINT_GAP, LATE, NO_TOOL, Synchronizer
+from fts_calib.feeds.sync import BEFORE_JOINTS, JOINT_GAP, LATE, NO_TOOL, WRONG_LENGTH, Synchronizer
 
 NAMES = ["a", "b"]
 
@@ -93,3 +93,27 @@ def test_joint_messages_with_other_joints_are_refused():
     assert not sync.add_joints(0.0, {"a": 0.0})
     assert not sync.add_joints(0.0, {"a": 0.0, "c": 1.0})
     assert sync.add_joints(0.0, {"b": 0.0, "a": 1.0})
+
+
+def test_strain_messages_of_another_length_are_counted_and_named():
+    sync = Synchronizer(NAMES, max_gap_s=0.05, n_channels=6)
+    sync.add_tool(0.0, "A")
+    _joints(sync, np.arange(0, 1, 0.01), lambda t: (0.0, 0.0))
+    sync.add_strain(0.1, [1.0] * 6)
+    sync.add_strain(0.2, [1.0] * 8)  # the paper's sensor sending to a 6-channel run
+    sync.add_strain(0.3, [1.0] * 6)
+    out = sync.pop()
+    assert out.channels.shape == (2, 6)
+    assert sync.dropped == {f"{WRONG_LENGTH} 6": 1}
+    assert "expected 6" in next(iter(sync.dropped))
+
+
+def test_without_a_length_the_first_message_sets_it():
+    sync = Synchronizer(NAMES, max_gap_s=0.05)
+    assert sync.pop().channels.shape == (0, 8)  # nothing yet: the paper's sensor
+    sync.add_tool(0.0, "A")
+    _joints(sync, np.arange(0, 1, 0.01), lambda t: (0.0, 0.0))
+    sync.add_strain(0.1, [1.0] * 7)
+    sync.add_strain(0.2, [1.0] * 6)
+    assert sync.pop().channels.shape == (1, 7) and sync.n_channels == 7
+    assert sync.dropped == {f"{WRONG_LENGTH} 7": 1}

@@ -100,16 +100,18 @@ def _add_calibrate(commands) -> None:
         commands,
         "calibrate",
         "calibrate from a recording",
-        "Read a recording (CSV: time, joints, strain_1..8, tool), keep the quasi-static samples, accumulate the "
+        "Read a recording (CSV: time, joints, strain_1..n, tool), keep the quasi-static samples, accumulate the "
         "least squares and write the calibration. Prints a progress bar, then a summary: samples kept and why the "
         "rest were dropped, rank, condition, residuals, standard errors, and the fit check: the residual of each axis "
         "in each tool configuration against the strain noise of the data. A poor fit is refused (exit 15, no file) with "
         "its likely cause (labels permuted, centre of mass in mm or cm, a mistyped mass, a collinear tool file). Exits "
         "1 when the data cannot determine C.",
-        "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml",
+        "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml\n"
+        "  fts-calib calibrate --robot ur5 --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
     )
     cal.add_argument("recording", help="recording CSV (or .csv.gz)")
     _robot_and_tool(cal)
+    _sensor(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
     cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
     cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
@@ -117,6 +119,16 @@ def _add_calibrate(commands) -> None:
     cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
     _accept_poor_fit(cal)
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _sensor(parser: argparse.ArgumentParser) -> None:
+    """--sensor: the sensor configuration whose channel layout the data must have (calibrate, live)."""
+    parser.add_argument(
+        "--sensor",
+        default="sensor",
+        help="sensor configuration: its 'channels' layout (maltese-cross-8, wrench-6 or a 6 x n projection) "
+        "(default: sensor, the paper's 8 bridges; factory_sensor: a 6-axis wrench)",
+    )
 
 
 def _resume_or_restart(parser: argparse.ArgumentParser, resume_help: str) -> None:
@@ -143,6 +155,7 @@ def _add_live(commands) -> None:
         "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml",
     )
     _robot_and_tool(live)
+    _sensor(live)
     live.add_argument(
         "--listen", type=_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address to bind (default 127.0.0.1:5005)"
     )

@@ -16,7 +16,7 @@ from ..pipeline.calibrate import CalibrateResult, calibrate_recording
 from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
-from .setup import load_setup
+from .setup import load_sensor, load_setup
 
 
 def run(
@@ -33,6 +33,7 @@ def run(
     joints_in_degrees: bool = False,
     accept_poor_fit: bool = False,
     quiet: bool = False,
+    sensor: str | Path = "sensor",
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -51,14 +52,23 @@ def run(
         accept_poor_fit: Write the calibration even when its fit check is poor (its quality
             records the verdict).
         quiet: No progress bar.
+        sensor: Sensor configuration (shipped name or YAML path): its channel layout, which
+            the recording's channels must match.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
         check refused the calibration (nothing written).
     """
-    inputs = {"the recording": recording, "the robot file": robot, "the tool file": tool, "the pipeline file": pipeline}
+    inputs = {
+        "the recording": recording,
+        "the robot file": robot,
+        "the tool file": tool,
+        "the pipeline file": pipeline,
+        "the sensor file": sensor,
+    }
     check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
     kin, loaded, settings = load_setup(robot, tool, pipeline)
+    layout = load_sensor(sensor).layout
     recording = Path(recording)
     size = recording.stat().st_size if recording.is_file() else 1
     bar = None if quiet else ProgressBar(size, "rows")
@@ -74,6 +84,7 @@ def run(
         joints_in_degrees=joints_in_degrees,
         progress=bar,
         accept_poor_fit=accept_poor_fit,
+        layout=layout,
     )
     written = None
     if result.calibration is not None:
@@ -174,8 +185,9 @@ def format_summary(result: CalibrateResult, recording: Path, output: Path | None
     lines.append("residual RMS: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))
     rel = 100 * q.relative_stderr_C(cal.C)
     lines.append("C (N or N·m per strain unit) ± standard error (% of its row's largest coefficient):")
-    rows = [[axis, *[f"{cal.C[i, k]:9.4f} ±{rel[i, k]:.4f}%" for k in range(8)]] for i, axis in enumerate(WRENCH_AXES)]
-    lines.append(table(["", *[f"Δ{k + 1}" for k in range(8)]], rows, "  "))
+    n = cal.layout.n_channels
+    rows = [[axis, *[f"{cal.C[i, k]:9.4f} ±{rel[i, k]:.4f}%" for k in range(n)]] for i, axis in enumerate(WRENCH_AXES)]
+    lines.append(table(["", *[f"Δ{k + 1}" for k in range(n)]], rows, "  "))
     lines.append(
         "D: " + ", ".join(f"{a} {d:+.5f} ± {s:.1g} {u}" for a, d, s, u in zip(WRENCH_AXES, cal.D, q.stderr_D, WRENCH_UNITS, strict=True))
     )

@@ -15,7 +15,7 @@ from ..pipeline.live import LiveRunner, format_stats
 from ..pipeline.session import CalibrationSession
 from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import load_setup
+from .setup import load_sensor, load_setup
 
 
 def run(
@@ -33,6 +33,7 @@ def run(
     idle_timeout_s: float | None = None,
     accept_poor_fit: bool = False,
     quiet: bool = False,
+    sensor: str | Path = "sensor",
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
@@ -52,6 +53,8 @@ def run(
         accept_poor_fit: Write the calibration even when its fit check is poor (the file
             records the verdict).
         quiet: No status line.
+        sensor: Sensor configuration (shipped name or YAML path): its channel layout; strain
+            datagrams of another length are counted and skipped.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
@@ -60,19 +63,20 @@ def run(
     """
     checkpoint = Path(checkpoint or f"{output}.checkpoint.json")
     host, port = listen
-    inputs = {"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline}
+    inputs = {"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor}
     check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
     check_start(checkpoint, resume, restart)
     kin, loaded, settings = load_setup(robot, tool, pipeline)
+    layout = load_sensor(sensor).layout
     source, record = f"live udp://{host}:{port}", live_source(host, port)
     if resume:
-        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record)
+        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout)
         print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
     else:
-        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record)
+        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout)
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
-    sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names)
+    sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names, n_channels=layout.n_channels)
     with using_udp(host, port):
         receiver = UdpReceiver(host, port)
     print(

@@ -1,4 +1,4 @@
-"""The robot, the tool and the pipeline settings a command names: loaded in one place."""
+"""The robot, the tool, the sensor and the pipeline settings a command names: loaded in one place."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ..core.resources import resolve
+from ..model.sensor_config import SensorSpec, load_sensor_config
 from ..pipeline.settings import PipelineConfig, load_pipeline_config
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
@@ -29,6 +30,15 @@ class Setup(NamedTuple):
 def load_settings(pipeline: str | Path = "pipeline") -> PipelineConfig:
     """The pipeline settings: a shipped name (``configs/NAME.yaml``) or a YAML path."""
     return load_pipeline_config(resolve(pipeline, "configs"))
+
+
+def load_sensor(sensor: str | Path = "sensor") -> SensorSpec:
+    """The sensor configuration: a shipped name (``configs/NAME.yaml``) or a YAML path.
+
+    Its ``channels`` key is the channel layout the command expects of the data (the paper's
+    8 bridges for the shipped ``sensor``; ``factory_sensor`` is a 6-axis wrench).
+    """
+    return load_sensor_config(resolve(sensor, "configs"))
 
 
 def load_kinematics(robot: str | Path) -> Kinematics:

@@ -3,14 +3,16 @@
 ::
 
     {"type": "joints", "t": 12.345, "q": {"shoulder_pan_joint": 0.1, ...}, "seq": 41}
-    {"type": "strain", "t": 12.346, "strain": [s1, ..., s8], "seq": 42}
+    {"type": "strain", "t": 12.346, "strain": [s1, ..., sn], "seq": 42}
     {"type": "tool",   "t": 12.0,   "name": "B", "seq": 43}
     {"type": "end", "seq": 44}
 
 ``t`` is the sender's clock in [s], one clock for both streams; joint readings in [rad];
-strains raw. ``seq`` is optional, in every message: an integer >= 0 that each sender
-increases by one per datagram it sends (all types in one sequence), so that a receiver
-counts the datagrams lost on the way (:class:`fts_calib.feeds.udp.SeqGaps`); a datagram without it is valid.
+strains raw, one value per channel of the sensor (8 for the paper's, 6 for a factory
+wrench; the synchronizer counts and skips a message of another length). ``seq`` is
+optional, in every message: an integer >= 0 that each sender increases by one per
+datagram it sends (all types in one sequence), so that a receiver counts the datagrams
+lost on the way (:class:`fts_calib.feeds.udp.SeqGaps`); a datagram without it is valid.
 A datagram larger than :data:`MAX_DATAGRAM` bytes, or one that is not such an object,
 raises :class:`ProtocolError`, which a receiver counts and skips.
 """
@@ -38,7 +40,7 @@ class Joints:
 
 @dataclass(frozen=True)
 class Strain:
-    """Raw strains of the 8 bridges at time ``t`` [s]; ``seq``: the sender's datagram number, or None."""
+    """Raw channels (n values) at time ``t`` [s]; ``seq``: the sender's datagram number, or None."""
 
     t: float
     strain: tuple[float, ...]
@@ -98,12 +100,8 @@ def decode(data: bytes) -> Message:
     seq = _seq(obj)
     if kind == "strain":
         values = obj.get("strain")
-        if (
-            not isinstance(values, list)
-            or len(values) != 8
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
-        ):
-            raise ProtocolError("malformed", "'strain' must be a list of 8 numbers")
+        if not isinstance(values, list) or not values or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+            raise ProtocolError("malformed", "'strain' must be a non-empty list of numbers, one per channel")
         return Strain(_time(obj), tuple(float(v) for v in values), seq)
     if kind == "joints":
         q = obj.get("q")

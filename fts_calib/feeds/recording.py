@@ -1,8 +1,9 @@
 """Recordings (CSV): joint readings and raw strains of a calibration run, streamed in chunks.
 
 Columns (header required): ``time`` [s, non-decreasing], one column per actuated joint
-named exactly as in the URDF [rad], ``strain_1`` ... ``strain_8`` [raw units], ``tool`` (a
-configuration name of the tool file). Extra columns are ignored with a notice; a missing
+named exactly as in the URDF [rad], ``strain_1`` ... ``strain_n`` [raw units: n channels,
+8 for the paper's sensor, 6 for a factory wrench], ``tool`` (a configuration name of the
+tool file). Extra columns are ignored with a notice; a missing
 one is an error that names it (with a hint when the file is delimited by ';' or tabs). A
 name ending in ``.gz`` is written compressed; a file is read compressed when its content
 is gzip, whatever its name (a mismatch is warned about), and a UTF-8 byte-order mark
@@ -36,12 +37,19 @@ import numpy as np
 import pandas as pd
 
 from ..core.exceptions import FtsCalibWarning, RecordingError
-from ..core.fileio import AtomicFile, is_number
+from ..core.fileio import is_number
 from .batch import UNKNOWN_TOOL, SampleBatch
+from .recording_writer import RecordingWriter, strain_columns
 from .row_notes import MAX_NOTES, ProblemNotes, value_problems
 
-#: Names of the strain columns.
-STRAIN_COLUMNS = tuple(f"strain_{k}" for k in range(1, 9))
+__all__ = ["MALFORMED", "UNKNOWN_TOOL", "RecordingReader", "RecordingWriter", "strain_columns"]
+
+
+def _header_channels(columns: Sequence[str]) -> int:
+    """n: the largest k of the header's ``strain_k`` columns (8 when there is none, for the message)."""
+    found = [int(c[7:]) for c in columns if c.startswith("strain_") and c[7:].isdigit() and int(c[7:]) >= 1]
+    return max(found) if found else 8
+
 
 #: Bytes read at a time: about 36,000 rows of a six-joint recording.
 BLOCK_BYTES = 8 << 20
@@ -117,17 +125,16 @@ class RecordingReader:
         except (OSError, EOFError, zlib.error) as exc:
             raise RecordingError(self.path, 1, None, f"cannot read the header: {exc}") from None
         self.columns = [c.strip() for c in header.strip().split(",")]
+        #: Number of channels: the header's strain_1 ... strain_n columns.
+        self.n_channels = _header_channels(self.columns)
+        self.strain_columns = strain_columns(self.n_channels)
         if joint_names is None:
-            joint_names = [c for c in self.columns if c not in ("time", "tool", *STRAIN_COLUMNS)]
+            joint_names = [c for c in self.columns if c not in ("time", "tool", *self.strain_columns)]
         self.joint_names = list(joint_names)
         if not header.strip():
-            raise RecordingError(
-                self.path,
-                1,
-                None,
-                f"empty file: expected a header line 'time,{','.join(self.joint_names) or '<joints>'},{','.join(STRAIN_COLUMNS)},tool'",
-            )
-        required = ["time", *self.joint_names, *STRAIN_COLUMNS, "tool"]
+            expected = ",".join(["time", *(self.joint_names or ["<joints>"]), "strain_1", "...", "strain_n", "tool"])
+            raise RecordingError(self.path, 1, None, f"empty file: expected a header line '{expected}'")
+        required = ["time", *self.joint_names, *self.strain_columns, "tool"]
         repeated = sorted({c for c in self.columns if self.columns.count(c) > 1 and c in required})
         if repeated:
             raise RecordingError(self.path, 1, repeated[0], f"column repeated: {repeated}")
@@ -143,7 +150,7 @@ class RecordingReader:
         self.extra_columns = [c for c in self.columns if c not in required]
         if self.extra_columns:
             warnings.warn(f"{self.path}: ignoring extra columns {self.extra_columns}", FtsCalibWarning, stacklevel=2)
-        self._numeric = [self.columns.index(c) for c in ["time", *self.joint_names, *STRAIN_COLUMNS]]
+        self._numeric = [self.columns.index(c) for c in ["time", *self.joint_names, *self.strain_columns]]
         self._tool_col = self.columns.index("tool")
         # numeric columns as float, the rest as text (the parser then refuses a bad number)
         self._dtypes = {c: (np.float64 if k in self._numeric else str) for k, c in enumerate(self.columns)}
@@ -262,7 +269,7 @@ class RecordingReader:
 
     def _note_values(self, table: np.ndarray, numbers: np.ndarray) -> None:
         """Note the rows the session's checks will skip (see :func:`fts_calib.feeds.row_notes.value_problems`)."""
-        names = ["time", *self.joint_names, *STRAIN_COLUMNS]
+        names = ["time", *self.joint_names, *self.strain_columns]
         n_joints, bound = len(self.joint_names), self.max_abs_channel
         found, counts, self._last_time = value_problems(table, names, n_joints, bound, self._last_time, MAX_NOTES)
         for row, kind, detail in found:
@@ -282,7 +289,7 @@ class RecordingReader:
     def _parse_fast(self, block: bytes, count: int):
         """The whole block with pandas' C parser; Nones when any line is not clean.
 
-        Returns the numeric table (n, 1 + n_joints + 8), the distinct tool names (in order
+        Returns the numeric table (rows, 1 + n_joints + n_channels), the distinct tool names (in order
         of appearance) and each row's index into them.
         """
         try:
@@ -319,72 +326,3 @@ class RecordingReader:
             tools.append(cells[self._tool_col].strip())
             numbers.append(number)
         return np.array(rows, dtype=float).reshape(-1, len(self._numeric)), tools, np.array(numbers, dtype=np.int64)
-
-
-class RecordingWriter:
-    """Write a recording (see the module docstring), atomically: the file appears on close.
-
-    Args:
-        path: Destination (``.csv`` or ``.csv.gz``).
-        joint_names: Joint columns, in order.
-    """
-
-    def __init__(self, path: str | Path, joint_names: Sequence[str]):
-        self.path = Path(path)
-        self.joint_names = list(joint_names)
-        self._file = AtomicFile(self.path)
-        self._gzip = gzip.GzipFile(fileobj=self._file.handle, mode="wb") if self.path.suffix == ".gz" else None
-        self._handle = io.TextIOWrapper(self._gzip or self._file.handle, encoding="utf-8", newline="")
-        self._handle.write(",".join(["time", *self.joint_names, *STRAIN_COLUMNS, "tool"]) + "\n")
-        self.rows = 0
-
-    def write(self, time, readings, strain, tool: str | Sequence[str]) -> None:
-        """Append rows.
-
-        Args:
-            time: Times [s], shape (n,).
-            readings: Joint readings [rad], shape (n, n_joints).
-            strain: Raw strains, shape (n, 8).
-            tool: One configuration name for all rows, or one per row.
-        """
-        time = np.asarray(time, dtype=float)
-        table = np.column_stack([time, np.asarray(readings, dtype=float), np.asarray(strain, dtype=float)])
-        buffer = io.StringIO()
-        if isinstance(tool, str):
-            np.savetxt(
-                buffer, table, fmt=",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * 8) + "," + tool.replace("%", "%%")
-            )
-        else:
-            fmt = ",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * 8)
-            for row, name in zip(table, tool, strict=True):
-                buffer.write(fmt % tuple(row) + "," + name + "\n")
-        self._handle.write(buffer.getvalue())
-        self.rows += len(time)
-
-    def close(self) -> Path:
-        """Finish the file and move it into place (flushed and fsynced first)."""
-        self._handle.flush()
-        self._handle.detach()  # the atomic file closes the handle itself, after fsync
-        if self._gzip is not None:
-            self._gzip.close()  # writes the gzip trailer; the underlying file stays open
-        return self._file.commit()
-
-    def abort(self) -> None:
-        """Drop the partial file (nothing is left behind)."""
-        if not self._handle.closed:
-            try:
-                self._handle.detach()
-            except ValueError:  # already detached by a close that failed
-                pass
-        if self._gzip is not None:
-            self._gzip.close()
-        self._file.abort()
-
-    def __enter__(self) -> RecordingWriter:
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()

@@ -28,6 +28,8 @@ JOINT_GAP = "joint gap longer than max_gap_s"
 AFTER_JOINTS = "strain after the last joint sample"
 NO_TOOL = "no tool configuration announced yet"
 LATE = "strain sample arrived too late (reordered beyond the hold)"
+#: Reason of a strain message of another length than the sensor's; ends with the expected length.
+WRONG_LENGTH = "strain message of another length than the sensor's channels: expected"
 
 
 class Synchronizer:
@@ -43,6 +45,9 @@ class Synchronizer:
         configurations: The tool's configuration names, in order: a placed sample's
             configuration is its index there (-1 for a name not in it). None: indices in
             order of first announcement (names in :attr:`configurations`).
+        n_channels: Values a strain message must have (the sensor layout's channels); None
+            takes the first message's length. A message of another length is dropped and
+            counted (:data:`WRONG_LENGTH`, followed by the expected number).
 
     Attributes:
         dropped: Strain samples dropped, by reason.
@@ -56,7 +61,9 @@ class Synchronizer:
         latency_s: float = 0.0,
         hold_s: float | None = None,
         configurations: Sequence[str] | None = None,
+        n_channels: int | None = None,
     ):
+        self.n_channels = n_channels
         self.joint_names = list(joint_names)
         self._open_configurations = configurations is None
         self.configurations: list[str] = list(configurations or [])
@@ -96,6 +103,11 @@ class Synchronizer:
             strain: Raw channel readings. Length n_channels.
         """
         self.strain_messages += 1
+        if self.n_channels is None:
+            self.n_channels = len(strain)
+        if len(strain) != self.n_channels:
+            self._drop(f"{WRONG_LENGTH} {self.n_channels}", 1)
+            return
         if t <= self._placed_until:
             self._drop(LATE, 1)
             return
@@ -130,7 +142,7 @@ class Synchronizer:
     def pop(self, final: bool = False) -> SampleBatch:
         """Place every strain sample the joint stream has passed (all of them when ``final``)."""
         self._merge_joints()
-        width = len(self._strain[0][1]) if self._strain else 8
+        width = 8 if self.n_channels is None else self.n_channels  # no message yet: the paper's sensor
         empty = SampleBatch.empty(len(self.joint_names), width)
         if not self._strain:
             return empty

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core.arrays import as_matrix, as_samples, frozen
 from ..core.exceptions import ConfigError, ShapeError
-from .sensor import P, c_bar_from_c
+from .sensor import P_NULL, P, c_bar_from_c
 
 #: Names a layout can have, in the order the documentation gives them.
 LAYOUT_NAMES = ("maltese-cross-8", "wrench-6", "projection")
@@ -38,6 +38,8 @@ class ChannelLayout:
         name: One of :data:`LAYOUT_NAMES`.
         projection: P, shape (6, n): ``P @ channels`` are the six wrench-like combinations.
         pinv: Moore-Penrose pseudo-inverse of P, shape (n, 6) (derived).
+        null_basis: Orthonormal basis of the null space of P, shape (n - 6, n) (derived):
+            channel patterns no wrench produces (the paper's two patterns for its sensor).
 
     Raises:
         ConfigError: Unknown name, or a projection that is not 6 x n with n >= 6, not
@@ -47,6 +49,7 @@ class ChannelLayout:
     name: str
     projection: np.ndarray
     pinv: np.ndarray = field(init=False, repr=False)
+    null_basis: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
         if self.name not in LAYOUT_NAMES:
@@ -61,6 +64,11 @@ class ChannelLayout:
             raise ConfigError("projection", f"rank {int(np.sum(singular > 1e-9 * singular[0]))}", "full row rank 6 (six independent rows)")
         object.__setattr__(self, "projection", frozen(projection))
         object.__setattr__(self, "pinv", frozen(np.linalg.pinv(projection)))
+        if np.array_equal(projection, P):
+            null = P_NULL  # the paper's two patterns, in the paper's own basis
+        else:
+            null = np.linalg.svd(projection)[2][6:]  # the right singular vectors beyond rank 6
+        object.__setattr__(self, "null_basis", frozen(null))
 
     @property
     def n_channels(self) -> int:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..core.arrays import as_samples, frozen
 from ..core.exceptions import InsufficientExcitation, ShapeError
-from .sensor import c_from_c_bar
+from .channels import MALTESE_CROSS_8, ChannelLayout
 
 
 @dataclass(frozen=True)
@@ -38,7 +38,7 @@ class OffsetEstimate:
         object.__setattr__(self, "stderr_D", frozen(self.stderr_D))
 
 
-def estimate_offsets(C_bar, strain, w_sensor=None) -> OffsetEstimate:
+def estimate_offsets(C_bar, strain, w_sensor=None, layout: ChannelLayout = MALTESE_CROSS_8) -> OffsetEstimate:
     """Re-tare: the offsets D alone, with C_bar known, from a few samples of a known load.
 
     ``D = mean(W_known - C Delta)``: the frequent use the paper stresses (offset removal
@@ -46,15 +46,16 @@ def estimate_offsets(C_bar, strain, w_sensor=None) -> OffsetEstimate:
 
     Args:
         C_bar: Known modified calibration matrix. Shape (6, 6).
-        strain: Raw strains under the known load. Shape (N, 8) or (8,).
+        strain: Raw channels under the known load. Shape (N, n) or (n,).
         w_sensor: The known load in [N, N, N, N m, N m, N m], shape (N, 6) or (6,);
             zero (nothing mounted) when None.
+        layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
 
     Raises:
         InsufficientExcitation: No finite sample.
     """
-    C = c_from_c_bar(C_bar)
-    S, _ = as_samples(strain, 8, "strain")
+    C = layout.c_from_c_bar(C_bar)
+    S, _ = as_samples(strain, layout.n_channels, "strain")
     W = np.zeros((len(S), 6)) if w_sensor is None else as_samples(w_sensor, 6, "w_sensor")[0]
     if len(W) == 1 and len(S) > 1:
         W = np.repeat(W, len(S), axis=0)

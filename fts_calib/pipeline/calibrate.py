@@ -21,6 +21,7 @@ from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..core.paths import check_distinct
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration
+from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .checkpoint import check_start, recording_source
@@ -75,6 +76,7 @@ def calibrate_recording(
     restart: bool = False,
     on_kept=None,
     accept_poor_fit: bool = False,
+    layout: ChannelLayout = MALTESE_CROSS_8,
 ) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
@@ -93,6 +95,8 @@ def calibrate_recording(
             verdict) instead of refusing it.
         on_kept: Passed to the session (see :class:`fts_calib.pipeline.session.CalibrationSession`).
         restart: Start afresh over an existing ``checkpoint`` (overwriting it).
+        layout: The sensor's channel layout; a recording of another number of channels is
+            refused (ShapeError naming both).
 
     Raises:
         RecordingError: The file cannot be read at all (missing, no data row, a missing
@@ -110,10 +114,10 @@ def calibrate_recording(
     with RecordingReader(path, kin.joint_names, tool.names, max_abs_channel=settings.checks.max_abs_channel) as reader:
         record = None if checkpoint is None else recording_source(path)
         if resume and checkpoint is not None and Path(checkpoint).exists():
-            session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source, source_record=record)
+            session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout)
         else:
             session = CalibrationSession(
-                kin, tool, settings, checkpoint=checkpoint, use_filter=use_filter, source=source, on_kept=on_kept, source_record=record
+                kin, tool, settings, checkpoint, use_filter, source, on_kept=on_kept, source_record=record, layout=layout
             )
         chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if joints_in_degrees else c for c in reader)
         for chunk in clock_checked(path, chunks, kin, settings.filter if use_filter else None, joints_in_degrees):

@@ -14,7 +14,7 @@ data again:
     + \Theta S_{xx,c} \Theta^T\big)
 
 The expected residual is the strain noise through C, ``sigma_W = sqrt(diag(C Sigma C^T))``
-with ``Sigma`` the filter's noise floor per bridge (the scatter of the still windows), or
+with ``Sigma`` the filter's noise floor per channel (the scatter of the still windows), or
 a floor of ``1e-6`` of the tool's weight (and of its moment ``m g |c|``) where the noise
 is below it (noiseless or quantized data). A fit is *consistent* when every ratio
 ``rms_c / sigma_W`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap
@@ -35,7 +35,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model.sensor import WRENCH_AXES, P
+from ..model.channels import MALTESE_CROSS_8, ChannelLayout
+from ..model.sensor import WRENCH_AXES
 from ..robot.tool import Tool
 from ..robot.wrench import wrench_matrix
 
@@ -108,9 +109,18 @@ class FitCheck:
         return text + (f"; likely cause: {self.diagnosis}" if self.diagnosis else "")
 
 
-def fit_rows(g_sensor: np.ndarray, channels: np.ndarray) -> np.ndarray:
-    """The rows ``y = [g_sensor; P Delta; 1]`` whose outer products the fit check sums. Shape (N, 10)."""
-    return np.hstack([g_sensor, channels @ P.T, np.ones((len(g_sensor), 1))])
+def fit_rows(g_sensor: np.ndarray, channels: np.ndarray, layout: ChannelLayout = MALTESE_CROSS_8) -> np.ndarray:
+    """The rows ``y = [g_sensor; P Delta; 1]`` whose outer products the fit check sums.
+
+    Args:
+        g_sensor: Gravity in the sensor frame, in [m/s^2]. Shape (N, 3).
+        channels: Raw channels. Shape (N, n), n = ``layout.n_channels``.
+        layout: The sensor's channel layout (its P).
+
+    Returns:
+        Shape (N, 10).
+    """
+    return np.hstack([g_sensor, layout.project(channels).reshape(-1, 6), np.ones((len(g_sensor), 1))])
 
 
 def _solve(matrices: Sequence[np.ndarray], sums: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -132,16 +142,19 @@ def _solve(matrices: Sequence[np.ndarray], sums: np.ndarray) -> tuple[np.ndarray
     return theta, np.maximum(np.array(per_configuration), 0.0)
 
 
-def _ratios(tool: Tool, matrices, sums, counts, noise_std) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(ratio (k, 6), rms (k, 6), expected (6,)) of a hypothesis; None when it cannot be solved."""
+def _ratios(tool: Tool, matrices, sums, counts, noise_cov) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(ratio (k, 6), rms (k, 6), expected (6,)) of a hypothesis; None when it cannot be solved.
+
+    ``noise_cov`` is the covariance of the projected channels ``P Delta``, ``P Sigma P^T`` (6, 6).
+    """
     solved = _solve(matrices, sums)
     if solved is None:
         return None
     theta, rss = solved
     seen = counts > 0
     rms = np.sqrt(rss / np.maximum(counts, 1)[:, None])
-    C = theta[:, :6] @ P
-    sigma = np.sqrt(np.maximum(np.einsum("ij,j,ij->i", C, np.asarray(noise_std, dtype=float) ** 2, C), 0.0))
+    C_bar = theta[:, :6]
+    sigma = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", C_bar, noise_cov, C_bar), 0.0))
     weight = max(c.mass for c in tool.configurations) * tool.gravity
     moment = max(c.mass * float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations) * tool.gravity
     floor = RELATIVE_FLOOR * np.array([weight] * 3 + [max(moment, 1e-3 * weight)] * 3)
@@ -168,14 +181,14 @@ def _golden(f, low: float, high: float, iterations: int = 60) -> tuple[float, fl
     return (c, fc) if fc < fd else (d, fd)
 
 
-def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std) -> list[tuple[str, float]]:
+def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov) -> list[tuple[str, float]]:
     """(cause in words, its largest ratio) of each alternative that fits, best first."""
     names = tool.names
     configs = tool.configurations
     fits: list[tuple[str, float]] = []
 
     def judge(label: str, matrices) -> None:
-        judged = _ratios(tool, matrices, sums, counts, noise_std)
+        judged = _ratios(tool, matrices, sums, counts, noise_cov)
         if judged is not None and judged[0].max() <= MAX_RATIO:
             fits.append((label, float(judged[0].max())))
 
@@ -193,7 +206,7 @@ def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std) -
 
         def worst(log_factor: float, k: int = k) -> float:
             f = math.exp(log_factor)
-            judged = _ratios(tool, [c.wrench_matrix * (f if j == k else 1.0) for j, c in enumerate(configs)], sums, counts, noise_std)
+            judged = _ratios(tool, [c.wrench_matrix * (f if j == k else 1.0) for j, c in enumerate(configs)], sums, counts, noise_cov)
             return math.inf if judged is None else float(judged[0].max())
 
         grid = np.log(_MASS_FACTORS)
@@ -240,7 +253,14 @@ def _implausible_geometry(tool: Tool) -> str:
     return f"the tool file's largest centre of mass is {largest:g} m from the sensor: expected at most {MAX_COM_M:g} m"
 
 
-def check_fit(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std: np.ndarray | None, hint: str = "") -> FitCheck:
+def check_fit(
+    tool: Tool,
+    sums: np.ndarray,
+    counts: np.ndarray,
+    noise_std: np.ndarray | None,
+    hint: str = "",
+    layout: ChannelLayout = MALTESE_CROSS_8,
+) -> FitCheck:
     """Judge the fit of the tool's model to the kept samples (see the module docstring).
 
     Args:
@@ -248,10 +268,11 @@ def check_fit(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std: np.nd
         sums: Per configuration, the sum of ``y y^T`` over its kept samples (:func:`fit_rows`).
             Shape (k, 10, 10).
         counts: Kept samples per configuration. Shape (k,).
-        noise_std: Strain noise per bridge measured in the data (raw units, shape (8,)), or
-            None when none was measured (then the verdict is 'unchecked').
+        noise_std: Channel noise measured in the data (raw units, shape (n,)), or None when
+            none was measured (then the verdict is 'unchecked').
         hint: Added to the diagnosis of a poor fit that no alternative explains (e.g. a
             command-line option that may be wrong).
+        layout: The sensor's channel layout (n channels, its P).
 
     Returns:
         The verdict; its diagnosis names the first alternative that fits.
@@ -259,9 +280,10 @@ def check_fit(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std: np.nd
     counts = np.asarray(counts, dtype=float)
     if not counts.sum() > 0:  # no sample in the sums: nothing to judge
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
-    noise = np.zeros(8) if noise_std is None else np.asarray(noise_std, dtype=float)
+    variance = np.zeros(layout.n_channels) if noise_std is None else np.asarray(noise_std, dtype=float) ** 2
+    noise_cov = (layout.projection * variance) @ layout.projection.T  # covariance of P Delta, (6, 6)
     implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
-    judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise)
+    judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise_cov)
     if judged is None:
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
     ratio, rms, expected = judged
@@ -274,7 +296,7 @@ def check_fit(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_std: np.nd
         return FitCheck("unchecked", float(ratio.max()), residual, expected, "", worst)
     if ratio.max() <= MAX_RATIO:
         return FitCheck("consistent", float(ratio.max()), residual, expected, "", worst)
-    causes = _alternatives(tool, sums, counts, noise)
+    causes = _alternatives(tool, sums, counts, noise_cov)
     if causes:
         diagnosis = causes[0][0]
     elif tool.com_rank() < 2:

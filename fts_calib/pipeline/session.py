@@ -34,6 +34,7 @@ import numpy as np
 from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
 from ..feeds.batch import SampleBatch, configuration_indices
 from ..model.calibration import Calibration
+from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
 from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
@@ -71,11 +72,13 @@ class CalibrationSession:
         use_filter: Keep every valid sample instead of the quasi-static ones (for comparison).
         source: What the samples come from, for the calibration's provenance.
         clock: Wall-clock function in [s] (for checkpoint timing).
-        on_kept: Called with ``(time (k,), w_sensor (k, 6), strain (k, 8), configuration
+        on_kept: Called with ``(time (k,), w_sensor (k, 6), strain (k, n), configuration
             indices (k,))`` for the samples entering the least squares, in order (e.g. to plot
             the convergence); None for nothing.
         source_record: What the checkpoint records of the source, to resume only with it
             (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
+        layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
+            Samples of another number of channels are refused (ShapeError naming both).
     """
 
     def __init__(
@@ -89,14 +92,16 @@ class CalibrationSession:
         clock: Callable[[], float] = _time.monotonic,
         on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
         source_record: dict | None = None,
+        layout: ChannelLayout = MALTESE_CROSS_8,
     ):
         self.kin = kin
+        self.layout = channel_layout(layout)
         self.tool = tool
         self.settings = settings or PipelineConfig()
         self.checkpoint_path = Path(checkpoint) if checkpoint else None
         self.source = source
         self.source_record = source_record
-        self.estimator = OnlineEstimator()
+        self.estimator = OnlineEstimator(layout=self.layout)
         self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous) if use_filter else None
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel)
         n = len(tool.configurations)
@@ -122,13 +127,13 @@ class CalibrationSession:
         Args:
             t: Time [s].
             joints: Joint readings [rad], (n_joints,) or a mapping joint name -> value.
-            strain: Raw strains, (8,).
+            strain: Raw channels, (n,), n = ``layout.n_channels``.
             configuration: Tool configuration name.
         """
         readings, _ = self.kin.readings(joints)
         channels = np.array(strain, dtype=float)  # a copy: a controller may refill its buffer for the next tick
-        if channels.shape != (8,):
-            raise ShapeError(f"strain.shape={channels.shape} but expected (8,)")
+        if channels.shape != (self.layout.n_channels,):
+            raise ShapeError(f"strain.shape={channels.shape} but expected ({self.layout.n_channels},), the {self.layout.name} layout")
         code = int(configuration_indices([configuration], self.tool.names)[0])
         self._staged.append((float(t), readings[0].copy(), channels, code))
         if len(self._staged) >= _STAGE:
@@ -140,7 +145,7 @@ class CalibrationSession:
         Args:
             t: Times [s], shape (n,).
             joints: Joint readings [rad], shape (n, n_joints) or a mapping of (n,) arrays.
-            strain: Raw strains, shape (n, 8).
+            strain: Raw channels, shape (n, n_channels).
             configuration: Configuration names (one, or one per sample) or indices in the
                 tool's order.
 
@@ -180,6 +185,7 @@ class CalibrationSession:
             self._process(SampleBatch(np.array(t), np.array(joints), np.array(strain), np.array(codes, dtype=np.int64)))
 
     def _process(self, batch: SampleBatch) -> None:
+        check_channels(self.layout, batch.channels.shape[1], self.source or "the samples")
         self.seen += len(batch)
         ok = self.checks.accept(batch)
         if ok.any():
@@ -201,7 +207,7 @@ class CalibrationSession:
             self._on_kept(kept.time, W, kept.channels, codes)
         self.kept += np.bincount(codes, minlength=len(self.kept))
         unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
-        rows = fit_rows(g, kept.channels)
+        rows = fit_rows(g, kept.channels, self.layout)
         for c in np.unique(codes):
             mine = codes == c
             u = unit[mine]
@@ -212,7 +218,7 @@ class CalibrationSession:
         """Decide the samples the filter still holds (call when the stream ends)."""
         self._flush_staged()
         if self.filter is not None:
-            self._accumulate(SampleBatch.empty(self.kin.n_joints, 8), final=True)
+            self._accumulate(SampleBatch.empty(self.kin.n_joints, self.layout.n_channels), final=True)
 
     # -- output -------------------------------------------------------------------------
 
@@ -254,7 +260,7 @@ class CalibrationSession:
         if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
             reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
             return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
-        return check_fit(self.tool, self._fit_sums, in_sums, noise, hint)
+        return check_fit(self.tool, self._fit_sums, in_sums, noise, hint, self.layout)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "") -> Calibration:
         """The calibration from everything kept so far, with its fit check in the quality.
@@ -339,6 +345,7 @@ class CalibrationSession:
         source: str = "",
         clock: Callable[[], float] = _time.monotonic,
         source_record: dict | None = None,
+        layout: ChannelLayout = MALTESE_CROSS_8,
     ) -> CalibrationSession:
         """A session continuing from a checkpoint; samples up to its last time are skipped.
 
@@ -346,13 +353,14 @@ class CalibrationSession:
         ``source_record`` (None: not checked).
 
         Raises:
-            FileFormatError: Not a checkpoint, or one of another robot, tool or source.
+            FileFormatError: Not a checkpoint, or one of another robot, tool, source or
+                channel layout.
         """
         path = Path(checkpoint)
         state = read_checkpoint(path, kin.robot.name, tool, source_record)
         record = source_record if source_record is not None else state.get("source")
         use_filter = state.get("filter") is not None
-        session = cls(kin, tool, settings, checkpoint=path, use_filter=use_filter, source=source, clock=clock, source_record=record)
+        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout)
         try:
             session.estimator = OnlineEstimator.from_state(state["estimator"])
             session.kept = np.array(state["kept"], dtype=np.int64)
@@ -363,6 +371,9 @@ class CalibrationSession:
                 session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
+        if session.estimator.layout != session.layout:
+            found, expected = session.estimator.layout.name, session.layout.name
+            raise FileFormatError(path, "estimator.channels", f"is of a {found} sensor but the sensor is {expected}: give its --sensor")
         if state.get("last_time") is not None:
             session.checks.last_time = session.checks.resume_time = float(state["last_time"])
         if session.filter is not None and state.get("filter"):

@@ -1,6 +1,6 @@
 """Export a calibration for firmware and other software: a C header, JSON, ROS 2 parameters.
 
-- ``c-header``: C (6x8) and D (6) as arrays, and an inline function computing
+- ``c-header``: C (6 x n, n channels of the calibration's layout) and D (6) as arrays, and an inline function computing
   ``wrench = C strain + D``, as the paper's STM32 does. ``float`` by default (a Cortex-M4
   has a single-precision FPU); define ``FTS_CALIB_DOUBLE`` before including it for double.
   Values are printed as Python repr (shortest, round-trips a double; in float mode
@@ -45,10 +45,11 @@ def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
     C_rows = ",\n".join("    {" + ", ".join(f"{prefix}_R({float(v)!r})" for v in row) + "}" for row in calibration.C)
     D_values = ", ".join(f"{prefix}_R({float(v)!r})" for v in calibration.D)
     prov = calibration.provenance
+    n = calibration.layout.n_channels
     lines = [
         f"/* {lower}.h: force/torque sensor calibration written by fts-calib {prov.get('software_version', '')}".rstrip() + ".",
         " * wrench = C * strain + D, wrench = [Fx Fy Fz] in N and [Mx My Mz] in N*m, in the sensor frame;",
-        " * strain = the 8 raw half-bridge readings, in the unit used during calibration.",
+        f" * strain = the {n} raw channels ({calibration.layout.name} layout), in the unit used during calibration.",
         f" * method: {prov.get('method', 'unknown')}; time: {prov.get('time', 'unknown')}. */",
         f"#ifndef {prefix}_H",
         f"#define {prefix}_H",
@@ -61,20 +62,20 @@ def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
         f"#define {prefix}_R(x) x##f",
         "#endif",
         "",
-        "/* C: rows Fx Fy Fz (N per strain unit), Mx My Mz (N*m per strain unit); columns strain 1..8 */",
-        f"static const {lower}_real {prefix}_C[6][8] = {{",
+        f"/* C: rows Fx Fy Fz (N per strain unit), Mx My Mz (N*m per strain unit); columns strain 1..{n} */",
+        f"static const {lower}_real {prefix}_C[6][{n}] = {{",
         C_rows,
         "};",
         "",
         "/* D: offsets [Fx Fy Fz Mx My Mz] in N and N*m */",
         f"static const {lower}_real {prefix}_D[6] = {{{D_values}}};",
         "",
-        "/* wrench[6] = C * strain[8] + D */",
-        f"static inline void {lower}_wrench(const {lower}_real strain[8], {lower}_real wrench[6])",
+        f"/* wrench[6] = C * strain[{n}] + D */",
+        f"static inline void {lower}_wrench(const {lower}_real strain[{n}], {lower}_real wrench[6])",
         "{",
         "    for (int i = 0; i < 6; ++i) {",
         f"        {lower}_real sum = {prefix}_D[i];",
-        f"        for (int k = 0; k < 8; ++k) sum += {prefix}_C[i][k] * strain[k];",
+        f"        for (int k = 0; k < {n}; ++k) sum += {prefix}_C[i][k] * strain[k];",
         "        wrench[i] = sum;",
         "    }",
         "}",
@@ -90,7 +91,8 @@ def json_text(calibration: Calibration) -> str:
     q = calibration.quality
     data = {
         "format": FORMAT,
-        "units": {"wrench": ["N", "N", "N", "N·m", "N·m", "N·m"], "strain": "raw bridge reading"},
+        "units": {"wrench": ["N", "N", "N", "N·m", "N·m", "N·m"], "strain": "raw channel reading"},
+        "channels": calibration.layout.to_config(),
         "C": calibration.C,
         "C_bar": calibration.C_bar,
         "D": calibration.D,

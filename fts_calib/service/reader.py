@@ -34,11 +34,12 @@ class WrenchReader:
     """Wrench from raw strains with a calibration, for a 1 kHz loop.
 
     Args:
-        calibration: The sensor's calibration.
+        calibration: The sensor's calibration; its layout fixes the number of channels n.
     """
 
     def __init__(self, calibration: Calibration):
         self.C = np.ascontiguousarray(calibration.C, dtype=float)
+        self.n_channels = calibration.layout.n_channels
         self.D = np.array(calibration.D, dtype=float)  # a copy: set_offsets changes it, the calibration stays
         self._out = np.empty(6)
 
@@ -46,13 +47,13 @@ class WrenchReader:
         """``C strain + D`` for one sample, into an internal buffer.
 
         Args:
-            strain: Raw strains, float64, shape (8,).
+            strain: Raw channels, float64, shape (n,).
 
         Returns:
             The wrench [N, N m], shape (6,): a buffer overwritten by the next call.
         """
-        if strain.shape != (8,):
-            raise ShapeError(f"strain.shape={strain.shape} but expected (8,)")
+        if strain.shape != (self.n_channels,):
+            raise ShapeError(f"strain.shape={strain.shape} but expected ({self.n_channels},), the calibration's channels")
         np.dot(self.C, strain, out=self._out)
         np.add(self._out, self.D, out=self._out)
         return self._out
@@ -61,12 +62,12 @@ class WrenchReader:
         """``C strain + D`` for many samples.
 
         Args:
-            strain: Raw strains, shape (N, 8).
+            strain: Raw channels, shape (N, n).
 
         Returns:
             Shape (N, 6), [N, N m] (a new array).
         """
-        S, _ = as_samples(strain, 8, "strain")
+        S, _ = as_samples(strain, self.n_channels, "strain")
         return S @ self.C.T + self.D
 
     def set_offsets(self, D) -> None:
@@ -96,7 +97,7 @@ class GravityCompensator:
         """External wrench for one sample, into an internal buffer.
 
         Args:
-            strain: Raw strains, float64, shape (8,).
+            strain: Raw channels, float64, shape (n,).
             R_world_sensor: Orientation of the sensor in the world, shape (3, 3).
             frame: 'sensor' (S) or 'world' (axes of the world, moment still about the sensor origin).
             point: A tool point in S [m], shape (3,): the moment is taken about it; None for the sensor origin.
@@ -125,7 +126,7 @@ class GravityCompensator:
         """External wrench for many samples.
 
         Args:
-            strain: Raw strains, shape (N, 8).
+            strain: Raw channels, shape (N, n).
             R_world_sensor: Orientations, shape (N, 3, 3).
             frame: 'sensor' or 'world' (see :meth:`external`).
             point: Tool point in S [m], shape (3,), or None.

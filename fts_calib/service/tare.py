@@ -76,7 +76,7 @@ def _known_load(
 def _apply(calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int) -> TareResult:
     if not len(strain):
         raise InsufficientExcitation(0, 1, "no still sample to re-tare from: hold the arm still while recording")
-    estimate = estimate_offsets(calibration.C_bar, strain, load)
+    estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout)
     what = f"{reason} ({estimate.samples_used:,} samples)"
     return TareResult(calibration.with_offsets(estimate.D, what), estimate, calibration.D.copy(), seen)
 

@@ -27,6 +27,7 @@ from ..core.arrays import frozen
 from ..core.exceptions import ConfigError
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration
+from ..model.channels import check_channels
 from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, forward_in_time, valid_values
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
 from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
@@ -178,6 +179,7 @@ def validate_recording(
     Raises:
         RecordingError: The recording cannot be read (missing, empty, a missing column).
         ConfigError: Not one or two calibrations.
+        ShapeError: The recording has another number of channels than a calibration's layout.
     """
     if not 1 <= len(calibrations) <= 2:
         message = f"{len(calibrations)} calibrations given but expected one or two"
@@ -218,6 +220,8 @@ def validate_recording(
     with RecordingReader(path, kin.joint_names, tool.names, max_abs_channel=max_abs_channel) as reader:
         for chunk in reader:
             t, q, s, k = chunk.time, chunk.joints, chunk.channels, chunk.configuration
+            for cal in calibrations:  # each calibration reads the channels of its own layout
+                check_channels(cal.layout, s.shape[1], str(path))
             finite, ok = valid_values(t, q, s, max_abs_channel)
             skip(NON_FINITE, int((~finite).sum()))
             skip(OUT_OF_RANGE, int((finite & ~ok).sum()))

@@ -78,7 +78,7 @@ def simulate_recording(
     """
     validation.non_negative("tool_change_s", tool_change_s, "s")
     offset = start_time
-    with RecordingWriter(path, kin.joint_names) as writer:
+    with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels) as writer:
         for traj in trajectories:
             if tuple(traj.joint_names) != tuple(kin.joint_names):
                 raise FtsCalibError(f"trajectory joints {list(traj.joint_names)} differ from the robot's {list(kin.joint_names)}")

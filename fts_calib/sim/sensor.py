@@ -1,13 +1,18 @@
-r"""A simulated strain-gauge sensor: strains from wrenches (paper eqs 21-22), with noise.
+r"""A simulated sensor of any channel layout: channels from wrenches (paper eqs 21-22), with noise.
 
-The inverse of the sensor model. The projected strains follow eq 22,
-``Delta_bar = C_bar^-1 (W - D)``; the eight bridge strains are ``pinv(P) Delta_bar`` plus
-content in the two patterns P does not see (a load-dependent and a constant part, as a
-real sensor has), then optional white noise per channel, a slow offset drift, and the
-quantization of the paper's acquisition chain (x128 gain, 24-bit ADC, saturation).
+The inverse of the sensor model. The projected channels follow eq 22,
+``Delta_bar = C_bar^-1 (W - D)``; the n raw channels are ``pinv(P) Delta_bar`` plus
+content in the n - 6 patterns P does not see (a load-dependent and a constant part, as a
+real sensor has; none for ``wrench-6``), then optional white noise per channel, a slow
+offset drift, and the quantization of the acquisition chain (the paper's: x128 gain,
+24-bit ADC, saturation).
 
-Units: wrenches in [N, N, N, N m, N m, N m]; strains in the sensor's raw unit (mV/V for
-the shipped simulated sensor).
+A factory-calibrated sensor (layout ``wrench-6``, ``configs/factory_sensor.yaml``) is the
+same model with P = I: its channels are the wrench its factory calibration reports, and
+``C_bar`` maps them to the true wrench (the correction an in-situ calibration finds).
+
+Units: wrenches in [N, N, N, N m, N m, N m]; channels in the sensor's raw unit (mV/V for
+the shipped strain-gauge sensor, N and N m for a factory wrench).
 """
 
 from __future__ import annotations
@@ -19,7 +24,6 @@ import numpy as np
 
 from ..core.arrays import as_samples
 from ..core.exceptions import FileFormatError
-from ..model.sensor import P_NULL, P_PINV
 from ..model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 
 
@@ -41,11 +45,11 @@ class SimulatedSensor(SimulationSpec):
             rng: Random generator for the noise; noiseless when None.
 
         Returns:
-            Strains, shape (8,) or (N, 8).
+            Raw channels, shape (n,) or (N, n), n = ``layout.n_channels``.
         """
         W, single = as_samples(w_sensor, 6, "w_sensor")
         bar = np.linalg.solve(self.C_bar, (W - self.D).T).T  # eq 22
-        strain = bar @ P_PINV.T + (W @ self.null_coupling.T + self.null_offset) @ P_NULL
+        strain = bar @ self.layout.pinv.T + (W @ self.null_coupling.T + self.null_offset) @ self.layout.null_basis
         if time is not None:
             strain = strain + np.asarray(time, dtype=float).reshape(-1, 1) * self.drift_rate
         if rng is not None and np.any(self.noise_std > 0):

@@ -1,0 +1,99 @@
+"""Writing recordings (CSV or CSV.gz, the format of :mod:`fts_calib.feeds.recording`), atomically.
+
+Columns: ``time`` [s], one per joint [rad], ``strain_1`` ... ``strain_n`` [raw units], ``tool``.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..core.exceptions import ShapeError
+from ..core.fileio import AtomicFile
+
+
+def strain_columns(n_channels: int) -> tuple[str, ...]:
+    """Names of the channel columns of an n-channel sensor: ``strain_1`` ... ``strain_n``."""
+    return tuple(f"strain_{k}" for k in range(1, n_channels + 1))
+
+
+class RecordingWriter:
+    """Write a recording (see the module docstring), atomically: the file appears on close.
+
+    Args:
+        path: Destination (``.csv`` or ``.csv.gz``).
+        joint_names: Joint columns, in order.
+        n_channels: Channel columns ``strain_1`` ... ``strain_n``; 8 for the paper's sensor.
+    """
+
+    def __init__(self, path: str | Path, joint_names: Sequence[str], n_channels: int = 8):
+        self.path = Path(path)
+        self.joint_names = list(joint_names)
+        self.n_channels = int(n_channels)
+        self._file = AtomicFile(self.path)
+        self._gzip = gzip.GzipFile(fileobj=self._file.handle, mode="wb") if self.path.suffix == ".gz" else None
+        self._handle = io.TextIOWrapper(self._gzip or self._file.handle, encoding="utf-8", newline="")
+        self._handle.write(",".join(["time", *self.joint_names, *strain_columns(self.n_channels), "tool"]) + "\n")
+        self.rows = 0
+
+    def write(self, time, readings, strain, tool: str | Sequence[str]) -> None:
+        """Append rows.
+
+        Args:
+            time: Times [s], shape (n,).
+            readings: Joint readings [rad], shape (n, n_joints).
+            strain: Raw channels, shape (n, n_channels).
+            tool: One configuration name for all rows, or one per row.
+
+        Raises:
+            ShapeError: ``strain`` has another number of columns than ``n_channels``.
+        """
+        time = np.asarray(time, dtype=float)
+        if np.shape(strain)[-1] != self.n_channels:
+            raise ShapeError(f"strain.shape={np.shape(strain)} but expected (n, {self.n_channels}): the file's strain columns")
+        table = np.column_stack([time, np.asarray(readings, dtype=float), np.asarray(strain, dtype=float)])
+        buffer = io.StringIO()
+        if isinstance(tool, str):
+            np.savetxt(
+                buffer,
+                table,
+                fmt=",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * self.n_channels) + "," + tool.replace("%", "%%"),
+            )
+        else:
+            fmt = ",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * self.n_channels)
+            for row, name in zip(table, tool, strict=True):
+                buffer.write(fmt % tuple(row) + "," + name + "\n")
+        self._handle.write(buffer.getvalue())
+        self.rows += len(time)
+
+    def close(self) -> Path:
+        """Finish the file and move it into place (flushed and fsynced first)."""
+        self._handle.flush()
+        self._handle.detach()  # the atomic file closes the handle itself, after fsync
+        if self._gzip is not None:
+            self._gzip.close()  # writes the gzip trailer; the underlying file stays open
+        return self._file.commit()
+
+    def abort(self) -> None:
+        """Drop the partial file (nothing is left behind)."""
+        if not self._handle.closed:
+            try:
+                self._handle.detach()
+            except ValueError:  # already detached by a close that failed
+                pass
+        if self._gzip is not None:
+            self._gzip.close()
+        self._file.abort()
+
+    def __enter__(self) -> RecordingWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
