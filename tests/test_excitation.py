@@ -30,6 +30,24 @@ def test_predicted_standard_errors_match_those_of_a_simulated_calibration(paper_
     assert predicted.condition_number == pytest.approx(q.condition_number, rel=0.01)  # noise adds to S_XX
 
 
+def test_predicted_standard_errors_of_a_factory_wrench_sensor(paper_tool, rng):
+    """The same agreement for the 6-channel layout (P = I): noise per channel of 0.01 N and 5e-4 N m."""
+    from fts_calib.model.channels import WRENCH_6
+
+    sensor = load_simulated_sensor(resolve("factory_sensor", "configs"))
+    noise = np.array([0.01] * 3 + [5e-4] * 3)
+    g = {c.name: random_gravity(2000, rng) for c in paper_tool.configurations}
+    predicted = predict_excitation(g, paper_tool, sensor.C_bar, sensor.D, noise, layout=WRENCH_6)
+    est = OnlineEstimator(layout=WRENCH_6)
+    for config in paper_tool.configurations:
+        W = config.static_wrench(g[config.name])
+        est.update_batch(W, sensor.strains(W) + noise * rng.standard_normal((len(W), 6)))
+    q = est.solve().quality
+    assert predicted.stderr_C.shape == (6, 6) and predicted.noise_std.shape == (6,)
+    np.testing.assert_allclose(predicted.stderr_C_bar, q.stderr_C_bar, rtol=0.05)
+    np.testing.assert_allclose(predicted.stderr_D, q.stderr_D, rtol=0.05)
+
+
 def test_coverage_of_the_six_axis_directions_is_the_cube_corner_angle():
     axes = np.vstack([np.eye(3), -np.eye(3)])
     # the farthest directions are the cube's corners, acos(1/sqrt(3)) = 54.74 deg from an axis

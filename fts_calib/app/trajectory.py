@@ -185,7 +185,7 @@ def format_report(run: TrajectoryRun, robot_path: Path, tool_path: Path, compres
         rel = 100 * ex.relative_stderr_C
         lines.append(
             table(
-                ["", *[f"Δ{k + 1}" for k in range(8)]],
+                ["", *[f"Δ{k + 1}" for k in range(ex.stderr_C.shape[1])]],
                 [[axis, *[f"{v:.5f}" for v in rel[i]]] for i, axis in enumerate(WRENCH_AXES)],
                 "    ",
             )

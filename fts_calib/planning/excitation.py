@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.arrays import frozen
+from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.estimator import RANK_ADVICE
 from ..model.least_squares import RCOND, coefficient_stderr, information_rank
-from ..model.sensor import P
 from ..robot.tool import Tool
 
 _SPHERE_POINTS = 2000  # probe directions for the coverage angle (mean spacing about 4.5 deg)
@@ -42,11 +42,11 @@ class ExcitationReport:
         samples: Quasi-static samples per tool configuration.
         rank: Predicted rank of S_XX (7 determines every coefficient).
         condition_number: Of the scaled S_XX (inf when rank < 7).
-        noise_std: Strain noise per bridge assumed, raw units. Shape (8,).
+        noise_std: Noise per channel assumed, raw units. Shape (n,).
         stderr_C_bar: Predicted standard errors of C_bar (inf when undetermined). Shape (6, 6).
         stderr_D: Predicted standard errors of D, [N, N, N, N m, N m, N m]. Shape (6,).
-        stderr_C: Predicted standard errors of C. Shape (6, 8).
-        relative_stderr_C: ``stderr_C`` over the largest |C| of its row. Shape (6, 8).
+        stderr_C: Predicted standard errors of C. Shape (6, n).
+        relative_stderr_C: ``stderr_C`` over the largest |C| of its row. Shape (6, n).
         coverage_deg: Largest angle in [deg] from any direction to the nearest gravity
             direction seen by the sensor (small is good; 180 with one direction).
         advice: What is missing, in words, or '' when the plan determines every coefficient.
@@ -95,7 +95,13 @@ def coverage_angle(directions: np.ndarray) -> float:
 
 
 def predict_excitation(
-    g_sensor: Mapping[str, np.ndarray], tool: Tool, C_bar: np.ndarray, D: np.ndarray, noise_std, rcond: float = RCOND
+    g_sensor: Mapping[str, np.ndarray],
+    tool: Tool,
+    C_bar: np.ndarray,
+    D: np.ndarray,
+    noise_std,
+    rcond: float = RCOND,
+    layout: ChannelLayout = MALTESE_CROSS_8,
 ) -> ExcitationReport:
     """Predict the estimator's rank, condition and standard errors for planned samples.
 
@@ -105,10 +111,12 @@ def predict_excitation(
         tool: The tool whose configurations are named in ``g_sensor``.
         C_bar: Nominal modified calibration matrix. Shape (6, 6).
         D: Nominal offsets, [N, N, N, N m, N m, N m]. Shape (6,).
-        noise_std: Strain noise per bridge, raw units; one number or shape (8,).
+        noise_std: Noise per channel, raw units; one number or shape (n,).
         rcond: Rank threshold, as the estimator's.
+        layout: The sensor's channel layout (n channels, its P); the paper's by default.
     """
-    noise = np.broadcast_to(np.asarray(noise_std, dtype=float), (8,)).copy()
+    P, n = layout.projection, layout.n_channels
+    noise = np.broadcast_to(np.asarray(noise_std, dtype=float), (n,)).copy()
     S_XX = np.zeros((7, 7))
     counts = {}
     directions = []
@@ -130,7 +138,7 @@ def predict_excitation(
         stderr_theta, stderr_C = coefficient_stderr(sigma_W, inv, P)
         advice = ""
     else:
-        stderr_theta, stderr_C = np.full((6, 7), math.inf), np.full((6, 8), math.inf)
+        stderr_theta, stderr_C = np.full((6, 7), math.inf), np.full((6, n), math.inf)
         used = [name for name, n in counts.items() if n]
         advice = (
             f"predicted rank {rank} of 7 ({7 - rank} direction(s) missing) with quasi-static samples from "

@@ -87,7 +87,7 @@ def plan_trajectories(
         sensor: Sensor configuration with a nominal model (``simulation`` section) for the
             excitation prediction.
         filter_config: Quasi-static filter thresholds.
-        noise_std: Strain noise per bridge for the prediction, raw units (one number or 8).
+        noise_std: Noise per channel for the prediction, raw units (one number or n).
         pattern: Raster of stops.
         rate: Sample rate [Hz].
         min_clearance: Required clearance [m].
@@ -106,7 +106,12 @@ def plan_trajectories(
     still = predicted_still(result, filter_config)
     g_all = kin.g_sensor(result.plan.q, tool.gravity)
     excitation = predict_excitation(
-        {c.name: g_all[still] for c in tool.configurations}, tool, sensor.simulated.C_bar, sensor.simulated.D, noise_std
+        {c.name: g_all[still] for c in tool.configurations},
+        tool,
+        sensor.simulated.C_bar,
+        sensor.simulated.D,
+        noise_std,
+        layout=sensor.layout,
     )
     problems = list(result.problems)
     if excitation.rank < 7:
