@@ -80,9 +80,9 @@ def test_export_from_python_takes_gravity_from_the_payload_file(tmp_path, capsys
     (tmp_path / "tool.yaml").write_text(yaml.safe_dump(tool))
     assert export.run(fmt="ros2", calibration=CALIBRATION, output=tmp_path / "r.yaml", payload=tmp_path / "tool.yaml") == 0
     params = yaml.safe_load((tmp_path / "r.yaml").read_text())
-    force = params["force_torque_sensor_broadcaster"]["ros__parameters"]["sensor_filter_chain"]["filter1"]["params"]["CoG"]["force"]
-    mass = tool["configurations"][0]["mass"]
-    assert force[2] == pytest.approx(-mass * GRAVITY_ELSEWHERE, abs=1e-12)
+    filter_tool = params["force_torque_sensor_broadcaster"]["ros__parameters"]["sensor_filter_chain"]["filter1"]["params"]["tool"]
+    assert filter_tool["mass"] == tool["configurations"][0]["mass"]
+    assert filter_tool["gravity_field"] == [0.0, 0.0, -GRAVITY_ELSEWHERE]
     assert "wrote" in capsys.readouterr().out
 
 

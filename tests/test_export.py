@@ -6,14 +6,12 @@ import subprocess
 
 import numpy as np
 import pytest
-import yaml
 
 from fts_calib import Calibration, ConfigError, load_calibration, save_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.robot.tool import load_tool
-from fts_calib.service.export import c_header, export, json_text, ros2_parameters
+from fts_calib.service.export import c_header, export, json_text
 from fts_calib.sim.sensor import load_simulated_sensor
 
 
@@ -66,17 +64,6 @@ def test_json_export_holds_the_calibration(calibration):
     # JSON numbers are Python reprs, which read back as the same double: exact
     np.testing.assert_array_equal(data["C"], calibration.C)
     np.testing.assert_array_equal(data["D"], calibration.D)
-
-
-def test_ros2_parameters_of_the_gravity_compensation_filter():
-    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
-    params = yaml.safe_load(ros2_parameters(payload, 9.81, "ft_sensor_link", "base_link"))
-    f = params["force_torque_sensor_broadcaster"]["ros__parameters"]["sensor_filter_chain"]["filter1"]
-    assert f["type"] == "control_filters/GravityCompensationWrench"
-    assert f["params"]["world_frame"] == "base_link" and f["params"]["sensor_frame"] == "ft_sensor_link"
-    np.testing.assert_array_equal(f["params"]["CoG"]["pos"], payload.p_sensor_com)  # YAML reprs round-trip
-    # m g with the tool file's 1.4 kg: one product, to an eps of it (the zeros are exact)
-    np.testing.assert_allclose(f["params"]["CoG"]["force"], [0, 0, -1.4 * 9.81], rtol=0, atol=1e-15 * 1.4 * 9.81)
 
 
 def test_cli_export_and_bad_calibration_files(tmp_path, calibration, capsys):

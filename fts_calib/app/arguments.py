@@ -300,8 +300,10 @@ def _add_export(commands) -> None:
         "export",
         "export a calibration as a C header, JSON or ROS 2 parameters",
         "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
-        "provenance; ros2: the parameters of control_toolbox's GravityCompensationWrench filter for a payload.",
-        "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h",
+        "provenance; ros2: ros2_controllers' force_torque_sensor_broadcaster parameters (its offset, added to the "
+        "reading, and multiplier) with control_toolbox's GravityCompensationWrench filter for a payload.",
+        "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h\n"
+        "  fts-calib export --format ros2 --calibration calibration.yaml --payload paper_tool --configuration A -o ft.yaml",
     )
     exp.add_argument("--format", dest="fmt", required=True, choices=["c-header", "json", "ros2"], help="what to write")
     exp.add_argument("--calibration", required=True, help="calibration file")

@@ -1,4 +1,4 @@
-"""The ``export`` command: a calibration as a C header, JSON or the parameters of a ROS 2 gravity compensation."""
+"""The ``export`` command: a calibration as a C header, JSON or ros2_control parameters (broadcaster and gravity compensation)."""
 
 from __future__ import annotations
 
@@ -27,8 +27,9 @@ def run(
 
     Args:
         fmt: 'c-header' (C and D as arrays and an inline wrench function), 'json' (C, C_bar,
-            D, quality, provenance) or 'ros2' (control_toolbox's GravityCompensationWrench
-            parameters for ``payload``).
+            D, quality, provenance) or 'ros2' (force_torque_sensor_broadcaster's offset and
+            multiplier, and control_toolbox's GravityCompensationWrench parameters for
+            ``payload``: :mod:`fts_calib.service.ros2`).
         calibration: Calibration file.
         output: File to write.
         name: Prefix of the C identifiers.

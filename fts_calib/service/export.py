@@ -6,10 +6,9 @@
   Values are printed as Python repr (shortest, round-trips a double; in float mode
   the compiler rounds them).
 - ``json``: C, C_bar, D, units, quality and provenance.
-- ``ros2``: the parameters of the ``control_filters/GravityCompensationWrench`` filter of
-  ros2_control's control_toolbox (``world_frame``, ``sensor_frame``, ``CoG.pos`` in the
-  sensor frame [m], ``CoG.force`` in the world frame [N], e.g. ``[0, 0, -m g]``), in a
-  filter chain of a node, for the payload the sensor carries.
+- ``ros2``: the parameters of ros2_controllers' ``force_torque_sensor_broadcaster`` (its
+  ``offset`` and ``multiplier``) with control_toolbox's gravity compensation filter for
+  the payload the sensor carries (:mod:`fts_calib.service.ros2`).
 
 Angles and units as everywhere in fts-calib: N, N m, m; strains raw.
 """
@@ -20,9 +19,10 @@ import json
 import re
 
 from ..core.exceptions import ConfigError
-from ..core.fileio import dump_yaml, to_plain
+from ..core.fileio import to_plain
 from ..model.calibration import FORMAT, Calibration
 from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
+from .ros2 import ros2_parameters
 
 #: The formats :func:`export` writes.
 FORMATS = ("c-header", "json", "ros2")
@@ -112,49 +112,6 @@ def json_text(calibration: Calibration) -> str:
     return json.dumps(to_plain(data), indent=2, ensure_ascii=False) + "\n"
 
 
-def ros2_parameters(
-    payload: ToolConfiguration,
-    gravity: float,
-    sensor_frame: str = "ft_sensor",
-    world_frame: str = "world",
-    node: str = "force_torque_sensor_broadcaster",
-) -> str:
-    """Parameters of control_toolbox's gravity compensation filter for a payload (YAML).
-
-    Args:
-        payload: The payload: mass [kg] and centre of mass in the sensor frame [m].
-        gravity: Magnitude of gravity [m/s^2].
-        sensor_frame: TF name of the sensor frame (the frame of fts-calib's S).
-        world_frame: TF name of a fixed frame whose z axis points up.
-        node: Name of the node that runs the filter chain.
-    """
-    params = {
-        node: {
-            "ros__parameters": {
-                "sensor_filter_chain": {
-                    "filter1": {
-                        "name": "gravity_compensation",
-                        "type": "control_filters/GravityCompensationWrench",
-                        "params": {
-                            "world_frame": world_frame,
-                            "sensor_frame": sensor_frame,
-                            "CoG": {
-                                "pos": [float(v) for v in payload.p_sensor_com],
-                                "force": [0.0, 0.0, -float(payload.mass * gravity)],
-                            },
-                        },
-                    }
-                }
-            }
-        }
-    }
-    header = (
-        f"# control_toolbox GravityCompensationWrench filter for payload '{payload.name}' ({payload.mass:.4g} kg),\n"
-        "# written by fts-calib: CoG.pos in the sensor frame [m], CoG.force in the world frame [N] (z up).\n"
-    )
-    return header + dump_yaml(params)
-
-
 def export(
     calibration: Calibration,
     fmt: str,
@@ -165,6 +122,15 @@ def export(
     world_frame: str = "world",
 ) -> str:
     """The text of an export in one of :data:`FORMATS`.
+
+    Args:
+        calibration: The calibration.
+        fmt: One of :data:`FORMATS`.
+        payload: The payload to compensate (ros2).
+        gravity: Magnitude of gravity [m/s^2] (ros2).
+        name: Prefix of the C identifiers (c-header).
+        sensor_frame: TF frame of the sensor (ros2).
+        world_frame: TF frame whose z axis points up (ros2).
 
     Raises:
         ConfigError: Unknown format, or ``ros2`` without a payload.
@@ -177,5 +143,5 @@ def export(
         if payload is None:
             message = "the ros2 export describes the payload to compensate: give its tool file (--payload)"
             raise ConfigError("payload", None, "the payload's tool configuration", message=message)
-        return ros2_parameters(payload, gravity, sensor_frame, world_frame)
+        return ros2_parameters(calibration, payload, gravity, sensor_frame, world_frame)
     raise ConfigError("format", fmt, f"one of {', '.join(FORMATS)}")
