@@ -107,17 +107,26 @@ def test_joints_in_degrees_on_a_file_in_rad_is_named(ur5_recording, ur5, paper_t
     assert "run without --joints-in-degrees" in result.error.check.diagnosis
 
 
-def test_drifting_offsets_are_refused_and_drift_is_named_among_the_causes(tmp_path, short_plan, ur5, paper_tool, seed):
-    """The paper's model has constant offsets: a drift of 1e-6 mV/V/s per bridge (0.02 N over the run) is refused."""
+def test_drifting_offsets_are_refused_under_constant_offsets_and_fit_under_auto(tmp_path, short_plan, ur5, paper_tool, seed):
+    """A drift of 1e-6 mV/V/s per bridge (0.02 N over the run): the paper's constant offsets are refused, auto models it."""
     from fts_calib.core.resources import resolve
+    from fts_calib.pipeline.settings import OffsetConfig, PipelineConfig
     from fts_calib.sim.recording import simulate_recording
     from fts_calib.sim.sensor import load_simulated_sensor
 
     drifting = dataclasses.replace(load_simulated_sensor(resolve("sensor", "configs")), drift_rate=np.full(8, 1e-6))
     trajectories = [short_plan.trajectory(name) for name in paper_tool.names]
     path = simulate_recording(tmp_path / "drift.csv", ur5, paper_tool, trajectories, drifting, np.random.default_rng(seed))
-    check = _refused(path, ur5, paper_tool)
+    constant = PipelineConfig(offsets=OffsetConfig(model="constant"))
+    result = calibrate_recording(path, ur5, paper_tool, constant)
+    assert result.calibration is None and isinstance(result.error, PoorFit), result.error
+    check = result.error.check
     assert check.max_ratio > MAX_RATIO and "offsets that drift during the run" in check.diagnosis
+    assert "--offsets auto or drift models them" in check.diagnosis
+    modelled = calibrate_recording(path, ur5, paper_tool)  # offsets: auto, the default
+    assert modelled.error is None, modelled.error
+    assert modelled.calibration.offset_model["model"] == "drift"
+    assert modelled.calibration.quality.fit["verdict"] == "consistent"
 
 
 def test_a_checkpoint_without_fit_sums_is_judged_on_the_samples_it_holds(tmp_path, ur5_recording, ur5, paper_tool):

@@ -59,6 +59,10 @@ class Quality:
         fit: The fit check's verdict as plain data (verdict, residual RMS per
             configuration and axis, the expected noise, the diagnosis), or None when the
             fit was not checked (see :mod:`fts_calib.pipeline.fit`).
+        budget: The measured accuracy budget as plain data (per term and axis in % of full
+            scale, the total; :meth:`fts_calib.model.budget.AccuracyBudget.to_dict`), or None.
+        full_rank: The rank that determines every coefficient: 6 + the offset model's
+            columns (7 for the paper's constant offsets, 6 for a jig).
     """
 
     samples_used: int
@@ -71,6 +75,8 @@ class Quality:
     stderr_C: np.ndarray
     skipped: Mapping[str, int] = field(default_factory=dict)
     fit: Mapping[str, Any] | None = None
+    budget: Mapping[str, Any] | None = None
+    full_rank: int = 7
 
     def __post_init__(self):
         n = np.shape(self.stderr_C)[-1] if np.ndim(self.stderr_C) == 2 else -1
@@ -103,6 +109,11 @@ class Calibration:
             "reason": text}``.
         layout: The sensor's channel layout (its projection P, 6 x n); the paper's 8-bridge
             sensor when not given.
+        offset_model: How the offsets moved during the calibration run, as plain data
+            (:func:`fts_calib.model.offset_basis.describe`: the model chosen and why, its
+            basis and coefficients, the offset trajectory); None for constant offsets of
+            a file written before offset models existed. ``D`` is the offset at the end of
+            the run.
         C: Calibration matrix ``C_bar @ P``, shape (6, n) (derived, not an argument).
     """
 
@@ -112,6 +123,7 @@ class Calibration:
     provenance: Mapping[str, Any] = field(default_factory=dict)
     offset_history: tuple[Mapping[str, Any], ...] = ()
     layout: ChannelLayout = MALTESE_CROSS_8
+    offset_model: Mapping[str, Any] | None = None
     C: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -125,6 +137,8 @@ class Calibration:
             raise ShapeError(f"quality.stderr_C.shape={self.quality.stderr_C.shape} but expected {self.C.shape}, the shape of C")
         object.__setattr__(self, "provenance", dict(self.provenance))
         object.__setattr__(self, "offset_history", tuple(dict(h) for h in self.offset_history))
+        if self.offset_model is not None:
+            object.__setattr__(self, "offset_model", dict(self.offset_model))
 
     def wrench(self, strain) -> np.ndarray:
         """Wrench on the sensor from raw strains, ``C Delta + D``.
@@ -161,6 +175,8 @@ def _quality_to_dict(quality: Quality) -> dict[str, Any]:
         "stderr_D": quality.stderr_D,
         "stderr_C": quality.stderr_C,
         **({"fit": dict(quality.fit)} if quality.fit is not None else {}),
+        **({"accuracy_budget": dict(quality.budget)} if quality.budget is not None else {}),
+        "full_rank": quality.full_rank,
     }
 
 
@@ -186,6 +202,8 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
         data["quality"] = _quality_to_dict(calibration.quality)
     data["provenance"] = dict(calibration.provenance)
     data["offset_history"] = list(calibration.offset_history)
+    if calibration.offset_model is not None:
+        data["offset_model"] = dict(calibration.offset_model)
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
     return atomic_write_text(path, header + dump_yaml(data))
 
@@ -211,6 +229,8 @@ def _quality_from_dict(raw: Any, path: Path, n: int) -> Quality:
             stderr_C=read_array(require(raw, "stderr_C", path, "quality."), (6, n), path, "quality.stderr_C"),
             skipped={str(k): int(v) for k, v in (raw.get("skipped") or {}).items()},
             fit=dict(raw["fit"]) if isinstance(raw.get("fit"), Mapping) else None,
+            budget=dict(raw["accuracy_budget"]) if isinstance(raw.get("accuracy_budget"), Mapping) else None,
+            full_rank=int(raw.get("full_rank", 7)),
         )
     except (TypeError, ValueError) as exc:
         raise FileFormatError(path, "quality", str(exc)) from None
@@ -251,5 +271,16 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     history = data.get("offset_history") or []
     if not isinstance(history, list) or not all(isinstance(h, Mapping) for h in history):
         raise FileFormatError(path, "offset_history", "expected a list of mappings")
+    offset_model = data.get("offset_model")
+    if offset_model is not None and not isinstance(offset_model, Mapping):
+        raise FileFormatError(path, "offset_model", "expected a mapping")
     with fields_of(path):
-        return Calibration(C_bar=C_bar, D=D, quality=quality, provenance=provenance, offset_history=tuple(history), layout=layout)
+        return Calibration(
+            C_bar=C_bar,
+            D=D,
+            quality=quality,
+            provenance=provenance,
+            offset_history=tuple(history),
+            layout=layout,
+            offset_model=offset_model,
+        )

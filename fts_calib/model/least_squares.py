@@ -111,6 +111,12 @@ def coefficient_stderr(sigma, inv, projection) -> tuple[np.ndarray, np.ndarray]:
     return stderr_theta, stderr_C
 
 
+def residual_sums(S_WW, S_WX, S_XX, theta) -> np.ndarray:
+    """Residual sum of squares per wrench axis of ``W ~ theta x`` from the normal matrices, shape (6,)."""
+    rss = np.diag(S_WW) - 2.0 * np.sum(theta * S_WX, axis=1) + np.sum((theta @ S_XX) * theta, axis=1)
+    return np.maximum(rss, 0.0)  # cancellation can leave -1e-16 relative on exact data
+
+
 def fit_quality(
     S_WW,
     S_WX,
@@ -124,21 +130,28 @@ def fit_quality(
     condition: float,
     skipped: Mapping[str, int],
     projection,
+    offset_row=None,
 ) -> Quality:
     """Residuals and standard errors of a least-squares fit from its normal matrices.
 
-    ``theta`` is (6, p) with p = 7 (C_bar and D) or 6 (C_bar only); ``inv`` is the (p, p)
+    ``theta`` is (6, p) with p = 6 (C_bar only), 7 (C_bar and D) or 6 + k (C_bar and the k
+    offset terms of :mod:`fts_calib.model.offset_basis`); ``inv`` is the (p, p)
     (pseudo-)inverse of S_XX; ``projection`` the layout's P (6, n). The residual variance
-    per axis is RSS / (n_eff - p).
+    per axis is RSS / (n_eff - p). ``offset_row`` (k,) is the offset basis of the time the
+    reported D belongs to (``D = theta[:, 6:] @ offset_row``): its standard error is
+    ``sigma_j sqrt(a^T S_XX^-1 a)``; None means the single constant column (p = 7).
     """
     p = theta.shape[1]
-    rss = np.diag(S_WW) - 2.0 * np.sum(theta * S_WX, axis=1) + np.sum((theta @ S_XX) * theta, axis=1)
-    rss = np.maximum(rss, 0.0)  # cancellation can leave -1e-16 relative on exact data
+    rss = residual_sums(S_WW, S_WX, S_XX, theta)
     residual_rms = np.sqrt(rss / n_eff) if n_eff > 0 else np.full(6, np.nan)
     dof = n_eff - p
     sigma = np.sqrt(rss / dof) if dof > 0 else np.full(6, math.inf)
     stderr_theta, stderr_C = coefficient_stderr(sigma, inv, projection)
-    stderr_D = stderr_theta[:, 6] if p == 7 else np.zeros(6)
+    if offset_row is not None:
+        a = np.asarray(offset_row, dtype=float)
+        stderr_D = sigma * math.sqrt(max(float(a @ inv[6:, 6:] @ a), 0.0))
+    else:
+        stderr_D = stderr_theta[:, 6] if p == 7 else np.zeros(6)
     return Quality(
         samples_used=used,
         samples_seen=seen,
@@ -149,4 +162,5 @@ def fit_quality(
         stderr_D=stderr_D,
         stderr_C=stderr_C,
         skipped=skipped,
+        full_rank=p,
     )

@@ -109,45 +109,82 @@ class FitCheck:
         return text + (f"; likely cause: {self.diagnosis}" if self.diagnosis else "")
 
 
-def fit_rows(g_sensor: np.ndarray, channels: np.ndarray, layout: ChannelLayout = MALTESE_CROSS_8) -> np.ndarray:
-    """The rows ``y = [g_sensor; P Delta; 1]`` whose outer products the fit check sums.
+def fit_rows(g_sensor: np.ndarray, channels: np.ndarray, layout: ChannelLayout = MALTESE_CROSS_8, drift=None) -> np.ndarray:
+    """The rows ``y = [g_sensor; P Delta; 1; drift]`` whose outer products the fit check sums.
 
     Args:
         g_sensor: Gravity in the sensor frame, in [m/s^2]. Shape (N, 3).
         channels: Raw channels. Shape (N, n), n = ``layout.n_channels``.
         layout: The sensor's channel layout (its P).
+        drift: The drift columns of the estimator's offset basis (time powers, temperature),
+            shape (N, m); none when None.
 
     Returns:
-        Shape (N, 10).
+        Shape (N, 10 + m).
     """
-    return np.hstack([g_sensor, layout.project(channels).reshape(-1, 6), np.ones((len(g_sensor), 1))])
+    extra = np.zeros((len(g_sensor), 0)) if drift is None else np.asarray(drift, dtype=float).reshape(len(g_sensor), -1)
+    return np.hstack([g_sensor, layout.project(channels).reshape(-1, 6), np.ones((len(g_sensor), 1)), extra])
 
 
-def _solve(matrices: Sequence[np.ndarray], sums: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(Theta (6, 7), RSS per configuration and axis (k, 6)) for wrench matrices M_c; None when singular."""
-    S_WX = sum(M @ s[:3, 3:] for M, s in zip(matrices, sums, strict=True))
-    S_XX = sums[:, 3:, 3:].sum(axis=0)
+def model_fit_sums(sums: np.ndarray, model: str, columns: Sequence[int], n_configurations: int) -> tuple[np.ndarray, bool]:
+    """The fit sums of one offset model: the drift columns it uses, and whether its offsets are per configuration.
+
+    Args:
+        sums: The session's sums of :func:`fit_rows`, shape (k, 10 + m, 10 + m).
+        model: The offset model ('constant', 'per-configuration' or 'drift').
+        columns: Its columns in the estimator's offset basis (:class:`fts_calib.model.offset_basis.Candidate`).
+        n_configurations: K, the basis's configuration columns (the drift columns follow them).
+
+    Returns:
+        ``(sums (k, 10 + m', 10 + m'), per_configuration)`` for :func:`check_fit`.
+    """
+    keep = list(range(10)) + [10 + i - n_configurations for i in columns if i >= n_configurations]
+    return sums[:, keep][:, :, keep], model != "constant"
+
+
+def _embeddings(sums: np.ndarray, per_configuration: bool) -> list[np.ndarray]:
+    """Per configuration, the map E_c of its ``x = [P Delta; 1; drift]`` into the joint regressor.
+
+    The joint regressor is ``[P Delta; offsets; drift]`` with one offset column (constant
+    offsets) or one per configuration seen; a configuration's 1 goes to its own column.
+    """
+    k, p = len(sums), sums.shape[1] - 3  # p = 7 + m drift columns
+    seen = [c for c in range(k) if sums[c, 9, 9] > 0]  # entry 9 of y is the 1: the sample count
+    n_off = len(seen) if per_configuration else 1
+    out = []
+    for c in range(k):
+        E = np.zeros((p - 1 + n_off, p))
+        E[:6, :6] = np.eye(6)
+        E[6 + (seen.index(c) if per_configuration and c in seen else 0), 6] = 1.0
+        E[6 + n_off :, 7:] = np.eye(p - 7)
+        out.append(E)
+    return out
+
+
+def _solve(matrices: Sequence[np.ndarray], sums: np.ndarray, per_configuration: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
+    """(Theta (6, 7 + ...), RSS per configuration and axis (k, 6)) for wrench matrices M_c; None when singular."""
+    E = _embeddings(sums, per_configuration)
+    S_WX = sum(M @ s[:3, 3:] @ e.T for M, s, e in zip(matrices, sums, E, strict=True))
+    S_XX = sum(e @ s[3:, 3:] @ e.T for s, e in zip(sums, E, strict=True))
     scale = 1.0 / np.sqrt(np.maximum(np.diag(S_XX), 1e-300))
     try:
         theta = np.linalg.solve((S_XX * scale[:, None] * scale[None, :]).T, (S_WX * scale[None, :]).T).T * scale[None, :]
     except np.linalg.LinAlgError:
         return None
-    per_configuration = []
-    for M, s in zip(matrices, sums, strict=True):
-        S_gg, S_gx, S_xx = s[:3, :3], s[:3, 3:], s[3:, 3:]
-        W_x = M @ S_gx  # this configuration's S_WX, (6, 7)
-        per_configuration.append(
-            np.diag(M @ S_gg @ M.T) - 2.0 * np.einsum("ij,ij->i", theta, W_x) + np.einsum("ij,jk,ik->i", theta, S_xx, theta)
-        )
-    return theta, np.maximum(np.array(per_configuration), 0.0)
+    per_config = []
+    for M, s, e in zip(matrices, sums, E, strict=True):
+        S_gg, S_gx, S_xx = s[:3, :3], s[:3, 3:] @ e.T, e @ s[3:, 3:] @ e.T
+        W_x = M @ S_gx  # this configuration's S_WX
+        per_config.append(np.diag(M @ S_gg @ M.T) - 2.0 * np.einsum("ij,ij->i", theta, W_x) + np.einsum("ij,jk,ik->i", theta, S_xx, theta))
+    return theta, np.maximum(np.array(per_config), 0.0)
 
 
-def _ratios(tool: Tool, matrices, sums, counts, noise_cov) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _ratios(tool: Tool, matrices, sums, counts, noise_cov, per_configuration=False) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """(ratio (k, 6), rms (k, 6), expected (6,)) of a hypothesis; None when it cannot be solved.
 
     ``noise_cov`` is the covariance of the projected channels ``P Delta``, ``P Sigma P^T`` (6, 6).
     """
-    solved = _solve(matrices, sums)
+    solved = _solve(matrices, sums, per_configuration)
     if solved is None:
         return None
     theta, rss = solved
@@ -181,14 +218,14 @@ def _golden(f, low: float, high: float, iterations: int = 60) -> tuple[float, fl
     return (c, fc) if fc < fd else (d, fd)
 
 
-def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov) -> list[tuple[str, float]]:
+def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov, per_configuration=False) -> list[tuple[str, float]]:
     """(cause in words, its largest ratio) of each alternative that fits, best first."""
     names = tool.names
     configs = tool.configurations
     fits: list[tuple[str, float]] = []
 
     def judge(label: str, matrices) -> None:
-        judged = _ratios(tool, matrices, sums, counts, noise_cov)
+        judged = _ratios(tool, matrices, sums, counts, noise_cov, per_configuration)
         if judged is not None and judged[0].max() <= MAX_RATIO:
             fits.append((label, float(judged[0].max())))
 
@@ -206,7 +243,8 @@ def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov) -
 
         def worst(log_factor: float, k: int = k) -> float:
             f = math.exp(log_factor)
-            judged = _ratios(tool, [c.wrench_matrix * (f if j == k else 1.0) for j, c in enumerate(configs)], sums, counts, noise_cov)
+            matrices = [c.wrench_matrix * (f if j == k else 1.0) for j, c in enumerate(configs)]
+            judged = _ratios(tool, matrices, sums, counts, noise_cov, per_configuration)
             return math.inf if judged is None else float(judged[0].max())
 
         grid = np.log(_MASS_FACTORS)
@@ -260,6 +298,7 @@ def check_fit(
     noise_std: np.ndarray | None,
     hint: str = "",
     layout: ChannelLayout = MALTESE_CROSS_8,
+    per_configuration: bool = False,
 ) -> FitCheck:
     """Judge the fit of the tool's model to the kept samples (see the module docstring).
 
@@ -273,6 +312,9 @@ def check_fit(
         hint: Added to the diagnosis of a poor fit that no alternative explains (e.g. a
             command-line option that may be wrong).
         layout: The sensor's channel layout (n channels, its P).
+        per_configuration: One offset per configuration (the per-configuration and drift
+            offset models) instead of one for all; drift columns are those of ``sums``
+            (:func:`model_fit_sums`).
 
     Returns:
         The verdict; its diagnosis names the first alternative that fits.
@@ -283,7 +325,7 @@ def check_fit(
     variance = np.zeros(layout.n_channels) if noise_std is None else np.asarray(noise_std, dtype=float) ** 2
     noise_cov = (layout.projection * variance) @ layout.projection.T  # covariance of P Delta, (6, 6)
     implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
-    judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise_cov)
+    judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise_cov, per_configuration)
     if judged is None:
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
     ratio, rms, expected = judged
@@ -296,7 +338,7 @@ def check_fit(
         return FitCheck("unchecked", float(ratio.max()), residual, expected, "", worst)
     if ratio.max() <= MAX_RATIO:
         return FitCheck("consistent", float(ratio.max()), residual, expected, "", worst)
-    causes = _alternatives(tool, sums, counts, noise_cov)
+    causes = _alternatives(tool, sums, counts, noise_cov, per_configuration)
     if causes:
         diagnosis = causes[0][0]
     elif tool.com_rank() < 2:
@@ -308,6 +350,6 @@ def check_fit(
         diagnosis = hint or (
             "no simple alternative fits: check the tool file (masses, centres of mass in m in the sensor frame), the "
             "configuration labels, the joint units and the sensor mount; offsets that drift during the run (warm-up, "
-            "temperature) or move at a tool change also leave such residuals"
+            "temperature) or move at a tool change also leave such residuals (--offsets auto or drift models them)"
         )
     return FitCheck("poor", float(ratio.max()), residual, expected, diagnosis, worst)

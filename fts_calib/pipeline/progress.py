@@ -13,11 +13,12 @@ class Progress:
         seen: Samples offered.
         kept: Samples that entered the least squares.
         kept_by_configuration: Kept samples per tool configuration name.
-        rank: Rank of S_XX (7 determines every coefficient).
-        condition_number: Of the scaled S_XX (inf below rank 7).
-        missing: What is still missing, in words ('' at rank 7).
+        rank: Rank of S_XX of the offset model in use (``full_rank`` determines every coefficient).
+        condition_number: Of the scaled S_XX (inf below full rank).
+        missing: What is still missing, in words ('' at full rank).
         skipped: Samples not kept, by reason (checks and filter rules).
         last_time: Time of the last sample [s], or None.
+        full_rank: 6 + the offset model's columns (7 for constant offsets).
     """
 
     seen: int
@@ -28,6 +29,7 @@ class Progress:
     missing: str
     skipped: dict[str, int]
     last_time: float | None
+    full_rank: int = 7
 
     @property
     def kept_fraction(self) -> float:

@@ -21,7 +21,6 @@ holds, so a crash loses at most that interval.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time as _time
 from collections import Counter
@@ -42,8 +41,9 @@ from ..robot.tool import Tool
 from .advice import missing_words
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from .fit import FitCheck, check_fit, fit_rows
+from .fit import FitCheck, check_fit, fit_rows, model_fit_sums
 from .progress import Progress
+from .provenance import session_provenance
 from .qsfilter import QuasiStaticFilter
 from .settings import PipelineConfig
 from .still import quasi_static
@@ -73,8 +73,8 @@ class CalibrationSession:
         source: What the samples come from, for the calibration's provenance.
         clock: Wall-clock function in [s] (for checkpoint timing).
         on_kept: Called with ``(time (k,), w_sensor (k, 6), strain (k, n), configuration
-            indices (k,))`` for the samples entering the least squares, in order (e.g. to plot
-            the convergence); None for nothing.
+            indices (k,), joints (k, n_joints))`` for the samples entering the least squares,
+            in order (e.g. to plot the convergence, or for the accuracy budget); None for nothing.
         source_record: What the checkpoint records of the source, to resume only with it
             (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
@@ -90,7 +90,7 @@ class CalibrationSession:
         use_filter: bool = True,
         source: str = "",
         clock: Callable[[], float] = _time.monotonic,
-        on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+        on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
     ):
@@ -101,15 +101,17 @@ class CalibrationSession:
         self.checkpoint_path = Path(checkpoint) if checkpoint else None
         self.source = source
         self.source_record = source_record
-        self.estimator = OnlineEstimator(layout=self.layout)
+        n = len(tool.configurations)
+        self.estimator = OnlineEstimator(layout=self.layout, offsets=self.settings.offsets.model, basis=self.settings.offsets.basis(n))
         self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous) if use_filter else None
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel)
-        n = len(tool.configurations)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
         self._directions = np.zeros((n, 4, 4))  # sum of [u; 1][u; 1]^T per configuration, u = g / |g|
-        self._fit_sums = np.zeros((n, 10, 10))  # sum of y y^T per configuration, y = [g; P Delta; 1] (fit checks)
+        m = 10 + self.estimator.basis.n_drift  # sum of y y^T per configuration, y = [g; P Delta; 1; drift] (fit checks)
+        self._fit_sums = np.zeros((n, m, m))
         self._staged: list[tuple] = []
+        self._last: tuple[float, int, float | None] | None = None  # time, configuration, temperature of the last valid sample
         self._clock = clock
         self._last_checkpoint = clock()
         self._on_kept = on_kept
@@ -189,6 +191,12 @@ class CalibrationSession:
         self.seen += len(batch)
         ok = self.checks.accept(batch)
         if ok.any():
+            i = int(np.flatnonzero(ok)[-1])  # the end of the run so far: where the calibration's D belongs
+            self._last = (
+                float(batch.time[i]),
+                int(batch.configuration[i]),
+                None if batch.temperature is None else float(batch.temperature[i]),
+            )
             self._accumulate(batch.select(ok), final=False)
         self._maybe_checkpoint()
 
@@ -202,12 +210,12 @@ class CalibrationSession:
         if not len(kept) or W is None:
             return
         codes = kept.configuration
-        self.estimator.update_batch(W, kept.channels)
+        self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature)
         if self._on_kept is not None:
-            self._on_kept(kept.time, W, kept.channels, codes)
+            self._on_kept(kept.time, W, kept.channels, codes, kept.joints)
         self.kept += np.bincount(codes, minlength=len(self.kept))
         unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
-        rows = fit_rows(g, kept.channels, self.layout)
+        rows = fit_rows(g, kept.channels, self.layout, self.estimator.drift_rows(kept.time, kept.temperature))
         for c in np.unique(codes):
             mine = codes == c
             u = unit[mine]
@@ -232,16 +240,17 @@ class CalibrationSession:
     def progress(self) -> Progress:
         """Counts, rank and what is missing, in words."""
         rank, condition = self.estimator.rank()
-        last = self.checks.last_time
+        full, last = self.estimator.full_rank(), self.checks.last_time
         return Progress(
             seen=self.seen,
             kept=int(self.kept.sum()),
             kept_by_configuration={name: int(n) for name, n in zip(self.tool.names, self.kept, strict=True)},
             rank=rank,
             condition_number=condition,
-            missing="" if rank == 7 else missing_words(self.tool, self.kept, self._directions),
+            missing="" if rank == full else missing_words(self.tool, self.kept, self._directions),
             skipped=self.all_skipped(),
             last_time=None if last == -math.inf else last,
+            full_rank=full,
         )
 
     def fit_check(self, hint: str = "") -> FitCheck:
@@ -260,7 +269,9 @@ class CalibrationSession:
         if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
             reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
             return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
-        return check_fit(self.tool, self._fit_sums, in_sums, noise, hint, self.layout)
+        chosen = self.estimator.model_in_use()[0]
+        sums, per_configuration = model_fit_sums(self._fit_sums, chosen.model, chosen.columns, self.estimator.basis.n_configurations)
+        return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "") -> Calibration:
         """The calibration from everything kept so far, with its fit check in the quality.
@@ -277,35 +288,22 @@ class CalibrationSession:
         """
         self._flush_staged()
         try:
-            calibration = self.estimator.solve()
+            calibration = self.estimator.solve(configurations=self.tool.names, at=self._last)
         except InsufficientExcitation as exc:
-            raise InsufficientExcitation(exc.rank, exc.missing, missing_words(self.tool, self.kept, self._directions)) from None
+            words = missing_words(self.tool, self.kept, self._directions)
+            raise InsufficientExcitation(exc.rank, exc.missing, words, exc.full) from None
         if calibration.quality is None:  # the estimator always measures the fit
             raise FtsCalibError("the estimator returned a calibration without its quality")
         check = self.fit_check(hint)
         quality = replace(calibration.quality, samples_seen=self.seen, skipped=self.all_skipped(), fit=check.as_dict())
-        calibration = replace(calibration, quality=quality, provenance={**calibration.provenance, **self._provenance()})
+        calibration = replace(calibration, quality=quality, provenance={**calibration.provenance, **self._provenance})
         if not check.ok and not accept_poor_fit:
             raise PoorFit(check, calibration)
         return calibration
 
+    @property
     def _provenance(self) -> dict:
-        robot, mount = self.kin.robot, self.kin.robot.sensor
-        return {
-            "robot": {"name": robot.name, "urdf": robot.urdf_spec or str(robot.urdf)},
-            "sensor_frame": {"name": mount.name, "parent_frame": mount.parent_frame, "xyz": mount.xyz.tolist(), "rpy": mount.rpy.tolist()},
-            "tools": {
-                "name": self.tool.name,
-                "file": str(self.tool.source) if self.tool.source else None,
-                "gravity": self.tool.gravity,
-                "configurations": [
-                    {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist(), "samples": int(n)}
-                    for c, n in zip(self.tool.configurations, self.kept, strict=True)
-                ],
-            },
-            "source": self.source,
-            "filter": None if self.filter is None else dataclasses.asdict(self.settings.filter),
-        }
+        return session_provenance(self.kin, self.tool, self.kept, self.source, None if self.filter is None else self.settings.filter)
 
     # -- checkpoints --------------------------------------------------------------------
 
@@ -362,7 +360,11 @@ class CalibrationSession:
         use_filter = state.get("filter") is not None
         session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout)
         try:
-            session.estimator = OnlineEstimator.from_state(state["estimator"])
+            session.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
+            if "basis" in state["estimator"]:  # a checkpoint of an older version has constant offsets only
+                estimator.offsets = session.settings.offsets.model
+            m = 10 + estimator.basis.n_drift
+            session._fit_sums = np.zeros((len(tool.configurations), m, m))
             session.kept = np.array(state["kept"], dtype=np.int64)
             session.seen = int(state["seen"])
             session.checks.skipped = Counter({str(k): int(v) for k, v in state["skipped"].items()})

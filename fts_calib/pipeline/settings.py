@@ -22,6 +22,12 @@ numbers (e.g. 32-bit ADC counts).
 ``design``: ``noise_std``, the strain noise per bridge [raw units] assumed by the
 excitation report of planned trajectories (default: the sensor file's).
 
+``offsets``: how the offsets may move during the run (:mod:`fts_calib.model.offset_basis`):
+``model`` is ``auto`` (default: the simplest model the data support, by BIC),
+``constant`` (the paper), ``per-configuration`` or ``drift``; ``drift_degree`` the highest
+power of time in the drift model (default 2); ``time_scale_s`` [s] the unit of time of
+its basis (default 600, conditioning only).
+
 An unknown section or key (a typo) is refused with the known ones listed.
 """
 
@@ -33,13 +39,14 @@ from pathlib import Path
 from ..core import validation
 from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number
+from ..model.offset_basis import AUTO, OffsetBasis, offset_setting
 
 #: Default of ``checks.max_abs_channel`` [raw units]: larger than any reading of a sensor
 #: delivering mV/V, N or 24-bit ADC counts (2^23 = 8.4e6), far below a corrupt cell (1e160).
 DEFAULT_MAX_ABS_CHANNEL = 1e9
 
 #: The sections of a pipeline settings file.
-SECTIONS = ("filter", "live", "checks", "design")
+SECTIONS = ("filter", "live", "checks", "design", "offsets")
 
 
 @dataclass(frozen=True)
@@ -98,6 +105,27 @@ class ChecksConfig:
 
 
 @dataclass(frozen=True)
+class OffsetConfig:
+    """Offset-model settings (see the module docstring)."""
+
+    model: str = AUTO
+    drift_degree: int = 2
+    time_scale_s: float = 600.0  # [s]
+
+    def __post_init__(self):
+        object.__setattr__(self, "model", offset_setting(self.model))
+        degree = validation.number("offsets.drift_degree", self.drift_degree)
+        if not (degree.is_integer() and 0 <= degree <= 4):
+            raise ConfigError("offsets.drift_degree", self.drift_degree, "an integer from 0 to 4")
+        object.__setattr__(self, "drift_degree", int(degree))
+        object.__setattr__(self, "time_scale_s", validation.positive("offsets.time_scale_s", self.time_scale_s, "s"))
+
+    def basis(self, n_configurations: int) -> OffsetBasis:
+        """The estimator's full offset basis for a tool of ``n_configurations``."""
+        return OffsetBasis(n_configurations, self.drift_degree, self.time_scale_s, temperature=True)
+
+
+@dataclass(frozen=True)
 class PipelineConfig:
     """All pipeline settings.
 
@@ -105,6 +133,7 @@ class PipelineConfig:
         filter: Quasi-static filter.
         live: Live feeds.
         checks: Sample checks (plausible channel range).
+        offsets: The offset model of the estimator.
         noise_std: Strain noise per bridge for experiment design [raw units], or None for
             the sensor file's.
     """
@@ -113,6 +142,7 @@ class PipelineConfig:
     live: LiveConfig = field(default_factory=LiveConfig)
     noise_std: float | None = None
     checks: ChecksConfig = field(default_factory=ChecksConfig)
+    offsets: OffsetConfig = field(default_factory=OffsetConfig)
 
     def __post_init__(self):
         if self.noise_std is not None:
@@ -134,9 +164,12 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
         if not isinstance(raw, dict):
             raise FileFormatError(path, name, "expected a mapping")
         check_keys(raw, cls.__dataclass_fields__, path, name)
-        values: dict[str, float | None] = {}
+        values: dict[str, float | str | None] = {}
         for key, value in raw.items():
             auto = key == "max_strain_std" and value == "auto"
+            if key == "model":  # the one text value: offsets.model
+                values[key] = str(value)
+                continue
             values[key] = None if auto else read_number(value, path, f"{name}.{key}", "s" if key.endswith("_s") else "")
         with fields_of(path):  # the dataclasses name their fields as the file does ('filter.max_joint_speed')
             return cls(**values)
@@ -147,10 +180,12 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
     check_keys(design, ("noise_std",), path, "design")
     noise = design.get("noise_std")
     filter_config, live, checks = section("filter", FilterConfig), section("live", LiveConfig), section("checks", ChecksConfig)
+    offsets = section("offsets", OffsetConfig)
     with fields_of(path):
         return PipelineConfig(
             filter=filter_config,
             live=live,
             noise_std=None if noise is None else read_number(noise, path, "design.noise_std"),
             checks=checks,
+            offsets=offsets,
         )

@@ -11,18 +11,20 @@ tool change, during which nothing is recorded.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..core import validation
 from ..core.exceptions import FtsCalibError
+from ..feeds.batch import SampleBatch
 from ..feeds.recording import RecordingWriter
 from ..planning.trajectory_io import TrajectoryFile
 from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
 from ..robot.tool import Tool
+from .drift import OffsetDrift
 from .sensor import SimulatedSensor
 
 _BLOCK = 1 << 15  # samples simulated at a time (bounded memory)
@@ -46,6 +48,58 @@ def tool_wrenches(kin: Kinematics, tool: Tool, configuration: str, q, qd, qdd, d
     if not dynamic:
         return tool_load(kin, tool, q, configuration).static
     return tool_load(kin, tool, q, configuration, qd, qdd).w_sensor
+
+
+def simulate_batches(
+    kin: Kinematics,
+    tool: Tool,
+    trajectories: Sequence[TrajectoryFile],
+    sensor: SimulatedSensor,
+    rng: np.random.Generator | None,
+    tool_change_s: float = 2.0,
+    start_time: float = 0.0,
+    dynamic: bool = True,
+    drift: OffsetDrift | None = None,
+) -> Iterator[SampleBatch]:
+    """The samples of the given trajectories, as a feed would deliver them (see the module docstring).
+
+    Args:
+        kin: Kinematics of the robot the trajectories are for.
+        tool: The tool; each trajectory's ``tool`` names its configuration.
+        trajectories: One trajectory per configuration, in the order they are run.
+        sensor: The simulated sensor.
+        rng: Random generator for the sensor noise (noiseless when None).
+        tool_change_s: Pause between configurations [s].
+        start_time: Time of the first sample [s].
+        dynamic: Use the moving tool's wrench (True) or the static one.
+        drift: Offsets that move (:class:`fts_calib.sim.drift.OffsetDrift`: time from
+            ``start_time``, one jump per tool change) and the temperature channel; constant
+            offsets and no temperature when None.
+
+    Yields:
+        Batches of at most 32,768 samples, each of one configuration (its index in the tool).
+
+    Raises:
+        FtsCalibError: A trajectory's joints differ from the robot's.
+        ConfigError: A negative pause between configurations (time would go backwards).
+    """
+    validation.non_negative("tool_change_s", tool_change_s, "s")
+    offset = start_time
+    for changes, traj in enumerate(trajectories):
+        if tuple(traj.joint_names) != tuple(kin.joint_names):
+            raise FtsCalibError(f"trajectory joints {list(traj.joint_names)} differ from the robot's {list(kin.joint_names)}")
+        code = tool.names.index(tool.configuration(traj.tool).name)  # a clear error for an unknown configuration
+        for start in range(0, len(traj.time), _BLOCK):
+            part = slice(start, start + _BLOCK)
+            W = tool_wrenches(kin, tool, traj.tool, traj.q[part], traj.qd[part], traj.qdd[part], dynamic)
+            t = traj.time[part] - traj.time[0] + offset
+            temperature = None
+            if drift is not None:
+                W = W - drift.offsets(t - start_time, changes)  # the sensor reads W - delta D: its offsets moved
+                temperature = drift.temperature(t - start_time)
+            codes = np.full(len(t), code, dtype=np.int64)
+            yield SampleBatch(t, traj.q[part], sensor.strains(W, time=t, rng=rng), codes, temperature)
+        offset += traj.time[-1] - traj.time[0] + tool_change_s
 
 
 def simulate_recording(
@@ -76,17 +130,7 @@ def simulate_recording(
         FtsCalibError: A trajectory's joints differ from the robot's.
         ConfigError: A negative pause between configurations (time would go backwards).
     """
-    validation.non_negative("tool_change_s", tool_change_s, "s")
-    offset = start_time
     with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels) as writer:
-        for traj in trajectories:
-            if tuple(traj.joint_names) != tuple(kin.joint_names):
-                raise FtsCalibError(f"trajectory joints {list(traj.joint_names)} differ from the robot's {list(kin.joint_names)}")
-            tool.configuration(traj.tool)  # a clear error for an unknown configuration
-            for start in range(0, len(traj.time), _BLOCK):
-                part = slice(start, start + _BLOCK)
-                W = tool_wrenches(kin, tool, traj.tool, traj.q[part], traj.qd[part], traj.qdd[part], dynamic)
-                t = traj.time[part] - traj.time[0] + offset
-                writer.write(t, traj.q[part], sensor.strains(W, time=t, rng=rng), traj.tool)
-            offset += traj.time[-1] - traj.time[0] + tool_change_s
+        for batch in simulate_batches(kin, tool, trajectories, sensor, rng, tool_change_s, start_time, dynamic):
+            writer.write(batch.time, batch.joints, batch.channels, tool.names[int(batch.configuration[0])])
     return Path(path)
