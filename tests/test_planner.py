@@ -9,6 +9,7 @@ import yaml
 
 from fts_calib import ConfigError, FileFormatError, JointError, TrajectoryError
 from fts_calib.core.resources import resolve
+from fts_calib.model.budget import DEFAULT_TARGET_PERCENT
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.settings import load_pipeline_config
 from fts_calib.planning.excitation import predict_excitation
@@ -69,8 +70,11 @@ def test_every_sample_of_the_shipped_plans_is_within_limits_by_finite_difference
 
 @pytest.mark.parametrize("robot", SHIPPED)
 def test_planning_again_reproduces_the_shipped_trajectories(robot, setup):
+    """The shipped plans are `make trajectories`: sized to the default target (fts-calib trajectory's default)."""
     tool, sensor, pipeline = setup
-    run = plan_trajectories(resolve(robot, "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 100.0)
+    run = plan_trajectories(
+        resolve(robot, "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 100.0, target_percent=DEFAULT_TARGET_PERCENT
+    )
     assert not run.problems, run.problems
     shipped = read_trajectory(ROOT / "trajectories" / robot / "A.csv.gz")
     plan = run.result.plan
@@ -89,6 +93,39 @@ def test_planning_again_reproduces_the_shipped_trajectories(robot, setup):
     summary = yaml.safe_load((ROOT / "trajectories" / robot / "plan.yaml").read_text())
     assert summary["duration_s"] == pytest.approx(plan.duration, abs=1e-6)
     assert summary["excitation"]["rank"] == 7
+    assert summary["accuracy_budget"]["largest_percent_fs"] <= DEFAULT_TARGET_PERCENT
+
+
+@pytest.mark.parametrize(("robot", "most_s"), [("ur5", 15.0), ("kinova", 30.0)])
+def test_sized_plans_are_short_and_meet_the_target(robot, most_s, setup):
+    """The issue's figures: UR5 <= 15 s and Kinova <= 30 s of motion per configuration at the default target."""
+    tool, sensor, pipeline = setup
+    run = plan_trajectories(
+        resolve(robot, "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=DEFAULT_TARGET_PERCENT
+    )
+    assert not run.problems and run.sized is not None
+    assert run.result.plan.duration <= most_s
+    assert run.budget is not None and run.budget.largest_percent <= DEFAULT_TARGET_PERCENT
+    assert run.excitation.rank == 7
+
+
+def test_a_target_below_what_the_tool_and_mount_allow_names_the_term(setup):
+    tool, sensor, pipeline = setup
+    with pytest.raises(TrajectoryError, match=r"no plan meets the target of 0.01 % of full scale: sensor mount alone gives 0.03"):
+        plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=0.01)
+    with pytest.raises(TrajectoryError, match="expected a value > 0"):
+        plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=0.0)
+
+
+def test_a_noisier_sensor_needs_a_longer_plan(setup):
+    """Strain noise is the term a plan can shrink: 30 times the shipped noise makes the shortest raster fall short."""
+    tool, sensor, pipeline = setup
+    quiet, noisy = (
+        plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, noise, SweepPattern(), 50.0, target_percent=0.05)
+        for noise in (1e-5, 3e-4)
+    )
+    assert noisy.result.plan.duration > quiet.result.plan.duration
+    assert noisy.budget is not None and noisy.budget.largest_percent <= 0.05
 
 
 def test_ur5_figures(setup):

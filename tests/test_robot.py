@@ -174,3 +174,14 @@ def test_cli_robots_lists_and_shows(capsys):
     assert "sensor frame 'ft_sensor' on 'panda_link8'" in details
     assert main(["robots", "nope"]) == ExitCode.FILE
     assert "shipped: kinova, panda, ur10, ur5, xarm7" in capsys.readouterr().err
+
+
+def test_the_accuracy_section_is_read_with_documented_defaults(tmp_path):
+    default = load_robot(_robot(tmp_path)).accuracy
+    assert default.encoder_resolution == pytest.approx(2 * math.pi / 2**20) and default.mount_rotation == 2e-4
+    given = load_robot(_robot(tmp_path, accuracy={"encoder_resolution": 1e-5, "latency_s": 0.004, "mount_rotation": 1e-3})).accuracy
+    assert (given.encoder_resolution, given.latency_s, given.jitter_s, given.mount_rotation) == (1e-5, 0.004, default.jitter_s, 1e-3)
+    with pytest.raises(FileFormatError, match=r"field 'accuracy.jitter_s': is -0.001 s but expected a finite value >= 0"):
+        load_robot(_robot(tmp_path, accuracy={"jitter_s": -0.001}))
+    with pytest.raises(FileFormatError, match=r"'accuracy'.*'latency'"):
+        load_robot(_robot(tmp_path, accuracy={"latency": 0.001}))

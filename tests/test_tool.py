@@ -7,7 +7,7 @@ import yaml
 from fts_calib import ConfigError, FileFormatError, FtsCalibError, FtsCalibWarning, Tool, ToolConfiguration
 from fts_calib.core.exceptions import UnknownToolConfiguration
 from fts_calib.core.resources import resolve
-from fts_calib.robot.tool import ToolShape, load_tool
+from fts_calib.robot.tool import ToolShape, ToolTolerance, load_tool
 
 from .helpers import random_gravity, tool_wrench
 
@@ -108,3 +108,14 @@ def test_a_bad_value_in_the_file_names_the_file_field_and_value(tmp_path):
     path = _tool(tmp_path, [{"name": "A", "mass": 1.0, "com": [0, 0, 0]}, {"name": "B", "mass": 1.0, "com": [0, 0, 1], "inertia": inertia}])
     with pytest.raises(FileFormatError, match=r"field 'configurations\[1\].inertia': is not symmetric"):
         load_tool(path)
+
+
+def test_the_tolerance_is_read_and_a_bad_one_names_the_field(tmp_path):
+    configs = [{"name": "A", "mass": 1.0, "com": [0, 0, 0]}]
+    tool = load_tool(_tool(tmp_path, configs, tolerance={"mass": 2e-4, "com": 2e-5}))
+    assert tool.tolerance == ToolTolerance(mass=2e-4, com=2e-5)
+    assert load_tool(_tool(tmp_path, configs)).tolerance is None  # the budget then has no tool terms
+    with pytest.raises(FileFormatError, match=r"field 'tolerance.mass': is -0.001 kg but expected a finite value >= 0"):
+        load_tool(_tool(tmp_path, configs, tolerance={"mass": -1e-3}))
+    with pytest.raises(FileFormatError, match=r"'tolerance'.*'cog'"):
+        load_tool(_tool(tmp_path, configs, tolerance={"cog": 1e-3}))

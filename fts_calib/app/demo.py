@@ -191,7 +191,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
 
     say("[3/5] calibrating with the quasi-static filter ...")
     kept: list[tuple[np.ndarray, ...]] = []
-    result = calibrate_recording(recording, kin, tool, pipeline, on_kept=lambda t, W, s, k: kept.append((t, W, s, k)))
+    result = calibrate_recording(recording, kin, tool, pipeline, on_kept=lambda t, W, s, k, _: kept.append((t, W, s, k)))
     if result.calibration is None:
         raise result.error or FtsCalibError("the demo's calibration failed")  # InsufficientExcitation or PoorFit
     calibration = result.calibration

@@ -8,6 +8,8 @@ import numpy as np
 
 from ..core.resources import resolve, shipped
 from ..core.text import table
+from ..model.budget import AccuracyBudget
+from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 
@@ -75,3 +77,44 @@ def robot_details(name_or_path: str) -> str:
     frames = [f.name for f in kin.model.frames]
     out.append(f"  frames ({len(frames)}): {', '.join(frames)}")
     return "\n".join(out)
+
+
+def format_budget(budget: AccuracyBudget, what: str) -> list[str]:
+    """Lines: the accuracy budget per term and axis in % of full scale, its total in % and in N or N·m."""
+    full = ", ".join(f"{a} {v:g} {u}" for a, v, u in zip(WRENCH_AXES, budget.full_scale, WRENCH_UNITS, strict=True))
+    lines = [f"{what} accuracy budget (each term ×{budget.coverage:g}, about 95 %; RMS over loads spread across the full scale: {full}):"]
+    rows = [[name, *[f"{v:.4f}" for v in budget.percent(name)]] for name in budget.terms]
+    rows.append(["total, % FS", *[f"{v:.4f}" for v in budget.total_percent]])
+    rows.append(["total", *[f"{v:.3g} {u}" for v, u in zip(budget.total, WRENCH_UNITS, strict=True)]])
+    lines.append(table(["% of full scale", *WRENCH_AXES], rows, "  "))
+    term, axis = budget.dominant()
+    lines.append(f"  largest error: {budget.largest_percent:.4f} % of full scale ({axis}; the largest term there: {term})")
+    return lines
+
+
+def format_offsets(offset_model) -> list[str]:
+    """The offset model of a calibration in words: the model chosen and why, and how far D moved, with units.
+
+    Args:
+        offset_model: A calibration's ``offset_model`` (:func:`fts_calib.model.offset_basis.describe`),
+            or None (a file written before offset models: constant offsets).
+    """
+    if not offset_model:
+        return ["offsets: constant (the paper's model)"]
+    how = "chosen by BIC" if offset_model.get("setting") == "auto" else "set by --offsets"
+    scores = ", ".join(f"{c['model']} ({len(c['columns'])} col.) +{c['bic_above_best']:.0f}" for c in offset_model.get("candidates", []))
+    lines = [
+        f"offsets: {offset_model['model']} ({how}; BIC above the best: {scores or 'none'}); columns {', '.join(offset_model['columns'])}"
+    ]
+    trajectory = offset_model.get("trajectory") or []
+    if len(trajectory) >= 2:
+        first, last = trajectory[0], trajectory[-1]
+        moved = np.array(last["D"]) - np.array(first["D"])
+        span = last["time_s"] - first["time_s"]
+        words = ", ".join(f"{a} {m:+.4g} {u}" for a, m, u in zip(WRENCH_AXES, moved, WRENCH_UNITS, strict=True))
+        lines.append(f"  D moved over the run ({span:.1f} s, {first['configuration']} to {last['configuration']}): {words}")
+        lines.append(
+            f"  D below is the offset at the end of the run: t = {last['time_s']:.2f} s, configuration {last['configuration']}"
+            + (f", {last['temperature_C']:.2f} °C" if "temperature" in offset_model["columns"] else "")
+        )
+    return lines

@@ -12,6 +12,7 @@ from ..core.exceptions import FileFormatError, FtsCalibError
 from ..core.fileio import atomic_write_text, dump_yaml
 from ..core.resources import resolve
 from ..core.text import table
+from ..model.budget import DEFAULT_TARGET_PERCENT
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
 from ..planning.sweeps import SweepPattern
@@ -20,6 +21,7 @@ from ..planning.trajectory_io import save_trajectory
 from ..robot.tool import ToolShape, load_tool
 from . import plots
 from .exit_codes import ExitCode, writing
+from .report import format_budget
 from .setup import load_settings
 
 
@@ -30,9 +32,11 @@ def run(
     tool: str | Path = "paper_tool",
     pipeline: str | Path = "pipeline",
     rate_hz: float = 500.0,
-    levels: int = 4,
-    stops: int = 6,
-    dwell_s: float = 0.5,
+    target_error_percent: float | None = None,
+    levels: int | None = None,
+    stops: int | None = None,
+    dwell_s: float | None = None,
+    span: float | None = None,
     margin: float = 0.02,
     min_clearance: float = 0.02,
     tool_radius: float | None = None,
@@ -50,9 +54,14 @@ def run(
         tool: Tool file: a shipped name or a YAML path.
         pipeline: Pipeline settings (filter thresholds, design noise).
         rate_hz: Sample rate of the trajectory files, in [Hz].
-        levels: Positions of the first sweep joint.
-        stops: Positions of the second sweep joint per level.
-        dwell_s: Time held still at each stop, in [s].
+        target_error_percent: Size the raster: the shortest whose predicted accuracy budget
+            is within this on every axis, in [% of full scale]; the default target
+            (:data:`fts_calib.model.budget.DEFAULT_TARGET_PERCENT`) when None. With a fixed
+            raster it is only compared.
+        levels: Positions of the first sweep joint (a fixed raster; 4 when only others are given).
+        stops: Positions of the second sweep joint per level (fixed raster; default 6).
+        dwell_s: Time held still at each stop, in [s] (fixed raster; default 0.5).
+        span: Fraction of the second sweep joint's range the stops cover (fixed raster; default 1).
         margin: Distance kept from the position limits, in [rad].
         min_clearance: Smallest distance allowed between links, in [m].
         tool_radius: Radius of the tool's collision envelope, in [m]; the tool file's when None.
@@ -85,12 +94,23 @@ def run(
     noise: float | np.ndarray | None = noise_std if noise_std is not None else settings.noise_std
     if noise is None:
         noise = spec.simulated.noise_std if spec.simulated is not None else 0.0
-    pattern = SweepPattern(levels=levels, stops=stops, dwell=dwell_s, margin=margin)
+    fixed = any(v is not None for v in (levels, stops, dwell_s, span))
+    default = SweepPattern()
+    pattern = SweepPattern(
+        levels=default.levels if levels is None else levels,
+        stops=default.stops if stops is None else stops,
+        dwell=default.dwell if dwell_s is None else dwell_s,
+        margin=margin,
+        span=default.span if span is None else span,
+    )
+    target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     print(f"planning {robot_path.stem} sweeps for '{loaded.name}' ({len(loaded.configurations)} configurations)...", flush=True)
-    planned = plan_trajectories(robot_path, loaded, spec, settings.filter, noise, pattern, rate_hz, min_clearance)
+    planned = plan_trajectories(
+        robot_path, loaded, spec, settings.filter, noise, pattern, rate_hz, min_clearance, None if fixed else target
+    )
     with writing(out):
         planned = write_run(planned, out, compress=compress, plot=plot)
-    print(format_report(planned, robot_path, tool_path))
+    print(format_report(planned, robot_path, tool_path, target_percent=target))
     return ExitCode.CHECK_FAILED if planned.problems else ExitCode.OK
 
 
@@ -120,7 +140,9 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
     return dataclasses.replace(run, files=files)
 
 
-def format_report(run: TrajectoryRun, robot_path: Path, tool_path: Path, compress: bool = False) -> str:
+def format_report(
+    run: TrajectoryRun, robot_path: Path, tool_path: Path, compress: bool = False, target_percent: float | None = None
+) -> str:
     """The printed report of the ``trajectory`` job, with units."""
     result, plan, ex = run.result, run.result.plan, run.excitation
     lines = [
@@ -191,9 +213,16 @@ def format_report(run: TrajectoryRun, robot_path: Path, tool_path: Path, compres
             )
         )
         lines.append(
-            f"  largest: {100 * ex.max_relative_stderr:.5f} %; predicted standard error of D: "
+            f"  largest from strain noise alone: {100 * ex.max_relative_stderr:.5f} %; predicted standard error of D: "
             + ", ".join(f"{axis} {v:.2g} {u}" for axis, v, u in zip(WRENCH_AXES, ex.stderr_D, WRENCH_UNITS, strict=True))
         )
+    if run.budget is not None:
+        lines += format_budget(run.budget, "predicted")
+        if run.sized is not None:
+            lines.append("  " + run.sized.summary())
+        elif target_percent is not None:
+            verdict = "meets" if run.budget.largest_percent <= target_percent else "does NOT meet"
+            lines.append(f"  this fixed raster {verdict} the target of {target_percent:g} % of full scale (--target-error)")
     for problem in run.problems:
         lines.append(f"CHECK FAILED: {problem}")
     if run.files:

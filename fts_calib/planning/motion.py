@@ -154,6 +154,14 @@ def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, 
     return time, q, qd, qdd
 
 
+def segment_durations(kin: Kinematics, home: np.ndarray, stops: np.ndarray) -> list[float]:
+    """Durations [s] of the ruckig segments of the sweep joints from home, through ``stops`` (W, 2), back home (no sampling)."""
+    index = [kin.joint_names.index(name) for name in kin.sweep_joints]
+    start = np.asarray(home, dtype=float)[index]
+    points = [start, *np.asarray(stops, dtype=float), start]
+    return [_segment(a, b, kin.limits, index).duration for a, b in zip(points[:-1], points[1:], strict=True)]
+
+
 def _segment(start: np.ndarray, target: np.ndarray, limits: JointLimits, index: list[int]) -> ruckig.Trajectory:
     dofs = len(index)
     inp = ruckig.InputParameter(dofs)

@@ -23,7 +23,7 @@ from ..robot.collision import Clearance, CollisionChecker
 from ..robot.kinematics import Kinematics
 from .home import HomeReport, base_reading, check_home, choose_home, home_report
 from .motion import Plan, plan_sweeps
-from .sweeps import MIN_CLEARANCE, RangeReport, SweepPattern, sweep_ranges, wrist_ranges
+from .sweeps import MIN_CLEARANCE, RangeReport, SweepPattern, spanned, sweep_ranges, wrist_ranges
 
 _LIMIT_RTOL = 1e-6  # sampled values may exceed a limit by this fraction (floating point)
 
@@ -112,12 +112,18 @@ class PlanResult:
 
 
 def plan_calibration(
-    kin: Kinematics, checker: CollisionChecker, pattern: SweepPattern, rate: float, min_clearance: float = MIN_CLEARANCE
+    kin: Kinematics,
+    checker: CollisionChecker,
+    pattern: SweepPattern,
+    rate: float,
+    min_clearance: float = MIN_CLEARANCE,
+    home: HomeReport | None = None,
 ) -> PlanResult:
     """Plan the sweeps and verify them: limits on every sample, clearance along the motion.
 
-    The home is the robot definition's, checked (:func:`check_home`), or chosen
-    (:func:`choose_home`).
+    The home is the robot definition's, checked (:func:`check_home`), else ``home`` when
+    given (one already chosen, e.g. while sizing a plan), else chosen (:func:`choose_home`).
+    The second sweep joint's stops cover ``pattern.span`` of its range.
 
     Raises:
         TrajectoryError: Invalid input (rate, pattern, home outside limits, poor home) or
@@ -127,14 +133,17 @@ def plan_calibration(
     if not (math.isfinite(rate) and rate > 0):
         raise TrajectoryError(f"rate={rate} Hz but expected a finite rate > 0", "invalid rate")
     given = kin.robot.home is not None
-    home = base_reading(kin)
+    reading = base_reading(kin)
     for name, value in (kin.robot.home or {}).items():
-        home[kin.joint_names.index(name)] = value
+        reading[kin.joint_names.index(name)] = value
     if given:
-        check_home(kin, home_report(kin, home, "robot definition"))
-    ranges = wrist_ranges(kin, checker, home, sweep_ranges(kin, home, pattern.margin), min_clearance)
-    report = home_report(kin, home, "robot definition") if given else choose_home(kin, checker, ranges.ranges, pattern, min_clearance)
-    plan = plan_sweeps(kin, report.home, ranges.ranges, pattern, rate)
+        check_home(kin, home_report(kin, reading, "robot definition"))
+    ranges = wrist_ranges(kin, checker, reading, sweep_ranges(kin, reading, pattern.margin), min_clearance)
+    if given:
+        report = home_report(kin, reading, "robot definition")
+    else:
+        report = home if home is not None else choose_home(kin, checker, ranges.ranges, pattern, min_clearance)
+    plan = plan_sweeps(kin, report.home, spanned(ranges.ranges, pattern.span), pattern, rate)
     limits = check_limits(plan)
     samples = collision_samples(plan)
     clearance = checker.clearance(plan.q[samples], "all")

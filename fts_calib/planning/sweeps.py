@@ -40,12 +40,15 @@ class SweepPattern:
         stops: Positions of the second sweep joint per level (>= 2).
         dwell: Time held still at each stop, in [s] (>= 0).
         margin: Distance kept from the position limits, in [rad] (>= 0).
+        span: Fraction of the second sweep joint's range its stops cover, about the
+            middle of the range (0 < span <= 1; 1: the whole range).
     """
 
     levels: int = 4
     stops: int = 6
     dwell: float = 0.5
     margin: float = 0.02
+    span: float = 1.0
 
     def __post_init__(self):
         if self.levels < 2 or self.stops < 2:
@@ -54,6 +57,8 @@ class SweepPattern:
             raise TrajectoryError(f"dwell={self.dwell} s but expected a finite value >= 0", "invalid pattern")
         if not (math.isfinite(self.margin) and self.margin >= 0):
             raise TrajectoryError(f"margin={self.margin} rad but expected a finite value >= 0", "invalid pattern")
+        if not (math.isfinite(self.span) and 0 < self.span <= 1):
+            raise TrajectoryError(f"span={self.span} but expected a fraction of the range in (0, 1]", "invalid pattern")
 
 
 @dataclass(frozen=True)
@@ -131,6 +136,15 @@ def wrist_ranges(kin: Kinematics, checker: CollisionChecker, reading: np.ndarray
         + ("overlap" if closest.distance <= 0 else f"come within {closest.distance:.3f} m")
     )
     return RangeReport(ranges, full.copy(), note)
+
+
+def spanned(ranges: np.ndarray, span: float) -> np.ndarray:
+    """The ranges with the second sweep joint's narrowed to ``span`` of it, about its middle. Shape (2, 2)."""
+    out = np.array(ranges, dtype=float)
+    if span < 1.0:
+        middle, half = out[1].mean(), span * (out[1, 1] - out[1, 0]) / 2
+        out[1] = (middle - half, middle + half)
+    return out
 
 
 def _positions(lo: float, hi: float, count: int) -> np.ndarray:

@@ -18,14 +18,17 @@ import numpy as np
 
 from .._version import __version__
 from ..core.exceptions import ConfigError
+from ..model.budget import AccuracyBudget
 from ..model.sensor_config import SensorSpec
 from ..pipeline.settings import FilterConfig
 from ..robot.collision import CollisionChecker
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
+from .accuracy import plan_budget, predicted_still, wrench_noise
 from .excitation import ExcitationReport, predict_excitation
 from .planner import PlanResult, plan_calibration
+from .sizing import SizedPlan, size_plan
 from .sweeps import MIN_CLEARANCE, SweepPattern
 
 
@@ -42,6 +45,8 @@ class TrajectoryRun:
         problems: Every failed check, in words (empty: safe to run).
         files: The files written.
         strain_unit: Unit of the strain noise (the sensor's).
+        budget: The predicted accuracy budget, or None.
+        sized: How the plan was sized to a target, or None for a raster given as it is.
     """
 
     result: PlanResult
@@ -52,21 +57,8 @@ class TrajectoryRun:
     problems: list[str]
     files: list[Path]
     strain_unit: str = "raw"
-
-
-def predicted_still(result: PlanResult, filter_config: FilterConfig) -> np.ndarray:
-    """Samples the quasi-static filter would keep.
-
-    Joints slow and steady, and at least half a strain window away from any motion (the
-    stationarity test needs the whole window).
-    """
-    plan = result.plan
-    still = plan.still(filter_config.max_joint_speed, filter_config.max_joint_acceleration)
-    half = int(math.ceil(filter_config.strain_window_s * plan.rate / 2))
-    if half:
-        moving = np.convolve((~still).astype(float), np.ones(2 * half + 1), mode="same") > 0
-        still = still & ~moving
-    return still
+    budget: AccuracyBudget | None = None
+    sized: SizedPlan | None = None
 
 
 def plan_trajectories(
@@ -78,6 +70,7 @@ def plan_trajectories(
     pattern: SweepPattern,
     rate: float,
     min_clearance: float = MIN_CLEARANCE,
+    target_percent: float | None = None,
 ) -> TrajectoryRun:
     """Plan and check (nothing written); see the module docstring.
 
@@ -88,12 +81,15 @@ def plan_trajectories(
             excitation prediction.
         filter_config: Quasi-static filter thresholds.
         noise_std: Noise per channel for the prediction, raw units (one number or n).
-        pattern: Raster of stops.
+        pattern: Raster of stops; with ``target_percent``, only its margin is used.
         rate: Sample rate [Hz].
         min_clearance: Required clearance [m].
+        target_percent: Size the raster to this accuracy, [% of full scale]
+            (:func:`fts_calib.planning.sizing.size_plan`); None to plan ``pattern`` as it is.
 
     Raises:
         ConfigError: The sensor configuration has no nominal model (checked before planning).
+        TrajectoryError: No raster meets ``target_percent`` (the message names the term).
     """
     if sensor.simulated is None:
         message = "the sensor configuration needs a 'simulation' section (a nominal C) for the excitation report"
@@ -102,8 +98,17 @@ def plan_trajectories(
     if tool.shape is None:  # never: Tool.__post_init__ fills in the default envelope
         raise ValueError(f"tool '{tool.name}' has no shape for the collision checks")
     checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])
-    result = plan_calibration(kin, checker, pattern, rate, min_clearance)
-    still = predicted_still(result, filter_config)
+    sim = sensor.simulated
+    nominal = (sim.C_bar, sim.D, wrench_noise(sim.C, noise_std), sensor.full_scale)
+    sized = None
+    if target_percent is None:
+        result = plan_calibration(kin, checker, pattern, rate, min_clearance)
+    else:
+        result, sized = size_plan(
+            kin, checker, tool, nominal, filter_config, target_percent, rate, sensor.rate_hz, min_clearance, pattern.margin
+        )
+    still = predicted_still(result.plan, filter_config)
+    budget = plan_budget(kin, tool, result.plan, still, *nominal, sample_rate_hz=sensor.rate_hz)
     g_all = kin.g_sensor(result.plan.q, tool.gravity)
     excitation = predict_excitation(
         {c.name: g_all[still] for c in tool.configurations},
@@ -116,7 +121,7 @@ def plan_trajectories(
     problems = list(result.problems)
     if excitation.rank < 7:
         problems.append(excitation.advice)
-    return TrajectoryRun(result, excitation, still, g_all, tool, problems, [], sensor.strain_unit)
+    return TrajectoryRun(result, excitation, still, g_all, tool, problems, [], sensor.strain_unit, budget, sized)
 
 
 def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
@@ -132,7 +137,9 @@ def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
             "stops": plan.pattern.stops,
             "dwell_s": plan.pattern.dwell,
             "margin_rad": plan.pattern.margin,
+            "span": plan.pattern.span,
         },
+        "target_error_percent_fs": run.sized.target_percent if run.sized else None,
         "home": {
             "source": result.home.source,
             "joints_rad": dict(zip(plan.joint_names, np.round(plan.home, 9).tolist(), strict=True)),
@@ -162,6 +169,7 @@ def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
             "max_relative_stderr_C": float(f"{ex.max_relative_stderr:.6g}") if math.isfinite(ex.max_relative_stderr) else None,
             "coverage_deg": round(ex.coverage_deg, 3),
         },
+        "accuracy_budget": run.budget.to_dict() if run.budget is not None else None,
         "problems": list(run.problems),
         "files": files,
         "software_version": __version__,

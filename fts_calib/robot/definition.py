@@ -11,7 +11,9 @@ rad/s per joint, ``acceleration`` rad/s^2 and ``jerk`` rad/s^3, each one number 
 joints or a mapping joint -> value), ``collision`` (``ignore_links``: links whose geometry
 is left out, e.g. a gripper the sensor replaces; ``srdf``: an SRDF, path or
 ``example-robot-data:<path>``, whose ``disable_collisions`` pairs are not checked;
-``floor_z``: height of the floor in the world frame [m]), and ``package_dirs`` (folders for ``package://`` mesh paths, relative to
+``floor_z``: height of the floor in the world frame [m]), ``accuracy`` (``encoder_resolution``
+[rad], ``latency_s`` and ``jitter_s`` [s], ``mount_rotation`` [rad]: :class:`RobotAccuracy`,
+for the accuracy budget), and ``package_dirs`` (folders for ``package://`` mesh paths, relative to
 the YAML file).
 
 Angles may be written as numbers or as simple expressions of pi: ``pi/2``, ``-pi``,
@@ -48,7 +50,8 @@ DEFAULT_ACCELERATION = 2.0  # [rad/s^2]
 DEFAULT_JERK = 15.0  # [rad/s^3]
 
 #: The keys of a robot definition and of its sections (any other is refused: a typo is never ignored).
-ROBOT_KEYS = ("name", "urdf", "sensor", "sweep_joints", "home", "locked_joints", "limits", "collision", "package_dirs")
+ROBOT_KEYS = ("name", "urdf", "sensor", "sweep_joints", "home", "locked_joints", "limits", "collision", "package_dirs", "accuracy")
+ACCURACY_KEYS = ("encoder_resolution", "latency_s", "jitter_s", "mount_rotation")
 SENSOR_KEYS = ("parent_frame", "xyz", "rpy", "name")
 COLLISION_KEYS = ("ignore_links", "srdf", "floor_z")
 LIMIT_KEYS = ("velocity_fraction", "velocity", "acceleration", "jerk")
@@ -141,6 +144,30 @@ class LimitSpec:
 
 
 @dataclass(frozen=True)
+class RobotAccuracy:
+    """How well the robot knows where the sensor is, for the accuracy budget (section ``accuracy``).
+
+    Attributes:
+        encoder_resolution: Step of a joint reading, in [rad] (default 2π/2^20: a 20-bit
+            encoder per turn); the error of a reading is uniform within +- half a step.
+        latency_s: Bound of the error of the constant latency between the joint and
+            channel streams after ``live.latency_s`` is applied, in [s] (uniform +-).
+        jitter_s: Standard deviation of the timing error of each sample, in [s].
+        mount_rotation: Bound of the sensor mount's rotation error about each axis of S,
+            in [rad] (uniform +-; default 2e-4 rad, 0.011°: a dowel-pinned flange).
+    """
+
+    encoder_resolution: float = 2.0 * math.pi / 2**20
+    latency_s: float = 0.002
+    jitter_s: float = 0.001
+    mount_rotation: float = 2.0e-4
+
+    def __post_init__(self):
+        for name, unit in (("encoder_resolution", "rad"), ("latency_s", "s"), ("jitter_s", "s"), ("mount_rotation", "rad")):
+            object.__setattr__(self, name, validation.non_negative(f"accuracy.{name}", getattr(self, name), unit))
+
+
+@dataclass(frozen=True)
 class RobotDefinition:
     """A robot definition file, checked for form (see the module docstring).
 
@@ -159,6 +186,7 @@ class RobotDefinition:
         floor_z: Height of the floor in the world frame, in [m].
         package_dirs: Folders searched for ``package://`` mesh paths.
         source: The YAML file, or None.
+        accuracy: Encoder resolution, stream timing and mount tolerance (accuracy budget).
     """
 
     name: str
@@ -174,6 +202,7 @@ class RobotDefinition:
     floor_z: float = 0.0
     package_dirs: tuple[Path, ...] = ()
     source: Path | None = None
+    accuracy: RobotAccuracy = field(default_factory=RobotAccuracy)
 
     def __post_init__(self):
         owner = f"robot '{self.name}'"
@@ -318,6 +347,12 @@ def load_robot(path: str | Path) -> RobotDefinition:
     name = str(require(data, "name", path))
     locked = _angles(data.get("locked_joints"), path, "locked_joints")
     limits = _read_limits(data.get("limits"), path)
+    raw_accuracy = data.get("accuracy") or {}
+    if not isinstance(raw_accuracy, Mapping):
+        raise FileFormatError(path, "accuracy", f"expected a mapping of {', '.join(ACCURACY_KEYS)}, got {raw_accuracy!r}")
+    check_keys(raw_accuracy, ACCURACY_KEYS, path, "accuracy")
+    with fields_of(path):
+        accuracy = RobotAccuracy(**{k: read_number(v, path, f"accuracy.{k}") for k, v in raw_accuracy.items()})
     with fields_of(path, "", {"floor_z": "collision.floor_z"}):
         return RobotDefinition(
             name=name,
@@ -333,4 +368,5 @@ def load_robot(path: str | Path) -> RobotDefinition:
             floor_z=floor_z,
             package_dirs=package_dirs + extra_dirs + (urdf.parent,),
             source=path,
+            accuracy=accuracy,
         )

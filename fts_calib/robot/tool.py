@@ -5,7 +5,8 @@ A tool file (YAML, ``configs/``) holds ``name``, optional ``gravity`` (magnitude
 [m, in the sensor frame S], inertia (optional 3x3 about the centre of mass, axes of S,
 [kg m^2])}``, and optional ``shape`` ``{radius, length}`` [m]: the envelope used for
 collision checks, a cylinder along X of S from the sensor out (default: around the
-centres of mass). Any other key (a typo such as ``mas``) is refused with the known keys.
+centres of mass), and optional ``tolerance`` ``{mass [kg], com [m]}``: how well the tool is
+known, for the accuracy budget (:class:`ToolTolerance`). Any other key (a typo such as ``mas``) is refused with the known keys.
 
 Identifiability (paper eqs 18-20): one centre of mass gives the estimator rank 4, two
 give 6, and the full rank 7 needs three centres of mass that are not on one line.
@@ -30,9 +31,31 @@ from .wrench import apply_wrench_matrix, dynamic_wrench, wrench_matrix
 STANDARD_GRAVITY = 9.81
 
 #: The keys of a tool file, of one of its configurations and of its shape (any other is refused).
-TOOL_KEYS = ("name", "gravity", "shape", "configurations", "tolerance")  # tolerance: DESIGN.md, for the accuracy budget (not read yet)
+TOOL_KEYS = ("name", "gravity", "shape", "configurations", "tolerance")
 CONFIGURATION_KEYS = ("name", "mass", "com", "inertia")
 SHAPE_KEYS = ("radius", "length")
+TOLERANCE_KEYS = ("mass", "com")
+
+
+@dataclass(frozen=True)
+class ToolTolerance:
+    """How well the tool is known, for the accuracy budget: bounds of the errors, +- each value.
+
+    The tool is one body moved between configurations (the paper's tool moves one weight),
+    so the errors are common to every configuration: one mass error, one error of each
+    coordinate of the centre of mass, each anywhere within +- its bound (uniform).
+
+    Attributes:
+        mass: Bound of the mass error, in [kg] (>= 0).
+        com: Bound of the error of each coordinate of the centre of mass, in [m] (>= 0).
+    """
+
+    mass: float = 0.0
+    com: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "mass", validation.non_negative("tolerance.mass", self.mass, "kg"))
+        object.__setattr__(self, "com", validation.non_negative("tolerance.com", self.com, "m"))
 
 
 @dataclass(frozen=True)
@@ -126,6 +149,8 @@ class Tool:
         configurations: The configurations, in file order.
         shape: Envelope for collision checks.
         source: The file it was read from, or None.
+        tolerance: How well the masses and centres of mass are known, or None when the
+            file does not say (the accuracy budget then has no tool terms, and says so).
     """
 
     name: str
@@ -133,6 +158,7 @@ class Tool:
     configurations: tuple[ToolConfiguration, ...]
     shape: ToolShape | None = None
     source: Path | None = None
+    tolerance: ToolTolerance | None = None
 
     def __post_init__(self):
         owner = f"tool '{self.name}'"
@@ -229,8 +255,17 @@ def load_tool(path: str | Path) -> Tool:
         length = read_number(require(raw_shape, "length", path, "shape."), path, "shape.length", "m")
         with fields_of(path, "shape."):
             shape = ToolShape(radius=radius, length=length)
+    tolerance = None
+    if data.get("tolerance") is not None:
+        raw_tolerance = data["tolerance"]
+        if not isinstance(raw_tolerance, Mapping):
+            raise FileFormatError(path, "tolerance", "expected {mass: kg, com: m}")
+        check_keys(raw_tolerance, TOLERANCE_KEYS, path, "tolerance")
+        bounds = {k: read_number(raw_tolerance.get(k, 0.0), path, f"tolerance.{k}", u) for k, u in (("mass", "kg"), ("com", "m"))}
+        with fields_of(path):
+            tolerance = ToolTolerance(**bounds)
     with fields_of(path):
-        tool = Tool(name=name, gravity=gravity, configurations=configs, shape=shape, source=path)
+        tool = Tool(name=name, gravity=gravity, configurations=configs, shape=shape, source=path, tolerance=tolerance)
     names = tool.names
     if len(configs) >= 3 and tool.com_rank() < 2:
         warnings.warn(
@@ -253,6 +288,8 @@ def save_tool(tool: Tool, path: str | Path, header: str = "") -> Path:
     data: dict = {"name": tool.name, "gravity": tool.gravity}
     if tool.shape is not None:
         data["shape"] = {"radius": tool.shape.radius, "length": tool.shape.length}
+    if tool.tolerance is not None:
+        data["tolerance"] = {"mass": tool.tolerance.mass, "com": tool.tolerance.com}
     data["configurations"] = []
     for c in tool.configurations:
         entry = {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist()}

@@ -1,0 +1,194 @@
+r"""The accuracy budget: how each error source of a calibration spreads into its wrench error.
+
+Every source is a perturbation of the regression's known wrench: sample i's wrench is off
+by ``dw_i = B_i u_g`` (shape (6,)), where ``u_g`` (shape (r,)) is one random draw shared by
+the samples of group g (a constant error: one group; an error per stop: one group per stop;
+white noise: one group per sample) with covariance U. Strain noise enters the same way to
+first order (``dw_i = -C dDelta_i``). Least squares ``Theta = S_WX S_XX^-1`` (shape (6, 7):
+``[C_bar, D]``, regressors ``x = [P Delta; 1]``) maps them linearly to
+
+.. math::
+
+    \delta\Theta_j = \sum_g u_g^T G_{gj}, \qquad
+    G_{gj} = \sum_{i \in g} B_{i,j}^T\, (S_{XX}^{-1} x_i)^T \quad (r \times 7),
+
+and the wrench error of axis j at a load W in the sensor's range is ``e_j(W) = dTheta_j
+x(W)`` with ``x(W) = [C_bar^-1 (W - D); 1]``. The budget states, per axis and source, the
+RMS over the range of the error's standard deviation, for loads spread uniformly over the
+full-scale box ``|W_k| <= FS_k``:
+
+.. math::
+
+    \sigma_j^2 = E_W\,\mathrm{Var}\, e_j(W) = \sum_g \mathrm{tr}(U\, G_{gj} M G_{gj}^T),
+    \qquad M = E_W[x(W) x(W)^T] \quad (7 \times 7).
+
+Independent sources add in quadrature; the budget's total is the expanded uncertainty
+``k sqrt(sum sigma^2)`` with coverage factor k = 2 (about 95 %). Units: N for Fx, Fy, Fz
+and N m for Mx, My, Mz, and % of each axis's full scale. Nothing here knows the channel
+layout: it works from regressors and the 6 x 6 C_bar.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.arrays import frozen
+from .sensor import WRENCH_AXES
+
+#: Coverage factor of the budget's total (k = 2: about 95 % of the errors fall within it).
+COVERAGE = 2.0
+
+#: Default accuracy target of a sized plan: every axis's budget total within this, [% of full scale].
+DEFAULT_TARGET_PERCENT = 0.05
+
+
+@dataclass(frozen=True)
+class ErrorSource:
+    """One perturbation of the known wrench: ``dw_i = sensitivity[i] @ u[groups[i]]``.
+
+    Attributes:
+        name: The term of the budget it belongs to (sources of one name add in quadrature).
+        sensitivity: B, [N or N m per unit of u]. Shape (N, 6, r).
+        covariance: Covariance U of each draw u. Shape (r, r).
+        groups: Group of each sample (samples of a group share one draw), shape (N,) int;
+            None for a draw per sample (white).
+    """
+
+    name: str
+    sensitivity: np.ndarray
+    covariance: np.ndarray
+    groups: np.ndarray | None = None
+
+
+def range_moments(C_bar, D, full_scale) -> np.ndarray:
+    """``M = E[x x^T]`` over loads uniform in the full-scale box, ``x = [C_bar^-1 (W - D); 1]``.
+
+    Args:
+        C_bar: Modified calibration matrix. Shape (6, 6).
+        D: Offsets, [N, N, N, N m, N m, N m]. Shape (6,).
+        full_scale: Full scale per axis, same units. Shape (6,).
+
+    Returns:
+        Shape (7, 7).
+    """
+    inv = np.linalg.inv(np.asarray(C_bar, dtype=float))
+    D = np.asarray(D, dtype=float)
+    mean = -inv @ D
+    second = inv @ (np.diag(np.asarray(full_scale, dtype=float) ** 2 / 3.0) + np.outer(D, D)) @ inv.T
+    M = np.ones((7, 7))
+    M[:6, :6], M[:6, 6], M[6, :6] = second, mean, mean
+    return M
+
+
+def propagate(x: np.ndarray, sources: Sequence[ErrorSource], moments: np.ndarray, weight: float = 1.0) -> dict[str, np.ndarray]:
+    """Standard deviation of the wrench error over the range, per axis, of each named term.
+
+    Args:
+        x: Regressors of the samples, ``[P Delta; 1]``. Shape (N, 7).
+        sources: The perturbations.
+        moments: ``M`` of :func:`range_moments`. Shape (7, 7).
+        weight: Samples each row stands for (e.g. channel samples per planned sample): the
+            white sources average over them, the shared ones do not.
+
+    Returns:
+        Term name -> sigma per axis, [N, N, N, N m, N m, N m]. Shape (6,) each.
+    """
+    x = np.asarray(x, dtype=float)
+    S = x.T @ x
+    scale = 1.0 / np.sqrt(np.diag(S))
+    S_inv = np.linalg.inv(S * scale[:, None] * scale[None, :]) * scale[:, None] * scale[None, :]
+    A = x @ S_inv  # (N, 7): the least-squares weight of each sample
+    variance: dict[str, np.ndarray] = {}
+    for source in sources:
+        B, U = np.asarray(source.sensitivity, dtype=float), np.asarray(source.covariance, dtype=float)
+        if source.groups is None:
+            per_axis = np.einsum("njr,rs,njs->nj", B, U, B)
+            spread = np.einsum("nk,kl,nl->n", A, moments, A)
+            var = per_axis.T @ spread / weight
+        else:
+            _, groups = np.unique(source.groups, return_inverse=True)
+            G = np.zeros((int(groups.max()) + 1, 6, B.shape[2], 7))
+            np.add.at(G, groups, np.einsum("njr,nk->njrk", B, A))
+            var = np.einsum("rs,gjrk,kl,gjsl->j", U, G, moments, G)
+        variance[source.name] = variance.get(source.name, np.zeros(6)) + np.maximum(var, 0.0)
+    return {name: np.sqrt(v) for name, v in variance.items()}
+
+
+@dataclass(frozen=True)
+class AccuracyBudget:
+    """Where a calibration's error comes from, per wrench axis.
+
+    Attributes:
+        terms: Source name -> standard deviation of the wrench error over the range,
+            [N, N, N, N m, N m, N m]. Shape (6,) each.
+        full_scale: Full scale per axis, same units. Shape (6,).
+        coverage: Coverage factor of the total.
+        kind: 'predicted' (from a plan) or 'measured' (from the data of a calibration).
+    """
+
+    terms: Mapping[str, np.ndarray]
+    full_scale: np.ndarray
+    coverage: float = COVERAGE
+    kind: str = "predicted"
+
+    def __post_init__(self):
+        object.__setattr__(self, "terms", {k: frozen(np.asarray(v, dtype=float)) for k, v in self.terms.items()})
+        object.__setattr__(self, "full_scale", frozen(np.asarray(self.full_scale, dtype=float)))
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Combined standard deviation per axis (quadrature sum of the terms), [N or N m]. Shape (6,)."""
+        return np.sqrt(sum((v**2 for v in self.terms.values()), np.zeros(6)))
+
+    @property
+    def total(self) -> np.ndarray:
+        """Expanded uncertainty per axis, ``coverage * sigma``, [N or N m]. Shape (6,)."""
+        return self.coverage * self.sigma
+
+    @property
+    def total_percent(self) -> np.ndarray:
+        """The total in % of each axis's full scale. Shape (6,)."""
+        return 100.0 * self.total / self.full_scale
+
+    @property
+    def largest_percent(self) -> float:
+        """The largest total of any axis, in % of full scale (what a user reads first)."""
+        return float(np.max(self.total_percent))
+
+    def percent(self, name: str) -> np.ndarray:
+        """One term, expanded by the coverage factor, in % of full scale. Shape (6,)."""
+        return 100.0 * self.coverage * self.terms[name] / self.full_scale
+
+    def dominant(self) -> tuple[str, str]:
+        """The term and the axis that contribute most: ``(term, axis)``."""
+        axis = int(np.argmax(self.total_percent))
+        name = max(self.terms, key=lambda k: float(self.terms[k][axis])) if self.terms else ""
+        return name, WRENCH_AXES[axis]
+
+    def without(self, names: Sequence[str]) -> AccuracyBudget:
+        """The budget with some terms left out (e.g. what no plan can shrink)."""
+        return AccuracyBudget({k: v for k, v in self.terms.items() if k not in names}, self.full_scale, self.coverage, self.kind)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for the files: per term and for the total, per axis, in N or N m and in % FS."""
+
+        def axes(values: np.ndarray, digits: int = 4) -> dict[str, float]:
+            return {a: float(f"{v:.{digits}g}") for a, v in zip(WRENCH_AXES, values, strict=True)}
+
+        term, axis = self.dominant()
+        return {
+            "kind": self.kind,
+            "coverage_factor": self.coverage,
+            "range": "loads uniform over the full-scale box, RMS of the error's standard deviation",
+            "full_scale": axes(self.full_scale),
+            "terms_percent_fs": {k: axes(self.percent(k)) for k in self.terms},
+            "total": axes(self.total),
+            "total_percent_fs": axes(self.total_percent),
+            "largest_percent_fs": float(f"{self.largest_percent:.4g}") if math.isfinite(self.largest_percent) else None,
+            "dominant": {"term": term, "axis": axis},
+        }
