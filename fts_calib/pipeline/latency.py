@@ -1,0 +1,145 @@
+r"""The constant latency between the joint and channel streams, estimated from the moving samples.
+
+When the joint readings are ``tau`` late (the row of time t holds the joints of t - tau),
+the wrench predicted from them along a motion is late too: with the measured wrench
+``W_meas = C Delta + D`` and the tool's moving wrench predicted from the readings
+(:func:`fts_calib.robot.load.tool_load`, the one dynamic model: mass, centre of mass,
+inertia, joint rates estimated from the readings as the filter does),
+
+.. math::
+
+    W_{meas}(t) - W_{pred}(t) \approx \tau\, \dot W_{pred}(t),
+
+a regression of the residual on the predicted wrench's rate, each axis scaled by its full
+scale. Only moving samples whose dynamic part is well predicted count: every joint's rate
+estimate from a whole window, a joint moving faster than ``min_speed``, and the residual
+within a few times its robust spread after a first fit. One estimate per move (a stretch
+of moving samples) gives the uncertainty: the weighted spread of the moves' estimates over
+the square root of their number, so correlated model errors within a move do not make it
+look better than it is. Times in [s], rates in [rad/s].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model.calibration import Calibration
+from ..robot.kinematics import Kinematics
+from ..robot.load import tool_load
+from ..robot.tool import Tool
+from .qsfilter import joint_rates
+
+_MIN_SPEED = 0.2  # [rad/s] a joint at least this fast: the wrench changes enough to show a lag
+_MIN_MOVE_SAMPLES = 20  # a move shorter than this gives no estimate of its own
+_OUTLIER = 5.0  # residuals beyond this many robust spreads are not "well predicted"
+
+
+@dataclass(frozen=True)
+class LatencyEstimate:
+    """How late the joint readings are, relative to the channels.
+
+    Attributes:
+        latency_s: The estimate [s] (positive: the joints are late; add it to their times,
+            ``live.latency_s``, to align them).
+        stderr_s: Its standard error [s] (inf with fewer than two moves).
+        moves: Moves that gave an estimate.
+        samples: Moving samples used.
+    """
+
+    latency_s: float
+    stderr_s: float
+    moves: int
+    samples: int
+
+    def summary(self) -> str:
+        """One line with units."""
+        return (
+            f"joint stream behind the channels by {1e3 * self.latency_s:.3f} ± {1e3 * self.stderr_s:.3f} ms "
+            f"(from {self.moves} moves, {self.samples:,} moving samples)"
+        )
+
+    def as_dict(self) -> dict:
+        """Plain data for a file, in [ms]."""
+        return {
+            "latency_ms": float(f"{1e3 * self.latency_s:.4g}"),
+            "stderr_ms": float(f"{1e3 * self.stderr_s:.4g}") if math.isfinite(self.stderr_s) else None,
+            "moves": self.moves,
+            "samples": self.samples,
+        }
+
+
+def estimate_latency(
+    kin: Kinematics,
+    tool: Tool,
+    calibration: Calibration,
+    time: np.ndarray,
+    joints: np.ndarray,
+    channels: np.ndarray,
+    configuration: np.ndarray,
+    full_scale: np.ndarray,
+    window_s: float = 0.05,
+    min_speed: float = _MIN_SPEED,
+) -> LatencyEstimate | None:
+    """Estimate the latency of the joint stream from a recording's moving samples (see the module docstring).
+
+    Args:
+        kin: Kinematics.
+        tool: The tool (mass, centre of mass and inertia of each configuration).
+        calibration: The calibration (from the still samples) that turns channels into wrenches.
+        time: Sample times [s], non-decreasing. Shape (N,).
+        joints: Joint readings [rad]. Shape (N, n_joints).
+        channels: Raw channels. Shape (N, n).
+        configuration: Tool configuration index of each sample. Shape (N,) int.
+        full_scale: Full scale per axis [N, N m] (scales the axes). Shape (6,).
+        window_s: Window of the joint-rate estimates [s].
+        min_speed: Slowest joint speed that counts as moving [rad/s].
+
+    Returns:
+        The estimate, or None when the recording has no usable move.
+    """
+    time, joints = np.asarray(time, dtype=float), np.asarray(joints, dtype=float)
+    codes = np.asarray(configuration, dtype=np.int64)
+    if len(time) < 3:
+        return None
+    dt = float(np.median(np.diff(time)))
+    residual, rate, move = [], [], []
+    new = np.concatenate([[True], np.diff(codes) != 0])
+    bounds = [*np.nonzero(new)[0], len(time)]
+    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        part = slice(start, stop)
+        velocity, acceleration = joint_rates(time[part], joints[part], window_s, dt, kin.continuous)
+        half = int(math.ceil(window_s / dt / 2)) + 1
+        moving = np.max(np.abs(velocity), axis=1) >= min_speed
+        moving[:half], moving[-half:] = False, False
+        if not moving.any():
+            continue
+        predicted = tool_load(kin, tool, joints[part], codes[part], velocity, acceleration).w_sensor / full_scale
+        measured = calibration.wrench(channels[part]) / full_scale
+        slope = np.gradient(predicted, time[part], axis=0)
+        label = np.cumsum(np.concatenate([[True], moving[1:] & ~moving[:-1]])) + start
+        residual.append((measured - predicted)[moving])
+        rate.append(slope[moving])
+        move.append(label[moving])
+    if not residual:
+        return None
+    r, s, m = np.concatenate(residual), np.concatenate(rate), np.concatenate(move)
+    tau = float(np.sum(r * s) / np.sum(s * s))
+    spread = np.abs(r - tau * s)
+    scale = 1.4826 * np.median(spread, axis=0) + 1e-15
+    good = np.all(spread <= _OUTLIER * scale, axis=1)
+    estimates, weights = [], []
+    for label in np.unique(m[good]):
+        mine = good & (m == label)
+        if mine.sum() >= _MIN_MOVE_SAMPLES and np.sum(s[mine] ** 2) > 0:
+            weights.append(float(np.sum(s[mine] ** 2)))
+            estimates.append(float(np.sum(r[mine] * s[mine]) / weights[-1]))
+    if not estimates:
+        return None
+    w, e = np.array(weights), np.array(estimates)
+    mean = float(np.sum(w * e) / np.sum(w))
+    k = len(e)
+    stderr = math.sqrt(float(np.sum(w * (e - mean) ** 2) / np.sum(w)) / (k - 1)) if k > 1 else math.inf
+    return LatencyEstimate(mean, stderr, k, int(good.sum()))

@@ -1,0 +1,94 @@
+"""How far a live run is through its sized plan: the motion still to run and the configuration to mount next.
+
+A plan sized to an accuracy target (``fts-calib trajectory``, its ``plan.yaml``) says how
+many quasi-static samples each tool configuration gives and how long its motion takes.
+During ``live`` the session's kept samples per configuration, against those, tell a person
+how much robot time is left before the target is reached and which configuration to mount
+next. Times in [s].
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..core.exceptions import FileFormatError
+from ..core.fileio import load_yaml, read_number, require
+from .progress import Progress
+
+_DONE = 0.9  # a configuration with this fraction of its planned samples is done (simulated runs keep 97-98 %)
+
+
+@dataclass(frozen=True)
+class PlanProgress:
+    """What a sized plan expects of a run.
+
+    Attributes:
+        duration_s: Motion per configuration [s].
+        expected: Configuration name -> quasi-static samples the plan gives, at the channel rate.
+        target_percent: The accuracy target the plan was sized to, [% of full scale], or None.
+    """
+
+    duration_s: float
+    expected: Mapping[str, float]
+    target_percent: float | None = None
+
+    def fractions(self, progress: Progress) -> dict[str, float]:
+        """Per configuration, the fraction of its planned samples kept so far (at most 1)."""
+        kept = progress.kept_by_configuration
+        return {name: min(1.0, kept.get(name, 0) / n) if n > 0 else 1.0 for name, n in self.expected.items()}
+
+    def remaining_s(self, progress: Progress) -> float:
+        """Motion still to run [s] (tool changes not counted)."""
+        return sum(self.duration_s * (1.0 - f) for f in self.fractions(progress).values())
+
+    def next_configuration(self, progress: Progress) -> str | None:
+        """The configuration to mount next (the first in plan order not yet done), or None when all are."""
+        fractions = self.fractions(progress)
+        started = [name for name, f in fractions.items() if 0 < f < _DONE]
+        todo = [name for name, f in fractions.items() if f == 0]
+        if started:
+            later = [name for name in todo if name != started[0]]
+            return later[0] if later else None
+        return todo[0] if todo else None
+
+    def status(self, progress: Progress) -> str:
+        """A few words for the status line: the time left and what to mount."""
+        fractions = self.fractions(progress)
+        if all(f >= _DONE for f in fractions.values()):
+            target = f" ({self.target_percent:g} % of full scale)" if self.target_percent is not None else ""
+            return f"plan done: the target{target} is reached when the fit is solved"
+        text = f"~{self.remaining_s(progress):.0f} s of motion left"
+        running = [name for name, f in fractions.items() if 0 < f < _DONE]
+        if running:
+            text += f" ({running[0]} {100 * fractions[running[0]]:.0f} %)"
+        following = self.next_configuration(progress)
+        if following is not None:
+            text += f"; mount {following} next" if running else f"; mount {following}"
+        return text
+
+
+def load_plan_progress(path: str | Path, rate_hz: float) -> PlanProgress:
+    """Read the expectations of a run from a ``plan.yaml`` written by ``fts-calib trajectory``.
+
+    Args:
+        path: The plan file.
+        rate_hz: The channels' sample rate [Hz] (the plan counts samples at its own rate).
+
+    Raises:
+        FileFormatError: A missing or malformed field; names the file and the field.
+    """
+    path = Path(path)
+    data = load_yaml(path)
+    duration = read_number(require(data, "duration_s", path), path, "duration_s", "s")
+    plan_rate = read_number(require(data, "rate_hz", path), path, "rate_hz", "Hz")
+    excitation = require(data, "excitation", path)
+    counts = excitation.get("quasi_static_samples") if isinstance(excitation, Mapping) else None
+    if not isinstance(counts, Mapping) or not counts:
+        raise FileFormatError(path, "excitation.quasi_static_samples", "expected a mapping configuration -> samples")
+    expected = {
+        str(name): read_number(n, path, f"excitation.quasi_static_samples.{name}") * rate_hz / plan_rate for name, n in counts.items()
+    }
+    target = data.get("target_error_percent_fs")
+    return PlanProgress(duration, expected, None if target is None else read_number(target, path, "target_error_percent_fs", "%"))

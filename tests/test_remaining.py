@@ -1,0 +1,43 @@
+"""Live progress against a sized plan: the motion left and the configuration to mount next."""
+
+import pytest
+
+from fts_calib import FileFormatError
+from fts_calib.core.resources import resolve
+from fts_calib.pipeline.progress import Progress
+from fts_calib.pipeline.remaining import PlanProgress, load_plan_progress
+
+from .test_planner import ROOT
+
+
+def progress(**kept):
+    return Progress(
+        seen=0,
+        kept=sum(kept.values()),
+        kept_by_configuration=dict(kept),
+        rank=0,
+        condition_number=0.0,
+        missing="",
+        skipped={},
+        last_time=None,
+    )
+
+
+def test_the_time_left_and_the_configuration_to_mount_follow_the_kept_samples():
+    plan = PlanProgress(duration_s=10.0, expected={"A": 100.0, "B": 100.0, "C": 100.0}, target_percent=0.05)
+    assert plan.remaining_s(progress(A=0, B=0, C=0)) == pytest.approx(30.0)
+    assert plan.status(progress(A=0, B=0, C=0)) == "~30 s of motion left; mount A"
+    assert plan.status(progress(A=40, B=0, C=0)) == "~26 s of motion left (A 40 %); mount B next"
+    assert plan.status(progress(A=100, B=0, C=0)) == "~20 s of motion left; mount B"
+    assert plan.status(progress(A=120, B=100, C=50)) == "~5 s of motion left (C 50 %)"  # more than planned counts as done
+    assert plan.next_configuration(progress(A=120, B=100, C=50)) is None
+    assert plan.status(progress(A=100, B=99, C=91)) == "plan done: the target (0.05 % of full scale) is reached when the fit is solved"
+
+
+def test_a_shipped_plan_file_gives_the_expectations_at_the_channel_rate():
+    plan = load_plan_progress(ROOT / "trajectories" / "ur5" / "plan.yaml", rate_hz=1000.0)
+    assert set(plan.expected) == {"A", "B", "C"} and plan.target_percent == 0.05
+    assert plan.duration_s == pytest.approx(13.44, abs=0.01)
+    assert plan.expected["A"] == pytest.approx(129 * 10)  # 129 samples at the plan's 100 Hz
+    with pytest.raises(FileFormatError, match="duration_s"):
+        load_plan_progress(resolve("paper_tool", "configs"), 1000.0)
