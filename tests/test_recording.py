@@ -85,10 +85,29 @@ def test_empty_and_missing_files(tmp_path):
 
 def test_extra_columns_are_ignored_with_a_notice(tmp_path):
     path = tmp_path / "r.csv"
-    path.write_text(HEADER.replace(",tool", ",temperature,tool") + _row(0.0).replace(",A", ",21.5,A"))
-    with pytest.warns(FtsCalibWarning, match=r"ignoring extra columns \['temperature'\]"):
+    path.write_text(HEADER.replace(",tool", ",humidity,tool") + _row(0.0).replace(",A", ",41.5,A"))
+    with pytest.warns(FtsCalibWarning, match=r"ignoring extra columns \['humidity'\]"):
         reader, chunks = _read(path)
     assert chunks[0].channels.shape == (1, 8) and chunks[0].configuration.tolist() == [0]
+    assert chunks[0].temperature is None
+
+
+def test_the_temperature_column_is_read_and_written(tmp_path):
+    path = tmp_path / "r.csv"
+    path.write_text(HEADER.replace(",tool", ",temperature,tool") + _row(0.0).replace(",A", ",21.5,A") + _row(0.1).replace(",A", ",21.75,A"))
+    reader, chunks = _read(path)
+    assert reader.has_temperature and chunks[0].temperature.tolist() == [21.5, 21.75]
+    assert chunks[0].channels.shape == (2, 8) and not reader.extra_columns
+    written = tmp_path / "w.csv"
+    with RecordingWriter(written, reader.joint_names, 8, temperature=True) as writer:
+        writer.write(chunks[0].time, chunks[0].joints, chunks[0].channels, "A", chunks[0].temperature)
+    again = _read(written)[1][0]
+    np.testing.assert_allclose(again.temperature, [21.5, 21.75])
+    np.testing.assert_allclose(again.channels, chunks[0].channels, rtol=1e-9)
+    with pytest.raises(ShapeError, match="temperature missing: the file has a temperature column"):
+        RecordingWriter(tmp_path / "x.csv", reader.joint_names, 8, temperature=True).write(
+            [0.0], chunks[0].joints[:1], chunks[0].channels[:1], "A"
+        )
 
 
 def test_unknown_tool_rows_are_skipped_counted_and_named(tmp_path):

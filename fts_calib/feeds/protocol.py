@@ -3,13 +3,14 @@
 ::
 
     {"type": "joints", "t": 12.345, "q": {"shoulder_pan_joint": 0.1, ...}, "seq": 41}
-    {"type": "strain", "t": 12.346, "strain": [s1, ..., sn], "seq": 42}
+    {"type": "strain", "t": 12.346, "strain": [s1, ..., sn], "temperature": 31.2, "seq": 42}
     {"type": "tool",   "t": 12.0,   "name": "B", "seq": 43}
     {"type": "end", "seq": 44}
 
 ``t`` is the sender's clock in [s], one clock for both streams; joint readings in [rad];
 strains raw, one value per channel of the sensor (8 for the paper's, 6 for a factory
-wrench; the synchronizer counts and skips a message of another length). ``seq`` is
+wrench; the synchronizer counts and skips a message of another length); ``temperature``
+is optional, the sensor's temperature in [°C] (for the drift offset model). ``seq`` is
 optional, in every message: an integer >= 0 that each sender increases by one per
 datagram it sends (all types in one sequence), so that a receiver counts the datagrams
 lost on the way (:class:`fts_calib.feeds.udp.SeqGaps`); a datagram without it is valid.
@@ -40,11 +41,12 @@ class Joints:
 
 @dataclass(frozen=True)
 class Strain:
-    """Raw channels (n values) at time ``t`` [s]; ``seq``: the sender's datagram number, or None."""
+    """Raw channels (n values) at time ``t`` [s]; ``seq``: the sender's datagram number, or None; ``temperature`` [°C] or None."""
 
     t: float
     strain: tuple[float, ...]
     seq: int | None = None
+    temperature: float | None = None
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,10 @@ def decode(data: bytes) -> Message:
         values = obj.get("strain")
         if not isinstance(values, list) or not values or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
             raise ProtocolError("malformed", "'strain' must be a non-empty list of numbers, one per channel")
-        return Strain(_time(obj), tuple(float(v) for v in values), seq)
+        heat = obj.get("temperature")
+        if heat is not None and (isinstance(heat, bool) or not isinstance(heat, (int, float)) or not math.isfinite(heat)):
+            raise ProtocolError("malformed", f"'temperature' must be a finite number of °C, got {heat!r}")
+        return Strain(_time(obj), tuple(float(v) for v in values), seq, None if heat is None else float(heat))
     if kind == "joints":
         q = obj.get("q")
         if (
@@ -127,6 +132,8 @@ def encode(message: Message) -> bytes:
     obj: dict[str, object]
     if isinstance(message, Strain):
         obj = {"type": "strain", "t": message.t, "strain": list(message.strain)}
+        if message.temperature is not None:
+            obj["temperature"] = message.temperature
     elif isinstance(message, Joints):
         obj = {"type": "joints", "t": message.t, "q": message.q}
     elif isinstance(message, ToolChange):

@@ -3,7 +3,8 @@
 Columns (header required): ``time`` [s, non-decreasing], one column per actuated joint
 named exactly as in the URDF [rad], ``strain_1`` ... ``strain_n`` [raw units: n channels,
 8 for the paper's sensor, 6 for a factory wrench], ``tool`` (a configuration name of the
-tool file). Extra columns are ignored with a notice; a missing
+tool file), optional ``temperature`` [°C] (the sensor's, for the drift offset model).
+Extra columns are ignored with a notice; a missing
 one is an error that names it (with a hint when the file is delimited by ';' or tabs). A
 name ending in ``.gz`` is written compressed; a file is read compressed when its content
 is gzip, whatever its name (a mismatch is warned about), and a UTF-8 byte-order mark
@@ -128,8 +129,10 @@ class RecordingReader:
         #: Number of channels: the header's strain_1 ... strain_n columns.
         self.n_channels = _header_channels(self.columns)
         self.strain_columns = strain_columns(self.n_channels)
+        #: Whether the file has the optional ``temperature`` column (sensor temperature, °C).
+        self.has_temperature = "temperature" in self.columns
         if joint_names is None:
-            joint_names = [c for c in self.columns if c not in ("time", "tool", *self.strain_columns)]
+            joint_names = [c for c in self.columns if c not in ("time", "tool", "temperature", *self.strain_columns)]
         self.joint_names = list(joint_names)
         if not header.strip():
             expected = ",".join(["time", *(self.joint_names or ["<joints>"]), "strain_1", "...", "strain_n", "tool"])
@@ -147,14 +150,19 @@ class RecordingReader:
                 else f"; the header has {self.columns}"
             )
             raise RecordingError(self.path, 1, missing[0], f"missing column(s) {missing}{hint}")
-        self.extra_columns = [c for c in self.columns if c not in required]
+        self.extra_columns = [c for c in self.columns if c not in (*required, "temperature")]
         if self.extra_columns:
             warnings.warn(f"{self.path}: ignoring extra columns {self.extra_columns}", FtsCalibWarning, stacklevel=2)
-        self._numeric = [self.columns.index(c) for c in ["time", *self.joint_names, *self.strain_columns]]
+        self._numeric = [self.columns.index(c) for c in self._numeric_names]
         self._tool_col = self.columns.index("tool")
         # numeric columns as float, the rest as text (the parser then refuses a bad number)
         self._dtypes = {c: (np.float64 if k in self._numeric else str) for k, c in enumerate(self.columns)}
         self._line = 1
+
+    @property
+    def _numeric_names(self) -> list[str]:
+        """The numeric columns, in the order of a parsed row: time, joints, strains, then temperature when present."""
+        return ["time", *self.joint_names, *self.strain_columns, *(["temperature"] if self.has_temperature else [])]
 
     @property
     def tool_names(self) -> list[str]:
@@ -265,11 +273,13 @@ class RecordingReader:
         self._note_values(table, numbers)
         self._notes.flush()
         if len(table):
-            yield SampleBatch(table[:, 0], table[:, 1 : 1 + n_joints], table[:, 1 + n_joints :], codes, first_line=int(numbers[0]))
+            channels = table[:, 1 + n_joints : 1 + n_joints + self.n_channels]
+            temperature = table[:, -1] if self.has_temperature else None
+            yield SampleBatch(table[:, 0], table[:, 1 : 1 + n_joints], channels, codes, temperature, first_line=int(numbers[0]))
 
     def _note_values(self, table: np.ndarray, numbers: np.ndarray) -> None:
         """Note the rows the session's checks will skip (see :func:`fts_calib.feeds.row_notes.value_problems`)."""
-        names = ["time", *self.joint_names, *self.strain_columns]
+        names = self._numeric_names
         n_joints, bound = len(self.joint_names), self.max_abs_channel
         found, counts, self._last_time = value_problems(table, names, n_joints, bound, self._last_time, MAX_NOTES)
         for row, kind, detail in found:

@@ -28,19 +28,22 @@ class RecordingWriter:
         path: Destination (``.csv`` or ``.csv.gz``).
         joint_names: Joint columns, in order.
         n_channels: Channel columns ``strain_1`` ... ``strain_n``; 8 for the paper's sensor.
+        temperature: Whether to write the ``temperature`` column [°C] (after the strains).
     """
 
-    def __init__(self, path: str | Path, joint_names: Sequence[str], n_channels: int = 8):
+    def __init__(self, path: str | Path, joint_names: Sequence[str], n_channels: int = 8, temperature: bool = False):
         self.path = Path(path)
         self.joint_names = list(joint_names)
         self.n_channels = int(n_channels)
+        self.temperature = bool(temperature)
         self._file = AtomicFile(self.path)
         self._gzip = gzip.GzipFile(fileobj=self._file.handle, mode="wb") if self.path.suffix == ".gz" else None
         self._handle = io.TextIOWrapper(self._gzip or self._file.handle, encoding="utf-8", newline="")
-        self._handle.write(",".join(["time", *self.joint_names, *strain_columns(self.n_channels), "tool"]) + "\n")
+        heat = ["temperature"] if self.temperature else []
+        self._handle.write(",".join(["time", *self.joint_names, *strain_columns(self.n_channels), *heat, "tool"]) + "\n")
         self.rows = 0
 
-    def write(self, time, readings, strain, tool: str | Sequence[str]) -> None:
+    def write(self, time, readings, strain, tool: str | Sequence[str], temperature=None) -> None:
         """Append rows.
 
         Args:
@@ -48,23 +51,26 @@ class RecordingWriter:
             readings: Joint readings [rad], shape (n, n_joints).
             strain: Raw channels, shape (n, n_channels).
             tool: One configuration name for all rows, or one per row.
+            temperature: Sensor temperatures [°C], shape (n,): required when the file has
+                the column, refused otherwise.
 
         Raises:
-            ShapeError: ``strain`` has another number of columns than ``n_channels``.
+            ShapeError: ``strain`` has another number of columns than ``n_channels``, or a
+                temperature is missing or not expected.
         """
         time = np.asarray(time, dtype=float)
         if np.shape(strain)[-1] != self.n_channels:
             raise ShapeError(f"strain.shape={np.shape(strain)} but expected (n, {self.n_channels}): the file's strain columns")
-        table = np.column_stack([time, np.asarray(readings, dtype=float), np.asarray(strain, dtype=float)])
+        if (temperature is None) == self.temperature:
+            has = "has a" if self.temperature else "has no"
+            raise ShapeError(f"temperature {'missing' if temperature is None else 'given'}: the file {has} temperature column")
+        heat = [] if temperature is None else [np.asarray(temperature, dtype=float).reshape(-1, 1)]
+        table = np.column_stack([time, np.asarray(readings, dtype=float), np.asarray(strain, dtype=float), *heat])
         buffer = io.StringIO()
+        fmt = ",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * self.n_channels + ["%.4f"] * len(heat))
         if isinstance(tool, str):
-            np.savetxt(
-                buffer,
-                table,
-                fmt=",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * self.n_channels) + "," + tool.replace("%", "%%"),
-            )
+            np.savetxt(buffer, table, fmt=fmt + "," + tool.replace("%", "%%"))
         else:
-            fmt = ",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * self.n_channels)
             for row, name in zip(table, tool, strict=True):
                 buffer.write(fmt % tuple(row) + "," + name + "\n")
         self._handle.write(buffer.getvalue())

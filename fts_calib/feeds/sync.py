@@ -75,7 +75,7 @@ class Synchronizer:
         self._joint_t = np.zeros(0)
         self._joint_q = np.zeros((0, len(self.joint_names)))
         self._new_joints: list[tuple[float, np.ndarray]] = []
-        self._strain: list[tuple[float, tuple[float, ...]]] = []
+        self._strain: list[tuple[float, tuple[float, ...], float | None]] = []
         self._tools: list[tuple[float, str]] = []
         self._placed_until = -math.inf
         self.dropped: Counter[str] = Counter()
@@ -95,12 +95,14 @@ class Synchronizer:
         self._new_joints.append((t - self.latency_s, np.array([joints[n] for n in self.joint_names])))
         return True
 
-    def add_strain(self, t: float, strain: Sequence[float]) -> None:
+    def add_strain(self, t: float, strain: Sequence[float], temperature: float | None = None) -> None:
         """Add a strain message.
 
         Args:
             t: The sender's time stamp, in [s].
             strain: Raw channel readings. Length n_channels.
+            temperature: The sensor's temperature [°C], or None. When some samples of a batch
+                have one and others not, the others get NaN (the session's checks skip them).
         """
         self.strain_messages += 1
         if self.n_channels is None:
@@ -111,7 +113,7 @@ class Synchronizer:
         if t <= self._placed_until:
             self._drop(LATE, 1)
             return
-        self._strain.append((t, tuple(strain)))
+        self._strain.append((t, tuple(strain), temperature))
 
     def add_tool(self, t: float, name: str) -> None:
         """Announce the tool configuration mounted from ``t`` on (repeats change nothing)."""
@@ -154,6 +156,7 @@ class Synchronizer:
             return empty
         t = np.array([s[0] for s in ready])
         strain = np.array([s[1] for s in ready], dtype=float)
+        heat = None if all(s[2] is None for s in ready) else np.array([math.nan if s[2] is None else s[2] for s in ready])
         self._placed_until = max(self._placed_until, float(t[-1]))
         jt, jq = self._joint_t, self._joint_q
         if len(jt) == 0:
@@ -184,7 +187,7 @@ class Synchronizer:
         keep_from = max(0, int(np.searchsorted(jt, oldest - self.max_gap_s, side="left")) - 1)
         self._joint_t, self._joint_q = jt[keep_from:], jq[keep_from:]
         codes = configuration_indices(tools, self.configurations)
-        return SampleBatch(t[ok], readings[ok], strain[ok], codes[ok])
+        return SampleBatch(t[ok], readings[ok], strain[ok], codes[ok], None if heat is None else heat[ok])
 
     def _tool_at(self, t: np.ndarray) -> list[str | None]:
         if not self._tools:

@@ -175,7 +175,7 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
     if isinstance(message, Strain):
         stats.strain += 1
         if sync is not None:
-            sync.add_strain(message.t, message.strain)
+            sync.add_strain(message.t, message.strain, message.temperature)
     elif isinstance(message, Joints):
         if sync is None or sync.add_joints(message.t, message.q):
             stats.joints += 1

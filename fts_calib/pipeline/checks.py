@@ -92,6 +92,9 @@ class SampleChecks:
         ok = time > self.resume_time
         self._count(BEFORE_CHECKPOINT, ~ok)
         finite, in_range = valid_values(time, batch.joints, batch.channels, self.max_abs_channel)
+        if batch.temperature is not None:  # a NaN temperature would poison the offset model's sums
+            finite &= np.isfinite(batch.temperature)
+            in_range &= finite
         self._count(NON_FINITE, ok & ~finite)
         self._count(OUT_OF_RANGE, ok & finite & ~in_range)
         ok &= in_range

@@ -123,7 +123,7 @@ class CalibrationSession:
 
     # -- input --------------------------------------------------------------------------
 
-    def add(self, t: float, joints, strain, configuration: str) -> None:
+    def add(self, t: float, joints, strain, configuration: str, temperature: float | None = None) -> None:
         """Add one sample.
 
         Args:
@@ -131,17 +131,18 @@ class CalibrationSession:
             joints: Joint readings [rad], (n_joints,) or a mapping joint name -> value.
             strain: Raw channels, (n,), n = ``layout.n_channels``.
             configuration: Tool configuration name.
+            temperature: Sensor temperature [°C] (for the drift offset model), or None.
         """
         readings, _ = self.kin.readings(joints)
         channels = np.array(strain, dtype=float)  # a copy: a controller may refill its buffer for the next tick
         if channels.shape != (self.layout.n_channels,):
             raise ShapeError(f"strain.shape={channels.shape} but expected ({self.layout.n_channels},), the {self.layout.name} layout")
         code = int(configuration_indices([configuration], self.tool.names)[0])
-        self._staged.append((float(t), readings[0].copy(), channels, code))
+        self._staged.append((float(t), readings[0].copy(), channels, code, math.nan if temperature is None else float(temperature)))
         if len(self._staged) >= _STAGE:
             self._flush_staged()
 
-    def add_batch(self, t, joints, strain, configuration) -> None:
+    def add_batch(self, t, joints, strain, configuration, temperature=None) -> None:
         """Add many samples, in time order.
 
         Args:
@@ -150,6 +151,7 @@ class CalibrationSession:
             strain: Raw channels, shape (n, n_channels).
             configuration: Configuration names (one, or one per sample) or indices in the
                 tool's order.
+            temperature: Sensor temperatures [°C], shape (n,), or None.
 
         Raises:
             ShapeError: The arrays do not have one row per time.
@@ -167,7 +169,7 @@ class CalibrationSession:
         strain = np.asarray(strain, dtype=float)
         if not (len(readings) == len(t) == len(strain) == len(codes)):
             raise ShapeError(f"add_batch: {len(t)} times, {len(readings)} readings, {len(strain)} strains and {len(codes)} tools")
-        self.add_samples(SampleBatch(t, readings, strain.reshape(len(t), -1), codes))
+        self.add_samples(SampleBatch(t, readings, strain.reshape(len(t), -1), codes, temperature))
 
     def add_samples(self, batch: SampleBatch) -> None:
         """Add a batch from a feed (configuration indices in the tool's order), in time order."""
@@ -182,9 +184,10 @@ class CalibrationSession:
 
     def _flush_staged(self) -> None:
         if self._staged:
-            t, joints, strain, codes = zip(*self._staged, strict=True)
+            t, joints, strain, codes, heat = zip(*self._staged, strict=True)
             self._staged = []
-            self._process(SampleBatch(np.array(t), np.array(joints), np.array(strain), np.array(codes, dtype=np.int64)))
+            temperature = None if np.all(np.isnan(heat)) else np.array(heat)  # some missing: NaN, skipped by the checks
+            self._process(SampleBatch(np.array(t), np.array(joints), np.array(strain), np.array(codes, dtype=np.int64), temperature))
 
     def _process(self, batch: SampleBatch) -> None:
         check_channels(self.layout, batch.channels.shape[1], self.source or "the samples")

@@ -33,7 +33,7 @@ An unknown section or key (a typo) is refused with the known ones listed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..core import validation
@@ -143,6 +143,10 @@ class PipelineConfig:
     noise_std: float | None = None
     checks: ChecksConfig = field(default_factory=ChecksConfig)
     offsets: OffsetConfig = field(default_factory=OffsetConfig)
+
+    def with_offsets(self, model: str | None) -> PipelineConfig:
+        """These settings with another offset model ('auto', 'constant', 'per-configuration', 'drift'); unchanged for None."""
+        return self if model is None else replace(self, offsets=replace(self.offsets, model=model))
 
     def __post_init__(self):
         if self.noise_std is not None:

@@ -112,6 +112,7 @@ def simulate_recording(
     tool_change_s: float = 2.0,
     start_time: float = 0.0,
     dynamic: bool = True,
+    drift: OffsetDrift | None = None,
 ) -> Path:
     """Write a recording of the given trajectories (see the module docstring).
 
@@ -125,12 +126,14 @@ def simulate_recording(
         tool_change_s: Pause between configurations [s].
         start_time: Time of the first sample [s].
         dynamic: Use the moving tool's wrench (True) or the static one.
+        drift: Offsets that move, and a ``temperature`` column (:class:`fts_calib.sim.drift.OffsetDrift`);
+            constant offsets and no temperature column when None.
 
     Raises:
         FtsCalibError: A trajectory's joints differ from the robot's.
         ConfigError: A negative pause between configurations (time would go backwards).
     """
-    with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels) as writer:
-        for batch in simulate_batches(kin, tool, trajectories, sensor, rng, tool_change_s, start_time, dynamic):
-            writer.write(batch.time, batch.joints, batch.channels, tool.names[int(batch.configuration[0])])
+    with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels, temperature=drift is not None) as writer:
+        for batch in simulate_batches(kin, tool, trajectories, sensor, rng, tool_change_s, start_time, dynamic, drift):
+            writer.write(batch.time, batch.joints, batch.channels, tool.names[int(batch.configuration[0])], batch.temperature)
     return Path(path)
