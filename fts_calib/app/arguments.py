@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 
 from .exit_codes import EXIT_CODES
+from .feed_arguments import add_recording, add_ur
 
 
 def _address(text: str) -> tuple[str, int]:
@@ -100,16 +101,17 @@ def _add_calibrate(commands) -> None:
         commands,
         "calibrate",
         "calibrate from a recording",
-        "Read a recording (CSV: time, joints, strain_1..n, tool), keep the quasi-static samples, accumulate the "
-        "least squares and write the calibration. Prints a progress bar, then a summary: samples kept and why the "
-        "rest were dropped, rank, condition, residuals, standard errors, and the fit check: the residual of each axis "
-        "in each tool configuration against the strain noise of the data. A poor fit is refused (exit 15, no file) with "
-        "its likely cause (labels permuted, centre of mass in mm or cm, a mistyped mass, a collinear tool file). Exits "
-        "1 when the data cannot determine C.",
+        "Read a recording (CSV: time, joints, strain_1..n, tool; or a ROS 2 bag of joint states and channels), "
+        "keep the quasi-static samples, accumulate the least squares and write the calibration. Prints a progress bar, "
+        "then a summary: samples kept and why the rest were dropped, rank, condition, residuals, standard errors, and "
+        "the fit check: the residual of each axis in each tool configuration against the strain noise of the data. "
+        "A poor fit is refused (exit 15, no file) with its likely cause (labels permuted, centre of mass in mm or cm, "
+        "a mistyped mass, a collinear tool file). Exits 1 when the data cannot determine C.",
         "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml\n"
+        "  fts-calib calibrate --robot ur5 run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
         "  fts-calib calibrate --robot ur5 --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
     )
-    cal.add_argument("recording", help="recording CSV (or .csv.gz)")
+    add_recording(cal)
     _robot_and_tool(cal)
     _sensor(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
@@ -151,8 +153,11 @@ def _add_live(commands) -> None:
         "calibrate from live UDP feeds of joints and strains",
         "Listen for the JSON datagrams of the live protocol (joints, strain, tool, end), pair the two streams, keep "
         "the quasi-static samples and show a status line; write the calibration on 'end' or Ctrl-C. Checkpoints "
-        "every few seconds; --resume continues after a crash.",
-        "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml",
+        "every few seconds; --resume continues after a crash. With --ur HOST the joints come from a UR controller "
+        "through RTDE (with --ur-wrench also the channels: the built-in sensor's wrench); --configuration names the "
+        "tool configuration mounted, so that one run per configuration (--resume) needs no tool datagram.",
+        "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml\n"
+        "  fts-calib live --robot ur5 --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml",
     )
     _robot_and_tool(live)
     _sensor(live)
@@ -167,6 +172,8 @@ def _add_live(commands) -> None:
         "--max-gap", dest="max_gap_s", type=float, help="longest joint gap interpolated across, in s (default: the pipeline's)"
     )
     live.add_argument("--idle-timeout", dest="idle_timeout_s", type=float, help="stop after this many seconds without data")
+    live.add_argument("--configuration", help="tool configuration mounted from the start (default: wait for a tool datagram)")
+    add_ur(live)
     _accept_poor_fit(live)
     live.add_argument("--quiet", action="store_true", help="no status line")
 
@@ -180,7 +187,7 @@ def _add_replay(commands) -> None:
         "rate, added latency, loss and reordering, to test and show the live path without a robot.",
         "fts-calib replay recording.csv --to 127.0.0.1:5005 --speed 1.0",
     )
-    rep.add_argument("recording", help="recording CSV (or .csv.gz)")
+    add_recording(rep)
     rep.add_argument("--to", type=_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address (default 127.0.0.1:5005)")
     rep.add_argument("--speed", type=float, default=1.0, help="time scale: 1 real time, 10 ten times faster, 0 no pacing")
     rep.add_argument("--joint-rate", dest="joint_rate_hz", type=float, help="joint messages per second (default: one per row)")
@@ -227,7 +234,7 @@ def _add_validate(commands) -> None:
         "fts-calib validate --calibration calibration.yaml --robot ur5 --tool configs/validation_tool.yaml "
         "validation.csv --plot validation.png",
     )
-    val.add_argument("recording", help="recording CSV (or .csv.gz)")
+    add_recording(val)
     val.add_argument(
         "--calibration",
         dest="calibrations",

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
 from ..core.exceptions import FtsCalibError, PoorFit
 from ..core.paths import check_outputs
 from ..core.text import table
+from ..feeds.bag_log import BagTopics
+from ..feeds.source import recording_paths
 from ..model.calibration import save_calibration
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
@@ -21,7 +24,7 @@ from .setup import load_sensor, load_setup
 
 def run(
     *,
-    recording: str | Path,
+    recording: str | Path | Sequence[str | Path],
     robot: str | Path,
     tool: str | Path = "paper_tool",
     pipeline: str | Path = "pipeline",
@@ -34,11 +37,15 @@ def run(
     accept_poor_fit: bool = False,
     quiet: bool = False,
     sensor: str | Path = "sensor",
+    joints_topic: str = BagTopics.joints,
+    channels_topic: str = BagTopics.channels,
+    configuration_topic: str = BagTopics.configuration,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
     Args:
-        recording: Recording (CSV or CSV.gz): time, joints, strain_1..n, tool.
+        recording: Recording (CSV or CSV.gz): time, joints, strain_1..n, tool; or ROS 2 bags
+            (``.mcap``, ``.db3``, bag folders), each optionally ``BAG:CONFIGURATION``.
         robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
         tool: Tool file: a shipped name or a YAML path.
         pipeline: Pipeline settings (filter thresholds).
@@ -54,26 +61,29 @@ def run(
         quiet: No progress bar.
         sensor: Sensor configuration (shipped name or YAML path): its channel layout, which
             the recording's channels must match.
+        joints_topic: A bag's sensor_msgs/msg/JointState topic.
+        channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
+        configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
         check refused the calibration (nothing written).
     """
+    paths = recording_paths(recording)
     inputs = {
-        "the recording": recording,
+        "the recording": paths[0],
         "the robot file": robot,
         "the tool file": tool,
         "the pipeline file": pipeline,
         "the sensor file": sensor,
     }
+    inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
     check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     layout = load_sensor(sensor).layout
-    recording = Path(recording)
-    size = recording.stat().st_size if recording.is_file() else 1
-    bar = None if quiet else ProgressBar(size, "rows")
+    bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
     result = calibrate_recording(
-        recording,
+        paths,
         kin,
         loaded,
         settings,
@@ -84,13 +94,14 @@ def run(
         joints_in_degrees=joints_in_degrees,
         progress=bar,
         accept_poor_fit=accept_poor_fit,
+        topics=BagTopics(joints_topic, channels_topic, configuration_topic),
         layout=layout,
     )
     written = None
     if result.calibration is not None:
         with writing(output):
             written = save_calibration(result.calibration, output)
-    print(format_summary(result, recording, written))
+    print(format_summary(result, " ".join(map(str, paths)), written))
     if result.calibration is not None:
         return ExitCode.OK
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
@@ -160,7 +171,7 @@ def format_fit(check: FitCheck) -> list[str]:
     return lines
 
 
-def format_summary(result: CalibrateResult, recording: Path, output: Path | None) -> str:
+def format_summary(result: CalibrateResult, recording: str | Path, output: Path | None) -> str:
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
     lines = [f"recording {recording}: {result.rows:,} rows in {result.seconds:.2f} s ({rate / 1000:,.0f}k rows/s)"]

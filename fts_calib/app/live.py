@@ -1,12 +1,15 @@
-"""The ``live`` command: calibrate from live UDP feeds of joints and strains (the live protocol of DESIGN.md)."""
+"""The ``live`` command: calibrate from live UDP feeds of joints and strains (the live protocol of DESIGN.md), or a UR arm through RTDE."""
 
 from __future__ import annotations
 
+import math
 import sys
+import time
 from pathlib import Path
 
-from ..core.exceptions import FtsCalibError, InsufficientExcitation, PoorFit
+from ..core.exceptions import ConfigError, FtsCalibError, InsufficientExcitation, PoorFit, UnknownToolConfiguration
 from ..core.paths import check_outputs
+from ..feeds.rtde import RtdePoller, connect_ur
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import UdpReceiver
 from ..model.calibration import save_calibration
@@ -34,6 +37,9 @@ def run(
     accept_poor_fit: bool = False,
     quiet: bool = False,
     sensor: str | Path = "sensor",
+    ur: str | None = None,
+    ur_wrench: bool = False,
+    configuration: str | None = None,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
@@ -55,6 +61,12 @@ def run(
         quiet: No status line.
         sensor: Sensor configuration (shipped name or YAML path): its channel layout; strain
             datagrams of another length are counted and skipped.
+        ur: Host of a UR controller whose joints are read through RTDE (``ur_rtde``, the
+            ``ur`` extra) instead of joint datagrams; None for none.
+        ur_wrench: With ``ur``: the channels are the built-in sensor's raw wrench (a
+            ``wrench-6`` sensor file), not strain datagrams.
+        configuration: The tool configuration mounted from the start (tool datagrams may
+            change it); None: wait for a tool datagram.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
@@ -68,6 +80,13 @@ def run(
     check_start(checkpoint, resume, restart)
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     layout = load_sensor(sensor).layout
+    if configuration is not None and configuration not in loaded.names:
+        raise UnknownToolConfiguration(configuration, loaded.names)
+    if ur_wrench and (ur is None or layout.n_channels != 6):
+        why = "give the arm with --ur HOST" if ur is None else f"the sensor file '{sensor}' has {layout.n_channels} channels"
+        raise ConfigError(
+            "ur_wrench", True, "", message=f"--ur-wrench reads the built-in sensor's 6-axis wrench: {why} (e.g. --sensor factory_sensor)"
+        )
     source, record = f"live udp://{host}:{port}", live_source(host, port)
     if resume:
         session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout)
@@ -77,6 +96,15 @@ def run(
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
     sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names, n_channels=layout.n_channels)
+    if configuration is not None:
+        sync.add_tool(-math.inf, configuration)
+    rtde = None
+    if ur is not None:
+        rtde = RtdePoller(connect_ur(ur), kin.joint_names, ur_wrench, host_clock=None if ur_wrench else time.time)
+        what = (
+            "joints and the built-in sensor's wrench" if ur_wrench else "joints (strains: datagrams stamped with this host's time.time())"
+        )
+        print(f"reading the {what} of the UR at {ur} through RTDE", flush=True)
     with using_udp(host, port):
         receiver = UdpReceiver(host, port)
     print(
@@ -85,11 +113,13 @@ def run(
         flush=True,
     )
     try:
-        runner = LiveRunner(session, receiver, sync, status=None if quiet else sys.stderr)
+        runner = LiveRunner(session, receiver, sync, status=None if quiet else sys.stderr, rtde=rtde)
         stats = runner.run(idle_timeout_s=idle_timeout_s)
     finally:
         receiver.close()
     print(format_stats(stats, sync))
+    if rtde is not None:
+        print(format_rtde(rtde))
     print("\n".join(format_counts(session)))
     try:
         calibration = session.solve(accept_poor_fit=accept_poor_fit)
@@ -109,3 +139,17 @@ def run(
         raise FtsCalibError("internal error: the calibration has no fit quality")
     print(f"rank {quality.rank} of 7, condition number {quality.condition_number:.1f}; wrote {path}")
     return ExitCode.OK
+
+
+def format_rtde(rtde: RtdePoller) -> str:
+    """What was read through RTDE, on one line: samples, clock offset, losses, and why it stopped."""
+    text = f"RTDE: {rtde.samples:,} controller samples"
+    if rtde.host_clock is not None and rtde.samples:
+        text += f", controller clock + {rtde.offset_s:.6f} s = this host's clock"
+    if rtde.dropped:
+        text += f", {rtde.dropped:,} dropped (read faster than paired)"
+    if rtde.ignored:
+        text += f", {rtde.ignored:,} datagrams ignored (RTDE gives their data)"
+    if rtde.error is not None:
+        text += f"; the connection was lost: {rtde.error}"
+    return text

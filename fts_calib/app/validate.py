@@ -11,6 +11,8 @@ import numpy as np
 
 from ..core.resources import resolve
 from ..core.text import table
+from ..feeds.bag_log import BagTopics
+from ..feeds.source import recording_paths
 from ..model.calibration import load_calibration
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
@@ -36,7 +38,7 @@ def format_errors(label: str, errors: AxisErrors) -> str:
 
 def run(
     *,
-    recording: str | Path,
+    recording: str | Path | Sequence[str | Path],
     calibrations: Sequence[str | Path],
     robot: str | Path,
     tool: str | Path = "paper_tool",
@@ -46,11 +48,15 @@ def run(
     dynamic: bool = True,
     plot_path: str | Path | None = None,
     max_error_percent: float | None = None,
+    joints_topic: str = BagTopics.joints,
+    channels_topic: str = BagTopics.channels,
+    configuration_topic: str = BagTopics.configuration,
 ) -> int:
     """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
 
     Args:
-        recording: Recording (CSV or CSV.gz) made with ``tool``.
+        recording: Recording (CSV or CSV.gz) made with ``tool``, or ROS 2 bags (each
+            optionally ``BAG:CONFIGURATION``).
         calibrations: One calibration file, or two to compare them with each other too.
         robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
         tool: Tool file of the tool mounted during the recording.
@@ -60,6 +66,9 @@ def run(
         dynamic: The moving tool's wrench, Newton-Euler (False: its weight alone).
         plot_path: PNG of Fx and its error to write (the paper's Figs 9-10), or None.
         max_error_percent: Largest error allowed, in [%] of full scale; None for no check.
+        joints_topic: A bag's sensor_msgs/msg/JointState topic.
+        channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
+        configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
 
     Returns:
         0, or 1 when an error exceeds ``max_error_percent`` or when no sample could be
@@ -75,7 +84,9 @@ def run(
     if full_scale_moment is not None:
         full_scale[3:] = full_scale_moment
     full_scale = dataclasses.replace(spec, full_scale=full_scale).full_scale  # the sensor spec refuses <= 0, NaN
-    result = validate_recording(recording, kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic)
+    topics = BagTopics(joints_topic, channels_topic, configuration_topic)
+    result = validate_recording(recording_paths(recording), kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic, topics=topics)
+    recording = " ".join(map(str, recording_paths(recording)))
     print(
         f"validation of {len(calibrations)} calibration(s) over {result.samples:,} samples of {recording} with "
         f"'{loaded.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "

@@ -17,7 +17,7 @@ from __future__ import annotations
 import itertools
 import socket
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,8 +25,9 @@ import numpy as np
 
 from ..core import validation
 from ..core.exceptions import ConfigError
+from .bag_log import BagTopics
 from .protocol import End, Joints, Message, Strain, ToolChange, encode
-from .recording import RecordingReader
+from .source import open_recording
 
 _TOOL_REPEAT_S = 1.0  # [s] of recording time between tool announcements
 
@@ -63,10 +64,19 @@ class ReplayOptions:
             object.__setattr__(self, name, value)
 
 
-def messages(path: str | Path, options: ReplayOptions) -> Iterator[tuple[float, Message]]:
-    """(recorded time [s], message) pairs of a recording, before loss and reordering; ``seq`` 0, 1, 2, ..."""
+def messages(
+    path: str | Path | Sequence[str | Path], options: ReplayOptions, topics: BagTopics | None = None
+) -> Iterator[tuple[float, Message]]:
+    """(recorded time [s], message) pairs of a recording, before loss and reordering; ``seq`` 0, 1, 2, ...
+
+    Args:
+        path: A CSV recording, or ROS 2 bags (:mod:`fts_calib.feeds.source`): a bag's
+            channel samples with the joints synchronised at their times, as rows.
+        options: How to replay.
+        topics: Topic names of a bag; the defaults when None.
+    """
     seq = itertools.count()
-    with RecordingReader(path, None, None) as reader:
+    with open_recording(path, None, None, topics=topics) as reader:
         names = reader.joint_names
         current, next_joint, next_tool, last = None, -np.inf, -np.inf, 0.0
         period = 0.0 if options.joint_rate_hz is None else 1.0 / options.joint_rate_hz
@@ -104,8 +114,10 @@ class ReplayStats:
     seconds: float
 
 
-def replay(path: str | Path, host: str, port: int, options: ReplayOptions) -> ReplayStats:
-    """Send a recording to ``host:port`` (see the module docstring)."""
+def replay(
+    path: str | Path | Sequence[str | Path], host: str, port: int, options: ReplayOptions, topics: BagTopics | None = None
+) -> ReplayStats:
+    """Send a recording (a CSV or ROS 2 bags, as :func:`messages`) to ``host:port`` (see the module docstring)."""
     rng = np.random.default_rng(options.seed)
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     target = (host, port)
@@ -114,7 +126,7 @@ def replay(path: str | Path, host: str, port: int, options: ReplayOptions) -> Re
     sent = dropped = reordered = 0
     delayed: list[list] = []  # [messages still to pass, datagram]
     try:
-        for t, message in messages(path, options):
+        for t, message in messages(path, options, topics):
             if t0 is None:
                 t0 = t
             if options.speed > 0:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -19,7 +20,8 @@ import numpy as np
 
 from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..core.paths import check_distinct
-from ..feeds.recording import RecordingReader
+from ..feeds.bag_log import BagTopics
+from ..feeds.source import open_recording, recording_paths
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..robot.kinematics import Kinematics
@@ -64,7 +66,7 @@ class CalibrateResult:
 
 
 def calibrate_recording(
-    path: str | Path,
+    path: str | Path | Sequence[str | Path],
     kin: Kinematics,
     tool: Tool,
     settings: PipelineConfig | None = None,
@@ -76,12 +78,14 @@ def calibrate_recording(
     restart: bool = False,
     on_kept=None,
     accept_poor_fit: bool = False,
+    topics: BagTopics | None = None,
     layout: ChannelLayout = MALTESE_CROSS_8,
 ) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
     Args:
-        path: Recording (CSV or CSV.gz).
+        path: Recording (CSV or CSV.gz), or ROS 2 bags (``.mcap``, ``.db3``, bag folders),
+            each optionally ``BAG:CONFIGURATION`` (:mod:`fts_calib.feeds.source`).
         kin: Kinematics of the robot that made it.
         tool: The calibration tool.
         settings: Pipeline settings; the defaults when None.
@@ -90,29 +94,36 @@ def calibrate_recording(
         resume: Continue from ``checkpoint``; it must be of this recording (the same first
             MiB, at least as long).
         joints_in_degrees: The joint columns are in degrees (converted to rad).
-        progress: A progress bar over the file's bytes, or None.
+        progress: A progress bar over the file's bytes, or None (its ``total`` is set here).
         accept_poor_fit: Keep a calibration whose fit check is poor (its quality records the
             verdict) instead of refusing it.
         on_kept: Passed to the session (see :class:`fts_calib.pipeline.session.CalibrationSession`).
         restart: Start afresh over an existing ``checkpoint`` (overwriting it).
+        topics: Topic names of a bag; the defaults when None.
         layout: The sensor's channel layout; a recording of another number of channels is
             refused (ShapeError naming both).
 
     Raises:
         RecordingError: The file cannot be read at all (missing, no data row, a missing
-            column, a truncated .csv.gz), or its clock is not one in s for its joints
+            column, a truncated .csv.gz; for a bag, a missing topic or joint: BagError), or its clock is not one in s for its joints
             (:mod:`fts_calib.pipeline.clock`): refused before anything is solved or written.
         ConfigError: ``checkpoint`` exists and neither ``resume`` nor ``restart`` is given,
             both are, ``resume`` without a checkpoint, or ``checkpoint`` is the recording.
         FileFormatError: ``resume`` with the checkpoint of another robot, tool or recording.
     """
     start = time.perf_counter()
-    source = str(path)
+    paths = recording_paths(path)
+    source = " ".join(map(str, paths))
     check_start(checkpoint, resume, restart)
-    check_distinct({"--checkpoint": checkpoint}, {"the recording": path})
+    check_distinct({"--checkpoint": checkpoint}, {("the recording" if k == 0 else f"recording {k + 1}"): p for k, p in enumerate(paths)})
     settings = settings or PipelineConfig()
-    with RecordingReader(path, kin.joint_names, tool.names, max_abs_channel=settings.checks.max_abs_channel) as reader:
-        record = None if checkpoint is None else recording_source(path)
+    live = settings.live
+    with open_recording(
+        paths, kin.joint_names, tool.names, settings.checks.max_abs_channel, topics, kin.continuous, live.max_gap_s, live.latency_s
+    ) as reader:
+        if progress is not None:
+            progress.total = max(float(reader.size), 1.0)
+        record = None if checkpoint is None else recording_source(paths)
         if resume and checkpoint is not None and Path(checkpoint).exists():
             session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout)
         else:
@@ -120,7 +131,7 @@ def calibrate_recording(
                 kin, tool, settings, checkpoint, use_filter, source, on_kept=on_kept, source_record=record, layout=layout
             )
         chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if joints_in_degrees else c for c in reader)
-        for chunk in clock_checked(path, chunks, kin, settings.filter if use_filter else None, joints_in_degrees):
+        for chunk in clock_checked(reader.path, chunks, kin, settings.filter if use_filter else None, joints_in_degrees):
             session.add_samples(chunk)
             if progress is not None:
                 progress.update(reader.bytes_read, reader.rows_read)

@@ -18,12 +18,14 @@ from __future__ import annotations
 import hashlib
 import json
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from .._version import __version__
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning
 from ..core.fileio import atomic_write_text
+from ..feeds.bag_log import parse_bag_argument
 from ..model.calibration import now_iso
 from ..robot.tool import Tool
 
@@ -33,25 +35,34 @@ CHECKPOINT_FORMAT = "fts-calib-checkpoint/1"
 HASHED_BYTES = 1 << 20
 
 
-def recording_source(path: str | Path, hashed_bytes: int = HASHED_BYTES) -> dict[str, Any]:
+def recording_source(path: str | Path | Sequence[str | Path], hashed_bytes: int = HASHED_BYTES) -> dict[str, Any]:
     """What a checkpoint records of a recording: path, size in bytes, SHA-256 of its first bytes.
 
     Args:
-        path: The recording (as stored: a ``.csv.gz`` is hashed compressed).
+        path: The recording (as stored: a ``.csv.gz`` is hashed compressed), or ROS 2 bags
+            (``BAG`` or ``BAG:CONFIGURATION``; a bag folder's files are taken in name order):
+            their files count as one stream, in the order given.
         hashed_bytes: How many of its first bytes to hash.
 
     Raises:
         OSError: The file cannot be read.
     """
-    path = Path(path)
-    with path.open("rb") as handle:
-        head = handle.read(hashed_bytes)
+    given = [path] if isinstance(path, (str, Path)) else list(path)
+    paths = [Path(p) if Path(p).exists() else parse_bag_argument(p).path for p in given]
+    files = [f for p in paths for f in (sorted(x for x in p.iterdir() if x.is_file()) if p.is_dir() else [p])]
+    digest, hashed = hashlib.sha256(), 0
+    for file in files:
+        with file.open("rb") as handle:
+            head = handle.read(hashed_bytes - hashed)
+        digest.update(head)
+        hashed += len(head)
+    resolved = [str(p.resolve()) for p in paths]
     return {
         "kind": "recording",
-        "path": str(path.resolve()),
-        "size": path.stat().st_size,
-        "hashed_bytes": len(head),
-        "sha256": hashlib.sha256(head).hexdigest(),
+        "path": resolved[0] if len(resolved) == 1 else resolved,
+        "size": sum(f.stat().st_size for f in files),
+        "hashed_bytes": hashed,
+        "sha256": digest.hexdigest(),
     }
 
 

@@ -20,6 +20,7 @@ import time
 from typing import TextIO
 
 from ..core.exceptions import FtsCalibError
+from ..feeds.rtde import RtdePoller
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from .session import CalibrationSession
@@ -39,6 +40,8 @@ class LiveRunner:
             ``configurations`` (so that its indices are the tool's).
         status: Where to print the status line (None: no status).
         status_interval_s: Time between status lines [s].
+        rtde: A UR controller's RTDE poller (:mod:`fts_calib.feeds.rtde`) that gives the joints
+            (and the built-in sensor's wrench); the datagrams then add what it does not give.
     """
 
     def __init__(
@@ -48,6 +51,7 @@ class LiveRunner:
         sync: Synchronizer,
         status: TextIO | None = None,
         status_interval_s: float = 0.5,
+        rtde: RtdePoller | None = None,
     ):
         if sync.configurations != session.tool.names:
             raise FtsCalibError(
@@ -59,6 +63,7 @@ class LiveRunner:
         self.sync = sync
         self.status = status
         self.status_interval_s = status_interval_s
+        self.rtde = rtde
         self.stats = LiveStats()
         self._stopping = False
         self._rates: collections.deque[tuple[float, int, int]] = collections.deque(maxlen=20)  # (wall time, joints, strain) for the rates
@@ -69,9 +74,21 @@ class LiveRunner:
         self._stopping = True
 
     def _handle(self, data: bytes, sender: object = None) -> None:
-        feed_datagram(data, self.sync, self.stats, sender)
+        message = feed_datagram(data, None if self.rtde is not None else self.sync, self.stats, sender)
+        if self.rtde is not None and message is not None:
+            self.rtde.route(message, self.sync)
+
+    def _drain_rtde(self) -> int:
+        """The RTDE samples read since the last call, into the synchronizer (counted as joint and strain messages)."""
+        if self.rtde is None:
+            return 0
+        count = self.rtde.drain(self.sync)
+        self.stats.joints += count
+        self.stats.strain += count if self.rtde.wrench else 0
+        return count
 
     def _feed(self, final: bool = False) -> None:
+        self._drain_rtde()
         batch = self.sync.pop(final)
         if len(batch.time):
             self.session.add_samples(batch)
@@ -117,10 +134,16 @@ class LiveRunner:
         previous = {}
         if threading.current_thread() is threading.main_thread():
             previous = {sig: signal.signal(sig, self.stop) for sig in _STOP_SIGNALS}
+        if self.rtde is not None:
+            self.rtde.start()
         try:
             while not self._stopping and not self.stats.ended:
                 datagrams = self.receiver.drain_from()
                 now = time.monotonic()
+                if self._drain_rtde():
+                    last_data = now
+                if self.rtde is not None and self.rtde.error is not None:
+                    break  # the controller's connection is lost: what was read is kept
                 if datagrams:
                     last_data = now
                     for data, sender in datagrams:
@@ -144,6 +167,8 @@ class LiveRunner:
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
+            if self.rtde is not None:
+                self.rtde.stop()
         for data, sender in self.receiver.drain_from():  # whatever arrived with the end
             self._handle(data, sender)
         self._feed(final=True)

@@ -111,19 +111,38 @@ class PlanResult:
     checked_samples: int = 0
 
 
+def plan_base(
+    kin: Kinematics, checker: CollisionChecker, pattern: SweepPattern, min_clearance: float = MIN_CLEARANCE
+) -> tuple[HomeReport, RangeReport]:
+    """The base pose and the sweep ranges: the robot definition's home, checked (:func:`check_home`), or one chosen (:func:`choose_home`).
+
+    Raises:
+        TrajectoryError: A home outside the limits or a poor one, or no clear range.
+    """
+    given = kin.robot.home is not None
+    reading = base_reading(kin)
+    for name, value in (kin.robot.home or {}).items():
+        reading[kin.joint_names.index(name)] = value
+    if given:
+        check_home(kin, home_report(kin, reading, "robot definition"))
+    ranges = wrist_ranges(kin, checker, reading, sweep_ranges(kin, reading, pattern.margin), min_clearance)
+    report = home_report(kin, reading, "robot definition") if given else choose_home(kin, checker, ranges.ranges, pattern, min_clearance)
+    return report, ranges
+
+
 def plan_calibration(
     kin: Kinematics,
     checker: CollisionChecker,
     pattern: SweepPattern,
     rate: float,
     min_clearance: float = MIN_CLEARANCE,
-    home: HomeReport | None = None,
+    base: tuple[HomeReport, RangeReport] | None = None,
 ) -> PlanResult:
     """Plan the sweeps and verify them: limits on every sample, clearance along the motion.
 
-    The home is the robot definition's, checked (:func:`check_home`), else ``home`` when
-    given (one already chosen, e.g. while sizing a plan), else chosen (:func:`choose_home`).
-    The second sweep joint's stops cover ``pattern.span`` of its range.
+    The base pose and ranges are ``base`` when given (already found, e.g. while sizing a
+    plan), else :func:`plan_base`'s. The second sweep joint's stops cover ``pattern.span``
+    of its range.
 
     Raises:
         TrajectoryError: Invalid input (rate, pattern, home outside limits, poor home) or
@@ -132,17 +151,7 @@ def plan_calibration(
     """
     if not (math.isfinite(rate) and rate > 0):
         raise TrajectoryError(f"rate={rate} Hz but expected a finite rate > 0", "invalid rate")
-    given = kin.robot.home is not None
-    reading = base_reading(kin)
-    for name, value in (kin.robot.home or {}).items():
-        reading[kin.joint_names.index(name)] = value
-    if given:
-        check_home(kin, home_report(kin, reading, "robot definition"))
-    ranges = wrist_ranges(kin, checker, reading, sweep_ranges(kin, reading, pattern.margin), min_clearance)
-    if given:
-        report = home_report(kin, reading, "robot definition")
-    else:
-        report = home if home is not None else choose_home(kin, checker, ranges.ranges, pattern, min_clearance)
+    report, ranges = base if base is not None else plan_base(kin, checker, pattern, min_clearance)
     plan = plan_sweeps(kin, report.home, spanned(ranges.ranges, pattern.span), pattern, rate)
     limits = check_limits(plan)
     samples = collision_samples(plan)

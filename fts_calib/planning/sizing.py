@@ -27,7 +27,7 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .accuracy import SYSTEMATIC, plan_budget, predicted_still
 from .motion import plan_sweeps, segment_durations
-from .planner import PlanResult, plan_calibration
+from .planner import PlanResult, plan_base, plan_calibration
 from .sweeps import MIN_CLEARANCE, SweepPattern, raster, spanned
 
 #: The rasters searched: levels, stops, dwell [s] and span, every combination.
@@ -104,8 +104,8 @@ def size_plan(
     if not target_percent > 0:
         raise TrajectoryError(f"target error {target_percent} % of full scale but expected a value > 0", "invalid target")
     C_bar, D, sigma_w, full_scale = nominal
-    probe = plan_calibration(kin, checker, SweepPattern(2, 2, DWELLS_S[0], margin), _SCREEN_RATE_HZ, min_clearance)
-    home, ranges = probe.home, probe.ranges.ranges
+    base = plan_base(kin, checker, SweepPattern(2, 2, DWELLS_S[0], margin), min_clearance)
+    home, ranges = base[0], base[1].ranges
     durations = {}
     for levels, stops, span in itertools.product(LEVELS, STOPS, SPANS):
         pattern = SweepPattern(levels, stops, 0.0, margin, span)
@@ -135,7 +135,7 @@ def size_plan(
                 )
         if budget.largest_percent > target_percent:
             continue
-        result = plan_calibration(kin, checker, pattern, rate, min_clearance, home=home)
+        result = plan_calibration(kin, checker, pattern, rate, min_clearance, base=base)
         if not result.problems:
             return result, SizedPlan(target_percent, pattern, budget, tried, floor.largest_percent if floor else float("nan"))
         finals += 1

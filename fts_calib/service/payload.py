@@ -32,7 +32,7 @@ import numpy as np
 from ..core.arrays import as_samples, frozen
 from ..core.exceptions import PayloadError, ShapeError
 from ..feeds.batch import SampleBatch
-from ..feeds.recording import RecordingReader
+from ..feeds.source import open_recording
 from ..model.calibration import Calibration
 from ..pipeline.checks import SampleChecks
 from ..pipeline.qsfilter import QuasiStaticFilter
@@ -270,7 +270,7 @@ def identify_payload_from_recording(
     frame through the kinematics (the robot model's gravity).
 
     Args:
-        path: Recording (CSV or CSV.gz); its ``tool`` column is not used.
+        path: Recording (CSV or CSV.gz, or a ROS 2 bag: :mod:`fts_calib.feeds.source`); its configurations are not used.
         kin: Kinematics of the robot.
         calibration: The sensor's calibration.
         settings: Filter thresholds; the defaults when None.
@@ -281,7 +281,7 @@ def identify_payload_from_recording(
         RecordingError: The recording cannot be read.
         PayloadError: No usable row, or orientations too few or too close.
     """
-    with RecordingReader(path, kin.joint_names, None) as reader:
+    with open_recording(path, kin.joint_names, None) as reader:
         chunks = list(reader)
     if not chunks:
         raise PayloadError(f"{path}: no usable row")

@@ -22,7 +22,7 @@ from ..core import validation
 from ..core.exceptions import ConfigError, InsufficientExcitation
 from ..feeds.batch import SampleBatch
 from ..feeds.protocol import Strain
-from ..feeds.recording import RecordingReader
+from ..feeds.source import open_recording
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from ..model.calibration import Calibration
@@ -97,7 +97,7 @@ def tare_recording(
 
     Args:
         calibration: The calibration to update.
-        path: Recording with the sensor still.
+        path: Recording (CSV, or a ROS 2 bag: :mod:`fts_calib.feeds.source`) with the sensor still.
         kin: Kinematics (needed with a tool; with nothing mounted the joints are not used).
         tool: The mounted tool, or None for nothing mounted.
         configuration: The mounted configuration of ``tool``.
@@ -109,7 +109,7 @@ def tare_recording(
     """
     settings = settings or PipelineConfig()
     joint_names = None if kin is None else kin.joint_names
-    with RecordingReader(path, joint_names, None) as reader:
+    with open_recording(path, joint_names, None) as reader:
         chunks = list(reader)
     seen = reader.rows_read
     if not chunks:

@@ -25,7 +25,8 @@ import numpy as np
 
 from ..core.arrays import frozen
 from ..core.exceptions import ConfigError
-from ..feeds.recording import RecordingReader
+from ..feeds.bag_log import BagTopics
+from ..feeds.source import open_recording
 from ..model.calibration import Calibration
 from ..model.channels import check_channels
 from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, forward_in_time, valid_values
@@ -156,18 +157,20 @@ def expected_wrench(
 
 
 def validate_recording(
-    path: str | Path,
+    path: str | Path | Sequence[str | Path],
     kin: Kinematics,
     tool: Tool,
     calibrations: Sequence[Calibration],
     full_scale: np.ndarray,
     dynamic: bool = True,
     max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL,
+    topics: BagTopics | None = None,
 ) -> ValidationResult:
     """Compare measured and expected wrenches over a recording (see the module docstring).
 
     Args:
-        path: Recording (CSV or CSV.gz) made with ``tool``.
+        path: Recording (CSV or CSV.gz) made with ``tool``, or ROS 2 bags (each optionally
+            ``BAG:CONFIGURATION``, :mod:`fts_calib.feeds.source`).
         kin: Kinematics of the robot that made it.
         tool: The tool mounted during the recording.
         calibrations: One or two calibrations.
@@ -175,6 +178,7 @@ def validate_recording(
         dynamic: Include the moving tool's dynamics in the expected wrench.
         max_abs_channel: Largest plausible magnitude of a channel, in raw units: a sample
             beyond it is skipped as a bad sample (``checks.max_abs_channel``).
+        topics: Topic names of a bag; the defaults when None.
 
     Raises:
         RecordingError: The recording cannot be read (missing, empty, a missing column).
@@ -217,11 +221,11 @@ def validate_recording(
         parts = [p for p in parts if p is not None]
         return tuple(np.concatenate(columns) for columns in zip(*parts, strict=True))
 
-    with RecordingReader(path, kin.joint_names, tool.names, max_abs_channel=max_abs_channel) as reader:
+    with open_recording(path, kin.joint_names, tool.names, max_abs_channel, topics, kin.continuous) as reader:
         for chunk in reader:
             t, q, s, k = chunk.time, chunk.joints, chunk.channels, chunk.configuration
             for cal in calibrations:  # each calibration reads the channels of its own layout
-                check_channels(cal.layout, s.shape[1], str(path))
+                check_channels(cal.layout, s.shape[1], str(reader.path))
             finite, ok = valid_values(t, q, s, max_abs_channel)
             skip(NON_FINITE, int((~finite).sum()))
             skip(OUT_OF_RANGE, int((finite & ~ok).sum()))

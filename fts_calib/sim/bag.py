@@ -119,7 +119,7 @@ class BagWriter:
         self.close()
 
 
-def recording_to_bag(recording: str | Path, path: str | Path, storage: str = "mcap") -> Path:
+def recording_to_bag(recording: str | Path, path: str | Path, storage: str = "mcap", channels_type: str = FLOAT64_ARRAY) -> Path:
     """Write a CSV recording as a bag: one joint state and one channel message per row, at its time.
 
     The tool configuration is announced on the configuration topic whenever it changes
@@ -129,11 +129,13 @@ def recording_to_bag(recording: str | Path, path: str | Path, storage: str = "mc
         recording: The CSV recording (.csv or .csv.gz).
         path: The bag folder to create.
         storage: ``"mcap"`` or ``"sqlite3"``.
+        channels_type: ``std_msgs/msg/Float64MultiArray``, or ``geometry_msgs/msg/WrenchStamped``
+            for a recording of 6 channels (a wrench).
 
     Returns:
         The bag folder.
     """
-    with open_recording(recording, None, None) as reader, BagWriter(path, storage) as writer:
+    with open_recording(recording, None, None) as reader, BagWriter(path, storage, channels_type) as writer:
         current = None
         for batch in reader:
             names, tools = reader.joint_names, reader.tool_names

@@ -1,0 +1,47 @@
+"""Command-line arguments of the feeds: a recording or ROS 2 bags, and a UR arm through RTDE.
+
+Used by :mod:`fts_calib.app.arguments` for ``calibrate``, ``validate``, ``replay`` (the
+recording and a bag's topic names) and ``live`` (``--ur``); each destination is a parameter
+of the command's ``run``.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ..feeds.bag_log import BagTopics
+
+#: Help text of the recording argument of calibrate, validate and replay.
+RECORDING_HELP = (
+    "recording CSV (or .csv.gz), or ROS 2 bags: RUN.mcap, RUN.db3 or a bag folder; "
+    "one bag per tool configuration as BAG:CONFIGURATION (e.g. a.mcap:A b.mcap:B)"
+)
+
+
+def add_recording(parser: argparse.ArgumentParser) -> None:
+    """The recording argument (a CSV, or ROS 2 bags) and the topic names of a bag."""
+    parser.add_argument("recording", nargs="+", metavar="RECORDING", help=RECORDING_HELP)
+    default = BagTopics()
+    bag = parser.add_argument_group("ROS 2 bags (topic names; DESIGN.md 'Robot log')")
+    bag.add_argument("--joints-topic", default=default.joints, help=f"sensor_msgs/msg/JointState topic (default {default.joints})")
+    bag.add_argument(
+        "--channels-topic",
+        default=default.channels,
+        help=f"std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic (default {default.channels})",
+    )
+    bag.add_argument(
+        "--configuration-topic",
+        default=default.configuration,
+        help=f"std_msgs/msg/String topic of the tool configuration (default {default.configuration})",
+    )
+
+
+def add_ur(parser: argparse.ArgumentParser) -> None:
+    """--ur HOST and --ur-wrench: a UR arm's joints (and built-in sensor) through RTDE (live)."""
+    ur = parser.add_argument_group("UR arms through RTDE (pip install 'fts-calib[ur]')")
+    ur.add_argument("--ur", metavar="HOST", help="read the joints of the UR controller at HOST through RTDE instead of joint datagrams")
+    ur.add_argument(
+        "--ur-wrench",
+        action="store_true",
+        help="with --ur: the channels are the built-in sensor's raw wrench (needs a wrench-6 --sensor, e.g. factory_sensor)",
+    )

@@ -1,0 +1,184 @@
+"""UR arms through RTDE, tested with a fake receive interface (no network, no ur_rtde)."""
+
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from fts_calib import ConfigError
+from fts_calib.feeds.protocol import Joints, Strain, ToolChange
+from fts_calib.feeds.rtde import RtdePoller, connect_ur
+from fts_calib.feeds.sync import Synchronizer
+
+JOINTS = [f"j{k}" for k in range(1, 7)]
+PERIOD_S = 0.002  # [s] e-Series controller cycle (500 Hz)
+ATOL_JOINT = 1e-12  # [rad] linear motion, interpolated linearly: exact to rounding
+
+
+class FakeUR:
+    """The three methods of rtde_receive.RTDEReceiveInterface, replaying given controller samples.
+
+    A sample stays the latest for ``reads`` calls of getTimestamp (the poller reads faster
+    than the controller publishes); after the last one the controller falls silent.
+    """
+
+    def __init__(self, time, q, wrench, reads=3):
+        self.time, self.q, self.wrench, self.reads = np.asarray(time), np.asarray(q), np.asarray(wrench), reads
+        self.calls = 0
+
+    @property
+    def _index(self):
+        return min(max(self.calls - 1, 0) // self.reads, len(self.time) - 1)
+
+    def getTimestamp(self):  # noqa: N802 (ur_rtde's names)
+        self.calls += 1
+        return float(self.time[self._index])
+
+    def getActualQ(self):  # noqa: N802
+        return list(self.q[self._index])
+
+    def getFtRawWrench(self):  # noqa: N802
+        return list(self.wrench[self._index])
+
+
+def _linear_run(n, t0=1234.5):
+    """Controller samples: every joint moving at its own constant speed, a wrench counting up."""
+    time = t0 + PERIOD_S * np.arange(n)
+    speed = np.linspace(-0.3, 0.4, 6)  # [rad/s]
+    q = (time - t0)[:, None] * speed + np.linspace(0.1, 0.6, 6)
+    wrench = np.arange(n)[:, None] + np.arange(6) / 10
+    return time, q, wrench, speed
+
+
+def _poll_all(poller, fake):
+    while fake.calls < fake.reads * len(fake.time) + 5:
+        poller.poll()
+
+
+def test_each_controller_sample_is_read_once_with_the_built_in_wrench():
+    time, q, wrench, _ = _linear_run(400)
+    fake = FakeUR(time, q, wrench, reads=3)
+    poller = RtdePoller(fake, JOINTS, wrench=True)
+    sync = Synchronizer(JOINTS, configurations=["A"])
+    sync.add_tool(-np.inf, "A")
+    _poll_all(poller, fake)
+    assert poller.samples == 400 and poller.drain(sync) == 400
+    batch = sync.pop(final=True)
+    np.testing.assert_array_equal(batch.time, time)  # the controller's clock, untouched
+    np.testing.assert_array_equal(batch.joints, q)
+    np.testing.assert_array_equal(batch.channels, wrench)
+    assert not sync.dropped and poller.offset_s == 0.0
+
+
+def test_joints_on_the_host_clock_for_strains_that_come_over_udp(rng):
+    """The offset is the smallest host - controller difference seen: delays only add to it."""
+    time, q, wrench, speed = _linear_run(500)
+    fake = FakeUR(time, q, wrench, reads=1)
+    delays = rng.uniform(0.0002, 0.003, 600)  # [s] network and scheduling delay of each read
+    offset = 10_000.0  # [s] host clock minus controller clock
+    reads = iter(range(600))
+    poller = RtdePoller(fake, JOINTS, wrench=False, host_clock=lambda: float(time[fake._index] + offset + delays[next(reads)]))
+    sync = Synchronizer(JOINTS, configurations=["A"])
+    sync.add_tool(-np.inf, "A")
+    _poll_all(poller, fake)
+    assert poller.offset_s == pytest.approx(offset + delays[:500].min(), abs=1e-9)
+    poller.drain(sync)
+    t_strain = offset + time[10] + np.linspace(0.0, 0.8, 50)  # strain datagrams stamped with the host's clock
+    for t in t_strain:
+        sync.add_strain(t, [0.0] * 8)
+    batch = sync.pop(final=True)
+    # the joint stamps are late by the smallest delay: P(min of 500 draws in [0.2, 3] ms > 0.3 ms) = (2.7 / 2.8)^500 = 1e-8
+    lag = poller.offset_s - offset
+    assert 0.0002 <= lag < 0.0003, lag
+    expected = (t_strain - lag - offset - time[0])[:, None] * speed + np.linspace(0.1, 0.6, 6)
+    np.testing.assert_allclose(batch.joints, expected, rtol=0, atol=1e-9)
+
+
+def test_datagrams_beside_rtde():
+    poller = RtdePoller(FakeUR(*_linear_run(3)[:3]), JOINTS, wrench=True)
+    sync = Synchronizer(JOINTS, configurations=["A", "B"])
+    _poll_all(poller, poller.receiver)
+    poller.drain(sync)
+    poller.route(Joints(0.0, dict.fromkeys(JOINTS, 0.0)), sync)
+    poller.route(Strain(0.0, (1.0,) * 6), sync)
+    assert poller.ignored == 2 and sync.joint_messages == 3 and sync.strain_messages == 3
+    poller.route(ToolChange(99.0, "B"), sync)  # stamped by another clock: effective from the latest sample
+    assert sync._tool_at(np.array([poller.latest_s]))[0] == "B"
+
+
+def test_without_ur_rtde_the_error_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "rtde_receive", None)  # import fails
+    with pytest.raises(ConfigError, match=r"pip install 'fts-calib\[ur\]'"):
+        connect_ur("192.168.1.10")
+
+
+def test_a_controller_that_does_not_answer(monkeypatch):
+    def refuse(host):
+        raise RuntimeError("One of the RTDE input registers are already in use!")
+
+    monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=refuse))
+    with pytest.raises(ConnectionError, match="UR controller at 10.0.0.7 .*already in use"):
+        connect_ur("10.0.0.7")
+
+
+def test_a_robot_that_is_not_a_six_joint_arm_is_refused():
+    with pytest.raises(ConfigError, match="six joints"):
+        RtdePoller(FakeUR(*_linear_run(2)[:3]), JOINTS[:5], wrench=False)
+
+
+@pytest.fixture(scope="module")
+def factory_runs(short_plan, seed):
+    """The short UR5 plan through the simulated factory-calibrated sensor: per configuration, (time, q, wrench)."""
+    from fts_calib.core.resources import resolve
+    from fts_calib.model.sensor_config import load_sensor_config
+    from fts_calib.planning.trajectory_io import TrajectoryFile
+    from fts_calib.robot.definition import load_robot
+    from fts_calib.robot.kinematics import Kinematics
+    from fts_calib.robot.tool import load_tool
+    from fts_calib.sim.recording import simulate_batches
+    from fts_calib.sim.sensor import simulated_sensor
+
+    path = resolve("factory_sensor", "configs")
+    sensor = simulated_sensor(load_sensor_config(path), path)
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    tool = load_tool(resolve("paper_tool", "configs"))
+    p = short_plan
+    trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
+    batches = list(simulate_batches(kin, tool, trajectories, sensor, np.random.default_rng(seed), start_time=5000.0))
+    runs = {}
+    for k, name in enumerate(tool.names):
+        rows = [b for b in batches if b.configuration[0] == k]
+        runs[name] = tuple(np.concatenate([getattr(b, field) for b in rows]) for field in ("time", "joints", "channels"))
+    return sensor, runs
+
+
+def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, monkeypatch, factory_runs, capsys):
+    """`live --ur HOST --ur-wrench --configuration X`, then --resume with the next: C_bar to within its standard errors."""
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+    from fts_calib.model.calibration import load_calibration
+
+    sensor, runs = factory_runs
+    out = tmp_path / "ur.yaml"
+    for k, (name, run) in enumerate(runs.items()):
+        fake = FakeUR(*run, reads=1)
+        monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host, fake=fake: fake))
+        options = ["--ur", "ur.invalid", "--ur-wrench", "--sensor", "factory_sensor", "--configuration", name]
+        timing = ["--listen", "127.0.0.1:0", "--idle-timeout", "0.3", "--quiet", *(["--resume"] if k else [])]
+        code = main(["live", "--robot", "ur5", *options, "-o", str(out), *timing])
+        text = capsys.readouterr().out
+        assert f"RTDE: {len(run[0]):,} controller samples" in text, text
+    assert code == ExitCode.OK, text
+    cal = load_calibration(out)
+    assert cal.quality.samples_seen == sum(len(run[0]) for run in runs.values())
+    z_C = np.abs(cal.C_bar - sensor.C_bar) / cal.quality.stderr_C_bar
+    z_D = np.abs(cal.D - sensor.D) / cal.quality.stderr_D
+    assert z_C.max() <= 5.0 and z_D.max() <= 5.0, (z_C.max(), z_D.max())  # 42 coefficients at 5 sigma: P < 3e-5
+
+
+def test_ur_wrench_needs_a_six_channel_sensor(tmp_path):
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+
+    assert main(["live", "--robot", "ur5", "--ur", "ur.invalid", "--ur-wrench", "-o", str(tmp_path / "c.yaml")]) == ExitCode.CONFIG
