@@ -128,8 +128,8 @@ def _sensor(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--sensor",
         default="sensor",
-        help="sensor configuration: its 'channels' layout (maltese-cross-8, wrench-6 or a 6 x n projection) "
-        "(default: sensor, the paper's 8 bridges; factory_sensor: a 6-axis wrench)",
+        help="sensor configuration: its 'channels' layout (maltese-cross-8, wrench-6 or a 6 x n projection), or an "
+        "ATI .cal file (P = its factory matrix) (default: sensor, the paper's 8 bridges; factory_sensor: a 6-axis wrench)",
     )
 
 
@@ -241,10 +241,15 @@ def _add_validate(commands) -> None:
         action="append",
         required=True,
         metavar="CALIBRATION",
-        help="calibration file (give two to compare them)",
+        help="calibration file: fts-calib YAML or an ATI .cal (give two to compare them)",
+    )
+    val.add_argument(
+        "--reference",
+        metavar="CALIBRATION",
+        help="a reference calibration compared too, e.g. the sensor's factory ATI .cal (the same as a second --calibration)",
     )
     _robot_and_tool(val, pipeline=False)
-    val.add_argument("--sensor", default="sensor", help="sensor configuration: full scale (default: sensor)")
+    val.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: its full scale (default: sensor)")
     val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
     val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")
     val.add_argument("--static", dest="dynamic", action="store_false", help="expect the tool's weight alone (no dynamics)")
@@ -308,12 +313,15 @@ def _add_export(commands) -> None:
         "export a calibration as a C header, JSON or ROS 2 parameters",
         "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
         "provenance; ros2: ros2_controllers' force_torque_sensor_broadcaster parameters (its offset, added to the "
-        "reading, and multiplier) with control_toolbox's GravityCompensationWrench filter for a payload.",
+        "reading, and multiplier) with control_toolbox's GravityCompensationWrench filter for a payload; ati: C as the "
+        "UserAxis rows of an ATI calibration file (N and N-m per channel unit).",
         "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h\n"
-        "  fts-calib export --format ros2 --calibration calibration.yaml --payload paper_tool --configuration A -o ft.yaml",
+        "  fts-calib export --format ros2 --calibration calibration.yaml --payload paper_tool --configuration A -o ft.yaml\n"
+        "  fts-calib export --format ati --calibration calibration.yaml --sensor FT12345.cal -o FT12345_insitu.cal",
     )
-    exp.add_argument("--format", dest="fmt", required=True, choices=["c-header", "json", "ros2"], help="what to write")
-    exp.add_argument("--calibration", required=True, help="calibration file")
+    exp.add_argument("--format", dest="fmt", required=True, choices=["c-header", "json", "ros2", "ati"], help="what to write")
+    exp.add_argument("--calibration", required=True, help="calibration file: fts-calib YAML or an ATI .cal")
+    exp.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: the full scale an ati file states as max")
     exp.add_argument("-o", "--output", required=True, help="file to write")
     exp.add_argument("--name", default="fts_calib", help="prefix of the C identifiers (default fts_calib)")
     exp.add_argument("--payload", help="tool file of the payload (ros2); its gravity is the one exported")

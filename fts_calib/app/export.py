@@ -6,10 +6,11 @@ from pathlib import Path
 
 from ..core.fileio import atomic_write_text
 from ..core.resources import resolve
-from ..model.calibration import load_calibration
 from ..robot.tool import STANDARD_GRAVITY, load_tool
+from ..service.ati import read_calibration
 from ..service.export import export
 from .exit_codes import ExitCode, writing
+from .setup import load_sensor
 
 
 def run(
@@ -22,6 +23,7 @@ def run(
     configuration: str | None = None,
     sensor_frame: str = "ft_sensor",
     world_frame: str = "world",
+    sensor: str | Path = "sensor",
 ) -> int:
     """Write an export of a calibration (``fts-calib export``).
 
@@ -30,7 +32,7 @@ def run(
             D, quality, provenance) or 'ros2' (force_torque_sensor_broadcaster's offset and
             multiplier, and control_toolbox's GravityCompensationWrench parameters for
             ``payload``: :mod:`fts_calib.service.ros2`).
-        calibration: Calibration file.
+        calibration: Calibration file (fts-calib YAML or an ATI ``.cal``).
         output: File to write.
         name: Prefix of the C identifiers.
         payload: Tool file of the payload (ros2): a shipped name or a YAML path; its gravity
@@ -38,6 +40,7 @@ def run(
         configuration: Configuration of the payload's tool file; the first when None.
         sensor_frame: TF frame of the sensor (ros2).
         world_frame: TF frame whose z axis points up (ros2).
+        sensor: Sensor configuration or ATI ``.cal`` file: its full scale (ati's ``max``).
 
     Returns:
         0.
@@ -45,13 +48,14 @@ def run(
     Raises:
         ConfigError: An unknown format, or ros2 without a payload.
     """
-    loaded = load_calibration(calibration)
+    loaded = read_calibration(calibration)
     configuration_of_payload, gravity = None, STANDARD_GRAVITY
     if payload is not None:
         tool = load_tool(resolve(payload, "configs"))
         configuration_of_payload = tool.configuration(configuration) if configuration else tool.configurations[0]
         gravity = tool.gravity
-    text = export(loaded, fmt, configuration_of_payload, gravity, name, sensor_frame, world_frame)
+    full_scale = load_sensor(sensor).full_scale if fmt == "ati" else None
+    text = export(loaded, fmt, configuration_of_payload, gravity, name, sensor_frame, world_frame, full_scale)
     with writing(output):
         path = atomic_write_text(output, text)
     print(f"wrote {path} ({fmt})")

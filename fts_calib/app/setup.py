@@ -11,6 +11,8 @@ from ..pipeline.settings import PipelineConfig, load_pipeline_config
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, load_tool
+from ..service.ati import SUFFIX as ATI_SUFFIX
+from ..service.ati import load_ati_calibration
 
 
 class Setup(NamedTuple):
@@ -33,11 +35,15 @@ def load_settings(pipeline: str | Path = "pipeline") -> PipelineConfig:
 
 
 def load_sensor(sensor: str | Path = "sensor") -> SensorSpec:
-    """The sensor configuration: a shipped name (``configs/NAME.yaml``) or a YAML path.
+    """The sensor configuration: a shipped name (``configs/NAME.yaml``), a YAML path, or an ATI ``.cal`` file.
 
     Its ``channels`` key is the channel layout the command expects of the data (the paper's
-    8 bridges for the shipped ``sensor``; ``factory_sensor`` is a 6-axis wrench).
+    8 bridges for the shipped ``sensor``; ``factory_sensor`` is a 6-axis wrench). An ATI
+    file gives the layout P = its factory matrix (n gauges in V) and its rated ranges as the
+    full scale (:mod:`fts_calib.service.ati`).
     """
+    if Path(sensor).suffix.lower() == ATI_SUFFIX:
+        return load_ati_calibration(sensor).sensor_spec()
     return load_sensor_config(resolve(sensor, "configs"))
 
 

@@ -9,16 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.resources import resolve
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import recording_paths
-from ..model.calibration import load_calibration
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
-from ..model.sensor_config import load_sensor_config
+from ..service.ati import read_calibration
 from ..service.validate import AxisErrors, validate_recording
 from .exit_codes import ExitCode, writing
-from .setup import load_setup
+from .setup import load_sensor, load_setup
 
 
 def format_errors(label: str, errors: AxisErrors) -> str:
@@ -40,6 +38,7 @@ def run(
     *,
     recording: str | Path | Sequence[str | Path],
     calibrations: Sequence[str | Path],
+    reference: str | Path | None = None,
     robot: str | Path,
     tool: str | Path = "paper_tool",
     sensor: str | Path = "sensor",
@@ -57,10 +56,12 @@ def run(
     Args:
         recording: Recording (CSV or CSV.gz) made with ``tool``, or ROS 2 bags (each
             optionally ``BAG:CONFIGURATION``).
-        calibrations: One calibration file, or two to compare them with each other too.
+        calibrations: One calibration file, or two to compare them with each other too
+            (fts-calib YAML or ATI ``.cal``, e.g. the factory calibration as a reference).
+        reference: A calibration appended to ``calibrations`` (e.g. the factory ATI file).
         robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
         tool: Tool file of the tool mounted during the recording.
-        sensor: Sensor configuration: its full scale.
+        sensor: Sensor configuration or ATI ``.cal``: its full scale.
         full_scale_force: Full scale of the forces, in [N]; the sensor file's when None.
         full_scale_moment: Full scale of the moments, in [N m]; the sensor file's when None.
         dynamic: The moving tool's wrench, Newton-Euler (False: its weight alone).
@@ -75,9 +76,9 @@ def run(
         compared (every row skipped: the errors would be zeros that mean nothing).
     """
     kin, loaded, _ = load_setup(robot, tool)
-    calibrations = list(calibrations)
-    loaded_calibrations = [load_calibration(p) for p in calibrations]
-    spec = load_sensor_config(resolve(sensor, "configs"))
+    calibrations = [*calibrations, *([reference] if reference is not None else [])]
+    loaded_calibrations = [read_calibration(p) for p in calibrations]
+    spec = load_sensor(sensor)
     full_scale = spec.full_scale.copy()
     if full_scale_force is not None:
         full_scale[:3] = full_scale_force

@@ -9,6 +9,7 @@
 - ``ros2``: the parameters of ros2_controllers' ``force_torque_sensor_broadcaster`` (its
   ``offset`` and ``multiplier``) with control_toolbox's gravity compensation filter for
   the payload the sensor carries (:mod:`fts_calib.service.ros2`).
+- ``ati``: C as the UserAxis rows of an ATI calibration file (:mod:`fts_calib.service.ati`).
 
 Angles and units as everywhere in fts-calib: N, N m, m; strains raw.
 """
@@ -22,10 +23,11 @@ from ..core.exceptions import ConfigError
 from ..core.fileio import to_plain
 from ..model.calibration import FORMAT, Calibration
 from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
+from .ati import ati_text
 from .ros2 import ros2_parameters
 
 #: The formats :func:`export` writes.
-FORMATS = ("c-header", "json", "ros2")
+FORMATS = ("c-header", "json", "ros2", "ati")
 
 
 def _identifier(name: str) -> str:
@@ -120,6 +122,7 @@ def export(
     name: str = "fts_calib",
     sensor_frame: str = "ft_sensor",
     world_frame: str = "world",
+    full_scale=None,
 ) -> str:
     """The text of an export in one of :data:`FORMATS`.
 
@@ -131,9 +134,10 @@ def export(
         name: Prefix of the C identifiers (c-header).
         sensor_frame: TF frame of the sensor (ros2).
         world_frame: TF frame whose z axis points up (ros2).
+        full_scale: The sensor's range per axis, [N, N, N, N m, N m, N m], shape (6,) (ati).
 
     Raises:
-        ConfigError: Unknown format, or ``ros2`` without a payload.
+        ConfigError: Unknown format, ``ros2`` without a payload or ``ati`` without a full scale.
     """
     if fmt == "c-header":
         return c_header(calibration, name)
@@ -144,4 +148,8 @@ def export(
             message = "the ros2 export describes the payload to compensate: give its tool file (--payload)"
             raise ConfigError("payload", None, "the payload's tool configuration", message=message)
         return ros2_parameters(calibration, payload, gravity, sensor_frame, world_frame)
+    if fmt == "ati":
+        if full_scale is None:
+            raise ConfigError("full_scale", None, "the sensor's range per axis (the UserAxis max): give its --sensor")
+        return ati_text(calibration, full_scale)
     raise ConfigError("format", fmt, f"one of {', '.join(FORMATS)}")
