@@ -253,3 +253,75 @@ def test_constant_offsets_in_the_simulated_run_stay_within_0_01_percent(short_pl
     assert calibration.offset_model["model"] == "constant", calibration.offset_model["candidates"]
     error = _validation_error(calibration, sensor, moved, np.random.default_rng(seed))
     assert np.all(error <= 0.01), f"validation error {error.round(4)} % FS"
+
+
+# -- the temperature channel through the feeds ----------------------------------------------
+
+
+def test_temperature_flows_through_udp_datagrams_and_the_synchronizer():
+    from fts_calib.core.exceptions import ProtocolError
+    from fts_calib.feeds.protocol import Strain, decode, encode
+    from fts_calib.feeds.sync import Synchronizer
+
+    message = decode(b'{"type": "strain", "t": 1.5, "strain": [1, 2, 3, 4, 5, 6], "temperature": 31.25}')
+    assert message == Strain(1.5, (1.0, 2.0, 3.0, 4.0, 5.0, 6.0), None, 31.25) and decode(encode(message)) == message
+    assert decode(b'{"type": "strain", "t": 1.5, "strain": [1]}').temperature is None
+    with pytest.raises(ProtocolError, match="'temperature' must be a finite number of °C, got 'warm'"):
+        decode(b'{"type": "strain", "t": 1.5, "strain": [1], "temperature": "warm"}')
+    sync = Synchronizer(["j1"], max_gap_s=1.0)
+    sync.add_tool(0.0, "A")
+    for t in (0.0, 1.0, 2.0):
+        sync.add_joints(t, {"j1": t})
+    sync.add_strain(0.5, [0.1] * 6, 30.0)
+    sync.add_strain(0.7, [0.1] * 6)  # no temperature in this one: NaN, skipped by the session's checks
+    batch = sync.pop(final=True)
+    np.testing.assert_array_equal(batch.temperature, [30.0, np.nan])
+
+
+def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_command_line(tmp_path, short_plan, ur5, paper_tool, capsys):
+    from fts_calib.app.cli import main
+    from fts_calib.sim.recording import simulate_recording
+
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    trajectories = [short_plan.trajectory(name) for name in paper_tool.names]
+    drift = OffsetDrift.typical()
+    path = simulate_recording(tmp_path / "drift.csv", ur5, paper_tool, trajectories, sensor, np.random.default_rng(7), drift=drift)
+    assert path.read_text().splitlines()[0].split(",")[-2:] == ["temperature", "tool"]
+    out = tmp_path / "cal.yaml"
+    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "offsets: drift (chosen by BIC" in printed and "D moved over the run" in printed and "rank 11 of 11" in printed
+    calibration = load_calibration(out)
+    assert calibration.offset_model["columns"][-1] == "temperature"
+    end = calibration.offset_model["end"]
+    moved = drift.offsets([end["time_s"]], 2)[0]
+    assert np.all(np.abs(calibration.D - (sensor.D + moved)) <= 5 * calibration.quality.stderr_D)
+    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(out), "--quiet", "--offsets", "constant"]) == 15  # poor fit
+    assert "--offsets auto or drift models them" in capsys.readouterr().out
+
+
+def test_the_session_takes_temperatures_from_a_controller(ur5, paper_tool, rng):
+    session = CalibrationSession(ur5, paper_tool, use_filter=False)
+    joints = np.zeros(ur5.n_joints)
+    for k in range(3):
+        session.add(0.01 * k, joints, rng.standard_normal(8), "A", temperature=25.0 + k)
+    session.add_batch([0.03, 0.04], np.zeros((2, ur5.n_joints)), rng.standard_normal((2, 8)), "A", temperature=[28.0, 29.0])
+    session.flush()
+    assert session.estimator.temperature_origin == 25.0 and session.estimator.trace.end[2] == 29.0
+
+
+@pytest.mark.slow  # the quick demo: about 5 s
+def test_the_drift_demo_calibrates_a_drifting_sensor_right_and_plots_its_offsets(tmp_path, seed):
+    import io
+
+    from fts_calib.app.demo import run_demo
+
+    printed = io.StringIO()
+    result = run_demo(tmp_path, seed % 1000, quick=True, stream=printed, drift=True)
+    text = printed.getvalue()
+    assert result.calibration.offset_model["model"] == "drift", text
+    assert (tmp_path / "offsets_drift.png").stat().st_size > 10_000
+    assert "constant offsets (the paper's model) on the same data" in text
+    # D at the end against the sensor's offsets at the end (what the validation reads): within 6 standard errors
+    assert np.all(np.abs(result.calibration.D - result.true_D) <= 6 * result.calibration.quality.stderr_D), text
+    assert result.validation.errors[0].max_percent.max() < 0.2, text  # the demo's target, dynamics included

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..model.offset_basis import OFFSET_SETTINGS
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 
@@ -49,11 +50,17 @@ def _add_demo(commands) -> None:
         "Plan the sweeps, simulate the recording (true C = Table 1 of the paper), calibrate with the quasi-static "
         "filter, follow C_bar_11 sample by sample (paper Fig. 7) and validate on another motion with another tool; "
         "print the results beside the truth and the targets, and write everything with PNG plots into one folder.",
-        "fts-calib demo --out out/",
+        "fts-calib demo --out out/\n  fts-calib demo --drift --out out_drift/   # offsets that move, calibrated right",
     )
     demo.add_argument("--out", default="out", help="folder for the results (default: out/)")
     demo.add_argument("--seed", type=int, default=0, help="seed of the sensor noise and the validation motion (default: 0)")
     demo.add_argument("--quick", action="store_true", help="a smaller run: 3 levels x 4 stops at 100 Hz")
+    demo.add_argument(
+        "--drift",
+        action="store_true",
+        help="the sensor's offsets drift (up to 1 N/min, a warm-up with a temperature channel, 1 N jumps at tool changes); "
+        "plots the estimated against the true offsets over time (offsets_drift.png)",
+    )
 
 
 def _add_robots(commands) -> None:
@@ -81,9 +88,19 @@ def _add_trajectory(commands) -> None:
     _robot_and_tool(traj)
     traj.add_argument("-o", "--out", required=True, help="output folder")
     traj.add_argument("--rate", dest="rate_hz", type=float, default=500.0, help="sample rate of the files in Hz (default: 500)")
-    traj.add_argument("--levels", type=int, default=4, help="positions of the first sweep joint (default: 4)")
-    traj.add_argument("--stops", type=int, default=6, help="positions of the second sweep joint per level (default: 6)")
-    traj.add_argument("--dwell", dest="dwell_s", type=float, default=0.5, help="time still at each stop in s (default: 0.5)")
+    traj.add_argument(
+        "--target-error",
+        dest="target_error_percent",
+        type=float,
+        help="size the plan: the shortest raster whose predicted accuracy budget is within this on every axis, "
+        "in %% of full scale (default: 0.05; with a fixed raster only compared)",
+    )
+    traj.add_argument("--levels", type=int, help="positions of the first sweep joint (fixes the raster; default: 4)")
+    traj.add_argument("--stops", type=int, help="positions of the second sweep joint per level (fixes the raster; default: 6)")
+    traj.add_argument("--dwell", dest="dwell_s", type=float, help="time still at each stop in s (fixes the raster; default: 0.5)")
+    traj.add_argument(
+        "--span", type=float, help="fraction of the second sweep joint's range the stops cover (fixes the raster; default: 1)"
+    )
     traj.add_argument("--margin", type=float, default=0.02, help="distance kept from position limits in rad (default: 0.02)")
     traj.add_argument("--min-clearance", type=float, default=0.02, help="smallest distance allowed in m (default: 0.02)")
     traj.add_argument("--tool-radius", type=float, help="override the tool envelope's radius in m")
@@ -120,6 +137,7 @@ def _add_calibrate(commands) -> None:
     _resume_or_restart(cal, "continue from --checkpoint (it must be of this recording)")
     cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
     _accept_poor_fit(cal)
+    _offsets(cal)
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -137,6 +155,16 @@ def _resume_or_restart(parser: argparse.ArgumentParser, resume_help: str) -> Non
     """--resume and --restart: what to do with an existing checkpoint (never overwritten silently)."""
     parser.add_argument("--resume", action="store_true", help=resume_help)
     parser.add_argument("--restart", action="store_true", help="start afresh, overwriting an existing checkpoint")
+
+
+def _offsets(parser: argparse.ArgumentParser) -> None:
+    """--offsets: the estimator's offset model (calibrate, live)."""
+    parser.add_argument(
+        "--offsets",
+        choices=OFFSET_SETTINGS,
+        help="offset model: auto (default, from the pipeline file: the simplest the data support, by BIC), constant "
+        "(the paper), per-configuration (one D per tool configuration), drift (per-configuration plus time and temperature)",
+    )
 
 
 def _accept_poor_fit(parser: argparse.ArgumentParser) -> None:
@@ -162,6 +190,9 @@ def _add_live(commands) -> None:
     _robot_and_tool(live)
     _sensor(live)
     live.add_argument(
+        "--plan", help="plan.yaml of the sized trajectories being run: the status line shows the motion left and the next configuration"
+    )
+    live.add_argument(
         "--listen", type=_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address to bind (default 127.0.0.1:5005)"
     )
     live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
@@ -175,6 +206,7 @@ def _add_live(commands) -> None:
     live.add_argument("--configuration", help="tool configuration mounted from the start (default: wait for a tool datagram)")
     add_ur(live)
     _accept_poor_fit(live)
+    _offsets(live)
     live.add_argument("--quiet", action="store_true", help="no status line")
 
 

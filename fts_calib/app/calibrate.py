@@ -2,23 +2,31 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
+import numpy as np
+
 from ..core.exceptions import FtsCalibError, PoorFit
 from ..core.paths import check_outputs
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
-from ..feeds.source import recording_paths
+from ..feeds.source import open_recording, recording_paths
 from ..model.calibration import save_calibration
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
 from ..pipeline.fit import FitCheck
+from ..pipeline.latency import LatencyEstimate, estimate_latency
 from ..pipeline.session import CalibrationSession
+from ..planning.accuracy import KeptSamples, measured_budget, wrench_noise
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool
 from .exit_codes import ExitCode, writing
+from .report import format_budget, format_offsets
 from .setup import load_sensor, load_setup
 
 
@@ -40,6 +48,7 @@ def run(
     joints_topic: str = BagTopics.joints,
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
+    offsets: str | None = None,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -64,6 +73,8 @@ def run(
         joints_topic: A bag's sensor_msgs/msg/JointState topic.
         channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
+        offsets: The offset model ('auto', 'constant', 'per-configuration', 'drift'); the
+            pipeline file's (default auto) when None.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
@@ -80,7 +91,10 @@ def run(
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
     check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
     kin, loaded, settings = load_setup(robot, tool, pipeline)
-    layout = load_sensor(sensor).layout
+    settings = settings.with_offsets(offsets)
+    spec = load_sensor(sensor)
+    layout = spec.layout
+    kept = KeptSamples()
     bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
     result = calibrate_recording(
         paths,
@@ -96,8 +110,13 @@ def run(
         accept_poor_fit=accept_poor_fit,
         topics=BagTopics(joints_topic, channels_topic, configuration_topic),
         layout=layout,
+        on_kept=kept,
     )
     written = None
+    if result.calibration is not None:
+        topics = BagTopics(joints_topic, channels_topic, configuration_topic)
+        latency = recording_latency(paths, kin, loaded, result.calibration, spec.full_scale, topics, joints_in_degrees)
+        result = with_budget(result, kin, loaded, kept, spec.full_scale, latency)
     if result.calibration is not None:
         with writing(output):
             written = save_calibration(result.calibration, output)
@@ -105,6 +124,53 @@ def run(
     if result.calibration is not None:
         return ExitCode.OK
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
+
+
+_LATENCY_ROWS = 2_000_000  # rows read again for the latency estimate, at most (bounded memory)
+
+
+def recording_latency(paths, kin: Kinematics, tool: Tool, calibration, full_scale, topics: BagTopics, joints_in_degrees: bool):
+    """The latency of the joint stream from the recording's moving samples (read again), or None.
+
+    See :func:`fts_calib.pipeline.latency.estimate_latency`; the first 2 million rows at most.
+    """
+    parts, rows = [], 0
+    with open_recording(paths, kin.joint_names, tool.names, topics=topics, continuous=kin.continuous) as reader:
+        for batch in reader:
+            joints = np.radians(batch.joints) if joints_in_degrees else batch.joints
+            parts.append((batch.time, joints, batch.channels, batch.configuration))
+            rows += len(batch)
+            if rows >= _LATENCY_ROWS:
+                break
+    if not parts:
+        return None
+    time, joints, channels, codes = (np.concatenate(column) for column in zip(*parts, strict=True))
+    order = np.argsort(time, kind="stable")
+    return estimate_latency(kin, tool, calibration, time[order], joints[order], channels[order], codes[order], full_scale)
+
+
+def with_budget(
+    result: CalibrateResult, kin: Kinematics, tool: Tool, kept: KeptSamples, full_scale, latency: LatencyEstimate | None = None
+) -> CalibrateResult:
+    """The result with the measured accuracy budget in its calibration's quality.
+
+    Strain noise as the data show it (the filter's noise floor, else the fit's residual
+    through C), the tool's tolerance, the robot's encoders, timing and mount
+    (:func:`fts_calib.planning.accuracy.measured_budget`), and the latency of the joint
+    stream estimated from the moving samples, when there are any.
+    """
+    cal = result.calibration
+    if cal is None or cal.quality is None or len(kept) != int(result.session.kept.sum()):
+        return result  # resumed from a checkpoint: the samples before it are not at hand, no budget from a part
+    floor = None if result.session.filter is None else result.session.filter.noise_floor
+    # without a noise floor the residual stands for the noise (an upper bound: it holds every random error)
+    sigma_w = cal.quality.residual_rms if floor is None else wrench_noise(cal.C, floor)
+    budget = measured_budget(kin, tool, kept, cal, sigma_w, full_scale)
+    record = budget.to_dict()
+    if latency is not None:
+        record["stream_latency_estimate"] = latency.as_dict()
+    quality = dataclasses.replace(cal.quality, budget=record)
+    return dataclasses.replace(result, calibration=dataclasses.replace(cal, quality=quality), budget=budget, latency=latency)
 
 
 class ProgressBar:
@@ -189,7 +255,8 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     cal, q = result.calibration, result.calibration.quality
     if q is None:  # CalibrationSession.solve always measures the fit
         raise FtsCalibError("internal error: the calibration has no fit quality")
-    lines.append(f"rank {q.rank} of 7, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
+    lines.append(f"rank {q.rank} of {q.full_rank}, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
+    lines += format_offsets(cal.offset_model)
     if q.fit is not None and not isinstance(result.error, PoorFit):
         lines += format_fit(result.session.fit_check())
     rms = zip(WRENCH_AXES, q.residual_rms, WRENCH_UNITS, strict=True)
@@ -202,6 +269,18 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     lines.append(
         "D: " + ", ".join(f"{a} {d:+.5f} ± {s:.1g} {u}" for a, d, s, u in zip(WRENCH_AXES, cal.D, q.stderr_D, WRENCH_UNITS, strict=True))
     )
+    if result.budget is not None:
+        lines += format_budget(result.budget, "measured")
+    else:
+        lines.append("accuracy budget: not measured (resumed from a checkpoint: the samples before it are not at hand; --restart for it)")
+    if result.latency is not None:
+        lines.append("stream latency: " + result.latency.summary())
+        bound = result.session.kin.robot.accuracy.latency_s
+        if abs(result.latency.latency_s) > bound:
+            lines.append(
+                f"  note: beyond the ±{1e3 * bound:g} ms the budget assumes (robot file accuracy.latency_s): add "
+                f"{result.latency.latency_s:+.4f} s to live.latency_s of the pipeline file, or widen accuracy.latency_s"
+            )
     if output is not None:
         lines.append(f"wrote {output}")
     return "\n".join(lines)

@@ -11,6 +11,11 @@
 
 Everything goes into one folder (``out/`` by default): trajectories, recordings, the
 calibration and the plots of the paper's Figs 5-6, 7 and 9-10.
+
+With ``drift`` the simulated sensor's offsets move during the run (a drift, a warm-up
+with a temperature channel, jumps at tool changes: :mod:`fts_calib.app.demo_drift`); the
+calibration models them, and the plot ``offsets_drift.png`` shows the estimated against
+the true offsets over time. The validation then reads the sensor as it is at the end.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from ..feeds.batch import SampleBatch
 from ..feeds.recording import RecordingReader
 from ..model.calibration import Calibration, load_calibration, save_calibration
 from ..model.estimator import OnlineEstimator
+from ..model.offset_basis import OffsetBasis
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
 from ..pipeline.calibrate import calibrate_recording
@@ -44,9 +50,11 @@ from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
 from ..robot.tool import load_tool
 from ..service.validate import AxisErrors, ValidationResult, validate_recording
+from ..sim.drift import OffsetDrift
 from ..sim.recording import simulate_recording
 from ..sim.sensor import simulated_sensor
 from .calibrate import format_counts
+from .demo_drift import drift_stage
 from .exit_codes import ExitCode, writing
 from .trajectory import write_run
 
@@ -63,7 +71,7 @@ class DemoResult:
     Attributes:
         calibration: The estimated calibration.
         true_C: The simulated sensor's C. Shape (6, 8).
-        true_D: Its offsets, [N, N, N, N m, N m, N m]. Shape (6,).
+        true_D: Its offsets (at the end of the run, with drift), [N, N, N, N m, N m, N m]. Shape (6,).
         relative_error: |C estimate - true| / max |true| of its row. Shape (6, 8).
         convergence: (samples used, relative error of C_bar_11) after each step, (K, 2).
         changes: (samples used when it started, configuration) for each configuration.
@@ -83,7 +91,9 @@ class DemoResult:
     seconds: dict[str, float]
 
 
-def convergence(W: np.ndarray, strain: np.ndarray, true_c11: float, steps: int = 300) -> np.ndarray:
+def convergence(
+    W: np.ndarray, strain: np.ndarray, true_c11: float, steps: int = 300, time=None, codes=None, n_configurations: int = 1
+) -> np.ndarray:
     """Relative error of C_bar_11 as the samples come in (minimum-norm while rank deficient).
 
     Args:
@@ -91,15 +101,19 @@ def convergence(W: np.ndarray, strain: np.ndarray, true_c11: float, steps: int =
         strain: Their strains, shape (n, 8).
         true_c11: The true C_bar_11.
         steps: Number of points of the curve.
+        time: Their times [s], shape (n,), for the offset model; None for none.
+        codes: Their configuration indices, shape (n,); None for all 0.
+        n_configurations: The tool's configurations (one offset column each).
 
     Returns:
         Shape (K, 2): samples used, relative error.
     """
-    est = OnlineEstimator()
+    est = OnlineEstimator(basis=OffsetBasis(n_configurations, temperature=False))
     edges = np.unique(np.linspace(0, len(W), steps + 1).astype(int))
     out = []
     for a, b in zip(edges[:-1], edges[1:], strict=True):
-        est.update_batch(W[a:b], strain[a:b])
+        part = slice(a, b)
+        est.update_batch(W[part], strain[part], None, *(None if v is None else v[part] for v in (time, codes)))
         if est.samples_used >= 2:
             c11 = est.solve(min_norm=True).C_bar[0, 0]
             out.append((b, abs(c11 / true_c11 - 1.0)))
@@ -130,7 +144,7 @@ def _wrench_series(path: Path, kin: Kinematics, tool) -> tuple[np.ndarray, np.nd
     return t, tool_load(kin, tool, q, k).static, k
 
 
-def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream: TextIO | None = None) -> DemoResult:
+def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream: TextIO | None = None, drift: bool = False) -> DemoResult:
     """Run the demo (see the module docstring) and print what it finds.
 
     Args:
@@ -138,6 +152,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
         seed: Seed of the sensor noise and of the validation motion.
         quick: A smaller run (3 levels x 4 stops at 100 Hz) for tests.
         stream: Where to print (standard output by default).
+        drift: The sensor's offsets drift (see the module docstring).
     """
     from . import plots
 
@@ -186,7 +201,8 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     say("[2/5] simulating the calibration recording (moving tool, noise, 24-bit ADC) ...")
     trajectories = [plan.trajectory(name) for name in tool.names]
     rng = np.random.default_rng(seed)
-    recording = simulate_recording(out / "recordings" / "calibration.csv", kin, tool, trajectories, sensor, rng)
+    moving = OffsetDrift.typical() if drift else None
+    recording = simulate_recording(out / "recordings" / "calibration.csv", kin, tool, trajectories, sensor, rng, drift=moving)
     lap("simulate")
 
     say("[3/5] calibrating with the quasi-static filter ...")
@@ -199,13 +215,16 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     for line in format_counts(result.session):
         say("      " + line.replace("\n", "\n      "))
     say("      " + result.session.fit_check().summary())
+    report = None if moving is None else drift_stage(out, kin, tool, recording, calibration, sensor, moving, pipeline, say)
+    sensor = sensor if report is None else report.sensor_at_end  # the validation reads the sensor as it is at the end
     lap("calibrate")
 
     say("[4/5] following the estimate sample by sample (paper Fig. 7) ...")
     W = np.concatenate([k[1] for k in kept])
     S = np.concatenate([k[2] for k in kept])
     codes = np.concatenate([k[3] for k in kept])
-    curve = convergence(W, S, sensor.C_bar[0, 0], steps=120 if quick else 300)
+    times = np.concatenate([k[0] for k in kept])
+    curve = convergence(W, S, sensor.C_bar[0, 0], 120 if quick else 300, times, codes, len(tool.names))
     starts = [
         (int(np.nonzero(codes == c)[0][0]), tool.configurations[c].name) for c in range(len(tool.configurations)) if np.any(codes == c)
     ]
@@ -238,7 +257,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     )
     lap("validate")
 
-    files = list(run.files) + [recording, cal_path, v_recording]
+    files = list(run.files) + [recording, cal_path, v_recording] + ([] if report is None else [report.plot])
     t, wrench, k = _wrench_series(recording, kin, tool)
     files.append(
         plots.plot_wrench(
@@ -326,17 +345,18 @@ def _report(
     say("time: " + ", ".join(f"{name} {s:.1f} s" for name, s in seconds.items()) + f"; total {sum(seconds.values()):.1f} s")
 
 
-def run(*, out: str | Path = "out", seed: int = 0, quick: bool = False) -> int:
+def run(*, out: str | Path = "out", seed: int = 0, quick: bool = False, drift: bool = False) -> int:
     """Run the demo and print what it finds (``fts-calib demo``); see :func:`run_demo`.
 
     Args:
         out: Folder for everything written.
         seed: Seed of the sensor noise and of the validation motion.
         quick: A smaller run (3 levels x 4 stops at 100 Hz).
+        drift: The sensor's offsets drift during the run, and the calibration models them.
 
     Returns:
         0.
     """
     with writing(out):
-        run_demo(out, seed, quick)
+        run_demo(out, seed, quick, drift=drift)
     return ExitCode.OK

@@ -15,6 +15,7 @@ from ..feeds.udp import UdpReceiver
 from ..model.calibration import save_calibration
 from ..pipeline.checkpoint import check_start, live_source
 from ..pipeline.live import LiveRunner, format_stats
+from ..pipeline.remaining import load_plan_progress
 from ..pipeline.session import CalibrationSession
 from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
@@ -40,6 +41,8 @@ def run(
     ur: str | None = None,
     ur_wrench: bool = False,
     configuration: str | None = None,
+    plan: str | Path | None = None,
+    offsets: str | None = None,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
@@ -67,6 +70,10 @@ def run(
             ``wrench-6`` sensor file), not strain datagrams.
         configuration: The tool configuration mounted from the start (tool datagrams may
             change it); None: wait for a tool datagram.
+        plan: ``plan.yaml`` of the sized trajectories being run: the status line then shows
+            the motion left to reach its target and the configuration to mount next.
+        offsets: The offset model ('auto', 'constant', 'per-configuration', 'drift'); the
+            pipeline file's (default auto) when None.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
@@ -79,7 +86,12 @@ def run(
     check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
     check_start(checkpoint, resume, restart)
     kin, loaded, settings = load_setup(robot, tool, pipeline)
-    layout = load_sensor(sensor).layout
+    settings = settings.with_offsets(offsets)
+    spec = load_sensor(sensor)
+    layout = spec.layout
+    expected = None if plan is None else load_plan_progress(plan, spec.rate_hz)
+    if expected is not None and set(expected.expected) != set(loaded.names):
+        raise ConfigError("plan", sorted(expected.expected), f"the tool's configurations {loaded.names}", owner=str(plan))
     if configuration is not None and configuration not in loaded.names:
         raise UnknownToolConfiguration(configuration, loaded.names)
     if ur_wrench and (ur is None or layout.n_channels != 6):
@@ -113,7 +125,7 @@ def run(
         flush=True,
     )
     try:
-        runner = LiveRunner(session, receiver, sync, status=None if quiet else sys.stderr, rtde=rtde)
+        runner = LiveRunner(session, receiver, sync, status=None if quiet else sys.stderr, rtde=rtde, plan=expected)
         stats = runner.run(idle_timeout_s=idle_timeout_s)
     finally:
         receiver.close()
@@ -137,7 +149,7 @@ def run(
     quality = calibration.quality
     if quality is None:  # CalibrationSession.solve always measures the fit
         raise FtsCalibError("internal error: the calibration has no fit quality")
-    print(f"rank {quality.rank} of 7, condition number {quality.condition_number:.1f}; wrote {path}")
+    print(f"rank {quality.rank} of {quality.full_rank}, condition number {quality.condition_number:.1f}; wrote {path}")
     return ExitCode.OK
 
 

@@ -160,3 +160,33 @@ def plot_validation(
         ax.grid(alpha=0.3)
     fig.suptitle(title)
     return _save(fig, path)
+
+
+def plot_offsets(
+    path: str | Path, time: np.ndarray, estimated: np.ndarray, true: np.ndarray, constant: np.ndarray | None, title: str
+) -> Path:
+    """The offsets D over a calibration run: estimated (the offset model) against the truth, per axis.
+
+    Args:
+        path: PNG to write.
+        time: Sample times [s], shape (N,).
+        estimated: The calibration's offset model at those samples, [N, N m]. Shape (N, 6).
+        true: The simulated sensor's offsets, [N, N m]. Shape (N, 6).
+        constant: D of the paper's constant-offset model, drawn as a level line; None for none. Shape (6,).
+        title: Figure title.
+    """
+    axes_names = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+    fig, axes = plt.subplots(2, 3, figsize=(14, 6.5), sharex=True)
+    for i, ax in enumerate(axes.flat):
+        unit = "N" if i < 3 else "N·m"
+        ax.plot(time, true[:, i], color="black", lw=2.5, alpha=0.35, label="true offset")
+        ax.plot(time, estimated[:, i], color="tab:blue", lw=1.2, label="estimated (offset model)")
+        if constant is not None:
+            ax.axhline(constant[i], color="tab:red", ls="--", lw=1, label="constant offsets (paper)")
+        ax.set_title(f"D {axes_names[i]} [{unit}]", fontsize=10)
+        ax.grid(alpha=0.3)
+    for ax in axes[1]:
+        ax.set_xlabel("time [s]")
+    axes[0, 0].legend(fontsize=8, loc="best")
+    fig.suptitle(title)
+    return _save(fig, path)
