@@ -9,6 +9,7 @@ import yaml
 
 from fts_calib import load_calibration
 from fts_calib.app import arguments, cli, export, robots, setup, tare, trajectory
+from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import EXIT_CODES, ExitCode, error_line, exit_code
 from fts_calib.core import exceptions
 from fts_calib.core.exceptions import FtsCalibError, PayloadError
@@ -68,7 +69,9 @@ def test_robots_from_python(capsys):
 def test_trajectory_from_python_with_the_defaults(tmp_path, capsys):
     out = tmp_path / "traj"
     assert trajectory.run(robot="ur5", out=out, rate_hz=50.0, plot=False) == ExitCode.OK
-    assert "predicted rank 7 of 7" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "predicted rank 7 of 7" in text and "predicted accuracy budget" in text and "sized to the target 0.05 %" in text
+    assert "largest error: " in text and "largest from strain noise alone" in text
     assert sorted(p.name for p in out.iterdir()) == ["A.csv", "B.csv", "C.csv", "plan.yaml"]
 
 
@@ -240,3 +243,16 @@ def test_network_mistakes_are_one_line_with_their_code(tmp_path, capsys):
     with pytest.raises(SystemExit) as usage:
         cli.main(["replay", str(recording), "--to", "127.0.0.1:99999"])
     assert usage.value.code == ExitCode.USAGE and "port 99999" in capsys.readouterr().err
+
+
+def test_trajectory_target_error_and_a_fixed_raster(tmp_path, capsys):
+    out = tmp_path / "traj"
+    unreachable = ["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--no-plot", "--target-error", "0.01"]
+    assert main(unreachable) == ExitCode.TRAJECTORY
+    assert "no plan meets the target of 0.01 % of full scale: sensor mount alone gives" in capsys.readouterr().err
+    fixed = ["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--no-plot", "--levels", "2", "--stops", "3", "--span", "0.5"]
+    assert main(fixed) == ExitCode.OK
+    text = capsys.readouterr().out
+    assert "2 levels" in text and "this fixed raster meets the target of 0.05 %" in text
+    summary = yaml.safe_load((out / "plan.yaml").read_text())
+    assert summary["pattern"]["span"] == 0.5 and summary["accuracy_budget"]["dominant"]["term"] == "sensor mount"

@@ -46,6 +46,12 @@ def test_cli_calibrate_summary_and_file(tmp_path, ur5_recording, capsys):
     cal = load_calibration(out)
     assert cal.provenance["robot"]["name"] == "ur5" and cal.provenance["source"] == str(ur5_recording)
     assert cal.quality.samples_seen == 9009 and cal.quality.skipped["filter: joint speed"] > 0
+    # the measured budget: its total is the largest error a user reads, the latency from the moves (none simulated)
+    assert "measured accuracy budget" in text and "largest error: " in text and "stream latency: joint stream behind" in text
+    budget = cal.quality.budget
+    assert budget["kind"] == "measured" and set(budget["terms_percent_fs"]) >= {"strain noise", "tool mass", "sensor mount"}
+    assert budget["largest_percent_fs"] == pytest.approx(max(budget["total_percent_fs"].values()), rel=1e-3)
+    assert abs(budget["stream_latency_estimate"]["latency_ms"]) < 0.05
 
 
 def _lines(path):

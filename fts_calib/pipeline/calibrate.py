@@ -22,12 +22,14 @@ from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..core.paths import check_distinct
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import open_recording, recording_paths
+from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .checkpoint import check_start, recording_source
 from .clock import clock_checked
+from .latency import LatencyEstimate
 from .session import CalibrationSession
 from .settings import PipelineConfig
 
@@ -55,6 +57,8 @@ class CalibrateResult:
         rows: Rows read.
         seconds: Wall-clock time of the run [s].
         error: Why there is no calibration, or None.
+        budget: The measured accuracy budget (the ``calibrate`` command adds it), or None.
+        latency: The joint stream's latency estimated from the moving samples, or None.
     """
 
     calibration: Calibration | None
@@ -63,6 +67,8 @@ class CalibrateResult:
     rows: int
     seconds: float
     error: InsufficientExcitation | PoorFit | None = None
+    budget: AccuracyBudget | None = None
+    latency: LatencyEstimate | None = None
 
 
 def calibrate_recording(

@@ -23,6 +23,7 @@ from ..core.exceptions import FtsCalibError
 from ..feeds.rtde import RtdePoller
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
+from .remaining import PlanProgress
 from .session import CalibrationSession
 
 _BATCH_S = 0.02  # how often paired samples go to the session [s]
@@ -42,6 +43,8 @@ class LiveRunner:
         status_interval_s: Time between status lines [s].
         rtde: A UR controller's RTDE poller (:mod:`fts_calib.feeds.rtde`) that gives the joints
             (and the built-in sensor's wrench); the datagrams then add what it does not give.
+        plan: What the sized plan expects (:mod:`fts_calib.pipeline.remaining`): the status
+            line then shows the motion left and the configuration to mount next.
     """
 
     def __init__(
@@ -52,6 +55,7 @@ class LiveRunner:
         status: TextIO | None = None,
         status_interval_s: float = 0.5,
         rtde: RtdePoller | None = None,
+        plan: PlanProgress | None = None,
     ):
         if sync.configurations != session.tool.names:
             raise FtsCalibError(
@@ -64,6 +68,7 @@ class LiveRunner:
         self.status = status
         self.status_interval_s = status_interval_s
         self.rtde = rtde
+        self.plan = plan
         self.stats = LiveStats()
         self._stopping = False
         self._rates: collections.deque[tuple[float, int, int]] = collections.deque(maxlen=20)  # (wall time, joints, strain) for the rates
@@ -110,6 +115,8 @@ class LiveRunner:
             text += f" | bad datagrams {bad}"
         if self.stats.gaps:
             text += f" | lost datagrams {self.stats.gaps}"
+        if self.plan is not None:
+            text += f" | {self.plan.status(p)}"
         if p.missing:
             text += f" | missing: {p.missing}"
         return text
