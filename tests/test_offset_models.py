@@ -300,6 +300,18 @@ def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_comm
     assert "--offsets auto or drift models them" in capsys.readouterr().out
 
 
+def test_replay_sends_the_recording_s_temperature_in_its_strain_datagrams(tmp_path):
+    from fts_calib.feeds.protocol import Strain
+    from fts_calib.feeds.recording import RecordingWriter
+    from fts_calib.feeds.replay import ReplayOptions, messages
+
+    path = tmp_path / "r.csv"
+    with RecordingWriter(path, ["j1"], 6, temperature=True) as writer:
+        writer.write([0.0, 0.1], [[0.0], [0.1]], np.zeros((2, 6)), "A", [30.5, 30.75])
+    sent = [m.temperature for _, m in messages(path, ReplayOptions(speed=0.0)) if isinstance(m, Strain)]
+    assert sent == [30.5, 30.75]
+
+
 def test_the_session_takes_temperatures_from_a_controller(ur5, paper_tool, rng):
     session = CalibrationSession(ur5, paper_tool, use_filter=False)
     joints = np.zeros(ur5.n_joints)

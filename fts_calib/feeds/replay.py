@@ -82,7 +82,8 @@ def messages(
         period = 0.0 if options.joint_rate_hz is None else 1.0 / options.joint_rate_hz
         for chunk in reader:
             tools = reader.tool_names
-            for t, q, s, code in zip(chunk.time, chunk.joints, chunk.channels, chunk.configuration, strict=True):
+            heat = [None] * len(chunk) if chunk.temperature is None else chunk.temperature.tolist()
+            for t, q, s, code, temperature in zip(chunk.time, chunk.joints, chunk.channels, chunk.configuration, heat, strict=True):
                 t = float(t)
                 if tools[code] != current or t >= next_tool:
                     # announced at each change and repeated every second: a receiver that
@@ -92,7 +93,7 @@ def messages(
                 if t >= next_joint:
                     next_joint = t + period if period else t
                     yield t, Joints(t + options.latency_s, dict(zip(names, q.tolist(), strict=True)), next(seq))
-                yield t, Strain(t, tuple(s.tolist()), next(seq))
+                yield t, Strain(t, tuple(s.tolist()), next(seq), temperature)
                 last = t
     yield last, End(next(seq))
 
