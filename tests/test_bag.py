@@ -90,11 +90,11 @@ def test_one_bag_per_configuration_named_on_the_command_line(tmp_path, ur5_recor
     csv = _rows(ur5_recording, ur5, paper_tool)
     paths = _split_by_configuration(csv, paper_tool.names, ur5.joint_names, tmp_path)
     arguments = [f"{paths[name]}:{name}" for name in ("C", "A", "B")]  # any order: read in time order
-    from_bags = calibrate_recording(arguments, ur5, paper_tool)
-    _same_calibration(calibrate_recording(ur5_recording, ur5, paper_tool).calibration, from_bags.calibration)
     out = tmp_path / "cal.yaml"
     assert main(["calibrate", "--robot", "ur5", *arguments, "-o", str(out), "--quiet"]) == ExitCode.OK
-    assert load_calibration(out).provenance["source"] == " ".join(arguments)
+    from_bags = load_calibration(out)
+    assert from_bags.provenance["source"] == " ".join(arguments)
+    _same_calibration(calibrate_recording(ur5_recording, ur5, paper_tool).calibration, from_bags)
     with pytest.raises(BagError, match="no such topic.*or name the configuration of the whole bag"):
         BagReader([paths["A"]], ur5.joint_names, paper_tool.names)
     with pytest.raises(UnknownToolConfiguration, match="'Q'"):
@@ -210,12 +210,22 @@ def test_validate_a_bag_as_the_csv(tmp_path, bags, ur5_recording, capsys):
     assert reports[0] == reports[1] and "Fx" in reports[0]
 
 
-def test_resume_a_bag_checkpoint_only_with_its_own_bag(tmp_path, bags):
-    cal, checkpoint = tmp_path / "cal.yaml", tmp_path / "cp.json"
-    run = ["calibrate", "--robot", "ur5", "-o", str(cal), "--checkpoint", str(checkpoint), "--quiet"]
-    assert main([*run, str(bags["mcap"])]) == ExitCode.OK
-    assert main([*run, "--resume", str(bags["mcap"])]) == ExitCode.OK
-    assert main([*run, "--resume", str(bags["sqlite3"])]) == ExitCode.FILE  # the same run in another storage: other bytes
+def test_resume_a_bag_checkpoint_only_with_its_own_bag(tmp_path, ur5_recording, ur5, paper_tool):
+    """Two short bags of configuration A (1,000 rows: rank 4, the checkpoint is kept for more)."""
+    rows = _rows(ur5_recording, ur5, paper_tool).rows(0, 1000)
+    bags = {}
+    for storage in ("mcap", "sqlite3"):
+        with BagWriter(tmp_path / storage, storage) as writer:
+            writer.configuration(rows.time[0], "A")
+            for t, joints, channels in zip(rows.time, rows.joints, rows.channels, strict=True):
+                writer.joints(t, ur5.joint_names, joints)
+                writer.channels(t, channels)
+        bags[storage] = str(writer.path)
+    checkpoint = tmp_path / "cp.json"
+    run = ["calibrate", "--robot", "ur5", "-o", str(tmp_path / "cal.yaml"), "--checkpoint", str(checkpoint), "--quiet"]
+    assert main([*run, bags["mcap"]]) == ExitCode.CHECK_FAILED and checkpoint.exists()
+    assert main([*run, "--resume", bags["mcap"]]) == ExitCode.CHECK_FAILED  # its own bag: resumed
+    assert main([*run, "--resume", bags["sqlite3"]]) == ExitCode.FILE  # the same rows in another storage: other bytes
 
 
 def test_re_tare_from_a_bag_as_from_its_csv(tmp_path, ur5, rng):
