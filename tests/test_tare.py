@@ -139,3 +139,22 @@ def test_cli_tare_with_nothing_mounted_warns_when_the_offsets_moved_by_a_tool_we
     fresh = save_calibration(cal, tmp_path / "fresh.yaml")
     assert main(["tare", "--calibration", str(fresh), str(_recording(tmp_path / "empty.csv", sensor, ur5, np.zeros(6), rng))]) == 0
     assert "about the weight" not in capsys.readouterr().err
+
+
+def test_tare_reports_the_drift_since_the_calibration_run_through_every_re_tare(tmp_path, setup, ur5, rng, capsys):
+    """Two re-tares: the second's drift is measured from the calibration's offsets, not from the first re-tare's."""
+    import dataclasses
+
+    sensor, cal = setup
+    dated = dataclasses.replace(cal, provenance={"method": "test", "time": "2026-01-01T08:00:00Z"})
+    first = tare_recording(dated, _recording(tmp_path / "t1.csv", sensor, ur5, np.zeros(6), rng))
+    np.testing.assert_allclose(first.since_calibration, SHIFT, atol=ATOL_SHIFT)
+    half = dataclasses.replace(first.calibration, D=cal.D + SHIFT / 2)  # a hand-edited D in between
+    second = tare_recording(half, _recording(tmp_path / "t2.csv", sensor, ur5, np.zeros(6), rng))
+    np.testing.assert_allclose(second.since_calibration, SHIFT, atol=ATOL_SHIFT)  # against the calibration run's D
+    np.testing.assert_allclose(second.calibration.D - half.D, SHIFT / 2, atol=ATOL_SHIFT)  # the change since the last D
+    assert second.elapsed_s > 0 and len(second.calibration.offset_history) == 2
+    file = save_calibration(dated, tmp_path / "cal.yaml")
+    assert main(["tare", "--calibration", str(file), str(tmp_path / "t1.csv")]) == 0
+    printed = capsys.readouterr().out
+    assert "since calibration" in printed and "drift since the calibration" in printed and "Fx +0.8" in printed

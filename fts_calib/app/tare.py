@@ -23,12 +23,24 @@ def format_tare(result: TareResult) -> str:
     """The old and new offsets per axis, their change and standard error."""
     estimate = result.estimate
     rows = [
-        [axis, f"{old:+.5f}", f"{new:+.5f}", f"{new - old:+.5f}", f"{se:.1g}", unit]
-        for axis, old, new, se, unit in zip(WRENCH_AXES, result.previous, estimate.D, estimate.stderr_D, WRENCH_UNITS, strict=True)
+        [axis, f"{old:+.5f}", f"{new:+.5f}", f"{new - old:+.5f}", f"{drift:+.5f}", f"{se:.1g}", unit]
+        for axis, old, new, drift, se, unit in zip(
+            WRENCH_AXES, result.previous, estimate.D, result.since_calibration, estimate.stderr_D, WRENCH_UNITS, strict=True
+        )
     ]
-    return f"re-tare from {estimate.samples_used:,} samples ({estimate.samples_skipped:,} skipped):\n" + table(
-        ["axis", "old D", "new D", "change", "stderr", "unit"], rows, "  "
+    text = f"re-tare from {estimate.samples_used:,} samples ({estimate.samples_skipped:,} skipped):\n" + table(
+        ["axis", "old D", "new D", "change", "since calibration", "stderr", "unit"], rows, "  "
     )
+    retares = len(result.calibration.offset_history)
+    if result.elapsed_s is not None and result.elapsed_s > 0:
+        hours = result.elapsed_s / 3600.0
+        worst = int(np.argmax(np.abs(result.since_calibration[:3])))
+        rate = result.since_calibration[worst] / hours
+        text += (
+            f"\ndrift since the calibration, {hours:.2f} h ago ({retares} offsets in the history): largest force drift "
+            f"{WRENCH_AXES[worst]} {result.since_calibration[worst]:+.4f} N, {rate:+.3g} N/h on average"
+        )
+    return text
 
 
 def run(

@@ -5,15 +5,18 @@ held still a moment and D is estimated again (:func:`fts_calib.model.offsets.est
 with C_bar kept. With nothing mounted, the known load is zero; with a known tool
 configuration on, it is that configuration's weight at the orientation the kinematics give
 (paper eqs 17-18), and only the quasi-static samples count. The calibration keeps its
-previous offsets, and when and why they were replaced, in ``offset_history``.
+previous offsets, and when and why they were replaced, in ``offset_history``; the result
+also says how far the offsets drifted since the calibration run (against the offsets it
+ended with, the first of the history) and over how long (from the calibration's time).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -43,12 +46,18 @@ class TareResult:
         estimate: The offsets and their standard errors.
         previous: The offsets before, [N, N, N, N m, N m, N m]. Shape (6,).
         samples_seen: Samples read.
+        since_calibration: The new offsets minus those at the end of the calibration run,
+            [N, N, N, N m, N m, N m]. Shape (6,).
+        elapsed_s: Time since the calibration run [s] (from its provenance time), or None
+            when the file does not say.
     """
 
     calibration: Calibration
     estimate: OffsetEstimate
     previous: np.ndarray
     samples_seen: int
+    since_calibration: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    elapsed_s: float | None = None
 
 
 def _known_load(
@@ -78,7 +87,18 @@ def _apply(calibration: Calibration, strain: np.ndarray, load: np.ndarray, reaso
         raise InsufficientExcitation(0, 1, "no still sample to re-tare from: hold the arm still while recording")
     estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout)
     what = f"{reason} ({estimate.samples_used:,} samples)"
-    return TareResult(calibration.with_offsets(estimate.D, what), estimate, calibration.D.copy(), seen)
+    history = calibration.offset_history
+    at_calibration = np.asarray(history[0]["D"], dtype=float) if history else calibration.D
+    elapsed = None
+    stamp = calibration.provenance.get("time")
+    if isinstance(stamp, str):
+        try:
+            then = datetime.datetime.fromisoformat(stamp.replace("Z", "+00:00"))
+            elapsed = (datetime.datetime.now(datetime.timezone.utc) - then).total_seconds()
+        except ValueError:
+            elapsed = None  # a hand-written time: the drift is still reported, without its rate
+    updated = calibration.with_offsets(estimate.D, what)
+    return TareResult(updated, estimate, calibration.D.copy(), seen, estimate.D - at_calibration, elapsed)
 
 
 def _what(tool: Tool | None, configuration: str | None) -> str:
