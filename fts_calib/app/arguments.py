@@ -82,8 +82,10 @@ def _add_trajectory(commands) -> None:
         "plan and check calibration sweeps for a robot and a tool",
         "Plan jerk-limited sweeps of the last two joints (ruckig), once per tool configuration; check limits, "
         "clearance and the predicted excitation before anything moves; write one CSV per configuration, plan.yaml "
-        "and plan.png. Exits 1 when a check fails (the CSVs are then not written).",
-        "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500",
+        "and plan.png, with the predicted accuracy budget (strain noise, tool tolerance, encoders, stream timing, mount) "
+        "in % of full scale. By default the raster is the shortest whose budget meets --target-error. Exits 1 when a "
+        "check fails (the CSVs are then not written).",
+        "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500 --target-error 0.05",
     )
     _robot_and_tool(traj)
     traj.add_argument("-o", "--out", required=True, help="output folder")
@@ -123,7 +125,9 @@ def _add_calibrate(commands) -> None:
         "then a summary: samples kept and why the rest were dropped, rank, condition, residuals, standard errors, and "
         "the fit check: the residual of each axis in each tool configuration against the strain noise of the data. "
         "A poor fit is refused (exit 15, no file) with its likely cause (labels permuted, centre of mass in mm or cm, "
-        "a mistyped mass, a collinear tool file). Exits 1 when the data cannot determine C.",
+        "a mistyped mass, a collinear tool file). Then the measured accuracy budget (noise in the data, tool tolerance, "
+        "encoders, timing, mount; in % of full scale and N or N·m) and the joint stream's latency from the moving samples "
+        "(ms), both written into the file. Exits 1 when the data cannot determine C.",
         "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml\n"
         "  fts-calib calibrate --robot ur5 run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
         "  fts-calib calibrate --robot ur5 --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",

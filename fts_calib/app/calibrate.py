@@ -271,6 +271,11 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     )
     if result.budget is not None:
         lines += format_budget(result.budget, "measured")
+        if q.full_rank != 7:
+            lines.append(
+                f"  note: the budget is propagated through a least squares with one constant offset; this calibration's "
+                f"offset model has {q.full_rank - 6} offset columns, so the figures above are an approximation"
+            )
     else:
         lines.append("accuracy budget: not measured (resumed from a checkpoint: the samples before it are not at hand; --restart for it)")
     if result.latency is not None:

@@ -225,6 +225,17 @@ def _read_configuration(raw: object, index: int, path: Path) -> ToolConfiguratio
         return ToolConfiguration(name=str(name), mass=mass, p_sensor_com=com, inertia_com=inertia)
 
 
+def _section(data: Mapping, key: str, keys: Sequence[str], path: Path, expected: str) -> Mapping | None:
+    """An optional sub-mapping of a tool file with only known keys, or None when absent."""
+    raw = data.get(key)
+    if raw is None:
+        return None
+    if not isinstance(raw, Mapping):
+        raise FileFormatError(path, key, f"expected {expected}")
+    check_keys(raw, keys, path, key)
+    return raw
+
+
 def load_tool(path: str | Path) -> Tool:
     """Read a tool file (see the module docstring).
 
@@ -246,21 +257,15 @@ def load_tool(path: str | Path) -> Tool:
         raise FileFormatError(path, "configurations", "expected a non-empty list")
     configs = tuple(_read_configuration(raw, i, path) for i, raw in enumerate(raw_configs))
     shape = None
-    if data.get("shape") is not None:
-        raw_shape = data["shape"]
-        if not isinstance(raw_shape, Mapping):
-            raise FileFormatError(path, "shape", "expected {radius: m, length: m}")
-        check_keys(raw_shape, SHAPE_KEYS, path, "shape")
+    raw_shape = _section(data, "shape", SHAPE_KEYS, path, "{radius: m, length: m}")
+    if raw_shape is not None:
         radius = read_number(require(raw_shape, "radius", path, "shape."), path, "shape.radius", "m")
         length = read_number(require(raw_shape, "length", path, "shape."), path, "shape.length", "m")
         with fields_of(path, "shape."):
             shape = ToolShape(radius=radius, length=length)
     tolerance = None
-    if data.get("tolerance") is not None:
-        raw_tolerance = data["tolerance"]
-        if not isinstance(raw_tolerance, Mapping):
-            raise FileFormatError(path, "tolerance", "expected {mass: kg, com: m}")
-        check_keys(raw_tolerance, TOLERANCE_KEYS, path, "tolerance")
+    raw_tolerance = _section(data, "tolerance", TOLERANCE_KEYS, path, "{mass: kg, com: m}")
+    if raw_tolerance is not None:
         bounds = {k: read_number(raw_tolerance.get(k, 0.0), path, f"tolerance.{k}", u) for k, u in (("mass", "kg"), ("com", "m"))}
         with fields_of(path):
             tolerance = ToolTolerance(**bounds)
