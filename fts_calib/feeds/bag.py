@@ -57,9 +57,8 @@ CHUNK_MESSAGES = 20_000
 #: Joint messages looked at, at the start of a bag, for one that holds every robot joint.
 PEEK_MESSAGES = 200
 
-#: Skip reasons counted by the bag reader (channel samples).
+#: Skip reason counted by the bag reader (channel samples; the synchronizer counts the others).
 MALFORMED = "malformed message"
-OTHER_WIDTH = "channel message of another width than the first"
 
 
 class BagReader:
@@ -92,7 +91,8 @@ class BagReader:
         skipped: Channel samples skipped so far, by reason.
         rows_read: Channel samples read so far.
         size: Bytes of the bags' files.
-        n_channels: Channels per sample (from the first channel message), or None before it.
+        n_channels: Channels per sample (the first channel message's; a message of another
+            length is counted and skipped by the synchronizer), or None before it.
     """
 
     def __init__(
@@ -121,6 +121,7 @@ class BagReader:
         self.n_channels: int | None = None
         self._messages = 0
         self._ignored_joints = 0
+        self._reader = None  # the bag being read
         self._joint_index: dict[tuple[str, ...], np.ndarray | None] = {}
         self.joint_names: list[str] = list(joint_names or [])
         starts, self._counts = [], []
@@ -153,7 +154,10 @@ class BagReader:
         return int(self.size * min(self._messages / self._total_messages, 1.0))
 
     def close(self) -> None:
-        """Nothing to close between iterations (each bag is opened while it is read)."""
+        """Close the bag being read, when an iteration stopped before its end (each bag is open only while it is read)."""
+        reader, self._reader = self._reader, None
+        if reader is not None:
+            reader.close()
 
     def __enter__(self) -> BagReader:
         return self
@@ -237,9 +241,9 @@ class BagReader:
     def _read(self, part: BagPart) -> Iterator[SampleBatch]:
         from rosbags.highlevel import AnyReaderError
 
-        reader = open_bag(part.path)
+        reader = self._reader = open_bag(part.path)
         try:
-            sync = Synchronizer(self.joint_names, self.continuous, self.max_gap_s, self.latency_s)
+            sync = Synchronizer(self.joint_names, self.continuous, self.max_gap_s, self.latency_s, n_channels=self.n_channels)
             if part.configuration is not None:
                 sync.add_tool(-math.inf, part.configuration)
             wanted = {self.topics.joints, self.topics.channels}
@@ -256,14 +260,16 @@ class BagReader:
                 if connection.topic == self.topics.joints:
                     self._add_joints(sync, message)
                 elif connection.topic == self.topics.channels:
-                    self._add_channels(sync, part, connection.msgtype, log_ns, message)
+                    self._add_channels(sync, connection.msgtype, log_ns, message)
                 else:
                     sync.add_tool(seconds(log_ns), str(message.data).strip())
                 if self._messages % CHUNK_MESSAGES == 0:
                     yield from self._placed(part, sync, sync.pop())
             yield from self._placed(part, sync, sync.pop(final=True))
         finally:
-            reader.close()
+            if self._reader is reader:
+                self.close()
+        self.n_channels = sync.n_channels
         self.skipped.update(sync.dropped)
 
     def _malformed(self, part: BagPart, topic: str, log_ns: int, exc: Exception) -> None:
@@ -280,23 +286,16 @@ class BagReader:
             return
         sync.add_joints(stamp_s(message.header.stamp), dict(zip(self.joint_names, position[index].tolist(), strict=True)))
 
-    def _add_channels(self, sync: Synchronizer, part: BagPart, msgtype: str, log_ns: int, message) -> None:
+    def _add_channels(self, sync: Synchronizer, msgtype: str, log_ns: int, message) -> None:
         self.rows_read += 1
         if msgtype == WRENCH_STAMPED:
             f, m = message.wrench.force, message.wrench.torque
             t, values = stamp_s(message.header.stamp), (f.x, f.y, f.z, m.x, m.y, m.z)
         else:
             t, values = seconds(log_ns), tuple(np.asarray(message.data, dtype=float).tolist())
-        if self.n_channels is None:
-            self.n_channels = len(values)
-        if len(values) != self.n_channels:
-            self.skipped[OTHER_WIDTH] += 1
-            self._note(
-                f"{part.path}, topic '{self.topics.channels}' at {t:.9f} s: {len(values)} channels but the first message had "
-                f"{self.n_channels}; skipped"
-            )
-            return
         sync.add_strain(t, values)
+        if self.n_channels is None:
+            self.n_channels = sync.n_channels
 
     def _placed(self, part: BagPart, sync: Synchronizer, batch: SampleBatch) -> Iterator[SampleBatch]:
         """The synchronizer's batch with the tool's configuration indices; unknown names counted and skipped."""
