@@ -41,3 +41,19 @@ def test_a_shipped_plan_file_gives_the_expectations_at_the_channel_rate():
     assert plan.expected["A"] == pytest.approx(129 * 10)  # 129 samples at the plan's 100 Hz
     with pytest.raises(FileFormatError, match="duration_s"):
         load_plan_progress(resolve("paper_tool", "configs"), 1000.0)
+
+
+def test_the_live_status_line_shows_the_plan(ur5, paper_tool):
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import UdpReceiver
+    from fts_calib.pipeline.live import LiveRunner
+    from fts_calib.pipeline.session import CalibrationSession
+
+    plan = load_plan_progress(ROOT / "trajectories" / "ur5" / "plan.yaml", rate_hz=1000.0)
+    receiver = UdpReceiver("127.0.0.1", 0)
+    try:
+        sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
+        runner = LiveRunner(CalibrationSession(ur5, paper_tool, source="test"), receiver, sync, plan=plan)
+        assert "| ~40 s of motion left; mount A" in runner.status_line()
+    finally:
+        receiver.close()
