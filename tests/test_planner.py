@@ -94,19 +94,9 @@ def test_planning_again_reproduces_the_shipped_trajectories(robot, setup):
     assert summary["duration_s"] == pytest.approx(plan.duration, abs=1e-6)
     assert summary["excitation"]["rank"] == 7
     assert summary["accuracy_budget"]["largest_percent_fs"] <= DEFAULT_TARGET_PERCENT
-
-
-@pytest.mark.parametrize(("robot", "most_s"), [("ur5", 15.0), ("kinova", 30.0)])
-def test_sized_plans_are_short_and_meet_the_target(robot, most_s, setup):
-    """The issue's figures: UR5 <= 15 s and Kinova <= 30 s of motion per configuration at the default target."""
-    tool, sensor, pipeline = setup
-    run = plan_trajectories(
-        resolve(robot, "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=DEFAULT_TARGET_PERCENT
-    )
-    assert not run.problems and run.sized is not None
-    assert run.result.plan.duration <= most_s
-    assert run.budget is not None and run.budget.largest_percent <= DEFAULT_TARGET_PERCENT
-    assert run.excitation.rank == 7
+    # the issue's figures: UR5 <= 15 s and Kinova <= 30 s of motion per configuration (53.4 s and 94.7 s before)
+    assert plan.duration <= {"kinova": 30.0}.get(robot, 15.0)
+    assert run.budget is not None and run.budget.largest_percent <= DEFAULT_TARGET_PERCENT and run.excitation.rank == 7
 
 
 def test_a_target_below_what_the_tool_and_mount_allow_names_the_term(setup):
