@@ -12,6 +12,7 @@ import argparse
 from ..model.offset_basis import OFFSET_SETTINGS
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
+from .sensor_arguments import add_prior, add_sensor
 
 
 def _address(text: str) -> tuple[str, int]:
@@ -134,25 +135,16 @@ def _add_calibrate(commands) -> None:
     )
     add_recording(cal)
     _robot_and_tool(cal)
-    _sensor(cal)
+    add_sensor(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
     cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
     cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
     _resume_or_restart(cal, "continue from --checkpoint (it must be of this recording)")
     cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
     _accept_poor_fit(cal)
+    add_prior(cal)
     _offsets(cal)
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def _sensor(parser: argparse.ArgumentParser) -> None:
-    """--sensor: the sensor configuration whose channel layout the data must have (calibrate, live)."""
-    parser.add_argument(
-        "--sensor",
-        default="sensor",
-        help="sensor configuration: its 'channels' layout (maltese-cross-8, wrench-6 or a 6 x n projection), or an "
-        "ATI .cal file (P = its factory matrix) (default: sensor, the paper's 8 bridges; factory_sensor: a 6-axis wrench)",
-    )
 
 
 def _resume_or_restart(parser: argparse.ArgumentParser, resume_help: str) -> None:
@@ -192,7 +184,7 @@ def _add_live(commands) -> None:
         "  fts-calib live --robot ur5 --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml",
     )
     _robot_and_tool(live)
-    _sensor(live)
+    add_sensor(live)
     live.add_argument(
         "--plan", help="plan.yaml of the sized trajectories being run: the status line shows the motion left and the next configuration"
     )

@@ -17,6 +17,7 @@ from ..core.text import table
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import open_recording, recording_paths
 from ..model.calibration import save_calibration
+from ..model.prior import describe as describe_prior
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
 from ..pipeline.fit import FitCheck
@@ -27,7 +28,7 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .exit_codes import ExitCode, writing
 from .report import format_budget, format_offsets
-from .setup import load_sensor, load_setup
+from .setup import load_prior, load_sensor, load_setup
 
 
 def run(
@@ -49,6 +50,8 @@ def run(
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
     offsets: str | None = None,
+    prior: str | Path | None = None,
+    prior_weight: float = 1.0,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -75,6 +78,9 @@ def run(
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
         offsets: The offset model ('auto', 'constant', 'per-configuration', 'drift'); the
             pipeline file's (default auto) when None.
+        prior: A calibration to shrink C_bar toward (fts-calib YAML or ATI ``.cal``, of the
+            sensor's layout) when the excitation is weak; None for none.
+        prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
@@ -87,6 +93,7 @@ def run(
         "the tool file": tool,
         "the pipeline file": pipeline,
         "the sensor file": sensor,
+        **({"the prior": prior} if prior is not None else {}),
     }
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
     check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
@@ -94,6 +101,7 @@ def run(
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
     layout = spec.layout
+    shrink = load_prior(prior, prior_weight, layout)
     kept = KeptSamples()
     bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
     result = calibrate_recording(
@@ -111,6 +119,7 @@ def run(
         topics=BagTopics(joints_topic, channels_topic, configuration_topic),
         layout=layout,
         on_kept=kept,
+        prior=shrink,
     )
     written = None
     if result.calibration is not None:
@@ -256,6 +265,8 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     if q is None:  # CalibrationSession.solve always measures the fit
         raise FtsCalibError("internal error: the calibration has no fit quality")
     lines.append(f"rank {q.rank} of {q.full_rank}, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
+    if q.prior is not None:
+        lines.append(describe_prior(dict(q.prior)))
     lines += format_offsets(cal.offset_model)
     if q.fit is not None and not isinstance(result.error, PoorFit):
         lines += format_fit(result.session.fit_check())

@@ -5,14 +5,17 @@ from __future__ import annotations
 from pathlib import Path
 from typing import NamedTuple
 
+from ..core.exceptions import ConfigError
 from ..core.resources import resolve
+from ..model.channels import ChannelLayout
+from ..model.prior import Prior
 from ..model.sensor_config import SensorSpec, load_sensor_config
 from ..pipeline.settings import PipelineConfig, load_pipeline_config
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, load_tool
 from ..service.ati import SUFFIX as ATI_SUFFIX
-from ..service.ati import load_ati_calibration
+from ..service.ati import load_ati_calibration, read_calibration
 
 
 class Setup(NamedTuple):
@@ -45,6 +48,29 @@ def load_sensor(sensor: str | Path = "sensor") -> SensorSpec:
     if Path(sensor).suffix.lower() == ATI_SUFFIX:
         return load_ati_calibration(sensor).sensor_spec()
     return load_sensor_config(resolve(sensor, "configs"))
+
+
+def load_prior(prior: str | Path | None, weight: float, layout: ChannelLayout) -> Prior | None:
+    """The prior of ``--prior FILE --prior-weight LAMBDA``: a calibration (YAML or ATI ``.cal``) to shrink toward.
+
+    Args:
+        prior: The calibration file, or None for no prior.
+        weight: lambda >= 0 (:mod:`fts_calib.model.prior`).
+        layout: The sensor's channel layout: the prior must have it (its C_bar is then comparable).
+
+    Raises:
+        ConfigError: The prior is of another channel layout, or the weight is negative.
+    """
+    if prior is None:
+        return None
+    calibration = read_calibration(prior)
+    if calibration.layout != layout:
+        message = (
+            f"--prior {prior} is a calibration of a {calibration.layout.name} sensor ({calibration.layout.n_channels} channels) "
+            f"but the sensor is {layout.name} ({layout.n_channels} channels): give a prior of this sensor"
+        )
+        raise ConfigError("prior", str(prior), f"a calibration of the {layout.name} layout", message=message)
+    return Prior(calibration.C_bar, weight, str(prior))
 
 
 def load_kinematics(robot: str | Path) -> Kinematics:

@@ -63,6 +63,8 @@ class Quality:
             scale, the total; :meth:`fts_calib.model.budget.AccuracyBudget.to_dict`), or None.
         full_rank: The rank that determines every coefficient: 6 + the offset model's
             columns (7 for the paper's constant offsets, 6 for a jig).
+        prior: The prior C_bar was shrunk toward, as plain data (source, weight, effective
+            parameters, shrinkage: :mod:`fts_calib.model.prior`), or None for none.
     """
 
     samples_used: int
@@ -77,6 +79,7 @@ class Quality:
     fit: Mapping[str, Any] | None = None
     budget: Mapping[str, Any] | None = None
     full_rank: int = 7
+    prior: Mapping[str, Any] | None = None
 
     def __post_init__(self):
         n = np.shape(self.stderr_C)[-1] if np.ndim(self.stderr_C) == 2 else -1
@@ -177,6 +180,7 @@ def _quality_to_dict(quality: Quality) -> dict[str, Any]:
         **({"fit": dict(quality.fit)} if quality.fit is not None else {}),
         **({"accuracy_budget": dict(quality.budget)} if quality.budget is not None else {}),
         "full_rank": quality.full_rank,
+        **({"prior": dict(quality.prior)} if quality.prior is not None else {}),
     }
 
 
@@ -231,6 +235,7 @@ def _quality_from_dict(raw: Any, path: Path, n: int) -> Quality:
             fit=dict(raw["fit"]) if isinstance(raw.get("fit"), Mapping) else None,
             budget=dict(raw["accuracy_budget"]) if isinstance(raw.get("accuracy_budget"), Mapping) else None,
             full_rank=int(raw.get("full_rank", 7)),
+            prior=dict(raw["prior"]) if isinstance(raw.get("prior"), Mapping) else None,
         )
     except (TypeError, ValueError) as exc:
         raise FileFormatError(path, "quality", str(exc)) from None

@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -47,6 +48,7 @@ from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .least_squares import RCOND, fit_quality, information_rank, solve_normal
 from .offset_basis import AUTO, CONSTANT_ONLY, Candidate, OffsetBasis, candidates, choose, describe, model_sums, offset_setting
 from .offset_trace import OffsetTrace
+from .prior import Prior
 
 #: What full rank needs, in words: the one advice text of the estimator and the excitation report.
 RANK_ADVICE = (
@@ -196,6 +198,7 @@ class OnlineEstimator(SampleSums):
         min_norm: bool = False,
         configurations: Sequence[str] | None = None,
         at: tuple[float, int, float | None] | None = None,
+        prior: Prior | None = None,
     ) -> Calibration:
         """C_bar, D and C from the sums (eq 12), with the quality of the fit and the offset model.
 
@@ -210,6 +213,8 @@ class OnlineEstimator(SampleSums):
             at: ``(time [s], configuration index, temperature [°C] or None)`` of the end of
                 the run (e.g. the last sample seen, kept or not); the last sample added when
                 None. A configuration no sample was added for takes the last added one's.
+            prior: Shrink C_bar toward a known one (ridge, :mod:`fts_calib.model.prior`);
+                reported in the quality. None: the plain least squares.
 
         Raises:
             InsufficientExcitation: S_XX of the offset model has less than full rank (and
@@ -220,7 +225,11 @@ class OnlineEstimator(SampleSums):
         chosen, scores = self.model_in_use(rcond)
         sums = self.model_sums(chosen)
         S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
-        theta, rank, condition, inv = solve_normal(S_XX, S_WX, rcond, min_norm)
+        prior_report = None
+        if prior is None:
+            theta, rank, condition, inv = solve_normal(S_XX, S_WX, rcond, min_norm)
+        else:
+            theta, rank, condition, inv, prior_report = prior.solve(S_XX, S_WX, rcond)
         if theta is None:
             full = 6 + len(chosen.A)
             raise InsufficientExcitation(rank, full - rank, RANK_ADVICE, full=full)
@@ -255,6 +264,8 @@ class OnlineEstimator(SampleSums):
             "time": now_iso(),
             "software_version": __version__,
         }
+        if prior_report is not None:
+            quality = replace(quality, prior=prior_report)
         return Calibration(
             C_bar=theta[:, :6],
             D=theta[:, 6:] @ a_end,

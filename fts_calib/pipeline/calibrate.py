@@ -25,6 +25,7 @@ from ..feeds.source import open_recording, recording_paths
 from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
+from ..model.prior import Prior
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .checkpoint import check_start, recording_source
@@ -86,6 +87,7 @@ def calibrate_recording(
     accept_poor_fit: bool = False,
     topics: BagTopics | None = None,
     layout: ChannelLayout = MALTESE_CROSS_8,
+    prior: Prior | None = None,
 ) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
@@ -108,6 +110,7 @@ def calibrate_recording(
         topics: Topic names of a bag; the defaults when None.
         layout: The sensor's channel layout; a recording of another number of channels is
             refused (ShapeError naming both).
+        prior: Shrink C_bar toward a known calibration (ridge, :mod:`fts_calib.model.prior`).
 
     Raises:
         RecordingError: The file cannot be read at all (missing, no data row, a missing
@@ -151,7 +154,7 @@ def calibrate_recording(
     session.checkpoint()
     hint = "the joint columns may be in rad already: run without --joints-in-degrees" if joints_in_degrees else ""
     try:
-        calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint), None
+        calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
     except (InsufficientExcitation, PoorFit) as exc:
         calibration, error = None, exc
     return CalibrateResult(calibration, session, problems, rows, time.perf_counter() - start, error)

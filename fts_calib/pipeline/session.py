@@ -35,6 +35,7 @@ from ..feeds.batch import SampleBatch, configuration_indices
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
+from ..model.prior import Prior
 from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
 from ..robot.tool import Tool
@@ -276,13 +277,14 @@ class CalibrationSession:
         sums, per_configuration = model_fit_sums(self._fit_sums, chosen.model, chosen.columns, self.estimator.basis.n_configurations)
         return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)
 
-    def solve(self, accept_poor_fit: bool = False, hint: str = "") -> Calibration:
+    def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
         """The calibration from everything kept so far, with its fit check in the quality.
 
         Args:
             accept_poor_fit: Return a calibration whose fit is poor (its quality records the
                 verdict) instead of raising :class:`PoorFit`.
             hint: See :meth:`fit_check`.
+            prior: Shrink C_bar toward a known calibration (:mod:`fts_calib.model.prior`).
 
         Raises:
             InsufficientExcitation: Rank below 7; the message says what is missing, in words.
@@ -291,7 +293,7 @@ class CalibrationSession:
         """
         self._flush_staged()
         try:
-            calibration = self.estimator.solve(configurations=self.tool.names, at=self._last)
+            calibration = self.estimator.solve(configurations=self.tool.names, at=self._last, prior=prior)
         except InsufficientExcitation as exc:
             words = missing_words(self.tool, self.kept, self._directions)
             raise InsufficientExcitation(exc.rank, exc.missing, words, exc.full) from None
