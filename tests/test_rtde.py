@@ -1,15 +1,35 @@
 """UR arms through RTDE, tested with a fake receive interface (no network, no ur_rtde)."""
 
+import socket
 import sys
+import threading
 import types
 
 import numpy as np
 import pytest
 
 from fts_calib import ConfigError
-from fts_calib.feeds.protocol import Joints, Strain, ToolChange
+from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
+from fts_calib.core.resources import resolve
+from fts_calib.feeds.batch import SampleBatch
+from fts_calib.feeds.protocol import End, Joints, Strain, ToolChange, encode
+from fts_calib.feeds.recording import RecordingReader
 from fts_calib.feeds.rtde import RtdePoller, connect_ur
 from fts_calib.feeds.sync import Synchronizer
+from fts_calib.feeds.udp import UdpReceiver
+from fts_calib.model.calibration import load_calibration
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.pipeline.live import LiveRunner
+from fts_calib.pipeline.session import CalibrationSession
+from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
+from fts_calib.sim.recording import simulate_batches
+from fts_calib.sim.sensor import simulated_sensor
+
+from .helpers import wait_for
 
 JOINTS = [f"j{k}" for k in range(1, 7)]
 PERIOD_S = 0.002  # [s] e-Series controller cycle (500 Hz)
@@ -130,15 +150,6 @@ def test_a_robot_that_is_not_a_six_joint_arm_is_refused():
 @pytest.fixture(scope="module")
 def factory_runs(short_plan, seed):
     """The short UR5 plan through the simulated factory-calibrated sensor: per configuration, (time, q, wrench)."""
-    from fts_calib.core.resources import resolve
-    from fts_calib.model.sensor_config import load_sensor_config
-    from fts_calib.planning.trajectory_io import TrajectoryFile
-    from fts_calib.robot.definition import load_robot
-    from fts_calib.robot.kinematics import Kinematics
-    from fts_calib.robot.tool import load_tool
-    from fts_calib.sim.recording import simulate_batches
-    from fts_calib.sim.sensor import simulated_sensor
-
     path = resolve("factory_sensor", "configs")
     sensor = simulated_sensor(load_sensor_config(path), path)
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
@@ -155,10 +166,6 @@ def factory_runs(short_plan, seed):
 
 def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, monkeypatch, factory_runs, capsys):
     """`live --ur HOST --ur-wrench --configuration X`, then --resume with the next: C_bar to within its standard errors."""
-    from fts_calib.app.cli import main
-    from fts_calib.app.exit_codes import ExitCode
-    from fts_calib.model.calibration import load_calibration
-
     sensor, runs = factory_runs
     out = tmp_path / "ur.yaml"
     for k, (name, run) in enumerate(runs.items()):
@@ -178,7 +185,51 @@ def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, mo
 
 
 def test_ur_wrench_needs_a_six_channel_sensor(tmp_path):
-    from fts_calib.app.cli import main
-    from fts_calib.app.exit_codes import ExitCode
-
     assert main(["live", "--robot", "ur5", "--ur", "ur.invalid", "--ur-wrench", "-o", str(tmp_path / "c.yaml")]) == ExitCode.CONFIG
+
+
+@pytest.mark.slow  # streams the 9,009-row recording over loopback (about 2 s); its seeded noise is swept in test_calibrate.py
+def test_live_with_rtde_joints_and_strain_datagrams_gives_the_calibration_of_calibrate(ur5, paper_tool, ur5_recording):
+    """An external sensor: joints from RTDE (on the host's clock), strains and tools over UDP, into one session."""
+    with RecordingReader(ur5_recording, ur5.joint_names, paper_tool.names) as reader:
+        rows = SampleBatch.concatenate(list(reader))
+    # the rows at 128 Hz, a pause of 200 samples between configurations: stamps k / 128 s are exact
+    # binary fractions, so the host's clock (the controller's + 100 s) is exact too
+    controller_t = (np.arange(len(rows)) + 200 * rows.configuration) / 128.0
+    host_minus_controller = 100.0  # [s]
+    fake = FakeUR(controller_t, rows.joints, np.zeros((len(rows), 6)), reads=1)
+    poller = RtdePoller(fake, ur5.joint_names, wrench=False, host_clock=lambda: float(fake.time[fake._index]) + host_minus_controller)
+    receiver = UdpReceiver("127.0.0.1", 0)
+    session = CalibrationSession(ur5, paper_tool, source="test")
+    sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
+    runner = LiveRunner(session, receiver, sync, rtde=poller)
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=30.0)))
+    thread.start()
+    try:
+        host_t = controller_t + host_minus_controller
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.sendto(encode(Joints(host_t[0], dict.fromkeys(ur5.joint_names, 0.0))), receiver.address)  # RTDE gives the joints
+            current = None
+            for k, (t, strain, code) in enumerate(zip(host_t, rows.channels, rows.configuration, strict=True)):
+                if code != current:
+                    current = code
+                    sock.sendto(encode(ToolChange(t, paper_tool.names[code])), receiver.address)
+                sock.sendto(encode(Strain(t, tuple(strain))), receiver.address)
+                if k % 200 == 0:
+                    wait_for(lambda k=k: runner.stats.strain >= k - 1000, "the receiver to keep up")
+            wait_for(lambda: poller.samples == len(rows), "every controller sample read")
+            sock.sendto(encode(End()), receiver.address)
+        thread.join(timeout=60)
+    finally:
+        receiver.close()
+    assert not thread.is_alive(), "the live run did not end"
+    assert result["stats"].ended and poller.ignored == 1 and poller.offset_s == host_minus_controller
+    assert not sync.dropped, sync.dropped
+    direct = CalibrationSession(ur5, paper_tool, source="test")
+    direct.add_samples(SampleBatch(host_t, rows.joints, rows.channels, rows.configuration))
+    got, reference = session.solve(), direct.solve()
+    # every strain placed at a joint stamp of its own: the same samples fed to a session at once
+    # keep the same samples and give C to rounding
+    assert got.quality.samples_used == reference.quality.samples_used
+    assert np.all(np.abs(got.C - reference.C) <= 1e-6 * reference.quality.stderr_C)
