@@ -33,10 +33,12 @@ from .core.exceptions import (
 )
 from .feeds.batch import SampleBatch
 from .model.calibration import Calibration, Quality, load_calibration, save_calibration
+from .model.channels import MALTESE_CROSS_8, WRENCH_6, ChannelLayout, channel_layout
 from .model.estimator import OnlineEstimator
 from .model.jig import jig_calibration
 from .model.least_squares import information_rank
 from .model.offsets import OffsetEstimate, estimate_offsets
+from .model.prior import Prior
 from .model.sensor import WRENCH_AXES, P, c_bar_from_c, c_from_c_bar, project, wrench_from_strain
 from .model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 from .pipeline.session import CalibrationSession
@@ -45,14 +47,17 @@ from .robot.kinematics import Kinematics
 from .robot.load import ToolLoad, tool_load
 from .robot.tool import Tool, ToolConfiguration, load_tool, save_tool
 from .robot.wrench import dynamic_wrench, static_wrench
+from .service.ati import AtiCalibration, load_ati_calibration, read_calibration
 from .service.payload import PayloadEstimate, identify_payload
 from .service.reader import GravityCompensator, WrenchReader
 from .sim.sensor import SimulatedSensor, load_simulated_sensor
 
 __all__ = [
+    "AtiCalibration",
     "BagError",
     "Calibration",
     "CalibrationSession",
+    "ChannelLayout",
     "ConfigError",
     "FileFormatError",
     "FrameNotFound",
@@ -62,12 +67,14 @@ __all__ = [
     "InsufficientExcitation",
     "JointError",
     "Kinematics",
+    "MALTESE_CROSS_8",
     "OffsetEstimate",
     "OnlineEstimator",
     "P",
     "PayloadError",
     "PayloadEstimate",
     "PoorFit",
+    "Prior",
     "ProtocolError",
     "Quality",
     "RecordingError",
@@ -85,22 +92,26 @@ __all__ = [
     "TrajectoryError",
     "UnknownToolConfiguration",
     "UnsupportedJoint",
+    "WRENCH_6",
     "WRENCH_AXES",
     "WrenchReader",
     "__version__",
     "c_bar_from_c",
     "c_from_c_bar",
+    "channel_layout",
     "dynamic_wrench",
     "estimate_offsets",
     "identify_payload",
     "information_rank",
     "jig_calibration",
+    "load_ati_calibration",
     "load_calibration",
     "load_robot",
     "load_sensor_config",
     "load_simulated_sensor",
     "load_tool",
     "project",
+    "read_calibration",
     "save_calibration",
     "save_tool",
     "static_wrench",

@@ -11,6 +11,7 @@ from fts_calib import Calibration, ConfigError, load_calibration, save_calibrati
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
+from fts_calib.model.channels import WRENCH_6
 from fts_calib.service.export import c_header, export, json_text
 from fts_calib.sim.sensor import load_simulated_sensor
 
@@ -23,18 +24,22 @@ def calibration():
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
 @pytest.mark.parametrize("precision", ["float", "double"])
-def test_the_c_header_compiles_and_matches_python(tmp_path, calibration, rng, precision):
+@pytest.mark.parametrize("layout", ["maltese-cross-8", "wrench-6"])
+def test_the_c_header_compiles_and_matches_python(tmp_path, calibration, rng, precision, layout):
+    if layout == "wrench-6":  # a factory wrench's correction: C is 6 x 6
+        calibration = Calibration(np.eye(6) * 1.03, calibration.D, layout=WRENCH_6)
+    n = calibration.layout.n_channels
     (tmp_path / "calibration.h").write_text(c_header(calibration))
-    strains = rng.standard_normal((50, 8)) * 0.2
+    strains = rng.standard_normal((50, n)) * 0.2
     rows = ",\n".join("{" + ", ".join(f"{v:.17g}" for v in s) + "}" for s in strains)
     source = f"""
 #include <stdio.h>
 #include "calibration.h"
-static const double strains[50][8] = {{ {rows} }};
+static const double strains[50][{n}] = {{ {rows} }};
 int main(void) {{
     for (int n = 0; n < 50; ++n) {{
-        fts_calib_real s[8], w[6];
-        for (int k = 0; k < 8; ++k) s[k] = (fts_calib_real)strains[n][k];
+        fts_calib_real s[{n}], w[6];
+        for (int k = 0; k < {n}; ++k) s[k] = (fts_calib_real)strains[n][k];
         fts_calib_wrench(s, w);
         for (int i = 0; i < 6; ++i) printf("%.17g%c", (double)w[i], i == 5 ? '\\n' : ' ');
     }}

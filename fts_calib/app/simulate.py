@@ -101,11 +101,12 @@ def run(
     with writing(output):
         path = simulate_recording(output, kin, loaded, trajectories, simulated, rng, tool_change_s=tool_change_s, dynamic=dynamic)
     rows = sum(len(t.time) for t in trajectories)
-    noise = "none" if rng is None else f"{simulated.noise_std.max():.2g} {spec.strain_unit} per bridge (seed {seed})"
+    noise = "none" if rng is None else f"up to {simulated.noise_std.max():.2g} {spec.strain_unit} per channel (seed {seed})"
     wrench = "moving (Newton-Euler)" if dynamic else "static"
     print(
         f"wrote {path}: {rows:,} rows, configurations {', '.join(t.tool for t in trajectories)}"
         + (f" (no trajectory for {missing})" if missing else "")
-        + f"; tool wrench {wrench}, noise {noise}, {simulated.adc_bits}-bit ADC"
+        + f"; tool wrench {wrench}, noise {noise}, "
+        + (f"{simulated.adc_bits}-bit ADC" if simulated.adc_bits else "no quantization")
     )
     return ExitCode.OK
