@@ -103,3 +103,21 @@ def test_a_session_refuses_samples_of_another_width(ur5, paper_tool):
         session.add_batch(np.zeros(3), np.zeros((3, 6)), np.zeros((3, 6)), "A")
     with pytest.raises(ShapeError, match=r"strain.shape=\(6,\) but expected \(8,\)"):
         session.add(0.0, np.zeros(6), np.zeros(6), "A")
+
+
+def test_live_counts_and_names_strain_datagrams_of_another_length():
+    from fts_calib.feeds.protocol import Joints, Strain, ToolChange, encode
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import LiveStats, feed_datagram
+    from fts_calib.pipeline.live import format_stats
+
+    sync, stats = Synchronizer(["a"], n_channels=6, configurations=["A"]), LiveStats()
+    feed_datagram(encode(ToolChange(0.0, "A")), sync, stats)
+    for k in range(10):
+        feed_datagram(encode(Joints(0.01 * k, {"a": 0.0})), sync, stats)
+    for k, n in enumerate([6, 8, 6, 8, 8]):  # a paper sensor's datagrams mixed in
+        feed_datagram(encode(Strain(0.01 * k + 0.005, (0.1,) * n)), sync, stats)
+    batch = sync.pop(final=True)
+    assert batch.channels.shape == (2, 6) and stats.strain == 5
+    text = format_stats(stats, sync)
+    assert "strain message of another length than the sensor's channels: expected 6: 3" in text
