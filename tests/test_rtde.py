@@ -19,6 +19,7 @@ from fts_calib.feeds.rtde import RtdePoller, connect_ur
 from fts_calib.feeds.sync import Synchronizer
 from fts_calib.feeds.udp import UdpReceiver
 from fts_calib.model.calibration import load_calibration
+from fts_calib.model.channels import WRENCH_6
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.live import LiveRunner
 from fts_calib.pipeline.session import CalibrationSession
@@ -233,3 +234,36 @@ def test_live_with_rtde_joints_and_strain_datagrams_gives_the_calibration_of_cal
     # keep the same samples and give C to rounding
     assert got.quality.samples_used == reference.quality.samples_used
     assert np.all(np.abs(got.C - reference.C) <= 1e-6 * reference.quality.stderr_C)
+
+
+def test_samples_nobody_drains_are_dropped_and_counted(monkeypatch):
+    monkeypatch.setattr("fts_calib.feeds.rtde.MAX_PENDING", 50)
+    poller = RtdePoller(FakeUR(*_linear_run(80)[:3], reads=1), JOINTS, wrench=True)
+    _poll_all(poller, poller.receiver)
+    sync = Synchronizer(JOINTS)
+    assert poller.samples == 80 and poller.dropped == 30 and poller.drain(sync) == 50  # the newest 50 kept
+    assert sync.joint_messages == 50
+
+
+class LostUR(FakeUR):
+    """A controller that stops answering after its samples (the connection is lost)."""
+
+    def getTimestamp(self):  # noqa: N802
+        if self.calls >= len(self.time):
+            raise RuntimeError("RTDE receive interface: connection lost")
+        return super().getTimestamp()
+
+
+def test_a_lost_connection_ends_the_live_run_with_what_was_read(ur5, paper_tool):
+    time, q, wrench, _ = _linear_run(300)
+    poller = RtdePoller(LostUR(time, q, wrench, reads=1), ur5.joint_names, wrench=True)
+    receiver = UdpReceiver("127.0.0.1", 0)
+    session = CalibrationSession(ur5, paper_tool, source="test", layout=WRENCH_6)  # the built-in sensor's wrench
+    sync = Synchronizer(ur5.joint_names, ur5.continuous, configurations=paper_tool.names)
+    sync.add_tool(-np.inf, "A")
+    try:
+        stats = LiveRunner(session, receiver, sync, rtde=poller).run(idle_timeout_s=30.0)
+    finally:
+        receiver.close()
+    assert "connection lost" in str(poller.error) and not stats.ended
+    assert poller.samples == 300 and session.progress().seen == 300  # every sample read reached the session
