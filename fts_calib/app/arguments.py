@@ -110,7 +110,10 @@ def _add_trajectory(commands) -> None:
     traj.add_argument("--tool-length", type=float, help="override the tool envelope's length in m")
     traj.add_argument("--sensor", default="sensor", help="sensor configuration (nominal model for the excitation report)")
     traj.add_argument(
-        "--noise", dest="noise_std", type=float, help="strain noise per bridge for the excitation report (default: the pipeline's)"
+        "--noise",
+        dest="noise_std",
+        type=float,
+        help="noise per channel for the excitation report (default: the sensor file's, else the pipeline's)",
     )
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", dest="plot", action="store_false", help="do not write plan.png")

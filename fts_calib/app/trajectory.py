@@ -67,8 +67,9 @@ def run(
         tool_radius: Radius of the tool's collision envelope, in [m]; the tool file's when None.
         tool_length: Length of the tool's collision envelope, in [m]; the tool file's when None.
         sensor: Sensor configuration with a nominal model, for the excitation report.
-        noise_std: Strain noise per bridge for the excitation report, in raw units; the
-            pipeline's, else the sensor file's, when None.
+        noise_std: Noise per channel for the excitation report, in raw units; when None the
+            sensor file's (its simulation section: the noise of its own channels, e.g. N for
+            a factory wrench), else the pipeline file's ``design.noise_std``.
         compress: Write .csv.gz files.
         plot: Write plan.png.
 
@@ -91,9 +92,11 @@ def run(
         )
         raise FileFormatError(sensor_path, "simulation", message)
     settings = load_settings(pipeline)
-    noise: float | np.ndarray | None = noise_std if noise_std is not None else settings.noise_std
+    noise: float | np.ndarray | None = noise_std
+    if noise is None:  # the sensor's own channels first: the pipeline's design noise is in the paper sensor's mV/V
+        noise = spec.simulated.noise_std if spec.simulated is not None else settings.noise_std
     if noise is None:
-        noise = spec.simulated.noise_std if spec.simulated is not None else 0.0
+        noise = 0.0
     fixed = any(v is not None for v in (levels, stops, dwell_s, span))
     default = SweepPattern()
     pattern = SweepPattern(
@@ -196,7 +199,7 @@ def format_report(
     noise = ex.noise_std
     noise_text = f"{noise[0]:.2g}" if np.all(noise == noise[0]) else str(noise.tolist())
     counts = ", ".join(f"{k}: {v}" for k, v in ex.samples.items())
-    lines.append(f"excitation (strain noise {noise_text} {run.strain_unit} per bridge; quasi-static samples {counts}):")
+    lines.append(f"excitation (noise {noise_text} {run.strain_unit} per channel; quasi-static samples {counts}):")
     cond = f"{ex.condition_number:.1f}" if math.isfinite(ex.condition_number) else "inf"
     lines.append(
         f"  predicted rank {ex.rank} of 7, condition number {cond}; every direction within "
