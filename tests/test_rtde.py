@@ -8,7 +8,7 @@ import types
 import numpy as np
 import pytest
 
-from fts_calib import ConfigError
+from fts_calib import ConfigError, PoorFit
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
@@ -267,3 +267,15 @@ def test_a_lost_connection_ends_the_live_run_with_what_was_read(ur5, paper_tool)
         receiver.close()
     assert "connection lost" in str(poller.error) and not stats.ended
     assert poller.samples == 300 and session.progress().seen == 300  # every sample read reached the session
+
+
+def test_a_wrench_in_the_base_frame_is_refused_by_the_fit_check(factory_runs, ur5, paper_tool):
+    """Why getFtRawWrench (fixed to the flange) and not getActualTCPForce (base orientation): C_bar is constant."""
+    _, runs = factory_runs
+    session = CalibrationSession(ur5, paper_tool, source="test", layout=WRENCH_6)
+    for k, (time, q, wrench) in enumerate(runs.values()):
+        R = ur5.R_world_sensor(q)  # the same wrench, expressed in the base frame
+        w_base = np.hstack([np.einsum("nij,nj->ni", R, wrench[:, :3]), np.einsum("nij,nj->ni", R, wrench[:, 3:])])
+        session.add_samples(SampleBatch(time, q, w_base, np.full(len(time), k)))
+    with pytest.raises(PoorFit, match="fit poor"):
+        session.solve()
