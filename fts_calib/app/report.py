@@ -92,6 +92,12 @@ def format_budget(budget: AccuracyBudget, what: str) -> list[str]:
     return lines
 
 
+def _terms(model: str, columns) -> str:
+    """A model with its drift terms, e.g. 'drift (time^1, temperature)'."""
+    extra = [c for c in columns if not c.startswith("offset")]
+    return f"{model} ({', '.join(extra)})" if extra else model
+
+
 def format_offsets(offset_model) -> list[str]:
     """The offset model of a calibration in words: the model chosen and why, and how far D moved, with units.
 
@@ -102,12 +108,11 @@ def format_offsets(offset_model) -> list[str]:
     if not offset_model:
         return ["offsets: constant (the paper's model)"]
     how = "chosen by BIC" if offset_model.get("setting") == "auto" else "set by --offsets"
-    scores = ", ".join(f"{c['model']} ({len(c['columns'])} col.) +{c['bic_above_best']:.0f}" for c in offset_model.get("candidates", []))
-    lines = [
-        f"offsets: {offset_model['model']} ({how}; BIC above the best: {scores or 'none'}); columns {', '.join(offset_model['columns'])}"
-    ]
+    scores = ", ".join(f"{_terms(c['model'], c['columns'])} +{c['bic_above_best']:.0f}" for c in offset_model.get("candidates", []))
+    columns = "" if offset_model["model"] == "constant" else f"; columns {', '.join(offset_model['columns'])}"
+    lines = [f"offsets: {offset_model['model']} ({how}; BIC above the best: {scores or 'none'}){columns}"]
     trajectory = offset_model.get("trajectory") or []
-    if len(trajectory) >= 2:
+    if len(trajectory) >= 2 and offset_model["model"] != "constant":  # constant offsets do not move
         first, last = trajectory[0], trajectory[-1]
         moved = np.array(last["D"]) - np.array(first["D"])
         span = last["time_s"] - first["time_s"]
