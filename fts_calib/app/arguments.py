@@ -188,6 +188,7 @@ def _add_live(commands) -> None:
     )
     _robot_and_tool(live)
     add_sensor(live)
+    add_prior(live)
     live.add_argument(
         "--plan", help="plan.yaml of the sized trajectories being run: the status line shows the motion left and the next configuration"
     )

@@ -13,13 +13,14 @@ from ..feeds.rtde import RtdePoller, connect_ur
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import UdpReceiver
 from ..model.calibration import save_calibration
+from ..model.prior import describe as describe_prior
 from ..pipeline.checkpoint import check_start, live_source
 from ..pipeline.live import LiveRunner, format_stats
 from ..pipeline.remaining import load_plan_progress
 from ..pipeline.session import CalibrationSession
 from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import load_sensor, load_setup
+from .setup import load_prior, load_sensor, load_setup
 
 
 def run(
@@ -43,6 +44,8 @@ def run(
     configuration: str | None = None,
     plan: str | Path | None = None,
     offsets: str | None = None,
+    prior: str | Path | None = None,
+    prior_weight: float = 1.0,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
@@ -74,6 +77,9 @@ def run(
             the motion left to reach its target and the configuration to mount next.
         offsets: The offset model ('auto', 'constant', 'per-configuration', 'drift'); the
             pipeline file's (default auto) when None.
+        prior: A calibration to shrink C_bar toward (YAML or ATI ``.cal``, of the sensor's
+            layout) when the excitation is weak; None for none.
+        prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
@@ -89,6 +95,7 @@ def run(
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
     layout = spec.layout
+    shrink = load_prior(prior, prior_weight, layout)
     expected = None if plan is None else load_plan_progress(plan, spec.rate_hz)
     if expected is not None and set(expected.expected) != set(loaded.names):
         raise ConfigError("plan", sorted(expected.expected), f"the tool's configurations {loaded.names}", owner=str(plan))
@@ -134,7 +141,7 @@ def run(
         print(format_rtde(rtde))
     print("\n".join(format_counts(session)))
     try:
-        calibration = session.solve(accept_poor_fit=accept_poor_fit)
+        calibration = session.solve(accept_poor_fit=accept_poor_fit, prior=shrink)
     except InsufficientExcitation as exc:
         print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
         return ExitCode.CHECK_FAILED
@@ -149,6 +156,8 @@ def run(
     quality = calibration.quality
     if quality is None:  # CalibrationSession.solve always measures the fit
         raise FtsCalibError("internal error: the calibration has no fit quality")
+    if quality.prior is not None:
+        print(describe_prior(dict(quality.prior)))
     print(f"rank {quality.rank} of {quality.full_rank}, condition number {quality.condition_number:.1f}; wrote {path}")
     return ExitCode.OK
 

@@ -1,7 +1,7 @@
 """Command-line arguments of the sensor: its channel layout (``--sensor``) and a prior calibration (``--prior``).
 
-Used by :mod:`fts_calib.app.arguments` for ``calibrate`` and ``live`` (the sensor) and
-``calibrate`` (the prior); each destination is a parameter of the command's ``run``.
+Used by :mod:`fts_calib.app.arguments` for ``calibrate`` and ``live``; each destination is
+a parameter of the command's ``run``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ def add_sensor(parser: argparse.ArgumentParser) -> None:
 
 
 def add_prior(parser: argparse.ArgumentParser) -> None:
-    """--prior and --prior-weight: ridge regression of C_bar toward a known calibration (calibrate)."""
+    """--prior and --prior-weight: ridge regression of C_bar toward a known calibration (calibrate, live)."""
     parser.add_argument(
         "--prior",
         metavar="CALIBRATION",
