@@ -192,7 +192,7 @@ def test_what_is_neither_a_csv_nor_a_bag_is_refused(tmp_path):
         open_recording(tmp_path, None, None)
     with pytest.raises(RecordingError, match="several recordings are read only as ROS 2 bags"):
         open_recording([tmp_path / "run.txt", tmp_path / "b.mcap"], None, None)
-    assert main(["validate", "--calibration", "c.yaml", "--robot", "ur5", str(tmp_path / "run.txt")]) != ExitCode.OK
+    assert main(["calibrate", "--robot", "ur5", str(tmp_path / "run.txt"), "-o", str(tmp_path / "c.yaml")]) == ExitCode.RECORDING
 
 
 def test_replay_sends_a_bag_as_it_sends_the_csv(bags, ur5_recording):
