@@ -337,3 +337,32 @@ def test_the_drift_demo_calibrates_a_drifting_sensor_right_and_plots_its_offsets
     # D at the end against the sensor's offsets at the end (what the validation reads): within 6 standard errors
     assert np.all(np.abs(result.calibration.D - result.true_D) <= 6 * result.calibration.quality.stderr_D), text
     assert result.validation.errors[0].max_percent.max() < 0.2, text  # the demo's target, dynamics included
+
+
+def test_the_excitation_report_predicts_the_drift_model_s_standard_errors(rng):
+    """The plan-time prediction under drift equals what the estimator reports on noisy data of that plan.
+
+    Noise 1e-4 mV/V on 1,200 samples: the estimator's residual sigma is the noise through C within
+    about 1/sqrt(2 * 1,200) = 2 %, so its standard errors match the prediction within 10 %.
+    """
+    from fts_calib.planning.excitation import predict_excitation
+    from fts_calib.robot.tool import Tool, ToolConfiguration
+
+    tool = Tool("t", 9.81, tuple(ToolConfiguration(n, TOOL_MASS, com) for n, com in zip("ABC", COMS, strict=True)))
+    g = {name: random_gravity(400, rng) for name in tool.names}
+    time_s = {name: 5.0 + 60.0 * k + np.arange(400) / RATE_HZ for k, name in enumerate(tool.names)}
+    W = np.vstack([tool.configuration(name).static_wrench(g[name]) for name in tool.names])
+    codes = np.repeat(np.arange(3), 400)
+    t = np.concatenate([time_s[name] for name in tool.names])
+    D = D_TRUE + RATE * (t[:, None] - t[0]) + JUMPS[codes]
+    S = np.linalg.solve(C_BAR_TRUE, (W - D).T).T @ np.linalg.pinv(P_PAPER).T
+    noise_std = 1e-4  # [mV/V]
+    report = predict_excitation(g, tool, C_BAR_TRUE, D_TRUE, noise_std, time_s=time_s, drift_degree=2)
+    drift = report.drift
+    assert drift.rank == drift.full_rank == 11 and drift.columns[-2:] == ["time^1", "time^2"]
+    est = _estimator("drift", temperature=False)
+    est.update_batch(W, S + noise_std * rng.standard_normal(S.shape), time=t, configuration=codes)
+    measured = est.solve().quality
+    np.testing.assert_allclose(measured.stderr_C_bar, drift.stderr_C_bar, rtol=0.1)
+    np.testing.assert_allclose(measured.stderr_D, drift.stderr_D, rtol=0.1)
+    assert drift.max_relative_stderr > report.max_relative_stderr  # drift columns cost precision

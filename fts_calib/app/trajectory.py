@@ -15,6 +15,7 @@ from ..core.text import table
 from ..model.budget import DEFAULT_TARGET_PERCENT
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
+from ..planning.drift_excitation import DriftPrediction
 from ..planning.sweeps import SweepPattern
 from ..planning.trajectory import TrajectoryRun, plan_summary, plan_trajectories
 from ..planning.trajectory_io import save_trajectory
@@ -143,6 +144,18 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
     return dataclasses.replace(run, files=files)
 
 
+def format_drift_prediction(drift: DriftPrediction, constant: float) -> str:
+    """The excitation under the drift offset model, in words, beside the constant-offset figure (relative)."""
+    head = f"  under the drift offset model ({', '.join(drift.columns)}): predicted rank {drift.rank} of {drift.full_rank}"
+    if drift.rank < drift.full_rank:
+        return head + ": the plan cannot separate the drift from the orientation (revisit directions later in the run)"
+    return (
+        f"{head}, condition number {drift.condition_number:.1f}; largest standard error of C {100 * drift.max_relative_stderr:.5f} % "
+        f"({drift.max_relative_stderr / constant:.2f}x the constant-offset figure); of D at the end: "
+        + ", ".join(f"{axis} {v:.2g} {u}" for axis, v, u in zip(WRENCH_AXES, drift.stderr_D, WRENCH_UNITS, strict=True))
+    )
+
+
 def format_report(
     run: TrajectoryRun, robot_path: Path, tool_path: Path, compress: bool = False, target_percent: float | None = None
 ) -> str:
@@ -219,6 +232,8 @@ def format_report(
             f"  largest from strain noise alone: {100 * ex.max_relative_stderr:.5f} %; predicted standard error of D: "
             + ", ".join(f"{axis} {v:.2g} {u}" for axis, v, u in zip(WRENCH_AXES, ex.stderr_D, WRENCH_UNITS, strict=True))
         )
+    if ex.drift is not None and ex.rank == 7:
+        lines.append(format_drift_prediction(ex.drift, ex.max_relative_stderr))
     if run.budget is not None:
         lines += format_budget(run.budget, "predicted")
         if run.sized is not None:

@@ -30,6 +30,7 @@ from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.estimator import RANK_ADVICE
 from ..model.least_squares import RCOND, coefficient_stderr, information_rank
 from ..robot.tool import Tool
+from .drift_excitation import DriftPrediction, predict_drift
 
 _SPHERE_POINTS = 2000  # probe directions for the coverage angle (mean spacing about 4.5 deg)
 
@@ -50,6 +51,9 @@ class ExcitationReport:
         coverage_deg: Largest angle in [deg] from any direction to the nearest gravity
             direction seen by the sensor (small is good; 180 with one direction).
         advice: What is missing, in words, or '' when the plan determines every coefficient.
+        drift: The same prediction under the drift offset model (one offset per
+            configuration and powers of time, :mod:`fts_calib.planning.drift_excitation`),
+            or None when the samples' times were not given.
     """
 
     samples: Mapping[str, int]
@@ -62,6 +66,7 @@ class ExcitationReport:
     relative_stderr_C: np.ndarray
     coverage_deg: float
     advice: str
+    drift: DriftPrediction | None = None
 
     def __post_init__(self):
         for name in ("noise_std", "stderr_C_bar", "stderr_D", "stderr_C", "relative_stderr_C"):
@@ -102,6 +107,8 @@ def predict_excitation(
     noise_std,
     rcond: float = RCOND,
     layout: ChannelLayout = MALTESE_CROSS_8,
+    time_s: Mapping[str, np.ndarray] | None = None,
+    drift_degree: int = 2,
 ) -> ExcitationReport:
     """Predict the estimator's rank, condition and standard errors for planned samples.
 
@@ -114,12 +121,16 @@ def predict_excitation(
         noise_std: Noise per channel, raw units; one number or shape (n,).
         rcond: Rank threshold, as the estimator's.
         layout: The sensor's channel layout (n channels, its P); the paper's by default.
+        time_s: Per configuration name, the samples' times in the run [s] (configurations one
+            after the other); with them the report also predicts the drift model's errors.
+        drift_degree: The highest power of time of that drift model.
     """
     P, n = layout.projection, layout.n_channels
     noise = np.broadcast_to(np.asarray(noise_std, dtype=float), (n,)).copy()
     S_XX = np.zeros((7, 7))
     counts = {}
     directions = []
+    projected = {}
     for name, g in g_sensor.items():
         g = np.asarray(g, dtype=float).reshape(-1, 3)
         counts[name] = len(g)
@@ -128,6 +139,7 @@ def predict_excitation(
         W = tool.configuration(name).static_wrench(g)
         x = np.hstack([np.linalg.solve(C_bar, (W - D).T).T, np.ones((len(g), 1))])  # eq 22, then eq 13
         S_XX += x.T @ x
+        projected[name] = x[:, :6]
         directions.append(g)
     rank, condition = information_rank(S_XX, rcond) if any(counts.values()) else (0, math.inf)
     C = C_bar @ P
@@ -145,6 +157,8 @@ def predict_excitation(
             f"{len(used)} configuration(s) {used}. {RANK_ADVICE}"
         )
     coverage = coverage_angle(np.vstack(directions)) if directions else 180.0
+    sigma_drift = np.sqrt(np.diag(C @ np.diag(noise**2) @ C.T))
+    drift = None if time_s is None else predict_drift(projected, time_s, tool.names, C_bar, sigma_drift, P, drift_degree, rcond)
     return ExcitationReport(
         samples=counts,
         rank=rank,
@@ -156,4 +170,5 @@ def predict_excitation(
         relative_stderr_C=stderr_C / np.max(np.abs(C), axis=1, keepdims=True),
         coverage_deg=coverage,
         advice=advice,
+        drift=drift,
     )

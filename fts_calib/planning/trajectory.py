@@ -26,6 +26,7 @@ from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .accuracy import plan_budget, predicted_still, wrench_noise
+from .drift_excitation import TOOL_CHANGE_S
 from .excitation import ExcitationReport, predict_excitation
 from .planner import PlanResult, plan_calibration
 from .sizing import SizedPlan, size_plan
@@ -117,6 +118,7 @@ def plan_trajectories(
         sensor.simulated.D,
         noise_std,
         layout=sensor.layout,
+        time_s={c.name: result.plan.time[still] + k * (result.plan.duration + TOOL_CHANGE_S) for k, c in enumerate(tool.configurations)},
     )
     problems = list(result.problems)
     if excitation.rank < 7:
