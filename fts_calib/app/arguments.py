@@ -115,6 +115,12 @@ def _add_trajectory(commands) -> None:
         type=float,
         help="noise per channel for the excitation report (default: the sensor file's, else the pipeline's)",
     )
+    traj.add_argument(
+        "--return-pass",
+        action="store_true",
+        help="visit the stops again in reverse order: drifting offsets become separable from the orientation "
+        "(the drift model then costs no precision of C) for about twice the sweep time; fixes the raster",
+    )
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", dest="plot", action="store_false", help="do not write plan.png")
 

@@ -46,6 +46,7 @@ def run(
     noise_std: float | None = None,
     compress: bool = False,
     plot: bool = True,
+    return_pass: bool = False,
 ) -> int:
     """Plan and check the calibration sweeps, write them and print the report (``fts-calib trajectory``).
 
@@ -73,6 +74,8 @@ def run(
             a factory wrench), else the pipeline file's ``design.noise_std``.
         compress: Write .csv.gz files.
         plot: Write plan.png.
+        return_pass: Visit the raster's stops again in reverse order (drift separable from the
+            orientation; about twice the time); fixes the raster (no sizing to the target).
 
     Returns:
         0 when every check passed, 1 when one failed (the trajectory files are then not written).
@@ -98,7 +101,7 @@ def run(
         noise = spec.simulated.noise_std if spec.simulated is not None else settings.noise_std
     if noise is None:
         noise = 0.0
-    fixed = any(v is not None for v in (levels, stops, dwell_s, span))
+    fixed = any(v is not None for v in (levels, stops, dwell_s, span)) or return_pass
     default = SweepPattern()
     pattern = SweepPattern(
         levels=default.levels if levels is None else levels,
@@ -106,6 +109,7 @@ def run(
         dwell=default.dwell if dwell_s is None else dwell_s,
         margin=margin,
         span=default.span if span is None else span,
+        return_pass=return_pass,
     )
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     print(f"planning {robot_path.stem} sweeps for '{loaded.name}' ({len(loaded.configurations)} configurations)...", flush=True)

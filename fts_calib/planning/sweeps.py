@@ -42,6 +42,11 @@ class SweepPattern:
         margin: Distance kept from the position limits, in [rad] (>= 0).
         span: Fraction of the second sweep joint's range its stops cover, about the
             middle of the range (0 < span <= 1; 1: the whole range).
+        return_pass: After the raster, visit its stops again in reverse order, back to the
+            first: every direction is seen at two times placed symmetrically about the
+            middle of the sweep, so a drift of the offsets linear or quadratic in time is
+            separable from the orientation (the drift model then costs no precision of C);
+            the sweep takes about twice as long.
     """
 
     levels: int = 4
@@ -49,6 +54,7 @@ class SweepPattern:
     dwell: float = 0.5
     margin: float = 0.02
     span: float = 1.0
+    return_pass: bool = False
 
     def __post_init__(self):
         if self.levels < 2 or self.stops < 2:
@@ -195,7 +201,8 @@ def raster(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: Sweep
 
     At each level of the first sweep joint (:func:`latitude_levels`), the second joint's
     stops, back and forth. On a full turn of the second joint, odd levels shift its stops by
-    half a step (the directions interleave).
+    half a step (the directions interleave). With ``pattern.return_pass`` the stops are then
+    visited again in reverse order, back to the first.
     """
     first = latitude_levels(kin, home, ranges[0], pattern.levels)
     second = _positions(ranges[1, 0], ranges[1, 1], pattern.stops)
@@ -206,4 +213,6 @@ def raster(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: Sweep
         values = second + (half if i % 2 else 0.0)
         for value in values if i % 2 == 0 else values[::-1]:
             rows.append((level, value))
+    if pattern.return_pass:
+        rows += rows[-2::-1]  # back through every stop to the first (the last is not held twice)
     return np.array(rows)

@@ -140,6 +140,7 @@ def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
             "dwell_s": plan.pattern.dwell,
             "margin_rad": plan.pattern.margin,
             "span": plan.pattern.span,
+            **({"return_pass": True} if plan.pattern.return_pass else {}),
         },
         "target_error_percent_fs": run.sized.target_percent if run.sized else None,
         "home": {
