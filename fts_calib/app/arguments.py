@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import argparse
 
-from ..model.offset_basis import OFFSET_SETTINGS
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
+from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
 from .sensor_arguments import add_prior, add_sensor
 
 
@@ -56,12 +56,7 @@ def _add_demo(commands) -> None:
     demo.add_argument("--out", default="out", help="folder for the results (default: out/)")
     demo.add_argument("--seed", type=int, default=0, help="seed of the sensor noise and the validation motion (default: 0)")
     demo.add_argument("--quick", action="store_true", help="a smaller run: 3 levels x 4 stops at 100 Hz")
-    demo.add_argument(
-        "--drift",
-        action="store_true",
-        help="the sensor's offsets drift (up to 1 N/min, a warm-up with a temperature channel, 1 N jumps at tool changes); "
-        "plots the estimated against the true offsets over time (offsets_drift.png)",
-    )
+    add_drift_demo(demo)
 
 
 def _add_robots(commands) -> None:
@@ -115,12 +110,7 @@ def _add_trajectory(commands) -> None:
         type=float,
         help="noise per channel for the excitation report (default: the sensor file's, else the pipeline's)",
     )
-    traj.add_argument(
-        "--return-pass",
-        action="store_true",
-        help="visit the stops again in reverse order: drifting offsets become separable from the orientation "
-        "(the drift model then costs no precision of C) for about twice the sweep time; fixes the raster",
-    )
+    add_return_pass(traj)
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", dest="plot", action="store_false", help="do not write plan.png")
 
@@ -152,7 +142,7 @@ def _add_calibrate(commands) -> None:
     cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
     _accept_poor_fit(cal)
     add_prior(cal)
-    _offsets(cal)
+    add_offsets(cal)
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -160,16 +150,6 @@ def _resume_or_restart(parser: argparse.ArgumentParser, resume_help: str) -> Non
     """--resume and --restart: what to do with an existing checkpoint (never overwritten silently)."""
     parser.add_argument("--resume", action="store_true", help=resume_help)
     parser.add_argument("--restart", action="store_true", help="start afresh, overwriting an existing checkpoint")
-
-
-def _offsets(parser: argparse.ArgumentParser) -> None:
-    """--offsets: the estimator's offset model (calibrate, live)."""
-    parser.add_argument(
-        "--offsets",
-        choices=OFFSET_SETTINGS,
-        help="offset model: auto (default, from the pipeline file: the simplest the data support, by BIC), constant "
-        "(the paper), per-configuration (one D per tool configuration), drift (per-configuration plus time and temperature)",
-    )
 
 
 def _accept_poor_fit(parser: argparse.ArgumentParser) -> None:
@@ -212,7 +192,7 @@ def _add_live(commands) -> None:
     live.add_argument("--configuration", help="tool configuration mounted from the start (default: wait for a tool datagram)")
     add_ur(live)
     _accept_poor_fit(live)
-    _offsets(live)
+    add_offsets(live)
     live.add_argument("--quiet", action="store_true", help="no status line")
 
 

@@ -1,0 +1,41 @@
+"""Command-line arguments of offsets that move: ``--offsets`` (calibrate, live), ``--drift`` (demo), ``--return-pass`` (trajectory).
+
+Used by :mod:`fts_calib.app.arguments`; each destination is a parameter of the command's
+``run`` (:mod:`fts_calib.model.offset_basis` for the models).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ..model.offset_basis import OFFSET_SETTINGS
+
+
+def add_offsets(parser: argparse.ArgumentParser) -> None:
+    """--offsets: the estimator's offset model (calibrate, live)."""
+    parser.add_argument(
+        "--offsets",
+        choices=OFFSET_SETTINGS,
+        help="offset model: auto (default, from the pipeline file: the simplest the data support, by BIC), constant "
+        "(the paper), per-configuration (one D per tool configuration), drift (per-configuration plus time and temperature)",
+    )
+
+
+def add_drift_demo(parser: argparse.ArgumentParser) -> None:
+    """--drift: the demo's sensor has offsets that move."""
+    parser.add_argument(
+        "--drift",
+        action="store_true",
+        help="the sensor's offsets drift (up to 1 N/min, a warm-up with a temperature channel, 1 N jumps at tool changes); "
+        "plots the estimated against the true offsets over time (offsets_drift.png)",
+    )
+
+
+def add_return_pass(parser: argparse.ArgumentParser) -> None:
+    """--return-pass: the trajectory visits its stops again in reverse order."""
+    parser.add_argument(
+        "--return-pass",
+        action="store_true",
+        help="visit the stops again in reverse order: drifting offsets become separable from the orientation "
+        "(the drift model then costs no precision of C) for about twice the sweep time; fixes the raster",
+    )
