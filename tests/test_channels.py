@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fts_calib.core.exceptions import ConfigError, FileFormatError, ShapeError, StructureError
+from fts_calib.core.exceptions import ConfigError, FileFormatError, InsufficientExcitation, ShapeError, StructureError
 from fts_calib.model.calibration import Calibration, load_calibration, save_calibration
 from fts_calib.model.channels import MALTESE_CROSS_8, WRENCH_6, ChannelLayout, channel_layout
 from fts_calib.model.estimator import OnlineEstimator
@@ -121,3 +121,43 @@ def test_jig_with_a_factory_wrench(rng):
     C_bar = np.eye(6) * 0.97
     calibration = jig_calibration(W, np.linalg.solve(C_bar, W.T).T, layout=WRENCH_6)
     np.testing.assert_allclose(calibration.C, C_bar, atol=1e-10)
+
+
+@pytest.mark.parametrize("name", ["wrench-6", "maltese-cross-8"])
+def test_noise_does_not_fill_the_directions_the_loads_leave_out(rng, name):
+    """One centre of mass excites rank 4, two rank 6, however noisy the channels: strain noise
+    alone spans every direction a little, and S_XX by itself would read rank 5 to 7."""
+    layout = channel_layout(name)
+    noise = 0.05 if name == "wrench-6" else 1e-4  # [N] of a factory sensor; [mV/V] ten times the paper sensor's
+    estimator = OnlineEstimator(layout=layout, offsets="constant")
+    expected = {1: 4, 2: 6, 3: 7}
+    for count, com in enumerate(COMS, start=1):
+        W = tool_wrench(TOOL_MASS, com, random_gravity(2000, rng))
+        estimator.update_batch(W, W @ layout.pinv.T + noise * rng.standard_normal((2000, layout.n_channels)))
+        rank, condition = estimator.rank()
+        assert rank == expected[count]
+        if count < 3:
+            assert condition == np.inf
+            with pytest.raises(InsufficientExcitation, match=f"rank {rank} of 7"):
+                estimator.solve()
+    estimator.solve()
+
+
+def test_strains_the_loads_explain_leave_only_the_noise(rng):
+    """With one centre of mass the strain scatter the loads leave unexplained is the noise (ratio ~1);
+    strains of another centre of mass labelled as this one leave far more."""
+    from fts_calib.model.least_squares import unexplained_strain
+
+    noise = 1e-4
+    noise_cov = (MALTESE_CROSS_8.projection * noise**2) @ MALTESE_CROSS_8.projection.T
+    W = tool_wrench(TOOL_MASS, COMS[0], random_gravity(3000, rng))
+    strains = W @ MALTESE_CROSS_8.pinv.T + noise * rng.standard_normal((3000, 8))
+    estimator = OnlineEstimator(offsets="constant")
+    estimator.update_batch(W, strains)
+    sums = estimator.model_sums(estimator.model_in_use()[0])
+    assert 0.8 < unexplained_strain(sums, noise_cov, estimator.weight_sum) < 1.3
+    wrong = tool_wrench(TOOL_MASS, COMS[2], random_gravity(3000, rng))
+    mislabelled = OnlineEstimator(offsets="constant")
+    mislabelled.update_batch(W, wrong @ MALTESE_CROSS_8.pinv.T + noise * rng.standard_normal((3000, 8)))
+    sums = mislabelled.model_sums(mislabelled.model_in_use()[0])
+    assert unexplained_strain(sums, noise_cov, mislabelled.weight_sum) > 100

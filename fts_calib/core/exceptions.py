@@ -56,7 +56,7 @@ class PoorFit(FtsCalibError):
         check: The fit check (:class:`fts_calib.pipeline.fit.FitCheck`): verdict, residuals
             per configuration and axis, the expected noise and the diagnosis.
         calibration: The refused calibration (with the verdict in its quality), for a caller
-            that decides to keep it anyway.
+            that decides to keep it anyway; None when the data determine none.
     """
 
     def __init__(self, check, calibration):

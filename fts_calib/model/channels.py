@@ -96,6 +96,15 @@ class ChannelLayout:
         out = batch @ self.projection.T
         return out[0] if single else out
 
+    def projected_noise(self, noise_std) -> np.ndarray:
+        """Covariance of ``P Delta`` for white channel noise, ``P diag(sigma^2) P^T``, shape (6, 6).
+
+        Args:
+            noise_std: Noise standard deviation per channel, raw units. Shape (n,) or one number.
+        """
+        variance = np.broadcast_to(np.asarray(noise_std, dtype=float) ** 2, (self.n_channels,))
+        return (self.projection * variance) @ self.projection.T
+
     def c_from_c_bar(self, C_bar) -> np.ndarray:
         """Full calibration matrix ``C = C_bar P``, shape (6, n), in [N or N m per channel unit]."""
         return as_matrix(C_bar, (6, 6), "C_bar") @ self.projection

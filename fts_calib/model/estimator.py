@@ -45,7 +45,7 @@ from ..core.exceptions import ConfigError, InsufficientExcitation
 from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
-from .least_squares import RCOND, fit_quality, information_rank, solve_normal
+from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, solve_normal
 from .offset_basis import AUTO, CONSTANT_ONLY, Candidate, OffsetBasis, candidates, choose, describe, model_sums, offset_setting
 from .offset_trace import OffsetTrace
 from .prior import Prior
@@ -172,11 +172,17 @@ class OnlineEstimator(SampleSums):
     def rank(self, rcond: float = RCOND) -> tuple[int, float]:
         """Numerical rank and condition number of S_XX of the model in use; see :func:`information_rank`.
 
-        The full rank is :meth:`full_rank`: 7 for constant offsets, 6 + k for k offset columns.
+        The rank counts only the directions the known loads excite
+        (:func:`~fts_calib.model.least_squares.excitation_rank`), not those strain noise
+        alone fills. The full rank is :meth:`full_rank`: 7 for constant offsets, 6 + k for
+        k offset columns.
         """
         if self.samples_used == 0:
             return 0, math.inf
-        return information_rank(self.model_sums(self.model_in_use(rcond)[0])[6:, 6:], rcond)
+        sums = self.model_sums(self.model_in_use(rcond)[0])
+        rank, condition = information_rank(sums[6:, 6:], rcond)
+        excited = excitation_rank(sums, rcond)
+        return (rank, condition) if excited >= rank else (excited, math.inf)
 
     def full_rank(self, rcond: float = RCOND) -> int:
         """The rank that determines every coefficient of the model in use (6 + its offset columns)."""
@@ -226,13 +232,20 @@ class OnlineEstimator(SampleSums):
         sums = self.model_sums(chosen)
         S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
         prior_report = None
+        full = 6 + len(chosen.A)
+        excited = excitation_rank(sums, rcond)
         if prior is None:
             theta, rank, condition, inv = solve_normal(S_XX, S_WX, rcond, min_norm)
+            if excited < full and not min_norm:
+                theta, rank = None, min(rank, excited)  # noise alone fills the missing directions
         else:
             theta, rank, condition, inv, prior_report = prior.solve(S_XX, S_WX, rcond)
+            if prior_report is not None:
+                prior_report["rank_without_prior"] = min(prior_report["rank_without_prior"], excited)
         if theta is None:
-            full = 6 + len(chosen.A)
             raise InsufficientExcitation(rank, full - rank, RANK_ADVICE, full=full)
+        if prior is None and excited < rank:
+            rank, condition = excited, math.inf
         origins = (self.time_origin or 0.0, self.temperature_origin or 0.0)
         end = self.trace.end if self.trace.end is not None else (origins[0], 0, origins[1])
         if at is not None:

@@ -52,6 +52,59 @@ def information_rank(S_XX, rcond: float = RCOND) -> tuple[int, float]:
     return rank, condition
 
 
+def excitation_rank(sums: np.ndarray, rcond: float = RCOND) -> int:
+    """Rank of what the known loads excite: the information of ``[W; b]``, noise-free.
+
+    The regressor's signal is an affine map of the known wrench (eq 22: ``P Delta =
+    C_bar^-1 (W - D b)``), so the rank of the sums of ``[W; b][W; b]^T`` is the rank that
+    S_XX would have without strain noise. S_XX alone over-counts: noise fills every
+    missing direction a little (one tool centre of mass reads rank 5 to 7 instead of 4
+    on a noisy sensor), and a deficient problem would pass as determined.
+
+    Args:
+        sums: Sums of ``z z^T`` with ``z = [W; P Delta; b]``, shape (12 + k, 12 + k).
+        rcond: Threshold of :func:`information_rank`.
+
+    Returns:
+        The rank, 0 to 6 + k.
+    """
+    known = np.r_[0:6, 12 : len(sums)]
+    return information_rank(sums[np.ix_(known, known)], rcond)[0]
+
+
+def unexplained_strain(sums: np.ndarray, noise_cov: np.ndarray, n_eff: float, rcond: float = RCOND) -> float:
+    """How much of the strains the known loads leave unexplained, in units of the noise alone.
+
+    The projected strains ``x = P Delta`` are regressed on the known side ``[W; b]`` (any
+    rank: a pseudo-inverse); their residual covariance per sample, whitened by the noise
+    covariance, has largest eigenvalue about 1 when the loads explain the strains up to
+    noise (a legitimately deficient sweep), and far more when the strains carry a signal
+    the loads do not (a wrong tool file or joint unit: a poor fit, not a missing sweep).
+
+    Args:
+        sums: Sums of ``z z^T`` with ``z = [W; P Delta; b]``, shape (12 + k, 12 + k).
+        noise_cov: Covariance of one sample's ``P Delta``, ``P Sigma P^T``, shape (6, 6).
+        n_eff: Effective number of samples.
+        rcond: Threshold of the pseudo-inverse of the known side's sums (scaled).
+
+    Returns:
+        The largest whitened residual variance (dimensionless); 0 when the loads explain
+        the strains to rounding, inf when they do not and the noise is zero.
+    """
+    known = np.r_[0:6, 12 : len(sums)]
+    S_kk = sums[np.ix_(known, known)]
+    S_xk = sums[6:12][:, known]
+    scaled, scale = _equilibrate(S_kk)
+    pinv = np.linalg.pinv(scaled, rcond=rcond, hermitian=True) * scale[:, None] * scale[None, :]
+    residual = (sums[6:12, 6:12] - S_xk @ pinv @ S_xk.T) / max(n_eff, 1.0)
+    eig, vec = np.linalg.eigh(np.asarray(noise_cov, dtype=float))
+    if not eig[-1] > 0:  # noiseless data: explained when only rounding is left
+        explained = np.linalg.eigvalsh(residual)[-1] <= 1e-9 * np.trace(sums[6:12, 6:12]) / max(n_eff, 1.0)
+        return 0.0 if explained else math.inf
+    whiten = vec / np.sqrt(np.maximum(eig, eig[-1] * 1e-12))
+    return float(np.linalg.eigvalsh(whiten.T @ residual @ whiten)[-1])
+
+
 def _equilibrate(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     d = np.diag(S).copy()
     scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 0.0)

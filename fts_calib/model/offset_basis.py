@@ -49,7 +49,7 @@ import numpy as np
 
 from ..core import validation
 from ..core.exceptions import ConfigError
-from .least_squares import residual_sums, solve_normal
+from .least_squares import excitation_rank, residual_sums, solve_normal
 
 #: The offset models, simplest first.
 OFFSET_MODELS = ("constant", "per-configuration", "drift")
@@ -370,7 +370,8 @@ def choose(
     for candidate in options:
         model = model_sums(sums, candidate)
         theta, *_ = solve_normal(model[6:, 6:], model[:6, 6:], rcond, False)
-        if theta is not None and n_eff > 6 + len(candidate.A):
+        determined = excitation_rank(model, rcond) == 6 + len(candidate.A)
+        if theta is not None and determined and n_eff > 6 + len(candidate.A):
             rss = residual_sums(model[:6, :6], model[:6, 6:], model[6:, 6:], theta)
             scores.append((candidate, bic(rss, n_eff, len(candidate.A), np.diag(sums)[:6])))
     if not scores:

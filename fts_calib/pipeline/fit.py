@@ -322,8 +322,7 @@ def check_fit(
     counts = np.asarray(counts, dtype=float)
     if not counts.sum() > 0:  # no sample in the sums: nothing to judge
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
-    variance = np.zeros(layout.n_channels) if noise_std is None else np.asarray(noise_std, dtype=float) ** 2
-    noise_cov = (layout.projection * variance) @ layout.projection.T  # covariance of P Delta, (6, 6)
+    noise_cov = layout.projected_noise(0.0 if noise_std is None else noise_std)  # covariance of P Delta, (6, 6)
     implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
     judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise_cov, per_configuration)
     if judged is None:

@@ -35,6 +35,7 @@ from ..feeds.batch import SampleBatch, configuration_indices
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
+from ..model.least_squares import unexplained_strain
 from ..model.prior import Prior
 from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
@@ -42,7 +43,7 @@ from ..robot.tool import Tool
 from .advice import missing_words
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from .fit import FitCheck, check_fit, fit_rows, model_fit_sums
+from .fit import MAX_RATIO, FitCheck, check_fit, fit_rows, model_fit_sums
 from .progress import Progress
 from .provenance import session_provenance
 from .qsfilter import QuasiStaticFilter
@@ -289,12 +290,16 @@ class CalibrationSession:
         Raises:
             InsufficientExcitation: Rank below 7; the message says what is missing, in words.
             PoorFit: The data do not fit the model (and ``accept_poor_fit`` is False); it
-                carries the check, with the likely cause, and the refused calibration.
+                carries the check and the refused calibration (None when the loads also
+                leave a direction undetermined, as a wrong tool file or joint unit can).
         """
         self._flush_staged()
         try:
             calibration = self.estimator.solve(configurations=self.tool.names, at=self._last, prior=prior)
         except InsufficientExcitation as exc:
+            check = self.fit_check(hint) if not accept_poor_fit and self._strains_unexplained() else None
+            if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
+                raise PoorFit(check, None) from None
             words = missing_words(self.tool, self.kept, self._directions)
             raise InsufficientExcitation(exc.rank, exc.missing, words, exc.full) from None
         if calibration.quality is None:  # the estimator always measures the fit
@@ -305,6 +310,13 @@ class CalibrationSession:
         if not check.ok and not accept_poor_fit:
             raise PoorFit(check, calibration)
         return calibration
+
+    def _strains_unexplained(self) -> bool:
+        """Whether the strains carry a signal the tool file's loads cannot produce (:func:`unexplained_strain`)."""
+        if self.filter is None or self.filter.noise_floor is None:
+            return False
+        sums, noise = self.estimator.model_sums(self.estimator.model_in_use()[0]), self.layout.projected_noise(self.filter.noise_floor)
+        return unexplained_strain(sums, noise, self.estimator.weight_sum) > MAX_RATIO**2
 
     @property
     def _provenance(self) -> dict:
