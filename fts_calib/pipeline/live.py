@@ -109,7 +109,8 @@ class LiveRunner:
         bad = self.stats.malformed + self.stats.oversized
         text = (
             f"t {p.last_time if p.last_time is not None else 0.0:8.2f} s | joints {(self.stats.joints - j0) / span:6.0f} Hz "
-            f"strain {(self.stats.strain - s0) / span:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} | rank {p.rank}"
+            f"strain {(self.stats.strain - s0) / span:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} "
+            f"| rank {p.rank} of {p.full_rank}"
         )
         if bad:
             text += f" | bad datagrams {bad}"
