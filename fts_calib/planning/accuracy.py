@@ -27,6 +27,7 @@ from ..model.least_squares import information_rank
 from ..pipeline.settings import FilterConfig
 from ..robot.definition import RobotAccuracy
 from ..robot.kinematics import Kinematics
+from ..robot.load import tool_load
 from ..robot.load_errors import SOURCE_NAMES, load_error_sources, stops
 from ..robot.tool import Tool
 from .motion import Plan
@@ -133,8 +134,7 @@ def plan_budget(
     codes = np.repeat(np.arange(n_conf), len(index))
     per = stops(plan.time[index], np.zeros(len(index), dtype=np.int64), 1.5 / plan.rate)
     stop = np.concatenate([per + c * (int(per.max()) + 1 if len(per) else 0) for c in range(n_conf)])
-    g = kin.g_sensor(joints, tool.gravity).reshape(-1, 3)
-    W = np.einsum("nij,nj->ni", np.stack([c.wrench_matrix for c in tool.configurations])[codes], g)
+    W = tool_load(kin, tool, joints, codes).static  # the one wrench model, static: the filter keeps still samples
     x = np.hstack([np.linalg.solve(C_bar, (W - D).T).T, np.ones((len(W), 1))])
     weight = (sample_rate_hz or plan.rate) / plan.rate
     return sample_budget(kin, tool, joints, codes, rates, stop, x, sigma_w, C_bar, D, full_scale, weight=weight)
