@@ -83,8 +83,16 @@ def drift_stage(
     constant = calibrate_recording(recording, kin, tool, settings.with_offsets("constant"), accept_poor_fit=True).calibration
     if constant is None:  # never: the same recording determines C with constant offsets too
         raise RuntimeError("the demo's constant-offset calibration gave no result")
+    starts = np.flatnonzero(np.r_[True, codes[1:] != codes[:-1]])
+    changes = [(float(t[k] - t[0]), tool.names[codes[k]]) for k in starts if codes[k] >= 0]
     plot = plots.plot_offsets(
-        out / "offsets_drift.png", t, estimated, true, constant.D, "offsets over the calibration run: the drift model against the truth"
+        out / "offsets_drift.png",
+        t - t[0],
+        estimated,
+        true,
+        constant.D,
+        "offsets over the calibration run (demo --drift): the estimated offsets against the simulated sensor's",
+        changes,
     )
     error = np.abs(estimated - true).max(axis=0)
     model = calibration.offset_model or {}
@@ -93,10 +101,11 @@ def drift_stage(
     say(
         "      true drift over the run: " + ", ".join(f"{a} {m:+.3f} {u}" for a, m, u in zip(WRENCH_AXES, moved, WRENCH_UNITS, strict=True))
     )
-    say("      largest |estimated - true| offset over the run: " + _axes(error))
+    say("      largest |estimated - true| offset over the run: " + _axes(error, signed=False))
     say("      constant offsets (the paper's model) on the same data: D - true at the end " + _axes(constant.D - true[-1]))
     return DriftReport(dataclasses.replace(sensor, D=true[-1]), constant, error, plot)
 
 
-def _axes(values: np.ndarray) -> str:
-    return ", ".join(f"{a} {v:+.2e} {u}" for a, v, u in zip(WRENCH_AXES, values, WRENCH_UNITS, strict=True))
+def _axes(values: np.ndarray, signed: bool = True) -> str:
+    form = "+.2e" if signed else ".2e"
+    return ", ".join(f"{a} {v:{form}} {u}" for a, v, u in zip(WRENCH_AXES, values, WRENCH_UNITS, strict=True))

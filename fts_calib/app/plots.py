@@ -57,9 +57,12 @@ def plot_plan(
     moving = ~still
     ax3.plot(*unit[moving][::step].T, ".", ms=1.0, color="0.55", label="while moving")
     ax3.plot(*unit[still].T, "o", ms=3.0, color="tab:green", label="quasi-static")
-    ax3.set_xlabel("X (tool axis)")
-    ax3.set_ylabel("Y")
-    ax3.set_zlabel("Z")
+    # a unit vector: three ticks per axis keep the labels apart
+    for axis in (ax3.xaxis, ax3.yaxis, ax3.zaxis):
+        axis.set_ticks([-1.0, 0.0, 1.0])
+    ax3.set_xlabel("X of S (tool axis)")
+    ax3.set_ylabel("Y of S")
+    ax3.set_zlabel("Z of S")
     ax3.set_box_aspect((1, 1, 1))
     ax3.set_title("gravity direction in the sensor frame")
     ax3.legend(loc="upper left", fontsize=8)
@@ -79,12 +82,13 @@ def plot_wrench(path: str | Path, time: np.ndarray, wrench: np.ndarray, tools: n
         title: Figure title.
     """
     fig, axes = plt.subplots(2, 1, figsize=(12, 7), sharex=True)
-    for ax, part, unit, labels in ((axes[0], slice(0, 3), "N", ("Fx", "Fy", "Fz")), (axes[1], slice(3, 6), "N·m", ("Mx", "My", "Mz"))):
+    rows = ((axes[0], slice(0, 3), "force [N]", ("Fx", "Fy", "Fz")), (axes[1], slice(3, 6), "torque [N·m]", ("Mx", "My", "Mz")))
+    for ax, part, quantity, labels in rows:
         for k, label in enumerate(labels):
             ax.plot(time, wrench[:, part][:, k], lw=0.8, label=label)
-        ax.set_ylabel(f"[{unit}]")
+        ax.set_ylabel(quantity)
         ax.grid(alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8, ncol=3)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8)
         for c, name in enumerate(names):
             mine = np.nonzero(tools == c)[0]
             if len(mine):
@@ -163,7 +167,13 @@ def plot_validation(
 
 
 def plot_offsets(
-    path: str | Path, time: np.ndarray, estimated: np.ndarray, true: np.ndarray, constant: np.ndarray | None, title: str
+    path: str | Path,
+    time: np.ndarray,
+    estimated: np.ndarray,
+    true: np.ndarray,
+    constant: np.ndarray | None,
+    title: str,
+    changes: list[tuple[float, str]] | None = None,
 ) -> Path:
     """The offsets D over a calibration run: estimated (the offset model) against the truth, per axis.
 
@@ -174,19 +184,30 @@ def plot_offsets(
         true: The simulated sensor's offsets, [N, N m]. Shape (N, 6).
         constant: D of the paper's constant-offset model, drawn as a level line; None for none. Shape (6,).
         title: Figure title.
+        changes: (time [s], configuration name) where each tool configuration starts, marked; None for none.
     """
     axes_names = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
     fig, axes = plt.subplots(2, 3, figsize=(14, 6.5), sharex=True)
     for i, ax in enumerate(axes.flat):
         unit = "N" if i < 3 else "N·m"
-        ax.plot(time, true[:, i], color="black", lw=2.5, alpha=0.35, label="true offset")
-        ax.plot(time, estimated[:, i], color="tab:blue", lw=1.2, label="estimated (offset model)")
+        # the estimate lies on the truth to a fraction of a line width: the truth is drawn wide and
+        # light so that it shows on both sides, and each panel states the largest difference
+        ax.plot(time, true[:, i], color="tab:orange", lw=5.0, alpha=0.45, solid_capstyle="butt", label="true offset (simulated sensor)")
+        ax.plot(time, estimated[:, i], color="tab:blue", lw=1.2, label="estimated (drift offset model)")
         if constant is not None:
-            ax.axhline(constant[i], color="tab:red", ls="--", lw=1, label="constant offsets (paper)")
-        ax.set_title(f"D {axes_names[i]} [{unit}]", fontsize=10)
+            ax.axhline(constant[i], color="tab:red", ls="--", lw=1, label="constant offset (the paper's model, one D for the run)")
+        for start, name in changes or []:
+            ax.axvline(start, color="0.5", ls=":", lw=1)
+            ax.text(start, 1.0, f" {name}", transform=ax.get_xaxis_transform(), va="top", fontsize=8, color="0.35")
+        error = np.abs(estimated[:, i] - true[:, i]).max()
+        ax.set_title(f"offset D, {axes_names[i]} [{unit}]\nlargest |estimated − true|: {error:.1e} {unit}", fontsize=10)
         ax.grid(alpha=0.3)
     for ax in axes[1]:
-        ax.set_xlabel("time [s]")
-    axes[0, 0].legend(fontsize=8, loc="best")
+        ax.set_xlabel("time in the run [s]")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    if changes:
+        handles.append(plt.Line2D([], [], color="0.5", ls=":", lw=1))
+        labels.append("tool change (configuration mounted)")
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=9, bbox_to_anchor=(0.5, -0.04))
     fig.suptitle(title)
     return _save(fig, path)
