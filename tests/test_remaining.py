@@ -1,6 +1,7 @@
 """Live progress against a sized plan: the motion left and the configuration to mount next."""
 
 import pytest
+import yaml
 
 from fts_calib import FileFormatError
 from fts_calib.core.resources import resolve
@@ -41,6 +42,17 @@ def test_a_shipped_plan_file_gives_the_expectations_at_the_channel_rate():
     assert plan.expected["A"] == pytest.approx(129 * 10)  # 129 samples at the plan's 100 Hz
     with pytest.raises(FileFormatError, match="duration_s"):
         load_plan_progress(resolve("paper_tool", "configs"), 1000.0)
+
+
+@pytest.mark.parametrize(("field", "value"), [("rate_hz", 0), ("duration_s", -1.0)])
+def test_a_plan_file_with_a_rate_or_duration_not_above_zero_is_refused_by_name(tmp_path, field, value):
+    text = (ROOT / "trajectories" / "ur5" / "plan.yaml").read_text()
+    data = yaml.safe_load(text)
+    data[field] = value
+    path = tmp_path / "plan.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(FileFormatError, match=f"{field}.*{value}"):
+        load_plan_progress(path, 1000.0)
 
 
 def test_the_live_status_line_shows_the_plan(ur5, paper_tool):

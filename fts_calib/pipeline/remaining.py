@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.exceptions import FileFormatError
-from ..core.fileio import load_yaml, read_number, require
+from ..core.fileio import load_yaml, read_number, read_positive, require
 from .progress import Progress
 
 _DONE = 0.9  # a configuration with this fraction of its planned samples is done (simulated runs keep 97-98 %)
@@ -77,12 +77,13 @@ def load_plan_progress(path: str | Path, rate_hz: float) -> PlanProgress:
         rate_hz: The channels' sample rate [Hz] (the plan counts samples at its own rate).
 
     Raises:
-        FileFormatError: A missing or malformed field; names the file and the field.
+        FileFormatError: A missing or malformed field (a duration or rate that is not > 0);
+            names the file and the field.
     """
     path = Path(path)
     data = load_yaml(path)
-    duration = read_number(require(data, "duration_s", path), path, "duration_s", "s")
-    plan_rate = read_number(require(data, "rate_hz", path), path, "rate_hz", "Hz")
+    duration = read_positive(require(data, "duration_s", path), path, "duration_s", "s")
+    plan_rate = read_positive(require(data, "rate_hz", path), path, "rate_hz", "Hz")  # divides the counts below
     excitation = require(data, "excitation", path)
     counts = excitation.get("quasi_static_samples") if isinstance(excitation, Mapping) else None
     if not isinstance(counts, Mapping) or not counts:
