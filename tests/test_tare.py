@@ -154,6 +154,8 @@ def test_tare_reports_the_drift_since_the_calibration_run_through_every_re_tare(
     np.testing.assert_allclose(second.since_calibration, SHIFT, atol=ATOL_SHIFT)  # against the calibration run's D
     np.testing.assert_allclose(second.calibration.D - half.D, SHIFT / 2, atol=ATOL_SHIFT)  # the change since the last D
     assert second.elapsed_s > 0 and len(second.calibration.offset_history) == 2
+    no_zone = dataclasses.replace(cal, provenance={"method": "test", "time": "2026-01-01T08:00:00"})  # hand-written, no zone: UTC
+    assert tare_recording(no_zone, tmp_path / "t1.csv").elapsed_s == pytest.approx(first.elapsed_s, abs=60.0)
     file = save_calibration(dated, tmp_path / "cal.yaml")
     assert main(["tare", "--calibration", str(file), str(tmp_path / "t1.csv")]) == 0
     printed = capsys.readouterr().out

@@ -94,6 +94,8 @@ def _apply(calibration: Calibration, strain: np.ndarray, load: np.ndarray, reaso
     if isinstance(stamp, str):
         try:
             then = datetime.datetime.fromisoformat(stamp.replace("Z", "+00:00"))
+            if then.tzinfo is None:
+                then = then.replace(tzinfo=datetime.timezone.utc)  # a time without a zone: UTC, as fts-calib writes it
             elapsed = (datetime.datetime.now(datetime.timezone.utc) - then).total_seconds()
         except ValueError:
             elapsed = None  # a hand-written time: the drift is still reported, without its rate
