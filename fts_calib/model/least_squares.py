@@ -117,6 +117,18 @@ def solve_normal(S_XX: np.ndarray, S_WX: np.ndarray, rcond: float, min_norm: boo
     Full rank: Cholesky factor L of the scaled matrix, then triangular solves (no explicit
     inverse of S_XX for Theta). Rank deficient with ``min_norm``: the minimum-norm solution
     from the truncated eigen-decomposition.
+
+    Args:
+        S_XX: Sum of ``w x x^T`` of the regressors, shape (p, p).
+        S_WX: Sum of ``w W x^T``, W in [N, N, N, N m, N m, N m], shape (6, p).
+        rcond: Threshold of the numerical rank, relative to the largest eigenvalue of the
+            scaled S_XX (:func:`information_rank`).
+        min_norm: Below full rank, return the minimum-norm solution instead of None.
+
+    Returns:
+        ``(Theta (6, p) or None, rank, condition number (inf below full rank), (pseudo-)inverse
+        of S_XX (p, p) or None)``; Theta and the inverse are None below full rank without
+        ``min_norm``.
     """
     scaled, scale = _equilibrate(S_XX)
     eig, vec = np.linalg.eigh(scaled)
@@ -193,6 +205,25 @@ def fit_quality(
     per axis is RSS / (n_eff - p). ``offset_row`` (k,) is the offset basis of the time the
     reported D belongs to (``D = theta[:, 6:] @ offset_row``): its standard error is
     ``sigma_j sqrt(a^T S_XX^-1 a)``; None means the single constant column (p = 7).
+
+    Args:
+        S_WW: Sum of ``w W W^T``, W in [N, N, N, N m, N m, N m], shape (6, 6).
+        S_WX: Sum of ``w W x^T``, shape (6, p).
+        S_XX: Sum of ``w x x^T``, shape (p, p).
+        theta: The solution ``[C_bar, offset terms]``, shape (6, p).
+        inv: (Pseudo-)inverse of S_XX (or the covariance over sigma^2 of a ridge fit), shape (p, p).
+        n_eff: Effective number of samples (sum of weights).
+        used: Samples that entered the sums.
+        seen: Samples offered.
+        rank: Numerical rank reported.
+        condition: Condition number reported (inf below full rank).
+        skipped: Samples not used, by reason.
+        projection: The channel layout's P, shape (6, n).
+        offset_row: Offset basis row of the reported D, shape (k,), or None (see above).
+
+    Returns:
+        The :class:`~fts_calib.model.calibration.Quality` (residual RMS and standard errors
+        in N and N m).
     """
     p = theta.shape[1]
     rss = residual_sums(S_WW, S_WX, S_XX, theta)

@@ -288,7 +288,7 @@ class CalibrationSession:
             prior: Shrink C_bar toward a known calibration (:mod:`fts_calib.model.prior`).
 
         Raises:
-            InsufficientExcitation: Rank below 7; the message says what is missing, in words.
+            InsufficientExcitation: Rank below full (7, or 6 + the offset columns); the message says what is missing.
             PoorFit: The data do not fit the model (and ``accept_poor_fit`` is False); it
                 carries the check and the refused calibration (None when the loads also
                 leave a direction undetermined, as a wrong tool file or joint unit can).

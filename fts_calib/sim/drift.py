@@ -61,7 +61,7 @@ class OffsetDrift:
 
     @classmethod
     def typical(cls, force_per_min: float = 1.0, jump: float = 1.0) -> OffsetDrift:
-        """A drift of the issue's size, every term present.
+        """A drift of the size of a strain-gauge sensor warming up, every term present.
 
         Forces drift up to ``force_per_min`` [N/min] at the start (moments a 20th of it, in
         N m/min), a part of it through the temperature; tool changes jump up to ``jump`` [N]
