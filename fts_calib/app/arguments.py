@@ -119,7 +119,7 @@ def _add_calibrate(commands) -> None:
     cal = _add(
         commands,
         "calibrate",
-        "calibrate from a recording",
+        "calibrate from a recording (CSV or ROS 2 bag)",
         "Read a recording (CSV: time, joints, strain_1..n, tool; or a ROS 2 bag of joint states and channels), "
         "keep the quasi-static samples, accumulate the least squares and write the calibration. Prints a progress bar, "
         "then a summary: samples kept and why the rest were dropped, rank, condition, residuals, standard errors, and "
@@ -163,7 +163,7 @@ def _add_live(commands) -> None:
     live = _add(
         commands,
         "live",
-        "calibrate from live UDP feeds of joints and strains",
+        "calibrate from live UDP feeds of joints and strains, or a UR arm (RTDE)",
         "Listen for the JSON datagrams of the live protocol (joints, strain, tool, end), pair the two streams, keep "
         "the quasi-static samples and show a status line; write the calibration on 'end' or Ctrl-C. Checkpoints "
         "every few seconds; --resume continues after a crash. With --ur HOST the joints come from a UR controller "
@@ -328,7 +328,7 @@ def _add_export(commands) -> None:
     exp = _add(
         commands,
         "export",
-        "export a calibration as a C header, JSON or ROS 2 parameters",
+        "export a calibration as a C header, JSON, ROS 2 parameters or an ATI file",
         "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
         "provenance; ros2: ros2_controllers' force_torque_sensor_broadcaster parameters (its offset, added to the "
         "reading, and multiplier) with control_toolbox's GravityCompensationWrench filter for a payload; ati: C as the "
