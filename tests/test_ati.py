@@ -167,3 +167,14 @@ def test_two_configurations_and_the_factory_file_as_the_prior(tmp_path, gauge_ru
     assert 0.5 < ours.quality.prior["shrinkage"] < 1
     assert ours.quality.prior["rank_without_prior"] == 6
     assert np.abs(ours.C_bar - truth.C_bar).max() < 2 * factory_error, (np.abs(ours.C_bar - truth.C_bar).max(), factory_error)
+
+
+def test_an_ati_export_with_the_sensor_of_another_channel_count_is_refused(tmp_path, capsys):
+    """Before: the 8-channel calibration was written with the 6-gauge file's rated ranges as its max."""
+    paper = resolve("paper_table1_calibration", "configs")  # 8 channels
+    out = tmp_path / "out.cal"
+    args = ["export", "--format", "ati", "--calibration", str(paper), "--sensor", str(cal_file(tmp_path / "f.cal")), "-o", str(out)]
+    assert main(args) == ExitCode.CONFIG
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "has 8 channels (maltese-cross-8) but --sensor" in err[0] and "f.cal has 6 (projection)" in err[0], err
+    assert not out.exists()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..core.exceptions import ConfigError
 from ..core.fileio import atomic_write_text
 from ..core.resources import resolve
 from ..robot.tool import STANDARD_GRAVITY, load_tool
@@ -46,7 +47,8 @@ def run(
         0.
 
     Raises:
-        ConfigError: An unknown format, or ros2 without a payload.
+        ConfigError: An unknown format, ros2 without a payload, or ati with a sensor of
+            another number of channels than the calibration's.
     """
     loaded = read_calibration(calibration)
     configuration_of_payload, gravity = None, STANDARD_GRAVITY
@@ -54,7 +56,17 @@ def run(
         tool = load_tool(resolve(payload, "configs"))
         configuration_of_payload = tool.configuration(configuration) if configuration else tool.configurations[0]
         gravity = tool.gravity
-    full_scale = load_sensor(sensor).full_scale if fmt == "ati" else None
+    full_scale = None
+    if fmt == "ati":
+        spec = load_sensor(sensor)
+        n, m = loaded.layout.n_channels, spec.layout.n_channels
+        if n != m:  # the ati file's max would be another sensor's full scale
+            message = (
+                f"--calibration {calibration} has {n} channels ({loaded.layout.name}) but --sensor {sensor} has {m} "
+                f"({spec.layout.name}): give the sensor of this calibration (its file or its ATI .cal; factory_sensor: a 6-axis wrench)"
+            )
+            raise ConfigError("sensor", str(sensor), f"a sensor of {n} channels", message=message)
+        full_scale = spec.full_scale
     text = export(loaded, fmt, configuration_of_payload, gravity, name, sensor_frame, world_frame, full_scale)
     with writing(output):
         path = atomic_write_text(output, text)
