@@ -195,6 +195,21 @@ def test_what_is_neither_a_csv_nor_a_bag_is_refused(tmp_path):
     assert main(["calibrate", "--robot", "ur5", str(tmp_path / "run.txt"), "-o", str(tmp_path / "c.yaml")]) == ExitCode.RECORDING
 
 
+def test_a_bag_without_joint_messages_and_a_path_that_does_not_exist_are_one_line(tmp_path, capsys):
+    """Before: 'the messages name []' for a bag whose joint topic is empty, 'unknown kind' for a missing folder."""
+    with BagWriter(tmp_path / "quiet") as writer:  # the topics exist, no joint state was logged
+        writer.configuration(0.0, "A")
+        writer.channels(0.0, np.zeros(8))
+    run = ["calibrate", "--robot", "ur5", "-o", str(tmp_path / "c.yaml"), "--quiet"]
+    assert main([*run, str(tmp_path / "quiet")]) == ExitCode.RECORDING
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "quiet, topic '/joint_states': no joint message: the bag has the topic but no message on it" in err[0], err
+    assert main([*run, str(tmp_path / "run_bag")]) == ExitCode.RECORDING
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "run_bag: file or folder not found (expected a CSV recording" in err[0], err
+    assert not (tmp_path / "c.yaml").exists()
+
+
 def test_replay_sends_a_bag_as_it_sends_the_csv(bags, ur5_recording):
     options = ReplayOptions(joint_rate_hz=50.0, latency_s=0.01)
     assert list(messages(bags["sqlite3"], options)) == list(messages(ur5_recording, options))

@@ -214,6 +214,7 @@ class BagReader:
     def _check_joints(self, path: Path, reader) -> None:
         """Refuse a bag none of whose first joint messages holds every robot joint."""
         seen: set[str] = set()
+        self._first_joint_names(path, reader)  # the topic has a message at all, or this raises
         for message in self._joint_messages(reader, PEEK_MESSAGES):
             if self._index(tuple(message.name)) is not None:
                 return

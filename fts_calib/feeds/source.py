@@ -73,6 +73,8 @@ def open_recording(
     if len(paths) > 1:
         other = next(p.path for p in parts if not is_bag(p.path))
         raise RecordingError(other, None, None, f"several recordings are read only as ROS 2 bags, and this is not one: expected {ACCEPTED}")
+    if first.suffix not in CSV_SUFFIXES and not first.exists():  # a missing CSV is the CSV reader's "file not found"
+        raise RecordingError(first, None, None, f"file or folder not found (expected {ACCEPTED})")
     if first.is_dir():
         raise RecordingError(first, None, None, f"a folder without a metadata.yaml is not a ROS 2 bag: expected {ACCEPTED}")
     if first.suffix not in CSV_SUFFIXES:
