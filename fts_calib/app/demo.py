@@ -182,7 +182,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     pattern = SweepPattern(levels=3, stops=4, dwell=0.4) if quick else SweepPattern()
     say(
         f"fts-calib demo: in-situ calibration of the paper's sensor on a simulated UR5 ({'quick' if quick else 'full'} run, "
-        f"seed {seed}); writing into {out}/"
+        f"seed {seed}{'; offsets that drift' if drift else ''}); writing into {out}/"
     )
 
     say("[1/5] planning the calibration sweeps (ruckig) ...")
@@ -198,7 +198,8 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     )
     lap("plan")
 
-    say("[2/5] simulating the calibration recording (moving tool, noise, 24-bit ADC) ...")
+    drifting = ", drifting offsets with a temperature channel" if drift else ""
+    say(f"[2/5] simulating the calibration recording (moving tool, noise, 24-bit ADC{drifting}) ...")
     trajectories = [plan.trajectory(name) for name in tool.names]
     rng = np.random.default_rng(seed)
     moving = OffsetDrift.typical() if drift else None
