@@ -55,3 +55,22 @@ def test_bad_datagrams(data, reason, match):
     with pytest.raises(ProtocolError, match=match) as info:
         decode(data)
     assert info.value.reason == reason
+
+
+def test_the_live_summary_names_why_the_first_malformed_datagram_was_skipped():
+    """Before: '3 malformed' and no word on why (a sender writing "temperature": "hot")."""
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import LiveStats, feed_datagram
+    from fts_calib.pipeline.live import format_stats
+
+    sync, stats = Synchronizer(["j1", "j2"], [False, False], 0.05, 0.0), LiveStats()
+    for k in range(3):
+        feed_datagram(b'{"type": "strain", "t": %d, "strain": [0, 0, 0, 0, 0, 0], "temperature": "hot"}' % k, sync, stats)
+    feed_datagram(encode(Joints(1.0, {"j1": 0.0, "j3": 0.0})), sync, stats)
+    assert stats.malformed == 4
+    text = format_stats(stats, sync)
+    assert "  the first skipped: malformed datagram: 'temperature' must be a finite number of °C, got 'hot'" in text, text
+    stats = LiveStats()
+    feed_datagram(encode(Joints(1.0, {"j1": 0.0, "j3": 0.0})), sync, stats)
+    expected = "the first skipped: malformed datagram: a joints message with unknown joints ['j3'] and missing ['j2'] (expected"
+    assert expected in format_stats(stats, sync)

@@ -124,6 +124,8 @@ class LiveStats:
         strain: Strain messages.
         tool: Tool messages.
         malformed: Malformed datagrams (counted, skipped).
+        first_malformed: Why the first malformed datagram was skipped (None before one), for
+            the run's summary: a sender's mistake (``"temperature": "hot"``) is named once.
         oversized: Oversized datagrams (counted, skipped).
         ended: The run ended on an 'end' message.
         wall_s: Wall-clock time [s].
@@ -137,6 +139,7 @@ class LiveStats:
     strain: int = 0
     tool: int = 0
     malformed: int = 0
+    first_malformed: str | None = None
     oversized: int = 0
     ended: bool = False
     wall_s: float = 0.0
@@ -169,6 +172,7 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
             stats.oversized += 1
         else:
             stats.malformed += 1
+            stats.first_malformed = stats.first_malformed or str(exc)
         return None
     if message.seq is not None:
         stats.seq.observe(sender, message.seq)
@@ -181,6 +185,13 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
             stats.joints += 1
         else:
             stats.malformed += 1  # not exactly the robot's joints
+            if stats.first_malformed is None:
+                unknown = sorted(set(message.q) - set(sync.joint_names))
+                missing = [name for name in sync.joint_names if name not in message.q]
+                stats.first_malformed = (
+                    f"malformed datagram: a joints message with unknown joints {unknown} and missing {missing} "
+                    "(expected exactly the robot's)"
+                )
     elif isinstance(message, ToolChange):
         stats.tool += 1
         if sync is not None:

@@ -197,6 +197,8 @@ def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
         f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
         f"({100 * stats.cpu_s / max(stats.wall_s, 1e-9):.0f} % of one core)"
     ]
+    if stats.first_malformed is not None:
+        lines.append(f"  the first skipped: {stats.first_malformed}")
     if sync.dropped:
         lines.append("strain samples not paired: " + ", ".join(f"{r}: {n:,}" for r, n in sync.dropped.items()))
     return "\n".join(lines)
