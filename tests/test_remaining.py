@@ -69,3 +69,21 @@ def test_the_live_status_line_shows_the_plan(ur5, paper_tool):
         assert "| ~40 s of motion left; mount A" in runner.status_line()
     finally:
         receiver.close()
+
+
+def test_live_refuses_the_plan_of_another_robot_and_a_file_that_is_not_a_plan(tmp_path, capsys):
+    """Before: the Kinova's plan was taken for the UR5's (the status line then counted the wrong motion)."""
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+
+    out = tmp_path / "cal.yaml"
+    run = ["live", "--robot", "ur5", "-o", str(out), "--idle-timeout", "0.1", "--quiet", "--plan"]
+    assert main([*run, str(ROOT / "trajectories" / "kinova" / "plan.yaml")]) == ExitCode.CONFIG
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is a plan of the robot 'kinova' but --robot is 'ur5': give the plan of this robot" in err[0], err
+    assert main([*run, str(resolve("paper_table1_calibration", "configs"))]) == ExitCode.FILE
+    err = capsys.readouterr().err.strip().splitlines()
+    assert (
+        len(err) == 1 and "paper_table1_calibration.yaml: not a plan: expected the plan.yaml that 'fts-calib trajectory' writes" in err[0]
+    )
+    assert not list(tmp_path.iterdir())  # neither the calibration nor a checkpoint

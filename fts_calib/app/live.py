@@ -97,6 +97,9 @@ def run(
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)
     expected = None if plan is None else load_plan_progress(plan, spec.rate_hz)
+    if expected is not None and expected.robot is not None and expected.robot != kin.robot.name:
+        message = f"--plan {plan} is a plan of the robot '{expected.robot}' but --robot is '{kin.robot.name}': give the plan of this robot"
+        raise ConfigError("plan", str(plan), f"a plan of '{kin.robot.name}'", message=message)
     if expected is not None and set(expected.expected) != set(loaded.names):
         raise ConfigError("plan", sorted(expected.expected), f"the tool's configurations {loaded.names}", owner=str(plan))
     if configuration is not None and configuration not in loaded.names:

@@ -17,6 +17,8 @@ from ..core.exceptions import FileFormatError
 from ..core.fileio import load_yaml, read_number, read_positive, require
 from .progress import Progress
 
+#: Fields of a plan file, one of which a plan has (a file with none is another kind of file).
+PLAN_KEYS = ("duration_s", "rate_hz", "excitation")
 _DONE = 0.9  # a configuration with this fraction of its planned samples is done (simulated runs keep 97-98 %)
 
 
@@ -28,11 +30,13 @@ class PlanProgress:
         duration_s: Motion per configuration [s].
         expected: Configuration name -> quasi-static samples the plan gives, at the channel rate.
         target_percent: The accuracy target the plan was sized to, [% of full scale], or None.
+        robot: The name of the robot the plan was made for, or None (not stated).
     """
 
     duration_s: float
     expected: Mapping[str, float]
     target_percent: float | None = None
+    robot: str | None = None
 
     def fractions(self, progress: Progress) -> dict[str, float]:
         """Per configuration, the fraction of its planned samples kept so far (at most 1)."""
@@ -82,6 +86,11 @@ def load_plan_progress(path: str | Path, rate_hz: float) -> PlanProgress:
     """
     path = Path(path)
     data = load_yaml(path)
+    if not any(key in data for key in PLAN_KEYS):
+        fields = ", ".join(PLAN_KEYS)
+        raise FileFormatError(
+            path, None, f"not a plan: expected the plan.yaml that 'fts-calib trajectory' writes beside its CSVs ({fields})"
+        )
     duration = read_positive(require(data, "duration_s", path), path, "duration_s", "s")
     plan_rate = read_positive(require(data, "rate_hz", path), path, "rate_hz", "Hz")  # divides the counts below
     excitation = require(data, "excitation", path)
@@ -92,4 +101,5 @@ def load_plan_progress(path: str | Path, rate_hz: float) -> PlanProgress:
         str(name): read_number(n, path, f"excitation.quasi_static_samples.{name}") * rate_hz / plan_rate for name, n in counts.items()
     }
     target = data.get("target_error_percent_fs")
-    return PlanProgress(duration, expected, None if target is None else read_number(target, path, "target_error_percent_fs", "%"))
+    target_percent = None if target is None else read_number(target, path, "target_error_percent_fs", "%")
+    return PlanProgress(duration, expected, target_percent, None if data.get("robot") is None else str(data["robot"]))
