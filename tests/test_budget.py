@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from fts_calib.core.resources import resolve
-from fts_calib.model.budget import COVERAGE, ErrorSource, propagate, range_moments
+from fts_calib.model.budget import COVERAGE, ErrorSource, propagate, range_moments, wrench_noise
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.settings import FilterConfig
-from fts_calib.planning.accuracy import plan_budget, predicted_still, sample_budget, wrench_noise
+from fts_calib.planning.accuracy import plan_budget, predicted_still, sample_budget
 from fts_calib.robot.definition import RobotAccuracy
 from fts_calib.robot.load_errors import stops
 from fts_calib.robot.tool import ToolTolerance

@@ -16,6 +16,7 @@ from ..core.paths import check_outputs
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import open_recording, recording_paths
+from ..model.budget import wrench_noise
 from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
@@ -23,7 +24,7 @@ from ..pipeline.calibrate import CalibrateResult, calibrate_recording
 from ..pipeline.fit import FitCheck
 from ..pipeline.latency import LatencyEstimate, estimate_latency
 from ..pipeline.session import CalibrationSession
-from ..planning.accuracy import KeptSamples, measured_budget, wrench_noise
+from ..planning.accuracy import KeptSamples, measured_budget
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .exit_codes import ExitCode, writing

@@ -65,6 +65,18 @@ class ErrorSource:
     groups: np.ndarray | None = None
 
 
+def wrench_noise(C: np.ndarray, noise_std) -> np.ndarray:
+    """Standard deviation of the wrench from white channel noise, per axis, [N, N m]. Shape (6,).
+
+    Args:
+        C: Calibration matrix. Shape (6, n).
+        noise_std: Noise per channel, raw units; one number or shape (n,).
+    """
+    C = np.asarray(C, dtype=float)
+    noise = np.broadcast_to(np.asarray(noise_std, dtype=float), (C.shape[1],))
+    return np.sqrt(np.einsum("jk,k,jk->j", C, noise**2, C))
+
+
 def range_moments(C_bar, D, full_scale) -> np.ndarray:
     """``M = E[x x^T]`` over loads uniform in the full-scale box, ``x = [C_bar^-1 (W - D); 1]``.
 

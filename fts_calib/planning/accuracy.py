@@ -39,18 +39,6 @@ _MAX_BUDGET_SAMPLES = 20_000  # samples the measured budget uses (every k-th bey
 SYSTEMATIC = ("tool mass", "tool centre of mass", "sensor mount")
 
 
-def wrench_noise(C: np.ndarray, noise_std) -> np.ndarray:
-    """Standard deviation of the wrench from white channel noise, per axis, [N, N m]. Shape (6,).
-
-    Args:
-        C: Calibration matrix. Shape (6, n).
-        noise_std: Noise per channel, raw units; one number or shape (n,).
-    """
-    C = np.asarray(C, dtype=float)
-    noise = np.broadcast_to(np.asarray(noise_std, dtype=float), (C.shape[1],))
-    return np.sqrt(np.einsum("jk,k,jk->j", C, noise**2, C))
-
-
 def sample_budget(
     kin: Kinematics,
     tool: Tool,
@@ -180,7 +168,7 @@ def measured_budget(
         tool: The tool.
         kept: The samples that entered the least squares.
         calibration: The result (its C_bar, D and C).
-        sigma_w: Strain noise measured in the data, through C (:func:`wrench_noise` of the
+        sigma_w: Strain noise measured in the data, through C (:func:`fts_calib.model.budget.wrench_noise` of the
             filter's noise floor), per axis [N, N m]. Shape (6,).
         full_scale: Full scale per axis [N, N m]. Shape (6,).
         gap_s: A gap between kept samples longer than this [s] starts a new stop.

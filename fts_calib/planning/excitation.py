@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.arrays import frozen
+from ..model.budget import wrench_noise
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.estimator import RANK_ADVICE
 from ..model.least_squares import RCOND, coefficient_stderr, information_rank
@@ -143,8 +144,8 @@ def predict_excitation(
         directions.append(g)
     rank, condition = information_rank(S_XX, rcond) if any(counts.values()) else (0, math.inf)
     C = C_bar @ P
+    sigma_W = wrench_noise(C, noise)  # strain noise through C, per axis [N, N m]
     if rank == 7:
-        sigma_W = np.sqrt(np.diag(C @ np.diag(noise**2) @ C.T))
         scale = 1.0 / np.sqrt(np.diag(S_XX))
         inv = np.linalg.solve(S_XX * scale[:, None] * scale[None, :], np.eye(7)) * scale[:, None] * scale[None, :]
         stderr_theta, stderr_C = coefficient_stderr(sigma_W, inv, P)
@@ -157,8 +158,7 @@ def predict_excitation(
             f"{len(used)} configuration(s) {used}. {RANK_ADVICE}"
         )
     coverage = coverage_angle(np.vstack(directions)) if directions else 180.0
-    sigma_drift = np.sqrt(np.diag(C @ np.diag(noise**2) @ C.T))
-    drift = None if time_s is None else predict_drift(projected, time_s, tool.names, C_bar, sigma_drift, P, drift_degree, rcond)
+    drift = None if time_s is None else predict_drift(projected, time_s, tool.names, C_bar, sigma_W, P, drift_degree, rcond)
     return ExcitationReport(
         samples=counts,
         rank=rank,

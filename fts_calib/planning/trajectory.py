@@ -18,14 +18,14 @@ import numpy as np
 
 from .._version import __version__
 from ..core.exceptions import ConfigError
-from ..model.budget import AccuracyBudget
+from ..model.budget import AccuracyBudget, wrench_noise
 from ..model.sensor_config import SensorSpec
 from ..pipeline.settings import FilterConfig
 from ..robot.collision import CollisionChecker
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
-from .accuracy import plan_budget, predicted_still, wrench_noise
+from .accuracy import plan_budget, predicted_still
 from .drift_excitation import TOOL_CHANGE_S
 from .excitation import ExcitationReport, predict_excitation
 from .planner import PlanResult, plan_calibration
