@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import Calibration, FtsCalibWarning
+from fts_calib import Calibration, ConfigError, FtsCalibWarning
 from fts_calib.app.cli import main
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import save_calibration
@@ -115,6 +115,15 @@ def test_cross_terms_are_named_and_warned_about(factory, payload):
     with pytest.warns(FtsCalibWarning, match=r"cross terms \(up to 0.0286 of a diagonal term\)"):
         text = ros2_parameters(factory, payload, GRAVITY)
     assert "# Not applied: C_bar's cross terms, up to 0.0286" in text
+
+
+def test_a_rotated_wrench_sensor_is_refused_not_exported_with_infinite_offsets(payload):
+    """A factory frame turned 90 deg about x against S: C_bar's Fy and Fz rows have zero diagonal terms."""
+    C_bar = np.eye(6)
+    C_bar[1:3, 1:3] = C_bar[4:6, 4:6] = [[0.0, -1.0], [1.0, 0.0]]
+    calibration = Calibration(C_bar, np.ones(6), layout=WRENCH_6)
+    with pytest.raises(ConfigError, match=r"row Fy is dominated by a cross term.*--format c-header"):
+        ros2_parameters(calibration, payload, GRAVITY)
 
 
 def test_a_strain_gauge_layout_takes_c_delta_from_the_hardware(payload):

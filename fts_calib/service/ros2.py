@@ -34,9 +34,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.arrays import frozen
-from ..core.exceptions import FtsCalibWarning
+from ..core.exceptions import ConfigError, FtsCalibWarning
 from ..core.fileio import dump_yaml
 from ..model.calibration import Calibration
+from ..model.sensor import WRENCH_AXES
 from ..robot.tool import ToolConfiguration
 
 #: Node name of the broadcaster (the controller's name in the controller manager).
@@ -80,12 +81,25 @@ def broadcaster_correction(calibration: Calibration) -> BroadcasterCorrection:
 
     Returns:
         The correction; ``coupling`` says what a ``wrench-6`` correction leaves out.
+
+    Raises:
+        ConfigError: A ``wrench-6`` C_bar with a row whose diagonal term is not its largest
+            (the sensor's axes rotated or permuted against S: no per-axis correction applies).
     """
     if calibration.layout.name != "wrench-6":
         reading = f"C times the {calibration.layout.n_channels} raw channels, computed by the hardware interface (the C header's C)"
         return BroadcasterCorrection(np.array(calibration.D), np.ones(6), 0.0, reading)
     diagonal = np.diag(calibration.C_bar).copy()
     off = np.abs(calibration.C_bar - np.diag(diagonal))
+    weak = np.flatnonzero(np.abs(diagonal) <= np.max(off, axis=1))
+    if len(weak):  # a per-axis gain cannot stand for a rotated or permuted reading (offset D / 0)
+        i = int(weak[0])
+        message = (
+            f"C_bar's row {WRENCH_AXES[i]} is dominated by a cross term (|C_bar[{i}, {i}]| = {abs(diagonal[i]):.3g}, largest "
+            f"cross term {np.max(off[i]):.3g}): the sensor's axes are not those of the sensor frame, which the broadcaster's "
+            "per-axis offset and multiplier cannot apply; apply C_bar in the hardware interface (export --format c-header)"
+        )
+        raise ConfigError("format", "ros2", "a wrench-6 calibration whose C_bar is close to diagonal", message=message)
     coupling = float(np.max(off / np.abs(diagonal)[:, None]))
     return BroadcasterCorrection(calibration.D / diagonal, diagonal, coupling, "the sensor's factory wrench")
 
