@@ -97,3 +97,21 @@ def test_cli_calibrate_with_a_prior(tmp_path, ur5_recording, capsys):
     text = capsys.readouterr().out
     assert f"prior {previous}, weight 0.01: the data determine" in text
     assert load_calibration(out).quality.prior["weight"] == 0.01
+
+
+@pytest.mark.parametrize(
+    ("options", "expected"),
+    [
+        (["--prior-weight", "5"], "--prior-weight 5 without --prior: name the calibration to shrink toward (--prior FILE)"),
+        (["--prior", "PRIOR", "--prior-weight", "-1"], "--prior-weight -1.0 but expected a finite value >= 0 (0: no prior"),
+    ],
+)
+def test_cli_a_prior_weight_without_a_prior_or_below_zero_is_one_line(tmp_path, ur5_recording, capsys, options, expected):
+    """Before: a weight without --prior was ignored silently; a negative one was named 'prior_weight=', not the option."""
+    previous = save_calibration(Calibration(C_BAR_TRUE, D_TRUE), tmp_path / "previous.yaml")
+    out = tmp_path / "cal.yaml"
+    args = ["calibrate", "--robot", "ur5", str(ur5_recording), "-o", str(out), "--quiet"]
+    assert main([*args, *[str(previous) if o == "PRIOR" else o for o in options]]) == ExitCode.CONFIG
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and expected in err[0], err
+    assert not out.exists()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import NamedTuple
 
@@ -16,6 +17,9 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, load_tool
 from ..service.ati import SUFFIX as ATI_SUFFIX
 from ..service.ati import load_ati_calibration, read_calibration
+
+#: The weight of a prior when --prior-weight is not given (as much as the data).
+DEFAULT_PRIOR_WEIGHT = 1.0
 
 
 class Setup(NamedTuple):
@@ -59,9 +63,17 @@ def load_prior(prior: str | Path | None, weight: float, layout: ChannelLayout) -
         layout: The sensor's channel layout: the prior must have it (its C_bar is then comparable).
 
     Raises:
-        ConfigError: The prior is of another channel layout, or the weight is negative.
+        ConfigError: The prior is of another channel layout, the weight is negative or not
+            finite, or a weight other than 0 or the default 1 is given without a prior (it
+            would weigh nothing: the user meant a prior).
     """
+    if not math.isfinite(weight) or weight < 0:
+        message = f"--prior-weight {weight} but expected a finite value >= 0 (0: no prior, 1: as much as the data)"
+        raise ConfigError("prior_weight", weight, "a finite value >= 0", message=message)
     if prior is None:
+        if weight not in (0.0, DEFAULT_PRIOR_WEIGHT):  # 0 is "no prior", which holds
+            message = f"--prior-weight {weight:g} without --prior: name the calibration to shrink toward (--prior FILE)"
+            raise ConfigError("prior_weight", weight, "--prior FILE with it", message=message)
         return None
     calibration = read_calibration(prior)
     if calibration.layout != layout:
