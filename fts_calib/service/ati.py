@@ -31,7 +31,7 @@ import numpy as np
 
 from .._version import __version__
 from ..core.arrays import frozen
-from ..core.exceptions import FileFormatError
+from ..core.exceptions import ConfigError, FileFormatError
 from ..model.calibration import Calibration, load_calibration
 from ..model.channels import ChannelLayout
 from ..model.sensor import WRENCH_AXES
@@ -178,7 +178,12 @@ def load_ati_calibration(path: str | Path) -> AtiCalibration:
     matrix = np.array([axes[a][0] for a in AXIS_NAMES]) * scale[:, None]
     rated = np.array([axes[a][1] for a in AXIS_NAMES]) * scale
     if not np.all(np.isfinite(matrix)):
-        raise FileFormatError(path, "UserAxis", "a value is not finite")
+        k = int(np.argmin(np.all(np.isfinite(matrix), axis=1)))
+        raise FileFormatError(path, f"UserAxis[{AXIS_NAMES[k]}].values", f"line {axes[AXIS_NAMES[k]][2]}: a value is not finite")
+    try:
+        ChannelLayout("projection", matrix)  # the factory matrix becomes P: of full row rank
+    except ConfigError as exc:
+        raise FileFormatError(path, "UserAxis", f"the matrix {exc.reason}") from None
     if not np.all(np.isfinite(rated) & (rated > 0)):
         k = int(np.argmin(np.where(np.isfinite(rated), rated, -np.inf)))
         raise FileFormatError(path, f"UserAxis[{AXIS_NAMES[k]}].max", f"line {axes[AXIS_NAMES[k]][2]}: expected a rated range > 0")
