@@ -50,3 +50,13 @@ def test_no_move_gives_no_estimate(ur5, paper_tool, short_plan):
     strain = np.linalg.lstsq(spec.simulated.C, (W - spec.simulated.D).T, rcond=None)[0].T
     calibration = Calibration(spec.simulated.C_bar, spec.simulated.D)
     assert estimate_latency(ur5, paper_tool, calibration, np.arange(200) * 0.01, still, strain, np.zeros(200), spec.full_scale) is None
+
+
+def test_repeated_time_stamps_leave_the_estimate_finite(ur5, paper_tool, short_plan, rng):
+    """Two samples with one time stamp (a logger's duplicate) have no slope: left out, not a NaN estimate."""
+    spec = load_sensor_config(resolve("sensor", "configs"))
+    calibration = Calibration(spec.simulated.C_bar, spec.simulated.D)
+    time, joints, channels, codes = lagged_recording(ur5, paper_tool, short_plan, 0.008, rng)
+    time[1001::997] = time[1000::997][: len(time[1001::997])]
+    estimate = estimate_latency(ur5, paper_tool, calibration, time, joints, channels, codes, spec.full_scale)
+    assert estimate is not None and np.isfinite(estimate.latency_s) and abs(estimate.latency_s - 0.008) <= 10 * ATOL_S

@@ -118,7 +118,9 @@ def estimate_latency(
             continue
         predicted = tool_load(kin, tool, joints[part], codes[part], velocity, acceleration).w_sensor / full_scale
         measured = calibration.wrench(channels[part]) / full_scale
-        slope = np.gradient(predicted, time[part], axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):  # repeated time stamps: no slope there
+            slope = np.gradient(predicted, time[part], axis=0)
+        moving &= np.all(np.isfinite(slope), axis=1)
         label = np.cumsum(np.concatenate([[True], moving[1:] & ~moving[:-1]])) + start
         residual.append((measured - predicted)[moving])
         rate.append(slope[moving])
