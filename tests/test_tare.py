@@ -160,3 +160,23 @@ def test_tare_reports_the_drift_since_the_calibration_run_through_every_re_tare(
     assert main(["tare", "--calibration", str(file), str(tmp_path / "t1.csv")]) == 0
     printed = capsys.readouterr().out
     assert "since calibration" in printed and "drift since the calibration" in printed and "Fx +0.8" in printed
+
+
+@pytest.mark.parametrize("command", ["tare", "payload", "validate"])
+def test_a_recording_of_another_width_than_the_calibration_names_both(tmp_path, ur5_recording, capsys, command):
+    """Before: tare and payload said 'strain.shape=(20, 8) but expected (6,) or (N, 6)' without the file;
+    validate told the user to pick a --sensor, which it does not read the layout from."""
+    from fts_calib.model.channels import WRENCH_6
+
+    cal = save_calibration(Calibration(np.eye(6), np.zeros(6), layout=WRENCH_6), tmp_path / "w6.yaml")
+    out = tmp_path / "out.yaml"
+    args = {
+        "tare": ["tare", "--calibration", str(cal), str(ur5_recording), "-o", str(out)],
+        "payload": ["payload", "--calibration", str(cal), "--robot", "ur5", str(ur5_recording), "-o", str(out)],
+        "validate": ["validate", "--calibration", str(cal), "--robot", "ur5", str(ur5_recording)],
+    }[command]
+    assert main(args) == ExitCode.ARRAY
+    err = capsys.readouterr().err.strip().splitlines()
+    expected = f"{ur5_recording} has 8 channels but the calibration's layout wrench-6 has 6; give the calibration of this sensor"
+    assert len(err) == 1 and expected in err[0], err
+    assert not out.exists()

@@ -163,19 +163,24 @@ def channel_layout(value: Any = None) -> ChannelLayout:
     return ChannelLayout("projection", matrix)
 
 
-def check_channels(layout: ChannelLayout, n: int, where: str) -> None:
+#: What to do about data of another width, when the layout is the sensor file's (calibrate, live).
+SENSOR_HINT = ("the sensor's layout", "select the sensor with --sensor FILE (its 'channels' key)")
+#: What to do about data of another width, when the layout is a calibration's (validate, tare, payload).
+CALIBRATION_HINT = ("the calibration's layout", "give the calibration of this sensor (--calibration FILE)")
+
+
+def check_channels(layout: ChannelLayout, n: int, where: str, hint: tuple[str, str] = SENSOR_HINT) -> None:
     """Refuse data with another number of channels than the layout's.
 
     Args:
         layout: The sensor's layout.
         n: Number of channels the data have.
         where: What carries the data, for the message (e.g. 'run.csv').
+        hint: Whose layout it is and what to do, in words: :data:`SENSOR_HINT` or
+            :data:`CALIBRATION_HINT`.
 
     Raises:
         ShapeError: ``n`` differs from ``layout.n_channels``.
     """
     if n != layout.n_channels:
-        raise ShapeError(
-            f"{where} has {n} channels but the sensor's layout {layout.name} has {layout.n_channels}; "
-            "select the sensor with --sensor FILE (its 'channels' key)"
-        )
+        raise ShapeError(f"{where} has {n} channels but {hint[0]} {layout.name} has {layout.n_channels}; {hint[1]}")

@@ -34,6 +34,7 @@ from ..core.exceptions import PayloadError, ShapeError
 from ..feeds.batch import SampleBatch
 from ..feeds.source import open_recording
 from ..model.calibration import Calibration
+from ..model.channels import CALIBRATION_HINT, check_channels
 from ..pipeline.checks import SampleChecks
 from ..pipeline.qsfilter import QuasiStaticFilter
 from ..pipeline.settings import FilterConfig
@@ -286,6 +287,7 @@ def identify_payload_from_recording(
     if not chunks:
         raise PayloadError(f"{path}: no usable row")
     samples = SampleBatch.concatenate(chunks)
+    check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
     samples = dataclasses.replace(samples, configuration=np.zeros(len(samples), dtype=np.int64))
     samples = samples.select(SampleChecks(kin).accept(samples))  # a NaN or a row out of order never poisons a window
     still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous), kin, None, samples, final=True)

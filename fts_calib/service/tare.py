@@ -29,6 +29,7 @@ from ..feeds.source import open_recording
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from ..model.calibration import Calibration
+from ..model.channels import CALIBRATION_HINT, check_channels
 from ..model.offsets import OffsetEstimate, estimate_offsets
 from ..pipeline.qsfilter import QuasiStaticFilter
 from ..pipeline.settings import PipelineConfig
@@ -137,6 +138,7 @@ def tare_recording(
     if not chunks:
         raise InsufficientExcitation(0, 1, f"{path} has no usable row")
     samples = SampleBatch.concatenate(chunks)
+    check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
     finite = np.all(np.isfinite(samples.channels), axis=1) & (np.all(np.isfinite(samples.joints), axis=1) if kin is not None else True)
     strain, load = _known_load(kin, tool, configuration, settings, samples.select(finite))
     return _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {_what(tool, configuration)}", seen)

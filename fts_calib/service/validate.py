@@ -28,7 +28,7 @@ from ..core.exceptions import ConfigError
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import open_recording
 from ..model.calibration import Calibration
-from ..model.channels import check_channels
+from ..model.channels import CALIBRATION_HINT, check_channels
 from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, forward_in_time, valid_values
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
 from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
@@ -225,7 +225,7 @@ def validate_recording(
         for chunk in reader:
             t, q, s, k = chunk.time, chunk.joints, chunk.channels, chunk.configuration
             for cal in calibrations:  # each calibration reads the channels of its own layout
-                check_channels(cal.layout, s.shape[1], str(reader.path))
+                check_channels(cal.layout, s.shape[1], str(reader.path), CALIBRATION_HINT)
             finite, ok = valid_values(t, q, s, max_abs_channel)
             skip(NON_FINITE, int((~finite).sum()))
             skip(OUT_OF_RANGE, int((finite & ~ok).sum()))
