@@ -11,6 +11,7 @@ import pytest
 from fts_calib import ConfigError, PoorFit
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
+from fts_calib.app.live import format_rtde
 from fts_calib.core.resources import resolve
 from fts_calib.feeds.batch import SampleBatch
 from fts_calib.feeds.protocol import End, Joints, Strain, ToolChange, encode
@@ -90,6 +91,20 @@ def test_each_controller_sample_is_read_once_with_the_built_in_wrench():
     np.testing.assert_array_equal(batch.joints, q)
     np.testing.assert_array_equal(batch.channels, wrench)
     assert not sync.dropped and poller.offset_s == 0.0
+
+
+def test_controller_samples_without_six_joint_angles_are_counted_and_skipped():
+    time, q, wrench, _ = _linear_run(100)
+    fake = FakeUR(time, q, wrench, reads=1)
+    short = fake.getActualQ
+    fake.getActualQ = lambda: short()[:5] if fake.calls % 10 == 0 else short()  # noqa: N802 (a glitching controller)
+    poller = RtdePoller(fake, JOINTS, wrench=True)
+    sync = Synchronizer(JOINTS, configurations=["A"])
+    sync.add_tool(-np.inf, "A")
+    _poll_all(poller, fake)
+    assert poller.drain(sync) == 100 and poller.malformed == 10
+    assert len(sync.pop(final=True).time) == 90
+    assert "10 skipped (not 6 joint angles)" in format_rtde(poller)
 
 
 def test_joints_on_the_host_clock_for_strains_that_come_over_udp(rng):

@@ -174,6 +174,8 @@ def format_rtde(rtde: RtdePoller) -> str:
         text += f", {rtde.dropped:,} dropped (read faster than paired)"
     if rtde.ignored:
         text += f", {rtde.ignored:,} datagrams ignored (RTDE gives their data)"
+    if rtde.malformed:
+        text += f", {rtde.malformed:,} skipped (not {len(rtde.joint_names)} joint angles)"
     if rtde.error is not None:
         text += f"; the connection was lost: {rtde.error}"
     return text

@@ -115,6 +115,7 @@ class RtdePoller:
         self._last = -math.inf
         self.latest_s = -math.inf
         self.ignored = 0
+        self.malformed = 0  # samples whose joints are not one per robot joint: counted, never paired
         self.error: Exception | None = None
         self._pending: collections.deque[tuple[float, list[float], list[float] | None]] = collections.deque()
         self._lock = threading.Lock()
@@ -145,8 +146,9 @@ class RtdePoller:
             pending, self._pending = self._pending, collections.deque()
             offset = self.offset_s
         for t, q, w in pending:
-            if len(q) != len(self.joint_names):
-                continue  # a controller that is not a six-joint arm sends nothing usable
+            if len(q) != len(self.joint_names):  # a controller that is not a six-joint arm sends nothing usable
+                self.malformed += 1
+                continue
             self.latest_s = t + offset
             sync.add_joints(t + offset, dict(zip(self.joint_names, q, strict=True)))
             if w is not None:
