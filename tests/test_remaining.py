@@ -44,6 +44,16 @@ def test_a_shipped_plan_file_gives_the_expectations_at_the_channel_rate():
         load_plan_progress(resolve("paper_tool", "configs"), 1000.0)
 
 
+def test_the_plan_counts_follow_the_rate_the_stream_shows():
+    """A 1 kHz sensor's plan replayed at 100 Hz: its counts are a tenth, so the plan is done, not stuck at 9 %."""
+    plan = load_plan_progress(ROOT / "trajectories" / "ur5" / "plan.yaml", rate_hz=1000.0)
+    at_100 = plan.at_rate(100.0)
+    assert at_100.expected["A"] == pytest.approx(129) and at_100.rate_hz == 100.0
+    done = progress(A=129, B=int(at_100.expected["B"]), C=int(at_100.expected["C"]))
+    assert plan.status(done).startswith("~") and at_100.status(done).startswith("plan done")
+    assert plan.at_rate(None) is plan and plan.at_rate(0.0) is plan
+
+
 @pytest.mark.parametrize(("field", "value"), [("rate_hz", 0), ("duration_s", -1.0)])
 def test_a_plan_file_with_a_rate_or_duration_not_above_zero_is_refused_by_name(tmp_path, field, value):
     text = (ROOT / "trajectories" / "ur5" / "plan.yaml").read_text()
@@ -87,3 +97,27 @@ def test_live_refuses_the_plan_of_another_robot_and_a_file_that_is_not_a_plan(tm
         len(err) == 1 and "paper_table1_calibration.yaml: not a plan: expected the plan.yaml that 'fts-calib trajectory' writes" in err[0]
     )
     assert not list(tmp_path.iterdir())  # neither the calibration nor a checkpoint
+
+
+def test_the_live_runner_measures_the_stream_rate_on_the_stream_clock(ur5, paper_tool):
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import UdpReceiver
+    from fts_calib.pipeline.live import LiveRunner
+    from fts_calib.pipeline.session import CalibrationSession
+
+    receiver = UdpReceiver("127.0.0.1", 0)
+    try:
+        sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
+        runner = LiveRunner(CalibrationSession(ur5, paper_tool, source="test"), receiver, sync)
+        sync.add_tool(0.0, "A")
+        for k in range(301):  # 3 s at 100 Hz, joints and strains on one clock
+            t = 0.01 * k
+            sync.add_joints(t, dict.fromkeys(ur5.joint_names, 0.1))
+            sync.add_strain(t, [0.0] * 8)
+            if k == 50:
+                runner._feed()
+                assert runner.stream_rate_hz() is None  # under 1 s of stream
+        runner._feed(final=True)
+        assert runner.stream_rate_hz() == pytest.approx(100.0, rel=0.02)
+    finally:
+        receiver.close()

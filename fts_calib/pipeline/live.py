@@ -73,6 +73,7 @@ class LiveRunner:
         self._stopping = False
         self._rates: collections.deque[tuple[float, int, int]] = collections.deque(maxlen=20)  # (wall time, joints, strain) for the rates
         self._shown = 0
+        self._stream: tuple[float, float, int] | None = None  # (first time [s], last time [s], samples) the session was given
 
     def stop(self, *_args) -> None:
         """Ask the run to end (signal handler)."""
@@ -96,7 +97,16 @@ class LiveRunner:
         self._drain_rtde()
         batch = self.sync.pop(final)
         if len(batch.time):
+            first, _, count = self._stream or (float(batch.time[0]), 0.0, 0)
+            self._stream = (first, float(batch.time[-1]), count + len(batch.time))
             self.session.add_samples(batch)
+
+    def stream_rate_hz(self) -> float | None:
+        """The channel rate the stream shows on its own clock [Hz] (samples over time), or None before 1 s of it."""
+        if self._stream is None or self._stream[1] - self._stream[0] < 1.0:
+            return None
+        first, last, count = self._stream
+        return (count - 1) / (last - first)
 
     def status_line(self) -> str:
         """Rates, kept %, counts per configuration, rank and what is missing."""
@@ -117,7 +127,7 @@ class LiveRunner:
         if self.stats.gaps:
             text += f" | lost datagrams {self.stats.gaps}"
         if self.plan is not None:
-            text += f" | {self.plan.status(p)}"
+            text += f" | {self.plan.at_rate(self.stream_rate_hz()).status(p)}"
         if p.missing:
             text += f" | missing: {p.missing}"
         return text

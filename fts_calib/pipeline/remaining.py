@@ -10,7 +10,7 @@ next. Times in [s].
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..core.exceptions import FileFormatError
@@ -31,12 +31,26 @@ class PlanProgress:
         expected: Configuration name -> quasi-static samples the plan gives, at the channel rate.
         target_percent: The accuracy target the plan was sized to, [% of full scale], or None.
         robot: The name of the robot the plan was made for, or None (not stated).
+        rate_hz: The channel rate [Hz] the counts of ``expected`` are at, or None (unknown:
+            :meth:`at_rate` leaves them).
     """
 
     duration_s: float
     expected: Mapping[str, float]
     target_percent: float | None = None
     robot: str | None = None
+    rate_hz: float | None = None
+
+    def at_rate(self, rate_hz: float | None) -> PlanProgress:
+        """The same plan with its sample counts at another channel rate [Hz]: the rate the stream shows.
+
+        A sensor file's nominal rate is a first guess; a 100 Hz replay of a 1 kHz sensor's
+        plan would otherwise never reach its counts. None or a rate not above zero: unchanged.
+        """
+        if self.rate_hz is None or rate_hz is None or not rate_hz > 0:
+            return self
+        scale = rate_hz / self.rate_hz
+        return replace(self, expected={name: n * scale for name, n in self.expected.items()}, rate_hz=float(rate_hz))
 
     def fractions(self, progress: Progress) -> dict[str, float]:
         """Per configuration, the fraction of its planned samples kept so far (at most 1)."""
@@ -102,4 +116,4 @@ def load_plan_progress(path: str | Path, rate_hz: float) -> PlanProgress:
     }
     target = data.get("target_error_percent_fs")
     target_percent = None if target is None else read_number(target, path, "target_error_percent_fs", "%")
-    return PlanProgress(duration, expected, target_percent, None if data.get("robot") is None else str(data["robot"]))
+    return PlanProgress(duration, expected, target_percent, None if data.get("robot") is None else str(data["robot"]), rate_hz)
