@@ -65,7 +65,8 @@ class SizedPlan:
         return (
             f"sized to the target {self.target_percent:g} % of full scale: {p.levels} levels × {p.stops} stops, dwell "
             f"{p.dwell:g} s, span {p.span:g} of the second joint's range (the shortest of {self.candidates} rasters whose "
-            f"budget was computed); predicted total {self.budget.largest_percent:.4f} % on {axis}, dominated by {term}; "
+            f"budget was computed, on motions screened at {_SCREEN_RATE_HZ:g} Hz): {self.budget.largest_percent:.4f} % on {axis} "
+            f"there, dominated by {term}; "
             f"no plan goes below {self.floor_percent:.4f} % (tool tolerance and mount)"
         )
 
