@@ -288,3 +288,33 @@ def test_unknown_keys_of_sensor_and_pipeline_files_are_refused(tmp_path):
     pipeline.write_text("design:\n  noise: 1.0e-5\n")
     with pytest.raises(FileFormatError, match=r"field 'design': unknown keys \['noise'\].*known keys: noise_std"):
         load_pipeline_config(pipeline)
+
+
+def test_a_recording_whose_every_row_is_skipped_says_so_not_hold_the_arm_still(tmp_path, ur5_recording, capsys):
+    """Before: a temperature column of text (every row malformed) ended with 'hold the arm still at the stops'."""
+    lines = ur5_recording.read_text().splitlines()
+    path = tmp_path / "warm.csv"
+    path.write_text("\n".join([lines[0] + ",temperature", *[line + ",warm" for line in lines[1:]]]) + "\n")
+    assert _calibrate(path, tmp_path) == ExitCode.CHECK_FAILED
+    out = capsys.readouterr().out
+    assert "warm.csv, line 2: column 'temperature': 'warm' is not a number" in out, out
+    expected = "NO CALIBRATION: no usable sample: every row was skipped before the filter (malformed line: 9,009); the notes above"
+    assert expected in out and "hold the arm still" not in out, out
+    assert not (tmp_path / "cal.yaml").exists()
+
+
+def test_a_temperature_in_kelvin_is_warned_about_once_and_its_samples_are_kept(ur5):
+    """Before: 298 'degrees C' went into the calibration file's temperature_C fields without a word."""
+    n = 5
+    batch = SampleBatch(np.arange(n) * 0.01, np.zeros((n, ur5.n_joints)), np.zeros((n, 8)), np.zeros(n, dtype=np.int64))
+    checks = SampleChecks(ur5)
+    kelvin = SampleBatch(batch.time, batch.joints, batch.channels, batch.configuration, np.full(n, 298.15))
+    with pytest.warns(FtsCalibWarning, match=r"temperature 298.15 °C is beyond what a sensor can have \(-40 to 125 °C\).*kelvin"):
+        assert checks.accept(kelvin).all()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FtsCalibWarning)
+        later = SampleBatch(batch.time + 1.0, batch.joints, batch.channels, batch.configuration, np.full(n, 300.0))
+        assert checks.accept(later).all()  # once per stream
+        # a warm sensor, or 77 °F taken for °C: within the range, not to be told apart
+        warm = SampleBatch(batch.time, batch.joints, batch.channels, batch.configuration, np.full(n, 77.0))
+        assert SampleChecks(ur5).accept(warm).all()

@@ -247,6 +247,20 @@ def format_fit(check: FitCheck) -> list[str]:
     return lines
 
 
+def _unusable(session: CalibrationSession) -> str | None:
+    """Why no sample reached the filter when every row was skipped by the checks, or None.
+
+    "Hold the arm still" would send the user to the robot for a file whose every row is
+    malformed (a text in the temperature column, a NaN strain).
+    """
+    p = session.progress()
+    checks = {reason: n for reason, n in p.skipped.items() if not reason.startswith("filter:")}
+    if p.kept or not p.seen or sum(checks.values()) < p.seen:
+        return None
+    counts = ", ".join(f"{reason}: {n:,}" for reason, n in sorted(checks.items(), key=lambda x: -x[1]))
+    return f"no usable sample: every row was skipped before the filter ({counts}); the notes above name the first"
+
+
 def format_summary(result: CalibrateResult, recording: str | Path, output: Path | None) -> str:
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
@@ -260,7 +274,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
         if isinstance(result.error, PoorFit):
             lines.append("NO CALIBRATION written: the fit is poor (above); fix the cause, or accept it knowingly with --accept-poor-fit")
         else:
-            lines.append(f"NO CALIBRATION: {result.error}")
+            lines.append(f"NO CALIBRATION: {_unusable(result.session) or result.error}")
         return "\n".join(lines)
     cal, q = result.calibration, result.calibration.quality
     if q is None:  # CalibrationSession.solve always measures the fit

@@ -30,6 +30,13 @@ NON_FINITE = "non-finite value"
 OUT_OF_RANGE = "channel out of range"
 OUTSIDE_LIMITS = "outside joint limits"
 
+#: Sensor temperatures a strain-gauge sensor and its electronics can have, in [°C] (the
+#: industrial range). Beyond it the column is in another unit (kelvin: 298 for 25 °C) and is
+#: warned about; the samples are kept: the drift model's temperature term is linear, so its fit
+#: and C do not depend on the unit, only the file's temperature_C fields do. Within it a unit
+#: error (°F: 77 for 25 °C) cannot be told from a warm sensor.
+PLAUSIBLE_TEMPERATURE_C = (-40.0, 125.0)
+
 
 def valid_values(time: np.ndarray, joints: np.ndarray, channels: np.ndarray, max_abs_channel: float) -> tuple[np.ndarray, np.ndarray]:
     """Which samples have finite values, and which of those have every channel in range.
@@ -85,6 +92,7 @@ class SampleChecks:
         self.last_time = -math.inf
         self.resume_time = -math.inf
         self._warned_degrees = False
+        self._warned_temperature = False
 
     def accept(self, batch: SampleBatch) -> np.ndarray:
         """The samples of ``batch`` that pass every check, shape (N,) bool; the others are counted."""
@@ -95,6 +103,7 @@ class SampleChecks:
         if batch.temperature is not None:  # a NaN temperature would poison the offset model's sums
             finite &= np.isfinite(batch.temperature)
             in_range &= finite
+            self._check_temperature(batch.temperature[ok & finite])
         self._count(NON_FINITE, ok & ~finite)
         self._count(OUT_OF_RANGE, ok & finite & ~in_range)
         ok &= in_range
@@ -120,6 +129,20 @@ class SampleChecks:
         if ok.any():
             self.last_time = float(time[ok][-1])
         return ok
+
+    def _check_temperature(self, temperature_C: np.ndarray) -> None:
+        """Warn once about temperatures beyond :data:`PLAUSIBLE_TEMPERATURE_C` (another unit)."""
+        low, high = PLAUSIBLE_TEMPERATURE_C
+        beyond = temperature_C[(temperature_C < low) | (temperature_C > high)]
+        if len(beyond) and not self._warned_temperature:
+            self._warned_temperature = True
+            warnings.warn(
+                f"temperature {beyond[0]:g} °C is beyond what a sensor can have ({low:g} to {high:g} °C): the temperature "
+                "must be in °C (kelvin? subtract 273.15); the samples are kept (the drift model's fit does not depend on the "
+                "unit, the calibration file's temperature_C fields do)",
+                FtsCalibWarning,
+                stacklevel=4,
+            )
 
     def _count(self, reason: str, mask: np.ndarray) -> None:
         count = int(mask.sum())
