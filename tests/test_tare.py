@@ -113,6 +113,18 @@ def test_re_tare_from_a_live_window(setup, rng):
     assert f"live window of 0.8 s on udp://127.0.0.1:{bound[0][1]}," in reason and bound[0][1] != 0, reason
 
 
+def test_a_live_window_with_nothing_sent_says_so_without_rank_words(setup):
+    from fts_calib.core.exceptions import InsufficientExcitation
+    from fts_calib.service.tare import tare_live
+
+    _, cal = setup
+    with pytest.raises(InsufficientExcitation) as caught:
+        tare_live(cal, "127.0.0.1", 0, 0.05)
+    text = str(caught.value)
+    assert text.startswith("insufficient data: no datagram at all on udp://127.0.0.1:") and "rank" not in text, text
+    assert "is the sender running, to this port?" in text
+
+
 def test_re_tare_with_a_tool_needs_its_configuration_and_the_kinematics(tmp_path, setup, ur5, rng):
     sensor, cal = setup
     tool = load_tool(resolve("paper_tool", "configs"))

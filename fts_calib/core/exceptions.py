@@ -84,6 +84,9 @@ class InsufficientExcitation(FtsCalibError):
         self.missing = missing
         self.detail = detail
         self.full = full
+        if rank == 0 and detail:  # nothing to count directions of: say what is wrong, not 'rank 0 of 7'
+            super().__init__(f"insufficient data: {detail}")
+            return
         text = f"insufficient excitation: the information matrix has rank {rank} of {full}, {missing} independent direction(s) missing."
         super().__init__(text + (" " + detail if detail else ""))
 
