@@ -318,3 +318,22 @@ def test_a_temperature_in_kelvin_is_warned_about_once_and_its_samples_are_kept(u
         # a warm sensor, or 77 °F taken for °C: within the range, not to be told apart
         warm = SampleBatch(batch.time, batch.joints, batch.channels, batch.configuration, np.full(n, 77.0))
         assert SampleChecks(ur5).accept(warm).all()
+
+
+@pytest.mark.parametrize(
+    ("option", "expected"),
+    [
+        (
+            ["--sensor", "paper_tool"],
+            "paper_tool.yaml: unknown keys ['gravity', 'shape', 'tolerance', 'configurations'] (it looks like a tool file",
+        ),
+        (["--sensor", "paper_table1_calibration"], "(it looks like a calibration file, not the kind of file expected here)"),
+        (["--tool", "sensor"], "sensor.yaml: unknown keys ['strain_unit', 'full_scale', 'rate_hz', 'simulation'] (it looks like a sensor"),
+    ],
+)
+def test_a_file_of_another_kind_given_to_an_option_is_named_as_such(tmp_path, ur5_recording, capsys, option, expected):
+    """Before: only the unknown keys, which read as typos in a file the user did not mean to give."""
+    assert _calibrate(ur5_recording, tmp_path, *option) == ExitCode.FILE
+    line = _one_error_line(capsys)
+    assert expected in line, line
+    assert not (tmp_path / "cal.yaml").exists()

@@ -159,6 +159,18 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     return data
 
 
+#: A top-level key that only one kind of fts-calib file has, and that kind: named when such a
+#: file is given where another kind is expected.
+FILE_KINDS = {
+    "configurations": "a tool file",
+    "urdf": "a robot definition",
+    "C_bar": "a calibration file",
+    "strain_unit": "a sensor configuration",
+    "filter": "a pipeline configuration",
+    "duration_s": "a plan file",
+}
+
+
 def check_keys(data: Mapping[str, Any], known: Iterable[str], path: str | Path, section: str | None = None) -> None:
     """Refuse the keys of a file's mapping that the loader does not know (a typo such as ``mas``).
 
@@ -176,6 +188,9 @@ def check_keys(data: Mapping[str, Any], known: Iterable[str], path: str | Path, 
     unknown = [str(key) for key in data if key not in names]
     if unknown:
         hint = "".join(f" ('{key}': did you mean '{close[0]}'?)" for key in unknown if (close := difflib.get_close_matches(key, names, 1)))
+        kind = next((FILE_KINDS[key] for key in unknown if key in FILE_KINDS), None) if section is None else None
+        if kind is not None:  # a whole file of another kind, given to the wrong option (--sensor paper_tool)
+            hint = f" (it looks like {kind}, not the kind of file expected here)"
         raise FileFormatError(path, section, f"unknown keys {unknown}{hint}; known keys: {', '.join(names)}")
 
 
