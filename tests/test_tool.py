@@ -119,3 +119,13 @@ def test_the_tolerance_is_read_and_a_bad_one_names_the_field(tmp_path):
         load_tool(_tool(tmp_path, configs, tolerance={"mass": -1e-3}))
     with pytest.raises(FileFormatError, match=r"'tolerance'.*'cog'"):
         load_tool(_tool(tmp_path, configs, tolerance={"cog": 1e-3}))
+
+
+def test_a_tolerance_of_the_size_of_the_mass_or_of_the_centre_of_mass_is_a_unit_slip(tmp_path):
+    """Before: accepted, and trajectory then said 'tool mass alone gives 1666 %' without naming the file's field."""
+    configs = [{"name": "A", "mass": 2.0, "com": [0.0, 0.0, 0.1]}, {"name": "B", "mass": 0.5, "com": [0.05, 0.0, 0.0]}]
+    with pytest.raises(FileFormatError, match=r"field 'tolerance.mass': is 0.5 kg, not below the mass of configuration B \(0.5 kg\)"):
+        load_tool(_tool(tmp_path, configs, tolerance={"mass": 0.5, "com": 2e-5}))
+    with pytest.raises(FileFormatError, match=r"field 'tolerance.com': is 20 m, not below the farthest centre of mass \(0.1 m"):
+        load_tool(_tool(tmp_path, configs, tolerance={"mass": 2e-4, "com": 20.0}))
+    assert load_tool(_tool(tmp_path, configs, tolerance={"mass": 0.1, "com": 0.01})).tolerance == ToolTolerance(mass=0.1, com=0.01)

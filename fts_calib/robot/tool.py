@@ -172,6 +172,21 @@ class Tool:
             raise ConfigError("configurations", names, "unique names", owner=owner, reason=f"has duplicate names {duplicates}")
         if self.shape is None:
             object.__setattr__(self, "shape", default_shape(self.configurations))
+        if self.tolerance is not None:  # how well the tool is known: an error of the mass's size is a unit slip
+            lightest = min(self.configurations, key=lambda c: c.mass)
+            if self.tolerance.mass >= lightest.mass:
+                reason = (
+                    f"is {self.tolerance.mass:g} kg, not below the mass of configuration {lightest.name} ({lightest.mass:g} kg): "
+                    "expected how well the masses are known, in kg (0.2 g is 2.0e-4)"
+                )
+                raise ConfigError("tolerance.mass", self.tolerance.mass, "", owner=owner, reason=reason)
+            farthest = max(float(np.linalg.norm(c.p_sensor_com)) for c in self.configurations)
+            if farthest > 0 and self.tolerance.com >= farthest:
+                reason = (
+                    f"is {self.tolerance.com:g} m, not below the farthest centre of mass ({farthest:g} m from the sensor): "
+                    "expected how well the centres of mass are known, in m (20 µm is 2.0e-5)"
+                )
+                raise ConfigError("tolerance.com", self.tolerance.com, "", owner=owner, reason=reason)
 
     @property
     def names(self) -> list[str]:
