@@ -102,3 +102,45 @@ def test_the_filter_alone_decides_from_rates_and_stationarity_and_returns_the_ra
 def test_bad_thresholds_are_refused():
     with pytest.raises(ValueError, match="filter.max_joint_speed=0.0 but expected a finite value > 0"):
         FilterConfig(max_joint_speed=0.0)
+
+
+@pytest.mark.parametrize("rate", [100.0, 1000.0])
+def test_a_stream_that_ends_while_speeding_up_keeps_nothing_of_the_motion(ur5, paper_tool, rng, rate):
+    """Still 3 s, then the last joint speeds up below the acceleration limit until the stream ends at 1.08 times the speed limit.
+
+    A difference over the cut window at the stream's end is the velocity of its middle, short of
+    the sample's: samples up to 10 % over the speed limit passed (fed whole or in chunks).
+    """
+    settings = FilterConfig()
+    accel = 0.9 * settings.max_joint_acceleration  # only the speed rule can reject
+    end = 3.0 + 1.08 * settings.max_joint_speed / accel  # 3.12 s: on the sample grid of either rate
+    t = np.arange(int(round(end * rate)) + 1) / rate
+    q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
+    tau = np.maximum(t - 3.0, 0.0)
+    q[:, 5] = 0.5 * accel * tau**2
+    speed = accel * tau  # the truth
+    s, k = 0.1 + 1e-5 * rng.standard_normal((len(t), 8)), np.zeros(len(t), dtype=np.int64)
+    assert speed[-1] > 1.05 * settings.max_joint_speed  # the truth: the last 0.01 s over the limit
+    _, keep = _decide(settings, ur5, paper_tool, t, q, s, k)
+    assert not keep[speed > settings.max_joint_speed].any()
+    assert keep[(t > 0.2) & (t < 2.8)].all()
+    filt, cuts = QuasiStaticFilter(settings, ur5.continuous), np.sort(rng.choice(len(t), 5, replace=False))
+    batch = SampleBatch(t, q, s, k)
+    parts = [quasi_static(filt, ur5, paper_tool, batch.rows(i, j)).keep for i, j in zip([0, *cuts], [*cuts, len(t)], strict=True)]
+    chunked = np.concatenate([*parts, quasi_static(filt, ur5, paper_tool, batch.rows(0, 0), final=True).keep])
+    assert not chunked[speed > settings.max_joint_speed].any()
+
+
+def test_a_lone_sample_after_a_gap_at_the_end_shows_nothing_and_is_not_kept(ur5, paper_tool, rng):
+    """Still 3 s at 100 Hz, a 2 s gap (a tool change), one sample of another load, the end.
+
+    Its strain window and joint rates held itself alone: deviation and rates zero, so it was kept.
+    """
+    t = np.concatenate([np.arange(300) / 100.0, [5.0]])
+    q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
+    s = 0.1 + 1e-5 * rng.standard_normal((len(t), 8))
+    s[-1] += 0.05  # another tool
+    filt, keep = _decide(FilterConfig(), ur5, paper_tool, t, q, s, np.zeros(len(t), dtype=np.int64))
+    assert not keep[-1]
+    assert keep[200:300].all()  # the still samples before the gap, their window on one side only, are kept
+    assert filt.rejected["strain not stationary"] == 1

@@ -12,7 +12,9 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
    (centred on the sample) at most ``max_strain_std``, or, with ``auto``,
    ``strain_std_factor`` times the noise floor: the median of that deviation over the first
    200 samples the joint rules keep (vibration after a stop shows here; until those
-   samples have come, nothing is decided);
+   samples have come, nothing is decided); a window holding fewer than three quarters of
+   half a window's samples (at least 3) shows nothing and fails: a lone sample beside a
+   gap or at a stream's end (its deviation and joint rates would be zero by construction);
 4. *dynamic wrench*: the dynamic part of the tool's wrench (Newton-Euler, from the
    kinematics and the estimated joint velocities and accelerations) at most
    ``max_dynamic_fraction`` of its weight, for the force and for the moment (relative to
@@ -137,14 +139,15 @@ def joint_rates(
     A least-squares quadratic through the samples of a window of ``window_s`` centred on
     each sample (Savitzky-Golay: with 1e-6 rad of reading noise at 1 kHz and a 50 ms window,
     about 1.4e-3 rad/s^2 of acceleration noise, twenty times less than a second difference);
-    where the window is cut by the edges, a gap or irregular sampling, plain differences
-    over the window. Continuous joints are unwrapped first.
+    where the window is cut by the edges, a gap or irregular sampling, a least-squares
+    quadratic through the samples there are, evaluated at the sample (not at the middle of
+    the cut window). Continuous joints are unwrapped first.
 
     Args:
         time: Sample times [s], non-decreasing. Shape (N,).
         joints: Joint readings [rad]. Shape (N, n_joints).
         window_s: Width of the window [s].
-        dt: The stream's sample period [s] (0: differences everywhere).
+        dt: The stream's sample period [s] (0: the fit over the samples there are everywhere).
         continuous: Which joints are continuous. Shape (n_joints,).
 
     Returns:
@@ -167,14 +170,40 @@ def joint_rates(
         span = time[2 * half :] - time[: n - 2 * half]
         fitted[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
     rest = np.nonzero(~fitted)[0]
-    if len(rest):
-        left, right = window_bounds(time, rest, window_s / 2)
-        dt_total, dt_left, dt_right = time[right] - time[left], time[rest] - time[left], time[right] - time[rest]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            velocity[rest] = np.where((dt_total > 0)[:, None], (joints[right] - joints[left]) / dt_total[:, None], 0.0)
-            both = ((dt_left > 0) & (dt_right > 0))[:, None]
-            slopes = (joints[right] - joints[rest]) / dt_right[:, None] - (joints[rest] - joints[left]) / dt_left[:, None]
-            acceleration[rest] = np.where(both, 2.0 * slopes / dt_total[:, None], 0.0)
+    for block in range(0, len(rest), 4096):  # bounded memory: (block, window, joints) at a time
+        index = rest[block : block + 4096]
+        velocity[index], acceleration[index] = _local_rates(time, joints, index, window_s / 2)
+    return velocity, acceleration
+
+
+def _local_rates(time: np.ndarray, joints: np.ndarray, index: np.ndarray, half: float) -> tuple[np.ndarray, np.ndarray]:
+    """Joint rates at samples ``index`` from a least-squares quadratic over the samples within ``half`` [s], evaluated at the sample.
+
+    At the sample, not at the middle of the window: where the window is cut (a stream's end, a
+    gap), a difference over it is the velocity half a cut window earlier or later, short of the
+    sample's by that time the acceleration (at a stream ending while it speeds up, a joint just
+    over the speed limit passed). Two sample times give their slope and no acceleration, one gives zeros.
+    """
+    left, right = window_bounds(time, index, half)
+    cols = left[:, None] + np.arange(int(np.max(right - left)) + 1)
+    valid = cols <= right[:, None]
+    cols = np.minimum(cols, len(time) - 1)
+    x = np.where(valid, (time[cols] - time[index, None]) / half, 0.0)  # (m, w), within [-1, 1]
+    y = np.where(valid[:, :, None], joints[cols] - joints[index, None, :], 0.0)  # (m, w, joints)
+    distinct = 1 + np.sum((np.diff(time[cols], axis=1) > 0) & valid[:, 1:], axis=1)
+    powers = np.stack([valid, x, x * x], axis=-1).astype(float)  # (m, w, 3); masked rows are zero
+    normal = np.swapaxes(powers, 1, 2) @ powers
+    moments = np.swapaxes(powers, 1, 2) @ y  # (m, 3, joints)
+    velocity, acceleration = np.zeros((len(index), joints.shape[1])), np.zeros((len(index), joints.shape[1]))
+    two = distinct == 2
+    if np.any(two):
+        n, sx, sxx = normal[two, 0, 0], normal[two, 0, 1], normal[two, 1, 1]
+        velocity[two] = (n[:, None] * moments[two, 1] - sx[:, None] * moments[two, 0]) / (n * sxx - sx * sx)[:, None] / half
+    three = distinct >= 3
+    if np.any(three):
+        coefficients = np.linalg.solve(normal[three], moments[three])
+        velocity[three] = coefficients[:, 1] / half
+        acceleration[three] = 2.0 * coefficients[:, 2] / half**2
     return velocity, acceleration
 
 
@@ -285,6 +314,17 @@ class QuasiStaticFilter:
         accel_ok = bad_accel[s_right + 1] == bad_accel[s_left]
         return speed_ok, accel_ok, velocity_all[index], acceleration_all[index], s_left, s_right
 
+    def _judged(self, time: np.ndarray, s_left: np.ndarray, s_right: np.ndarray) -> np.ndarray:
+        """Which strain windows hold samples enough to show stationarity (rule 3).
+
+        At least three quarters of the samples of half a window, and 3: a sample at a
+        stream's edge or beside a gap has its window on one side only (and passes), a lone
+        one or two has nothing to show.
+        """
+        dt = self._dt if self._dt is not None else float(np.median(np.diff(time))) if len(time) > 1 else 0.0
+        need = max(3, int(np.ceil(0.75 * self.settings.strain_window_s / (2 * dt)))) if dt > 0 else 3
+        return s_right - s_left + 1 >= need
+
     def _waiting(self, buf: SampleBatch, index, final: bool) -> bool:
         """In ``auto`` mode, set the noise floor from the first still samples of the stream.
 
@@ -299,7 +339,7 @@ class QuasiStaticFilter:
         if self.settings.max_strain_std is not None or self.noise_floor is not None or len(index) == 0:
             return False
         speed_ok, accel_ok, _, _, s_left, s_right = self._still(buf, index)
-        still = np.nonzero(speed_ok & accel_ok)[0][:_FLOOR_SAMPLES]
+        still = np.nonzero(speed_ok & accel_ok & self._judged(buf.time, s_left, s_right))[0][:_FLOOR_SAMPLES]
         give_up = final or buf.time[index[-1]] - buf.time[0] >= _FLOOR_WAIT_S
         if len(still) < _FLOOR_SAMPLES and not give_up:
             return True
@@ -327,7 +367,7 @@ class QuasiStaticFilter:
             # of the typical reading (a median: one wild value must not loosen the threshold of all)
             scale = float(np.max(np.median(np.abs(channels), axis=0)))
             threshold = np.maximum(settings.strain_std_factor * self.noise_floor, 1e-9 * scale)
-        strain_ok = np.all(std <= threshold, axis=1)
+        strain_ok = np.all(std <= threshold, axis=1) & self._judged(buf.time, s_left, s_right)
         # a moving sample is counted by the joint rules only: its strain was not looked at
         self.rejected["joint speed"] += int((~speed_ok).sum())
         self.rejected["joint acceleration"] += int((~accel_ok).sum())
