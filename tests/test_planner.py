@@ -103,8 +103,9 @@ def test_a_target_below_what_the_tool_and_mount_allow_names_the_term(setup):
     tool, sensor, pipeline = setup
     with pytest.raises(TrajectoryError, match=r"no plan meets the target of 0.01 % of full scale: sensor mount alone gives 0.03"):
         plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=0.01)
-    with pytest.raises(TrajectoryError, match="expected a value > 0"):
-        plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=0.0)
+    for target in (0.0, float("inf")):  # before: inf sized a plan, printed 'inf % on Fx' and 'nan %', and exited 1
+        with pytest.raises(TrajectoryError, match=r"target error .* % of full scale \(--target-error\) but expected a finite value > 0"):
+            plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=target)
 
 
 def test_a_noisier_sensor_needs_a_longer_plan(setup):

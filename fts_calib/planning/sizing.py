@@ -15,6 +15,7 @@ Durations in [s], errors in % of full scale.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,8 +103,10 @@ def size_plan(
         TrajectoryError: A target <= 0, a target below what the tool and mount allow (names
             the dominant term), or no raster that meets it.
     """
-    if not target_percent > 0:
-        raise TrajectoryError(f"target error {target_percent} % of full scale but expected a value > 0", "invalid target")
+    if not (math.isfinite(target_percent) and target_percent > 0):  # inf would size to a plan that meets nothing
+        raise TrajectoryError(
+            f"target error {target_percent} % of full scale (--target-error) but expected a finite value > 0", "invalid target"
+        )
     C_bar, D, sigma_w, full_scale = nominal
     base = plan_base(kin, checker, SweepPattern(2, 2, DWELLS_S[0], margin), min_clearance)
     home, ranges = base[0], base[1].ranges
