@@ -92,7 +92,7 @@ def test_export_then_import_gives_the_same_matrix(tmp_path, rng):
         (lambda t: t.replace("-0.6 -26.1", "nan -26.1"), r"UserAxis\[Fy\].values': line 8: a value is not finite"),
         (  # Fy a copy of Fx: before, 'projection=rank 5' (exit 3) without the file's name
             lambda t: t.replace("1.4 52.3 -0.6 -26.1 -0.3 -25.8", "0.35 0.12 -1.1 -45.2 0.8 44.9"),
-            r"f.cal: field 'UserAxis': the matrix is 'rank 5' but expected full row rank 6",
+            r"f.cal: field 'UserAxis': the matrix has rank 5 but expected full row rank 6",
         ),
     ],
 )

@@ -161,3 +161,32 @@ def test_strains_the_loads_explain_leave_only_the_noise(rng):
     mislabelled.update_batch(W, wrong @ MALTESE_CROSS_8.pinv.T + noise * rng.standard_normal((3000, 8)))
     sums = mislabelled.model_sums(mislabelled.model_in_use()[0])
     assert unexplained_strain(sums, noise_cov, mislabelled.weight_sum) > 100
+
+
+@pytest.mark.parametrize(
+    ("channels", "words"),
+    [
+        ("wrench6", r"field 'channels': is 'wrench6' but expected .* \(did you mean 'wrench-6'\?\)"),
+        ("6", r"field 'channels': is 6 but expected maltese-cross-8, wrench-6"),
+        (
+            "[[1, 0], [0, 1, 2], [1], [1], [1], [1]]",
+            r"field 'channels.projection': has rows of \[2, 3, 1, 1, 1, 1\] numbers but expected 6 rows",
+        ),
+        ("[[a, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0]]", r"field 'channels.projection': has the entry 'a' but expected numbers"),
+        ("{projection: [[1, 0, 0], [0, 1, 0]]}", r"field 'channels.projection': has shape \(2, 3\) but expected a 6 x n matrix"),
+        (
+            "{projection: [[1, 0, 0, 0, 0, 0], [1, 0, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], "
+            "[0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1]]}",
+            r"field 'channels.projection': has rank 5 but expected full row rank 6",
+        ),
+    ],
+)
+def test_a_sensor_file_with_a_bad_layout_names_the_field_and_what_is_wrong(tmp_path, channels, words):
+    """Before: 'projection' for a field the file calls channels, a quoted "'shape (2, 3)'", and for ragged rows or text
+    entries only the list of accepted layouts."""
+    from fts_calib.model.sensor_config import load_sensor_config
+
+    path = tmp_path / "s.yaml"
+    path.write_text(f"name: s\nstrain_unit: V\nfull_scale: {{force: 50.0, moment: 5.0}}\nchannels: {channels}\n")
+    with pytest.raises(FileFormatError, match=words):
+        load_sensor_config(path)

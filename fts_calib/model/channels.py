@@ -16,6 +16,7 @@ six-dimensional whatever n is.
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -56,12 +57,17 @@ class ChannelLayout:
             raise ConfigError("channels", self.name, f"one of {', '.join(LAYOUT_NAMES)}")
         projection = np.asarray(self.projection, dtype=float)
         if projection.ndim != 2 or projection.shape[0] != 6 or projection.shape[1] < 6:
-            raise ConfigError("projection", f"shape {projection.shape}", "a 6 x n matrix with n >= 6 (one column per channel)")
+            expected = "a 6 x n matrix with n >= 6 (one column per channel)"
+            raise ConfigError("projection", projection.shape, expected, reason=f"has shape {projection.shape} but expected {expected}")
         if not np.all(np.isfinite(projection)):
-            raise ConfigError("projection", "a NaN or inf entry", "finite numbers")
+            raise ConfigError(
+                "projection", "a NaN or inf entry", "finite numbers", reason="has a NaN or inf entry but expected finite numbers"
+            )
         singular = np.linalg.svd(projection, compute_uv=False)
         if singular[-1] <= 1e-9 * singular[0]:
-            raise ConfigError("projection", f"rank {int(np.sum(singular > 1e-9 * singular[0]))}", "full row rank 6 (six independent rows)")
+            rank = int(np.sum(singular > 1e-9 * singular[0]))
+            expected = "full row rank 6 (six independent rows)"
+            raise ConfigError("projection", rank, expected, reason=f"has rank {rank} but expected {expected}")
         object.__setattr__(self, "projection", frozen(projection))
         object.__setattr__(self, "pinv", frozen(np.linalg.pinv(projection)))
         if np.array_equal(projection, P):
@@ -154,8 +160,17 @@ def channel_layout(value: Any = None) -> ChannelLayout:
         if set(value) != {"projection"}:
             raise ConfigError("channels", dict(value), "maltese-cross-8, wrench-6 or {projection: 6 x n rows}")
         value = value["projection"]
-    if isinstance(value, str):
-        raise ConfigError("channels", value, "maltese-cross-8, wrench-6 or {projection: 6 x n rows}")
+    if isinstance(value, (str, int, float)):  # a typo of a name, or a channel count instead of a layout
+        close = difflib.get_close_matches(str(value), LAYOUT_NAMES, 1)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        raise ConfigError("channels", value, "maltese-cross-8, wrench-6 or {projection: 6 x n rows}" + hint)
+    rows = value if isinstance(value, list) and all(isinstance(row, list) for row in value) else None
+    if rows is not None and len({len(row) for row in rows}) > 1:
+        lengths = [len(row) for row in rows]
+        raise ConfigError("projection", lengths, "", reason=f"has rows of {lengths} numbers but expected 6 rows of n numbers each")
+    bad = [x for row in rows or [] for x in row if isinstance(x, bool) or not isinstance(x, (int, float))]
+    if bad:
+        raise ConfigError("projection", bad[0], "", reason=f"has the entry {bad[0]!r} but expected numbers")
     try:
         matrix = np.asarray(value, dtype=float)
     except (TypeError, ValueError):

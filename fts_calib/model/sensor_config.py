@@ -198,7 +198,7 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     # force and moment fill the six entries of SensorSpec.full_scale: checked here, by their names
     force = read_positive(full.get("force", 50.0), path, "full_scale.force")
     moment = read_positive(full.get("moment", 5.0), path, "full_scale.moment")
-    with fields_of(path):
+    with fields_of(path, names={"projection": "channels.projection"}):
         layout = channel_layout(data.get("channels"))
     simulated = _read_simulation(data["simulation"], path, layout) if data.get("simulation") is not None else None
     name = str(require(data, "name", path))
