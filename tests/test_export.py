@@ -93,3 +93,13 @@ def test_export_refuses_an_unknown_format_and_ros2_without_a_payload(calibration
         export(calibration, "xml")
     with pytest.raises(ConfigError, match=r"the ros2 export describes the payload to compensate: give its tool file \(--payload\)"):
         export(calibration, "ros2")
+
+
+def test_an_output_below_a_file_names_that_file(tmp_path, capsys):
+    """Before: 'cannot write notes.txt/x.json: File exists', of a file the user did not name."""
+    (tmp_path / "notes.txt").write_text("a file, not a folder\n")
+    out = tmp_path / "notes.txt" / "sub" / "x.json"
+    calibration = str(resolve("paper_table1_calibration", "configs"))
+    assert main(["export", "--format", "json", "--calibration", calibration, "-o", str(out)]) == ExitCode.FILE_ACCESS
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"cannot write {out}: {tmp_path / 'notes.txt'} is a file, not a folder" in err[0], err

@@ -7,6 +7,7 @@ over the target: a crash leaves either the old file or the new one, never half a
 from __future__ import annotations
 
 import difflib
+import errno
 import math
 import os
 import tempfile
@@ -55,6 +56,9 @@ class AtomicFile:
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
+        blocking = next((folder for folder in reversed(self.path.parents) if folder.exists() and not folder.is_dir()), None)
+        if blocking is not None:  # mkdir would say "File exists", of the file the user did not name
+            raise NotADirectoryError(errno.ENOTDIR, f"{blocking} is a file, not a folder")
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd, self._tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
         self.handle = os.fdopen(fd, "wb")
