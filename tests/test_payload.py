@@ -122,3 +122,19 @@ def test_cli_payload_identifies_and_refuses(tmp_path, ur5, rng, capsys):
     one, _ = _payload_recording(tmp_path / "one.csv", ur5, [(0.3, 0.3)], rng)
     assert main(["payload", "--calibration", str(cal), "--robot", "ur5", str(one), "-o", str(tmp_path / "p.yaml")]) == ExitCode.PAYLOAD
     assert "needs at least 3 orientations of the tool, well spread; got 1" in capsys.readouterr().err
+
+
+def test_a_payload_recording_with_two_configuration_names_is_refused(tmp_path, ur5, ur5_recording, capsys):
+    """Before: the rows of every configuration went into one fit (a tool change's B row counted as a 7th orientation of A)."""
+    from fts_calib import Calibration, save_calibration
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+    from fts_calib.core.resources import resolve
+
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
+    out = tmp_path / "p.yaml"
+    assert main(["payload", "--calibration", str(cal), "--robot", "ur5", str(ur5_recording), "-o", str(out)]) == ExitCode.PAYLOAD
+    err = capsys.readouterr().err
+    assert "holds 3 tool configurations (A, B, C): a payload recording holds one payload" in err, err
+    assert not out.exists()

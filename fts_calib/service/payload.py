@@ -271,7 +271,8 @@ def identify_payload_from_recording(
     frame through the kinematics (the robot model's gravity).
 
     Args:
-        path: Recording (CSV or CSV.gz, or a ROS 2 bag: :mod:`fts_calib.feeds.source`); its configurations are not used.
+        path: Recording (CSV or CSV.gz, or a ROS 2 bag: :mod:`fts_calib.feeds.source`) of one payload: one
+            name in its configuration column (any name; more than one is refused).
         kin: Kinematics of the robot.
         calibration: The sensor's calibration.
         settings: Filter thresholds; the defaults when None.
@@ -280,14 +281,22 @@ def identify_payload_from_recording(
 
     Raises:
         RecordingError: The recording cannot be read.
-        PayloadError: No usable row, or orientations too few or too close.
+        PayloadError: No usable row, more than one configuration name, or orientations too
+            few or too close.
     """
     with open_recording(path, kin.joint_names, None) as reader:
         chunks = list(reader)
+        names = list(reader.tool_names)
     if not chunks:
         raise PayloadError(f"{path}: no usable row")
     samples = SampleBatch.concatenate(chunks)
     check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
+    held = [names[k] for k in np.unique(samples.configuration) if 0 <= k < len(names)]
+    if len(held) > 1:  # one fit of one payload would mix their weights
+        raise PayloadError(
+            f"{path} holds {len(held)} tool configurations ({', '.join(held)}): a payload recording holds one payload; "
+            "record each alone (or keep only its rows) and identify them one by one"
+        )
     samples = dataclasses.replace(samples, configuration=np.zeros(len(samples), dtype=np.int64))
     samples = samples.select(SampleChecks(kin).accept(samples))  # a NaN or a row out of order never poisons a window
     still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous), kin, None, samples, final=True)
