@@ -330,3 +330,15 @@ def test_merge_refuses_another_forgetting_factor():
     with pytest.raises(ConfigError, match=r"cannot merge estimators with forgetting 1.0 and 0.98") as info:
         OnlineEstimator().merge(OnlineEstimator(0.98))
     assert info.value.field == "forgetting" and info.value.value == 0.98
+
+
+def test_a_bad_first_row_neither_enters_the_sums_nor_sets_the_time_origin(rng):
+    """The one-product path of a block falls back to the row checks: the sums and origins are those without the row."""
+    W, S = rng.standard_normal((50, 6)), rng.standard_normal((50, 8))
+    t = 10.0 + 0.01 * np.arange(50)
+    bad = S.copy()
+    bad[0, 3] = np.nan
+    a, b = OnlineEstimator(), OnlineEstimator()
+    assert a.update_batch(W, bad, time=t) == 49 and b.update_batch(W[1:], S[1:], time=t[1:]) == 49
+    assert a.time_origin == b.time_origin == t[1] and a.skipped == {"non-finite wrench, strain or weight": 1}
+    np.testing.assert_allclose(a.state()["S"], b.state()["S"], rtol=1e-12, atol=1e-12)  # the same rows, summed by BLAS

@@ -52,6 +52,7 @@ class SampleSums:
         self.layout = channel_layout(layout)
         self.basis = basis if basis is not None else OffsetBasis()
         self._P = self.layout.projection
+        self._strain_shape = (self.layout.n_channels,)
         width = 12 + self.basis.size
         self._sums = np.zeros((width, width))
         self._staged: list[tuple] = []  # samples of update() not yet in the sums
@@ -81,15 +82,15 @@ class SampleSums:
         """
         wrench = np.asarray(w_sensor, dtype=float)
         s = np.asarray(strain, dtype=float)
-        n = self.layout.n_channels
-        if wrench.shape != (6,) or s.shape != (n,):
-            raise ShapeError(f"w_sensor.shape={wrench.shape}, strain.shape={s.shape} but expected (6,) and ({n},)")
-        self._codes(np.array([configuration]), 1)
+        if wrench.shape != (6,) or s.shape != self._strain_shape:
+            raise ShapeError(f"w_sensor.shape={wrench.shape}, strain.shape={s.shape} but expected (6,) and {self._strain_shape}")
+        if configuration and self.basis.n_configurations > 1:  # the checks of _codes, for one index
+            self._codes(np.array([configuration]), 1)
         self.samples_seen += 1
         # sums of squares: inf or NaN when any value is (or would overflow the sums), and
         # never inf - inf, so the check itself raises no floating-point warning
-        stamps = [v for v in (time, temperature, weight) if v is not None]
-        if not (math.isfinite(s.dot(s) + wrench.dot(wrench)) and all(math.isfinite(v) for v in stamps) and weight >= 0):
+        stamps_ok = (time is None or math.isfinite(time)) and (temperature is None or math.isfinite(temperature))
+        if not (math.isfinite(s.dot(s) + wrench.dot(wrench)) and stamps_ok and math.isfinite(weight) and weight >= 0):
             self._skip(_NON_FINITE, 1)
             return False
         pattern = (time is None, temperature is None)
@@ -180,6 +181,8 @@ class SampleSums:
         Z[:, :6] = W
         with np.errstate(over="ignore", invalid="ignore"):  # bad rows are found below
             np.matmul(S, self._P.T, out=Z[:, 6:12])
+            if weight is None and self.forgetting == 1.0 and self._fast(Z, time, codes, temperature):
+                return len(Z)
             # the rule of update(): a row is bad when its sum of squares is not finite
             ok = np.isfinite(np.einsum("ij,ij->i", S, S) + np.einsum("ij,ij->i", W, W))
         for stamp in (time, temperature, weight):
@@ -197,6 +200,23 @@ class SampleSums:
         self._accumulate(Z, weight)
         self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
         return len(Z)
+
+    def _fast(self, Z: np.ndarray, time, codes, temperature) -> bool:
+        """Add an unweighted block in one product when every row is good; False (nothing changed) otherwise.
+
+        One bad row makes the whole product non-finite, so the row checks run only then.
+        """
+        origins = (self.time_origin, self.temperature_origin)
+        self._set_origins(time, temperature)
+        self.basis._fill(Z[:, 12:], time, codes, temperature, self.time_origin or 0.0, self.temperature_origin or 0.0)
+        gram = Z.T @ Z
+        if not np.all(np.isfinite(gram)):
+            self.time_origin, self.temperature_origin = origins  # the row checks set them from the first good row
+            return False
+        self._sums += gram
+        self._weight_sum += float(len(Z))
+        self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
+        return True
 
     def _accumulate(self, Z: np.ndarray, weight: np.ndarray | None) -> None:
         """Add finite rows ``z`` (in order) to the sums, with weights and forgetting."""

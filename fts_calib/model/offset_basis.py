@@ -136,13 +136,20 @@ class OffsetBasis:
         return self._fill(np.zeros((n, self.size)), time, configuration, temperature, time_origin, temperature_origin)
 
     def _fill(self, out, time, configuration, temperature, time_origin, temperature_origin) -> np.ndarray:
-        n, K = len(out), self.n_configurations
-        codes = np.zeros(n, dtype=np.int64) if configuration is None or K == 1 else np.asarray(configuration, dtype=np.int64)
+        n, K, d = len(out), self.n_configurations, self.drift_degree
         out[:, :K] = 0.0
-        out[np.arange(n), codes] = 1.0
-        if self.drift_degree:
-            tau = np.zeros(n) if time is None else (np.asarray(time, dtype=float) - time_origin) / self.time_scale_s
-            out[:, K : K + self.drift_degree] = tau[:, None] ** np.arange(1, self.drift_degree + 1)[None, :]
+        if configuration is None or K == 1:
+            out[:, 0] = 1.0
+        else:
+            out[np.arange(n), np.asarray(configuration, dtype=np.int64)] = 1.0
+        if d:  # tau, tau^2, ...: one product per power (a batch's hot path: no power function)
+            drift = out[:, K : K + d]
+            if time is None:
+                drift[:] = 0.0
+            else:
+                np.divide(np.asarray(time, dtype=float) - time_origin, self.time_scale_s, out=drift[:, 0])
+                for j in range(1, d):
+                    np.multiply(drift[:, j - 1], drift[:, 0], out=drift[:, j])
         if self.temperature:
             out[:, -1] = 0.0 if temperature is None else np.asarray(temperature, dtype=float) - temperature_origin
         return out
