@@ -136,13 +136,16 @@ def run(
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
 
 
-_LATENCY_ROWS = 2_000_000  # rows read again for the latency estimate, at most (bounded memory)
+#: Rows read again for the latency estimate, at most: 100 s at 1 kHz (a whole sized run of three configurations
+#: holds about 60,000) has dozens of moves, enough for a spread of microseconds, and bounds the memory and time
+#: of the second read (2 million rows took 1.4 GB and 20 s).
+_LATENCY_ROWS = 100_000
 
 
 def recording_latency(paths, kin: Kinematics, tool: Tool, calibration, full_scale, topics: BagTopics, joints_in_degrees: bool):
     """The latency of the joint stream from the recording's moving samples (read again), or None.
 
-    See :func:`fts_calib.pipeline.latency.estimate_latency`; the first 2 million rows at most.
+    See :func:`fts_calib.pipeline.latency.estimate_latency`; the first :data:`_LATENCY_ROWS` rows at most.
     """
     parts, rows = [], 0
     with open_recording(paths, kin.joint_names, tool.names, topics=topics, continuous=kin.continuous) as reader:
