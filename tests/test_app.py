@@ -131,6 +131,8 @@ def test_the_documented_exit_codes_keep_their_numbers():
         "OTHER": 13,
         "FILE_ACCESS": 14,
         "POOR_FIT": 15,
+        "OUTPUT_IN_USE": 16,
+        "RESULT_REFUSED": 17,
         "INTERRUPTED": 130,
     }
 

@@ -340,7 +340,7 @@ def _add_export(commands) -> None:
     exp.add_argument("--format", dest="fmt", required=True, choices=["c-header", "json", "ros2", "ati"], help="what to write")
     exp.add_argument("--calibration", required=True, help="calibration file: fts-calib YAML or an ATI .cal")
     exp.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: the full scale an ati file states as max")
-    exp.add_argument("-o", "--output", required=True, help="file to write")
+    exp.add_argument("-o", "--output", required=True, help="file to write ('-': standard output; a device or FIFO is written in place)")
     exp.add_argument("--name", default="fts_calib", help="prefix of the C identifiers (default fts_calib)")
     exp.add_argument("--payload", help="tool file of the payload (ros2); its gravity is the one exported")
     exp.add_argument("--configuration", help="configuration of the payload's tool file (default: the first)")

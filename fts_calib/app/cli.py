@@ -14,6 +14,7 @@ import warnings
 from typing import Any
 
 from ..core.exceptions import FtsCalibError
+from ..core.fileio import holding_outputs
 from .arguments import build_parser
 from .exit_codes import ExitCode, error_line, exit_code
 
@@ -21,9 +22,15 @@ __all__ = ["build_parser", "main", "run_command"]
 
 
 def run_command(command: str, options: dict[str, Any]) -> int:
-    """Run sub-command ``command``: ``fts_calib.app.<command>.run(**options)``; returns the exit status."""
+    """Run sub-command ``command``: ``fts_calib.app.<command>.run(**options)``; returns the exit status.
+
+    The command holds the lock of its output file and checkpoint (``output``, ``checkpoint``)
+    from start to end: a second run writing the same file is refused, naming the first
+    (:func:`fts_calib.core.fileio.holding_outputs`).
+    """
     module = importlib.import_module(f".{command}", __package__)  # lazily: only the command run loads its modules
-    return int(module.run(**options))
+    with holding_outputs([options.get("output"), options.get("checkpoint")]):
+        return int(module.run(**options))
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -24,11 +24,13 @@ from ..core.exceptions import (
     FtsCalibError,
     InsufficientExcitation,
     JointError,
+    OutputInUse,
     PayloadError,
     PoorFit,
     ProtocolError,
     RecordingError,
     ResourceNotFound,
+    ResultRefused,
     RobotDataNotFound,
     ShapeError,
     StructureError,
@@ -57,6 +59,8 @@ class ExitCode(enum.IntEnum):
     OTHER = 13
     FILE_ACCESS = 14
     POOR_FIT = 15
+    OUTPUT_IN_USE = 16
+    RESULT_REFUSED = 17
     INTERRUPTED = 130
 
 
@@ -104,6 +108,17 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
         ExitCode.POOR_FIT,
         (PoorFit,),
         "the calibration does not fit its data at their noise level: refused, no file written (the diagnosis names the likely cause)",
+    ),
+    ExitCodeEntry(
+        ExitCode.OUTPUT_IN_USE,
+        (OutputInUse,),
+        "another run is writing the same output file (its lock is held; the message names its pid): nothing written",
+    ),
+    ExitCodeEntry(
+        ExitCode.RESULT_REFUSED,
+        (ResultRefused,),
+        "the data do not support the result the command would write (a tare window that moves, or whose load is not "
+        "the one assumed): refused before any file was touched",
     ),
     ExitCodeEntry(ExitCode.TRAJECTORY, (TrajectoryError,), "planning or verifying a trajectory failed"),
     ExitCodeEntry(ExitCode.PAYLOAD, (PayloadError,), "the orientations of a payload recording cannot determine the payload"),

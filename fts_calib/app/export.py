@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from ..core.exceptions import ConfigError
-from ..core.fileio import atomic_write_text
+from ..core.fileio import STDOUT, atomic_write_text
 from ..core.resources import resolve
 from ..robot.tool import STANDARD_GRAVITY, load_tool
 from ..service.ati import read_calibration
@@ -34,7 +35,7 @@ def run(
             multiplier, and control_toolbox's GravityCompensationWrench parameters for
             ``payload``: :mod:`fts_calib.service.ros2`).
         calibration: Calibration file (fts-calib YAML or an ATI ``.cal``).
-        output: File to write.
+        output: File to write; ``-`` for standard output (a device or FIFO is written in place).
         name: Prefix of the C identifiers.
         payload: Tool file of the payload (ros2): a shipped name or a YAML path; its gravity
             is the one exported.
@@ -70,5 +71,6 @@ def run(
     text = export(loaded, fmt, configuration_of_payload, gravity, name, sensor_frame, world_frame, full_scale)
     with writing(output):
         path = atomic_write_text(output, text)
-    print(f"wrote {path} ({fmt})")
+    # on standard output the export is the output: the note goes to standard error
+    print(f"wrote {'standard output' if str(output) == STDOUT else path} ({fmt})", file=sys.stderr if str(output) == STDOUT else sys.stdout)
     return ExitCode.OK

@@ -282,3 +282,36 @@ class ResourceNotFound(FtsCalibError, FileNotFoundError):
 
 class RobotDataNotFound(FtsCalibError, FileNotFoundError):
     """The example-robot-data folder cannot be found; the message says what to install."""
+
+
+class OutputInUse(FtsCalibError):
+    """Another run is writing the same output file (it holds the output's lock).
+
+    Attributes:
+        path: The output both runs would write.
+        pid: The process id of the run that holds the lock, or None when it did not say.
+    """
+
+    def __init__(self, path: str | Path, pid: int | None):
+        self.path = Path(path)
+        self.pid = pid
+        who = f"process {pid}" if pid is not None else "another process"
+        super().__init__(
+            f"{self.path} is being written by another fts-calib run ({who}): two runs writing one file would lose one of them; "
+            "wait for it to end, or give another output file"
+        )
+
+
+class ResultRefused(FtsCalibError):
+    """The data do not support the result a command would write; nothing was written.
+
+    Raised before a file is touched: a tare window that is not still, or whose load does not
+    fit the one assumed (nothing mounted, or the named tool configuration).
+
+    Attributes:
+        reason: Why, in words (with the measured figures and what was expected).
+    """
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        super().__init__(reason)

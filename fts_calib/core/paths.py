@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from .exceptions import ConfigError
+from .fileio import STDOUT, written_directly
 
 PathLike = str | Path
 
@@ -43,7 +44,7 @@ def check_distinct(outputs: Mapping[str, PathLike | None], inputs: Mapping[str, 
     Raises:
         ConfigError: An output is an input or another output; the message names both.
     """
-    given = [(flag, Path(path)) for flag, path in outputs.items() if path is not None]
+    given = [(flag, Path(path)) for flag, path in outputs.items() if path is not None and str(path) != STDOUT]
     sources = [(what, Path(path)) for what, path in inputs.items() if path is not None and Path(path).is_file()]
     for k, (flag, path) in enumerate(given):
         clash = [what + ("" if source == path else f" ({source})") for what, source in sources if same_file(path, source)]
@@ -60,7 +61,8 @@ def check_distinct(outputs: Mapping[str, PathLike | None], inputs: Mapping[str, 
 def check_writable(path: PathLike) -> Path:
     """Check that ``path`` can be written (atomically: a file created beside it, then renamed).
 
-    A folder that does not exist yet is fine when its nearest existing ancestor is a
+    Standard output (``-``), a character device or a FIFO is written directly: it must be
+    writable. A folder that does not exist yet is fine when its nearest existing ancestor is a
     writable folder (the atomic writer creates it). The check creates and removes an empty
     temporary file there: what the system really allows, whoever runs it.
 
@@ -74,6 +76,10 @@ def check_writable(path: PathLike) -> Path:
         OSError: ``path`` is a folder, lies under a file, or its folder cannot be written;
             the message reads ``cannot write PATH: reason``.
     """
+    if written_directly(path):  # standard output, a device or a FIFO: written in place, never replaced
+        if str(path) != STDOUT and not os.access(path, os.W_OK):
+            raise OSError(errno.EACCES, f"cannot write {path}: permission denied")
+        return Path(path)
     path = Path(path)
     if path.is_dir():
         raise OSError(errno.EISDIR, f"cannot write {path}: it is a folder; give a file name (e.g. {path / 'calibration.yaml'})")

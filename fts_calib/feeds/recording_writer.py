@@ -37,11 +37,16 @@ class RecordingWriter:
         self.n_channels = int(n_channels)
         self.temperature = bool(temperature)
         self._file = AtomicFile(self.path)
-        self._gzip = gzip.GzipFile(fileobj=self._file.handle, mode="wb") if self.path.suffix == ".gz" else None
-        self._handle = io.TextIOWrapper(self._gzip or self._file.handle, encoding="utf-8", newline="")
+        self._gzip: gzip.GzipFile | None = None
         heat = ["temperature"] if self.temperature else []
-        self._handle.write(",".join(["time", *self.joint_names, *strain_columns(self.n_channels), *heat, "tool"]) + "\n")
         self.rows = 0
+        try:
+            self._gzip = gzip.GzipFile(fileobj=self._file.handle, mode="wb") if self.path.suffix == ".gz" else None
+            self._handle = io.TextIOWrapper(self._gzip or self._file.handle, encoding="utf-8", newline="")
+            self._handle.write(",".join(["time", *self.joint_names, *strain_columns(self.n_channels), *heat, "tool"]) + "\n")
+        except BaseException:
+            self.abort()
+            raise
 
     def write(self, time, readings, strain, tool: str | Sequence[str], temperature=None) -> None:
         """Append rows.
@@ -85,15 +90,20 @@ class RecordingWriter:
         return self._file.commit()
 
     def abort(self) -> None:
-        """Drop the partial file (nothing is left behind)."""
-        if not self._handle.closed:
-            try:
-                self._handle.detach()
-            except ValueError:  # already detached by a close that failed
-                pass
-        if self._gzip is not None:
-            self._gzip.close()
-        self._file.abort()
+        """Drop the partial file (nothing is left behind, whatever fails on the way: a full disk, say)."""
+        handle = getattr(self, "_handle", None)  # None: __init__ failed before making it
+        try:
+            if handle is not None and not handle.closed:
+                handle.detach()  # flushes what is buffered: may fail on a full disk
+        except (OSError, ValueError):  # ValueError: already detached by a close that failed
+            pass
+        try:
+            if self._gzip is not None:
+                self._gzip.close()
+        except OSError:
+            pass
+        finally:
+            self._file.abort()
 
     def __enter__(self) -> RecordingWriter:
         return self

@@ -1,0 +1,192 @@
+"""Hostile and careless use, round 3 (issue 21, part B): no silent wrong result, nothing overwritten that is not ours.
+
+Each test is a case that exited 0 with a wrong or empty result, replaced or left behind a file
+that was not fts-calib's, or gave advice that sent the user the wrong way. Every one checks
+the first line of the message and the exit code.
+"""
+
+import errno
+import json
+import os
+import stat
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
+from fts_calib.core import fileio
+from fts_calib.core.fileio import OutputLock
+from fts_calib.core.resources import resolve
+from fts_calib.feeds.recording import RecordingWriter
+from fts_calib.model.calibration import Calibration, save_calibration
+from fts_calib.sim.sensor import load_simulated_sensor
+
+
+def _error_line(capsys):
+    """Stderr of a failed command: its error line (warnings before it are allowed)."""
+    lines = [line for line in capsys.readouterr().err.strip().splitlines() if "error:" in line]
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def sensor():
+    return load_simulated_sensor(resolve("sensor", "configs"))
+
+
+@pytest.fixture
+def cal_file(tmp_path, sensor):
+    return save_calibration(Calibration(sensor.C_bar, sensor.D, provenance={"method": "test"}), tmp_path / "cal.yaml")
+
+
+def _leftovers(folder):
+    """Temporary and lock files left in ``folder``."""
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith((".tmp", ".lock", ".probe")))
+
+
+# -- outputs: devices, FIFOs and standard output are written in place ---------------------------
+
+
+def test_export_to_dev_null_keeps_the_device(cal_file, capsys):
+    before = os.stat("/dev/null")
+    assert main(["export", "--format", "json", "--calibration", str(cal_file), "-o", "/dev/null"]) == ExitCode.OK
+    after = os.stat("/dev/null")
+    assert stat.S_ISCHR(after.st_mode), "/dev/null was replaced by a regular file"
+    assert (after.st_ino, after.st_rdev) == (before.st_ino, before.st_rdev)
+    assert "wrote /dev/null (json)" in capsys.readouterr().out
+
+
+def test_export_into_a_fifo_writes_through_it(tmp_path, cal_file):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    received = []
+
+    def read():
+        with open(fifo, "rb") as handle:  # opening blocks until the writer opens: no sleep needed
+            received.append(handle.read())
+
+    reader = threading.Thread(target=read)
+    reader.start()
+    code = main(["export", "--format", "json", "--calibration", str(cal_file), "-o", str(fifo)])
+    reader.join(timeout=30)
+    assert code == ExitCode.OK
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode), "the FIFO was replaced by a regular file"
+    assert json.loads(received[0])["D"] == pytest.approx(list(load_simulated_sensor(resolve("sensor", "configs")).D))
+    assert _leftovers(tmp_path) == []
+
+
+def test_export_to_standard_output(cal_file, capsys):
+    assert main(["export", "--format", "json", "--calibration", str(cal_file), "-o", "-"]) == ExitCode.OK
+    captured = capsys.readouterr()
+    assert "C_bar" in json.loads(captured.out)  # the export alone on standard output
+    assert captured.err.strip() == "wrote standard output (json)"
+
+
+def test_a_block_device_or_socket_is_refused(tmp_path):
+    import socket
+
+    path = tmp_path / "sock"
+    server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    server.bind(str(path))
+    try:
+        with pytest.raises(OSError, match="it is a socket, not a file"):
+            fileio.atomic_write_text(path, "x")
+    finally:
+        server.close()
+    assert stat.S_ISSOCK(os.stat(path).st_mode)
+
+
+# -- one writer per output ---------------------------------------------------------------------------------
+
+HOLDER = """
+import sys
+from fts_calib.core.fileio import OutputLock
+lock = OutputLock(sys.argv[1]).acquire()
+print("held", flush=True)
+sys.stdin.read()
+"""
+
+
+def _holder(path):
+    """A process that holds the lock of ``path`` until killed or its stdin closes."""
+    process = subprocess.Popen([sys.executable, "-c", HOLDER, str(path)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert process.stdout.readline().strip() == "held"
+    return process
+
+
+def test_a_second_live_run_on_the_same_output_is_refused_naming_the_first(tmp_path, capsys):
+    output = tmp_path / "cal.yaml"
+    first = _holder(output)
+    try:
+        code = main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"])
+        line = _error_line(capsys)
+        assert code == ExitCode.OUTPUT_IN_USE
+        assert line.startswith(f"fts-calib live: error: {output} is being written by another fts-calib run (process {first.pid})")
+        # its checkpoint too, when given on its own
+        code = main(["calibrate", "--robot", "ur5", "x.csv", "-o", str(tmp_path / "other.yaml"), "--checkpoint", str(output)])
+        assert code == ExitCode.OUTPUT_IN_USE and f"process {first.pid}" in _error_line(capsys)
+    finally:
+        first.kill()  # a crash: no chance to release anything
+        first.wait()
+    with OutputLock(output):  # the kernel released the lock of the dead process
+        pass
+    assert not output.exists() and _leftovers(tmp_path) == []
+
+
+def test_a_writer_is_refused_while_another_process_writes_the_file(tmp_path, cal_file):
+    target = tmp_path / "copy.yaml"
+    first = _holder(target)
+    try:
+        with pytest.raises(fileio.OutputInUse, match=f"process {first.pid}"):
+            fileio.atomic_write_text(target, "x")
+    finally:
+        first.stdin.close()  # an orderly end releases it as well
+        first.wait()
+    fileio.atomic_write_text(target, "x")
+    assert target.read_text() == "x" and _leftovers(tmp_path) == []
+
+
+# -- a disk that fills during a write leaves nothing behind -----------------------------------------------
+
+
+class _FullDisk:
+    """A file object whose writes (and the flush of a buffered close) fail with ENOSPC."""
+
+    def __init__(self, handle):
+        self._handle = handle
+
+    def write(self, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def flush(self):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def close(self):
+        self._handle.close()
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))  # a buffered close flushes into the full disk
+
+    def __getattr__(self, name):
+        return getattr(self._handle, name)
+
+
+@pytest.fixture
+def full_disk(monkeypatch):
+    real = os.fdopen
+    monkeypatch.setattr(fileio.os, "fdopen", lambda fd, mode: _FullDisk(real(fd, mode)))
+
+
+def test_a_full_disk_leaves_no_temporary_file(tmp_path, sensor, cal_file, full_disk, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(OSError, match="No space left"):
+        save_calibration(Calibration(sensor.C_bar, sensor.D), out / "cal.yaml")
+    with pytest.raises(OSError, match="No space left"), RecordingWriter(out / "rec.csv.gz", ["j1"], 8) as writer:
+        writer.write(np.zeros(3), np.zeros((3, 1)), np.zeros((3, 8)), "A")
+    code = main(["export", "--format", "json", "--calibration", str(cal_file), "-o", str(out / "cal.json")])
+    assert code == ExitCode.FILE_ACCESS
+    assert _error_line(capsys) == f"fts-calib export: error: cannot write {out / 'cal.json'}: No space left on device"
+    assert sorted(p.name for p in out.iterdir()) == [], "a failed write left a file behind"
