@@ -190,3 +190,63 @@ def test_a_full_disk_leaves_no_temporary_file(tmp_path, sensor, cal_file, full_d
     assert code == ExitCode.FILE_ACCESS
     assert _error_line(capsys) == f"fts-calib export: error: cannot write {out / 'cal.json'}: No space left on device"
     assert sorted(p.name for p in out.iterdir()) == [], "a failed write left a file behind"
+
+
+# -- tare: refused before the file is touched when the window is not a tare window -------------------------
+
+HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.3, 0.7])
+
+
+def _still_poses(path, sensor, kin, wrench_of, rng, poses=4, rows=500):
+    """Still windows at ``poses`` wrist orientations (1 kHz), the load at each from ``wrench_of(joints)``."""
+    t0, times, joints, strains = 0.0, [], [], []
+    for k in range(poses):
+        q = HOME + np.array([0, 0, 0, 0, 0.6 * k, -0.5 * k])
+        times.append(t0 + np.arange(rows) / 1000.0)
+        joints.append(np.tile(q, (rows, 1)))
+        strains.append(sensor.strains(np.tile(wrench_of(q), (rows, 1)), rng=rng))
+        t0 += rows / 1000.0 + 1.0  # a second between the windows: the move is not in the file
+    with RecordingWriter(path, kin.joint_names) as writer:
+        writer.write(np.concatenate(times), np.vstack(joints), np.vstack(strains), "A")
+    return path
+
+
+def test_tare_of_the_calibration_recording_is_refused_and_the_file_untouched(tmp_path, sensor, cal_file, ur5_recording, capsys):
+    before = cal_file.read_bytes()
+    code = main(["tare", "--calibration", str(cal_file), str(ur5_recording)])
+    line = _error_line(capsys)
+    assert code == ExitCode.RESULT_REFUSED
+    assert line.startswith("fts-calib tare: error: refused to re-tare (nothing written): the window is not still: "), line
+    assert "rejected by joint speed: " in line and "at least 50 % must" in line, line
+    assert cal_file.read_bytes() == before
+
+
+def test_tare_with_a_tool_on_as_if_nothing_were_mounted_is_refused(tmp_path, sensor, cal_file, ur5, paper_tool, rng, capsys):
+    """Still at four orientations with configuration A on: its 19.6 N turns with gravity, noise is ~4 mN."""
+    weight = paper_tool.configuration("A")
+    path = _still_poses(tmp_path / "on.csv", sensor, ur5, lambda q: weight.static_wrench(ur5.g_sensor(q, paper_tool.gravity)), rng)
+    before = cal_file.read_bytes()
+    code = main(["tare", "--calibration", str(cal_file), str(path)])
+    line = _error_line(capsys)
+    assert code == ExitCode.RESULT_REFUSED
+    assert line.startswith("fts-calib tare: error: refused to re-tare (nothing written): the load does not fit 'nothing mounted': "), line
+    assert cal_file.read_bytes() == before
+    # named as another configuration: refused as well; named right: accepted (the check refuses no good window)
+    args = ["tare", "--calibration", str(cal_file), str(path), "--robot", "ur5", "--tool", "paper_tool", "-o"]
+    assert main([*args, str(tmp_path / "b.yaml"), "--configuration", "B"]) == ExitCode.RESULT_REFUSED
+    assert "the load does not fit ''RIM calibration tool' configuration B mounted'" in _error_line(capsys)
+    assert main([*args, str(tmp_path / "a.yaml"), "--configuration", "A"]) == ExitCode.OK
+    assert not (tmp_path / "b.yaml").exists() and (tmp_path / "a.yaml").exists()
+
+
+def test_tare_keeps_the_fields_of_a_newer_version(tmp_path, sensor, cal_file, ur5, rng):
+    import yaml
+
+    data = yaml.safe_load(cal_file.read_text())
+    data["thermal_model"] = {"kind": "linear", "gain": [0.1, 0.2, 0.3, 0.0, 0.0, 0.0]}  # a field this version does not know
+    cal_file.write_text(yaml.safe_dump(data, sort_keys=False))
+    path = _still_poses(tmp_path / "still.csv", sensor, ur5, lambda q: np.zeros(6), rng, poses=1, rows=1500)
+    assert main(["tare", "--calibration", str(cal_file), str(path)]) == ExitCode.OK
+    after = yaml.safe_load(cal_file.read_text())
+    assert after["thermal_model"] == data["thermal_model"]
+    assert after["D"] != data["D"] and len(after["offset_history"]) == 1

@@ -65,6 +65,8 @@ class Quality:
             columns (7 for the paper's constant offsets, 6 for a jig).
         prior: The prior C_bar was shrunk toward, as plain data (source, weight, effective
             parameters, shrinkage: :mod:`fts_calib.model.prior`), or None for none.
+        extra: Fields of the file's ``quality`` that this version does not know (written by
+            a newer one), kept as read and written back unchanged.
     """
 
     samples_used: int
@@ -80,8 +82,10 @@ class Quality:
     budget: Mapping[str, Any] | None = None
     full_rank: int = 7
     prior: Mapping[str, Any] | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
+        object.__setattr__(self, "extra", dict(self.extra))
         n = np.shape(self.stderr_C)[-1] if np.ndim(self.stderr_C) == 2 else -1
         for name, shape in (("residual_rms", (6,)), ("stderr_C_bar", (6, 6)), ("stderr_D", (6,)), ("stderr_C", (6, n))):
             object.__setattr__(self, name, frozen(as_matrix(getattr(self, name), shape, name)))
@@ -117,6 +121,8 @@ class Calibration:
             basis and coefficients, the offset trajectory); None for constant offsets of
             a file written before offset models existed. ``D`` is the offset at the end of
             the run.
+        extra: Top-level fields of the file that this version does not know (written by a
+            newer one), kept as read: a rewrite (``tare``) writes them back unchanged.
         C: Calibration matrix ``C_bar @ P``, shape (6, n) (derived, not an argument).
     """
 
@@ -127,6 +133,7 @@ class Calibration:
     offset_history: tuple[Mapping[str, Any], ...] = ()
     layout: ChannelLayout = MALTESE_CROSS_8
     offset_model: Mapping[str, Any] | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
     C: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -140,6 +147,7 @@ class Calibration:
             raise ShapeError(f"quality.stderr_C.shape={self.quality.stderr_C.shape} but expected {self.C.shape}, the shape of C")
         object.__setattr__(self, "provenance", dict(self.provenance))
         object.__setattr__(self, "offset_history", tuple(dict(h) for h in self.offset_history))
+        object.__setattr__(self, "extra", dict(self.extra))
         if self.offset_model is not None:
             object.__setattr__(self, "offset_model", dict(self.offset_model))
 
@@ -181,7 +189,28 @@ def _quality_to_dict(quality: Quality) -> dict[str, Any]:
         **({"accuracy_budget": dict(quality.budget)} if quality.budget is not None else {}),
         "full_rank": quality.full_rank,
         **({"prior": dict(quality.prior)} if quality.prior is not None else {}),
+        **{key: value for key, value in quality.extra.items() if key not in _QUALITY_FIELDS},
     }
+
+
+#: The fields of ``quality`` this version reads; others are kept in ``Quality.extra``.
+_QUALITY_FIELDS = (
+    "samples_used",
+    "samples_seen",
+    "skipped",
+    "rank",
+    "condition_number",
+    "residual_rms",
+    "stderr_C_bar",
+    "stderr_D",
+    "stderr_C",
+    "fit",
+    "accuracy_budget",
+    "full_rank",
+    "prior",
+)
+#: The top-level fields of a calibration file this version reads; others are kept in ``Calibration.extra``.
+FIELDS = ("format", "units", "channels", "C", "C_bar", "D", "quality", "provenance", "offset_history", "offset_model")
 
 
 def save_calibration(calibration: Calibration, path: str | Path) -> Path:
@@ -208,6 +237,7 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
     data["offset_history"] = list(calibration.offset_history)
     if calibration.offset_model is not None:
         data["offset_model"] = dict(calibration.offset_model)
+    data.update({key: value for key, value in calibration.extra.items() if key not in FIELDS})  # a newer version's fields, kept
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
     return atomic_write_text(path, header + dump_yaml(data))
 
@@ -236,6 +266,7 @@ def _quality_from_dict(raw: Any, path: Path, n: int) -> Quality:
             budget=dict(raw["accuracy_budget"]) if isinstance(raw.get("accuracy_budget"), Mapping) else None,
             full_rank=int(raw.get("full_rank", 7)),
             prior=dict(raw["prior"]) if isinstance(raw.get("prior"), Mapping) else None,
+            extra={key: value for key, value in raw.items() if key not in _QUALITY_FIELDS},
         )
     except (TypeError, ValueError) as exc:
         raise FileFormatError(path, "quality", str(exc)) from None
@@ -253,6 +284,9 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     Raises:
         FileFormatError: Another format, a missing field, a wrong shape, a non-finite
             number, or a C that does not equal ``C_bar @ P``; the message names the field.
+
+    Fields this version does not know (a newer version's) are kept in ``extra`` (top level)
+    and ``quality.extra``, and :func:`save_calibration` writes them back.
     """
     path = Path(path)
     data = load_yaml(path)
@@ -288,4 +322,5 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             offset_history=tuple(history),
             layout=layout,
             offset_model=offset_model,
+            extra={key: value for key, value in data.items() if key not in FIELDS},
         )

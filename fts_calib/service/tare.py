@@ -8,6 +8,21 @@ configuration on, it is that configuration's weight at the orientation the kinem
 previous offsets, and when and why they were replaced, in ``offset_history``; the result
 also says how far the offsets drifted since the calibration run (against the offsets it
 ended with, the first of the history) and over how long (from the calibration's time).
+
+Two checks come before any result (:func:`check_window`), and a window that fails either is
+refused with :class:`~fts_calib.core.exceptions.ResultRefused`, so that no file is touched:
+
+1. *still*: at least :data:`MIN_STILL_FRACTION` of the window's samples pass the
+   quasi-static filter's rules 1-3 (joint speed, joint acceleration, strain stationary:
+   :mod:`fts_calib.pipeline.qsfilter`, the rules of the calibration itself);
+2. *the assumed load fits*: the residual ``W_known - C Delta`` (whose mean is the new D)
+   scatters about its mean by at most :data:`fts_calib.pipeline.fit.MAX_RATIO` times the
+   noise expected on each axis: the strain noise through C (the filter's noise floor of the
+   window, as the fit check computes it), the calibration's own expected residual
+   (``quality.fit.expected_residual``) or the sample-to-sample scatter of the residual,
+   whichever is largest. A tool still mounted while "nothing mounted" is assumed, another
+   configuration than the one named, or an arm that moved, make the load change with the
+   orientation and the residual scatter by newtons where the noise is millinewtons.
 """
 
 from __future__ import annotations
@@ -22,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import validation
-from ..core.exceptions import ConfigError, InsufficientExcitation
+from ..core.exceptions import ConfigError, InsufficientExcitation, ResultRefused
 from ..feeds.batch import SampleBatch
 from ..feeds.protocol import Strain
 from ..feeds.source import open_recording
@@ -31,7 +46,9 @@ from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from ..model.calibration import Calibration
 from ..model.channels import CALIBRATION_HINT, check_channels
 from ..model.offsets import OffsetEstimate, estimate_offsets
-from ..pipeline.qsfilter import QuasiStaticFilter
+from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..pipeline.fit import MAX_RATIO
+from ..pipeline.qsfilter import RULES, QuasiStaticFilter
 from ..pipeline.settings import PipelineConfig
 from ..pipeline.still import quasi_static
 from ..robot.kinematics import Kinematics
@@ -61,6 +78,102 @@ class TareResult:
     elapsed_s: float | None = None
 
 
+#: Smallest share of a tare window's samples that must pass the quasi-static rules 1-3.
+MIN_STILL_FRACTION = 0.5
+
+
+def check_window(
+    calibration: Calibration, samples: SampleBatch, settings: PipelineConfig, continuous: np.ndarray | None = None
+) -> np.ndarray:
+    """Check that a tare window is still (see the module docstring); returns the strain noise it shows.
+
+    Args:
+        calibration: The calibration being re-tared (its C maps the noise to wrenches).
+        samples: The window, in time order (joints may be absent: zero columns).
+        settings: Pipeline settings (the filter's thresholds).
+        continuous: Which joints are continuous, shape (n_joints,); none when None.
+
+    Returns:
+        The expected noise of each wrench axis, [N, N, N, N m, N m, N m], shape (6,): the
+        strain noise floor of the window through C, at least the calibration's expected
+        residual.
+
+    Raises:
+        ResultRefused: Fewer than :data:`MIN_STILL_FRACTION` of the samples are still; the
+            message gives the share and what each rule rejected.
+    """
+    joints = samples.joints if samples.joints.shape[1] else np.zeros((len(samples), 1))  # no joints: the strain rule alone
+    batch = dataclasses.replace(samples, joints=joints)
+    moving = np.zeros(joints.shape[1], dtype=bool) if continuous is None or not samples.joints.shape[1] else continuous
+    filter_ = QuasiStaticFilter(settings.filter, moving)
+    still = filter_.process(batch, final=True).still
+    share = float(np.mean(still)) if len(still) else 0.0
+    if share < MIN_STILL_FRACTION:
+        counts = ", ".join(f"{rule}: {filter_.rejected[rule]:,}" for rule in RULES[:3] if filter_.rejected[rule])
+        raise ResultRefused(
+            f"refused to re-tare (nothing written): the window is not still: {100 * share:.0f} % of its {len(still):,} samples "
+            f"pass the quasi-static rules (rejected by {counts or 'none'}), at least {100 * MIN_STILL_FRACTION:.0f} % must: "
+            "record a few seconds with the arm at rest (a calibration recording is no tare window)"
+        )
+    floor = np.zeros(calibration.layout.n_channels) if filter_.noise_floor is None else filter_.noise_floor
+    sigma = np.sqrt(np.maximum(np.einsum("ij,j,ij->i", calibration.C, floor * floor, calibration.C), 0.0))
+    fit = calibration.quality.fit if calibration.quality is not None else None
+    recorded = fit.get("expected_residual") if isinstance(fit, dict) else None
+    if isinstance(recorded, list) and len(recorded) == 6:
+        sigma = np.maximum(sigma, np.abs(np.asarray(recorded, dtype=float)))
+    return sigma
+
+
+def check_load(residual: np.ndarray, noise: np.ndarray, what: str) -> None:
+    """Check that the residual ``W_known - C Delta`` of a tare window is noise about its mean (see the module docstring).
+
+    Args:
+        residual: The residual per sample, [N, N, N, N m, N m, N m]. Shape (N, 6).
+        noise: The expected noise per axis (:func:`check_window`), same units. Shape (6,).
+        what: The load assumed, in words ('nothing mounted', "'paper_tool' configuration B mounted").
+
+    Raises:
+        ResultRefused: The residual of some axis scatters more than ``MAX_RATIO`` times
+            its noise; the message names the worst axis, its scatter and the noise.
+    """
+    if len(residual) < 2:
+        return
+    scatter = residual.std(axis=0)
+    # white noise shows in the differences of successive samples too (a slow change of the load does not)
+    successive = np.diff(residual, axis=0).std(axis=0) / np.sqrt(2.0)
+    expected = np.maximum.reduce([noise, successive, np.full(6, 1e-12)])
+    ratio = scatter / expected
+    worst = int(np.argmax(ratio))
+    if ratio[worst] > MAX_RATIO:
+        unit = WRENCH_UNITS[worst]
+        raise ResultRefused(
+            f"refused to re-tare (nothing written): the load does not fit '{what}': the residual of "
+            f"{WRENCH_AXES[worst]} scatters by {scatter[worst]:.3g} {unit} (RMS about its mean), {ratio[worst]:.3g} times the "
+            f"noise expected ({expected[worst]:.2g} {unit}; at most {MAX_RATIO:g} times): the load on the sensor changed "
+            "during the window. Is a tool mounted (then --robot ROBOT --tool TOOL --configuration NAME), "
+            "another configuration than the one named, or did the arm move?"
+        )
+
+
+def _mounted(kin: Kinematics | None, tool: Tool | None, configuration: str | None) -> int | None:
+    """The index of the mounted configuration (None: nothing mounted), after checking what its load needs.
+
+    Raises:
+        ConfigError: A tool without its configuration or without the kinematics.
+        UnknownToolConfiguration: A configuration the tool does not have.
+    """
+    if tool is None:
+        return None
+    if configuration is None:
+        message = f"tool '{tool.name}' is mounted: give its configuration, one of {tool.names}"
+        raise ConfigError("configuration", None, f"one of {tool.names}", message=message)
+    index = tool.names.index(tool.configuration(configuration).name)  # UnknownToolConfiguration lists the names
+    if kin is None:
+        message = f"tool '{tool.name}' is mounted: its load depends on the orientation, so give the kinematics"
+        raise ConfigError("kin", None, "the robot's kinematics", message=message)
+    return index
+
+
 def _known_load(
     kin: Kinematics | None,
     tool: Tool | None,
@@ -69,23 +182,20 @@ def _known_load(
     samples: SampleBatch,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The strains to use and the load on the sensor for each (zero with nothing mounted)."""
-    if tool is None:
+    index = _mounted(kin, tool, configuration)
+    if tool is None or index is None or kin is None:
         return samples.channels, np.zeros((len(samples), 6))
-    if configuration is None:
-        message = f"tool '{tool.name}' is mounted: give its configuration, one of {tool.names}"
-        raise ConfigError("configuration", None, f"one of {tool.names}", message=message)
-    config_index = tool.names.index(tool.configuration(configuration).name)  # UnknownToolConfiguration lists the names
-    if kin is None:
-        message = f"tool '{tool.name}' is mounted: its load depends on the orientation, so give the kinematics"
-        raise ConfigError("kin", None, "the robot's kinematics", message=message)
-    mounted = dataclasses.replace(samples, configuration=np.full(len(samples), config_index))
+    mounted = dataclasses.replace(samples, configuration=np.full(len(samples), index))
     still = quasi_static(QuasiStaticFilter(settings.filter, kin.continuous), kin, tool, mounted, final=True)
     return still.samples.channels, still.w_sensor if still.w_sensor is not None else np.zeros((0, 6))
 
 
-def _apply(calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int) -> TareResult:
+def _apply(
+    calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int, noise: np.ndarray, what: str
+) -> TareResult:
     if not len(strain):
         raise InsufficientExcitation(0, 1, "no still sample to re-tare from: hold the arm still while recording")
+    check_load(load - strain @ calibration.C.T, noise, what)
     estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout)
     what = f"{reason} ({estimate.samples_used:,} samples)"
     history = calibration.offset_history
@@ -129,6 +239,8 @@ def tare_recording(
     Raises:
         RecordingError: The recording cannot be read.
         InsufficientExcitation: No usable sample.
+        ResultRefused: The window is not still, or its load does not fit the one assumed
+            (see the module docstring).
     """
     settings = settings or PipelineConfig()
     joint_names = None if kin is None else kin.joint_names
@@ -139,9 +251,13 @@ def tare_recording(
         raise InsufficientExcitation(0, 1, f"{path} has no usable row")
     samples = SampleBatch.concatenate(chunks)
     check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
-    finite = np.all(np.isfinite(samples.channels), axis=1) & (np.all(np.isfinite(samples.joints), axis=1) if kin is not None else True)
-    strain, load = _known_load(kin, tool, configuration, settings, samples.select(finite))
-    return _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {_what(tool, configuration)}", seen)
+    finite = np.all(np.isfinite(samples.channels), axis=1) & np.all(np.isfinite(samples.joints), axis=1)
+    usable = samples.select(finite)
+    _mounted(kin, tool, configuration)  # a wrong argument is said before the data are judged
+    noise = check_window(calibration, usable, settings, None if kin is None else kin.continuous)
+    strain, load = _known_load(kin, tool, configuration, settings, usable)
+    what = _what(tool, configuration)
+    return _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {what}", seen, noise, what)
 
 
 def tare_live(
@@ -167,6 +283,7 @@ def tare_live(
     sync = None if kin is None else Synchronizer(kin.joint_names, kin.continuous, settings.live.max_gap_s, settings.live.latency_s)
     stats = LiveStats()
     strains: list[tuple[float, ...]] = []
+    times: list[float] = []
     try:
         if on_listening is not None:
             on_listening((host, port))
@@ -176,6 +293,7 @@ def tare_live(
                 message = feed_datagram(data, sync, stats)
                 if isinstance(message, Strain):
                     strains.append(message.strain)
+                    times.append(message.t)
             time.sleep(0.005)
     finally:
         receiver.close()
@@ -183,8 +301,15 @@ def tare_live(
     if not strains:
         heard = f"{stats.received:,} datagrams, none of them strain" if stats.received else "no datagram at all"
         raise InsufficientExcitation(0, 1, f"{heard} on udp://{host}:{port} in {seconds:g} s: is the sender running, to this port?")
+    what = _what(tool, configuration)
     if sync is None:
-        s = np.array(strains, dtype=float).reshape(len(strains), -1)
-        return _apply(calibration, s, np.zeros((len(s), 6)), reason, len(s))
-    strain, load = _known_load(kin, tool, configuration, settings, sync.pop(final=True))
-    return _apply(calibration, strain, load, reason, len(strains))
+        order = np.argsort(np.array(times), kind="stable")  # datagrams may arrive out of order
+        s = np.array(strains, dtype=float).reshape(len(strains), -1)[order]
+        window = SampleBatch(np.array(times)[order], np.zeros((len(s), 0)), s, np.full(len(s), -1))
+        noise = check_window(calibration, window, settings)
+        return _apply(calibration, s, np.zeros((len(s), 6)), reason, len(s), noise, what)
+    synced = sync.pop(final=True)
+    _mounted(kin, tool, configuration)
+    noise = check_window(calibration, synced, settings, kin.continuous if kin is not None else None)
+    strain, load = _known_load(kin, tool, configuration, settings, synced)
+    return _apply(calibration, strain, load, reason, len(strains), noise, what)
