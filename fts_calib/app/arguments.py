@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
@@ -248,7 +249,7 @@ def _add_validate(commands) -> None:
         "with the calibration against the tool's wrench from the kinematics (moving tool, Newton-Euler; --static for "
         "its weight alone). Error per axis in N or N·m and in % of full scale; with two calibrations, the same "
         "between them (paper: Table 1 against Table 2); --plot writes Fx and its error (paper Figs 9-10). "
-        "Exits 1 when an error exceeds --max-error.",
+        "Exits 1 when an error exceeds --max-error, or when less than --min-coverage of the samples could be compared.",
         "fts-calib validate --calibration calibration.yaml --robot ur5 --tool configs/validation_tool.yaml "
         "validation.csv --plot validation.png",
     )
@@ -274,6 +275,13 @@ def _add_validate(commands) -> None:
     val.add_argument("--plot", dest="plot_path", metavar="PNG", help="PNG of Fx and its error")
     val.add_argument(
         "--max-error", dest="max_error_percent", type=float, metavar="PERCENT", help="exit 1 when an error exceeds this %% of full scale"
+    )
+    val.add_argument(
+        "--min-coverage",
+        type=float,
+        default=MIN_COVERAGE,
+        metavar="SHARE",
+        help=f"exit 1 when fewer than this share of the recording's samples could be compared (default {MIN_COVERAGE:g})",
     )
 
 

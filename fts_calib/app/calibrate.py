@@ -50,6 +50,7 @@ def run(
     joints_topic: str = BagTopics.joints,
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
+    joint_stamps: str = BagTopics.joint_stamps,
     offsets: str | None = None,
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
@@ -77,6 +78,7 @@ def run(
         joints_topic: A bag's sensor_msgs/msg/JointState topic.
         channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
+        joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
         offsets: The offset model ('auto', 'constant', 'per-configuration', 'drift'); the
             pipeline file's (default auto) when None.
         prior: A calibration to shrink C_bar toward (fts-calib YAML or ATI ``.cal``, of the
@@ -117,14 +119,14 @@ def run(
         joints_in_degrees=joints_in_degrees,
         progress=bar,
         accept_poor_fit=accept_poor_fit,
-        topics=BagTopics(joints_topic, channels_topic, configuration_topic),
+        topics=BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps),
         layout=layout,
         on_kept=kept,
         prior=shrink,
     )
     written = None
     if result.calibration is not None:
-        topics = BagTopics(joints_topic, channels_topic, configuration_topic)
+        topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps)
         latency = recording_latency(paths, kin, loaded, result.calibration, spec.full_scale, topics, joints_in_degrees)
         result = with_budget(result, kin, loaded, kept, spec.full_scale, latency)
     if result.calibration is not None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..feeds.bag_log import BagTopics
+from ..feeds.bag_log import JOINT_STAMPS, BagTopics
 
 #: Help text of the recording argument of calibrate, validate and replay.
 RECORDING_HELP = (
@@ -33,6 +33,13 @@ def add_recording(parser: argparse.ArgumentParser) -> None:
         "--configuration-topic",
         default=default.configuration,
         help=f"std_msgs/msg/String topic of the tool configuration (default {default.configuration})",
+    )
+    bag.add_argument(
+        "--joint-stamps",
+        choices=JOINT_STAMPS,
+        default=default.joint_stamps,
+        help="time of a joint message: its header stamp (default), or the bag's log time (a log of simulated time whose "
+        "header stamps stay 0, or a joint driver on another clock)",
     )
 
 

@@ -24,6 +24,7 @@ def run(
     joints_topic: str = BagTopics.joints,
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
+    joint_stamps: str = BagTopics.joint_stamps,
 ) -> int:
     """Send a recording's rows as live datagrams, numbered by ``seq``, and print what was sent (``fts-calib replay``).
 
@@ -40,6 +41,7 @@ def run(
         joints_topic: A bag's sensor_msgs/msg/JointState topic.
         channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
+        joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
 
     Returns:
         0.
@@ -49,7 +51,7 @@ def run(
     paths = recording_paths(recording)
     print(f"replaying {' '.join(map(str, paths))} to udp://{host}:{port} at speed {speed:g}...", flush=True)
     with using_udp(host, port):
-        stats = replay(paths, host, port, options, BagTopics(joints_topic, channels_topic, configuration_topic))
+        stats = replay(paths, host, port, options, BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps))
     numbered = stats.sent + stats.dropped  # every message has its seq, the dropped ones too: the receiver counts them as lost
     print(
         f"sent {stats.sent:,} datagrams in {stats.seconds:.1f} s, seq 0 to {numbered - 1:,} "

@@ -9,9 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.exceptions import ConfigError
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
-from ..feeds.source import recording_paths
+from ..feeds.source import MIN_COVERAGE, recording_paths
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..service.ati import read_calibration
 from ..service.validate import AxisErrors, validate_recording
@@ -47,9 +48,11 @@ def run(
     dynamic: bool = True,
     plot_path: str | Path | None = None,
     max_error_percent: float | None = None,
+    min_coverage: float = MIN_COVERAGE,
     joints_topic: str = BagTopics.joints,
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
+    joint_stamps: str = BagTopics.joint_stamps,
 ) -> int:
     """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
 
@@ -67,14 +70,23 @@ def run(
         dynamic: The moving tool's wrench, Newton-Euler (False: its weight alone).
         plot_path: PNG of Fx and its error to write (the paper's Figs 9-10), or None.
         max_error_percent: Largest error allowed, in [%] of full scale; None for no check.
+        min_coverage: Smallest share of the recording's channel samples that must be compared,
+            in [0, 1]: a validation of a sliver of the recording fails.
         joints_topic: A bag's sensor_msgs/msg/JointState topic.
         channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
+        joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
 
     Returns:
-        0, or 1 when an error exceeds ``max_error_percent`` or when no sample could be
-        compared (every row skipped: the errors would be zeros that mean nothing).
+        0, or 1 when an error exceeds ``max_error_percent`` or when fewer than
+        ``min_coverage`` of the samples could be compared (the errors would describe a
+        sliver of the recording, or nothing).
+
+    Raises:
+        ConfigError: ``min_coverage`` outside [0, 1].
     """
+    if not 0.0 <= min_coverage <= 1.0:  # NaN too
+        raise ConfigError("min_coverage", min_coverage, "a share in [0, 1] (e.g. 0.5)")
     kin, loaded, _ = load_setup(robot, tool)
     calibrations = [*calibrations, *([reference] if reference is not None else [])]
     loaded_calibrations = [read_calibration(p) for p in calibrations]
@@ -85,11 +97,12 @@ def run(
     if full_scale_moment is not None:
         full_scale[3:] = full_scale_moment
     full_scale = dataclasses.replace(spec, full_scale=full_scale).full_scale  # the sensor spec refuses <= 0, NaN
-    topics = BagTopics(joints_topic, channels_topic, configuration_topic)
+    topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps)
     result = validate_recording(recording_paths(recording), kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic, topics=topics)
     recording = " ".join(map(str, recording_paths(recording)))
     print(
-        f"validation of {len(calibrations)} calibration(s) over {result.samples:,} samples of {recording} with "
+        f"validation of {len(calibrations)} calibration(s) over {result.samples:,} of {result.rows_read:,} samples "
+        f"({100 * result.coverage:.3g} %) of {recording} with "
         f"'{loaded.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
         f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)"
     )
@@ -101,6 +114,15 @@ def run(
     if result.samples == 0:  # zeros would read as a perfect calibration
         why = f"every row was skipped ({skipped})" if skipped else "the recording has no usable row"
         print(f"fts-calib validate: error: no sample was compared: {why}; nothing is validated", file=sys.stderr)
+        return ExitCode.CHECK_FAILED
+    if result.coverage < min_coverage:  # the errors of a sliver say nothing of the recording
+        why = f" (skipped: {skipped})" if skipped else ""
+        print(
+            f"fts-calib validate: error: only {result.samples:,} of {result.rows_read:,} samples ({100 * result.coverage:.3g} %) "
+            f"were compared, below --min-coverage {min_coverage:g}{why}: the errors would describe a sliver of the recording; "
+            "nothing is validated",
+            file=sys.stderr,
+        )
         return ExitCode.CHECK_FAILED
     for path, errors in zip(calibrations, result.errors, strict=True):
         print(format_errors(str(path), errors))

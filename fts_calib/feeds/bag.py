@@ -14,6 +14,13 @@ contract of DESIGN.md, topic names being options (:class:`BagTopics`):
   configuration name of the tool file from its log time on; or one bag per configuration
   (``RUN_A.mcap:A``, :func:`parse_bag_argument`), the topic then unused.
 
+The two streams must be on one clock. Before reading, the first :data:`PEEK_MESSAGES` joint
+and channel messages are compared with the bag's log time, and a bag is refused with the
+cause and the way out (``joint_stamps='log'``, ``--joint-stamps log``) when the joint stamps
+do not move while the log time does (a log of simulated time, whose header stamps stay 0),
+or when they are more than :data:`MAX_CLOCK_OFFSET_S` from the channels' clock (a driver
+stamping on another clock): no channel sample could then be placed.
+
 The joint and channel streams go through the live path's synchronizer
 (:mod:`fts_calib.feeds.sync`): joints are interpolated at the channel times (a shared stamp
 takes the joint reading as it is), and a channel sample that cannot be placed is dropped
@@ -57,6 +64,11 @@ CHUNK_MESSAGES = 20_000
 #: Joint messages looked at, at the start of a bag, for one that holds every robot joint.
 PEEK_MESSAGES = 200
 
+#: Largest offset between the joints' clock and the channels' clock, in [s]: a latency is milliseconds.
+MAX_CLOCK_OFFSET_S = 1.0
+#: Joint stamps spanning less than this share of their log times' span do not move.
+FROZEN_SHARE = 0.01
+
 #: Skip reason counted by the bag reader (channel samples; the synchronizer counts the others).
 MALFORMED = "malformed message"
 
@@ -82,8 +94,9 @@ class BagReader:
     Raises:
         BagError: A bag is missing or unreadable, a topic is missing or of another type (the
             message lists the bag's topics and types), no joint message holds every robot
-            joint (the message names the missing ones), or a bag has neither a configuration
-            topic nor a configuration given.
+            joint (the message names the missing ones), a bag has neither a configuration
+            topic nor a configuration given, or its joint stamps do not move or are on
+            another clock than the channels (the message gives the offset and the way out).
         UnknownToolConfiguration: A configuration given with a bag is not one of ``tool_names``.
         ConfigError: No bag given.
 
@@ -134,6 +147,7 @@ class BagReader:
                 if not self.joint_names:
                     self.joint_names = self._first_joint_names(part.path, reader)
                 self._check_joints(part.path, reader)
+                self._check_clocks(part.path, reader)
                 starts.append(reader.start_time)
             finally:
                 reader.close()
@@ -199,12 +213,56 @@ class BagReader:
                 raise BagError(part.path, topic, f"of type {info.msgtype} but expected {expected}; the bag has: {listing}")
         return sum(topics[t].msgcount for t, _ in wanted)
 
-    def _joint_messages(self, reader, limit: int):
-        connections = [c for c in reader.connections if c.topic == self.topics.joints]
-        for count, (connection, _, raw) in enumerate(reader.messages(connections)):
+    def _joint_messages(self, reader, limit: int, topic: str | None = None, log: bool = False):
+        """The first ``limit`` messages of ``topic`` (the joints' by default), with their log time [ns] when ``log``."""
+        connections = [c for c in reader.connections if c.topic == (topic or self.topics.joints)]
+        for count, (connection, log_ns, raw) in enumerate(reader.messages(connections)):
             if count >= limit:
                 return
-            yield reader.deserialize(raw, connection.msgtype)
+            message = reader.deserialize(raw, connection.msgtype)
+            yield (log_ns, message) if log else message
+
+    def _joint_time(self, log_ns: int, message) -> float:
+        """A joint message's time [s]: its header stamp, or its log time (``joint_stamps``)."""
+        return seconds(log_ns) if self.topics.joint_stamps == "log" else stamp_s(message.header.stamp)
+
+    def _check_clocks(self, path: Path, reader) -> None:
+        """Refuse a bag whose joint stamps do not move, or are on another clock than the channels (see the module docstring)."""
+        joints = [(self._joint_time(log_ns, m), seconds(log_ns)) for log_ns, m in self._joint_messages(reader, PEEK_MESSAGES, log=True)]
+        wrench = reader.topics[self.topics.channels].msgtype == WRENCH_STAMPED
+        channels = [
+            (stamp_s(m.header.stamp) if wrench else seconds(log_ns), seconds(log_ns))
+            for log_ns, m in self._joint_messages(reader, PEEK_MESSAGES, self.topics.channels, log=True)
+        ]
+        if len(joints) < 2 or not channels:
+            return
+        stamp, log = np.array(joints).T
+        what = "header stamps" if self.topics.joint_stamps == "header" else "log times"
+        way_out = (
+            "read the joints at the bag's log time: --joint-stamps log"
+            if self.topics.joint_stamps == "header"
+            else "the channels' header stamps are on another clock than the bag's log time: fix the sensor driver's clock"
+        )
+        log_span, stamp_span = float(np.ptp(log)), float(np.ptp(stamp))
+        if log_span > 0 and stamp_span < FROZEN_SHARE * log_span:
+            raise BagError(
+                path,
+                self.topics.joints,
+                f"the joints' {what} do not move: the first {len(stamp):,} messages span {stamp_span:.3g} s of stamps "
+                f"(from {stamp[0]:.3f} s) while their log times span {log_span:.3g} s (a log of simulated time, or a driver "
+                f"that does not stamp?), so no channel sample can be placed between two joint readings: {way_out}",
+            )
+        channel_stamp, channel_log = np.array(channels).T
+        offset = float(np.median(stamp - log) - np.median(channel_stamp - channel_log))
+        if abs(offset) > MAX_CLOCK_OFFSET_S:
+            clock = "their header stamps" if wrench else "the bag's log time"
+            raise BagError(
+                path,
+                self.topics.joints,
+                f"the joints' {what} are {offset:+.3f} s ({offset / 3600:+.2f} h) from the channels' clock ({clock}): "
+                f"two clocks, at most {MAX_CLOCK_OFFSET_S:g} s apart for the streams to be paired, so no channel sample "
+                f"falls between two joint readings: {way_out}",
+            )
 
     def _first_joint_names(self, path: Path, reader) -> list[str]:
         for message in self._joint_messages(reader, 1):
@@ -259,7 +317,7 @@ class BagReader:
                     self._malformed(part, connection.topic, log_ns, exc)
                     continue
                 if connection.topic == self.topics.joints:
-                    self._add_joints(sync, message)
+                    self._add_joints(sync, log_ns, message)
                 elif connection.topic == self.topics.channels:
                     self._add_channels(sync, connection.msgtype, log_ns, message)
                 else:
@@ -279,13 +337,13 @@ class BagReader:
             self.skipped[MALFORMED] += 1
         self._note(f"{part.path}, topic '{topic}' at {seconds(log_ns):.9f} s: cannot decode the message ({exc}); skipped")
 
-    def _add_joints(self, sync: Synchronizer, message) -> None:
+    def _add_joints(self, sync: Synchronizer, log_ns: int, message) -> None:
         index = self._index(tuple(message.name))
         position = np.asarray(message.position, dtype=float)
         if index is None or len(position) != len(message.name):
             self._ignored_joints += 1
             return
-        sync.add_joints(stamp_s(message.header.stamp), dict(zip(self.joint_names, position[index].tolist(), strict=True)))
+        sync.add_joints(self._joint_time(log_ns, message), dict(zip(self.joint_names, position[index].tolist(), strict=True)))
 
     def _add_channels(self, sync: Synchronizer, msgtype: str, log_ns: int, message) -> None:
         self.rows_read += 1

@@ -10,12 +10,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.exceptions import BagError
+from ..core.exceptions import BagError, ConfigError
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64_ARRAY = "std_msgs/msg/Float64MultiArray"
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 STRING = "std_msgs/msg/String"
+
+#: Where a joint message's time is read: its header stamp (the contract's default) or its log time.
+JOINT_STAMPS = ("header", "log")
 
 #: Suffixes of a bag's storage file (a bag folder holds one or more and a metadata.yaml).
 BAG_SUFFIXES = (".mcap", ".db3")
@@ -35,11 +38,19 @@ class BagTopics:
         joints: ``sensor_msgs/msg/JointState`` topic.
         channels: ``std_msgs/msg/Float64MultiArray`` or ``geometry_msgs/msg/WrenchStamped`` topic.
         configuration: ``std_msgs/msg/String`` topic of the tool configuration.
+        joint_stamps: The time of a joint message: ``header`` (its header stamp) or ``log``
+            (the bag's log time: for a log of simulated time whose header stamps stay 0, or
+            a driver stamping on another clock).
     """
 
     joints: str = "/joint_states"
     channels: str = "/ft_sensor/raw"
     configuration: str = "/fts_calib/configuration"
+    joint_stamps: str = "header"
+
+    def __post_init__(self):
+        if self.joint_stamps not in JOINT_STAMPS:
+            raise ConfigError("joint_stamps", self.joint_stamps, f"one of {', '.join(JOINT_STAMPS)}")
 
 
 @dataclass(frozen=True)

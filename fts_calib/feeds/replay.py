@@ -9,7 +9,9 @@ sender's sequence (0, 1, 2, ...), so that the receiver counts what the network l
 ``loss`` drops that fraction of the joint and strain messages (after numbering them: they
 show as gaps) and ``reorder`` delays that fraction by one to five messages (seeded).
 Messages leave at their recorded times divided by ``speed`` (0: as fast as the socket
-takes them).
+takes them). A replay that could place fewer than :data:`~fts_calib.feeds.source.MIN_COVERAGE`
+of the recording's channel samples (a bag's joints on another clock, say) sends its ``end``
+and then fails, saying what was skipped: it tested nothing of the live path.
 """
 
 from __future__ import annotations
@@ -24,10 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from ..core import validation
-from ..core.exceptions import ConfigError
+from ..core.exceptions import ConfigError, RecordingError
 from .bag_log import BagTopics
 from .protocol import End, Joints, Message, Strain, ToolChange, encode
-from .source import open_recording
+from .source import MIN_COVERAGE, open_recording
 
 _TOOL_REPEAT_S = 1.0  # [s] of recording time between tool announcements
 
@@ -74,8 +76,13 @@ def messages(
             channel samples with the joints synchronised at their times, as rows.
         options: How to replay.
         topics: Topic names of a bag; the defaults when None.
+
+    Raises:
+        RecordingError: After the ``end`` message, when fewer than ``MIN_COVERAGE`` of the
+            recording's channel samples could be placed (the message says why they were skipped).
     """
     seq = itertools.count()
+    placed = 0
     with open_recording(path, None, None, topics=topics) as reader:
         names = reader.joint_names
         current, next_joint, next_tool, last = None, -np.inf, -np.inf, 0.0
@@ -95,7 +102,20 @@ def messages(
                     yield t, Joints(t + options.latency_s, dict(zip(names, q.tolist(), strict=True)), next(seq))
                 yield t, Strain(t, tuple(s.tolist()), next(seq), temperature)
                 last = t
+                placed += 1
     yield last, End(next(seq))
+    read = reader.rows_read
+    if read and placed < MIN_COVERAGE * read:
+        skipped = ", ".join(f"{reason}: {count:,}" for reason, count in reader.skipped.items()) or "no reason counted"
+        notes = "; ".join(reader.notes()[:1])
+        raise RecordingError(
+            reader.path,
+            None,
+            None,
+            f"only {placed:,} of {read:,} channel samples ({100 * placed / read:.3g} %) could be replayed, below "
+            f"{100 * MIN_COVERAGE:g} %: the receiver was sent a sliver of the recording (skipped: {skipped})"
+            + (f"; {notes}" if notes else ""),
+        )
 
 
 @dataclass(frozen=True)

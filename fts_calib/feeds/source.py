@@ -22,6 +22,11 @@ from .bag import BagReader
 from .bag_log import BagTopics, is_bag, parse_bag_argument
 from .recording import RecordingReader
 
+#: The smallest share of a recording's channel samples a job must use for its result to stand
+#: (validate compares them, replay sends them): below it the result describes a sliver of the
+#: recording (joint stamps on another clock, a tool never announced) and the job fails.
+MIN_COVERAGE = 0.5
+
 #: Suffixes of a CSV recording.
 CSV_SUFFIXES = (".csv", ".gz")
 

@@ -83,6 +83,7 @@ class ValidationResult:
         expected: Expected wrench at those samples, shape (M, 6).
         measured: Per calibration, the measured wrench at those samples, (M, 6) each.
         problems: The first problems of the recording, with their line and column.
+        rows_read: Channel samples read from the recording (compared or skipped).
     """
 
     samples: int
@@ -94,6 +95,12 @@ class ValidationResult:
     expected: np.ndarray
     measured: list[np.ndarray]
     problems: list[str] = field(default_factory=list)
+    rows_read: int = 0
+
+    @property
+    def coverage(self) -> float:
+        """The share of the recording's channel samples compared, in [0, 1] (0 for an empty recording)."""
+        return self.samples / self.rows_read if self.rows_read else 0.0
 
 
 class _Errors:
@@ -250,6 +257,7 @@ def validate_recording(
         for reason, count in reader.skipped.items():
             skip(reason, count)
         problems = reader.notes()
+        rows_read = reader.rows_read
     if waiting is not None and len(waiting[0]):
         rows = join(context, waiting)
         compare(rows, 0 if context is None else len(context[0]), len(rows[0]))
@@ -264,4 +272,5 @@ def validate_recording(
         expected=expected,
         measured=measured,
         problems=problems,
+        rows_read=rows_read,
     )
