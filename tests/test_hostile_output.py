@@ -333,3 +333,78 @@ def test_a_validation_or_replay_of_a_sliver_of_the_recording_fails(tmp_path, ur5
         code = main(["replay", str(bag), "--to", f"127.0.0.1:{receiver.getsockname()[1]}", "--speed", "0"])
     assert code == ExitCode.RECORDING
     assert "could be replayed, below 50 %: the receiver was sent a sliver of the recording" in _error_line(capsys)
+
+
+# -- advice that names what is really missing ---------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def drifting_csv(tmp_path_factory):
+    """The README's drifting example: the shipped UR5 plan, OffsetDrift.typical() (a warm-up: the temperature follows time)."""
+    from fts_calib.core.resources import data_dir
+    from fts_calib.core.resources import resolve as find
+    from fts_calib.planning.trajectory_io import read_trajectory
+    from fts_calib.robot.definition import load_robot
+    from fts_calib.robot.kinematics import Kinematics
+    from fts_calib.robot.tool import load_tool
+    from fts_calib.sim.drift import OffsetDrift
+    from fts_calib.sim.recording import simulate_recording
+
+    kin, tool = Kinematics(load_robot(find("ur5", "robots"))), load_tool(find("paper_tool", "configs"))
+    trajectories = [read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz") for name in tool.names]
+    sensor = load_simulated_sensor(find("sensor", "configs"))
+    path = tmp_path_factory.mktemp("drift") / "drifting_run.csv"
+    return simulate_recording(path, kin, tool, trajectories, sensor, np.random.default_rng(0), drift=OffsetDrift.typical())
+
+
+def test_drift_offsets_name_the_columns_the_data_cannot_separate(tmp_path, drifting_csv, capsys):
+    """Before: 'rank 11 of 12 ... more quasi-static samples'."""
+    code = main(["calibrate", "--robot", "ur5", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet", "--offsets", "drift"])
+    assert code == ExitCode.CHECK_FAILED
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith("NO CALIBRATION: insufficient excitation: the information matrix has rank 11 of 12"), last
+    assert "the offset columns 'time^1' and 'temperature' cannot be told apart: the temperature followed time" in last or (
+        "the offset columns 'temperature' and 'time^1' cannot be told apart: the temperature followed time" in last
+    ), last
+    assert "more quasi-static samples" not in last
+    assert main(["calibrate", "--robot", "ur5", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.OK
+
+
+def test_undetermined_columns_of_an_exact_collinearity():
+    """Temperature exactly linear in time: one missing direction, mixing exactly the columns involved."""
+    from fts_calib.model.least_squares import undetermined_columns
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 1.0, 200)
+    names = ["Fx", "offset A", "time^1", "temperature", "empty"]
+    X = np.column_stack([rng.normal(size=200), np.ones(200), t, 3.0 * t, np.zeros(200)])
+    groups = undetermined_columns(X.T @ X, names)
+    assert groups[0] == ["empty"]  # no data at all
+    assert len(groups) == 2 and set(groups[1]) == {"time^1", "temperature"}, groups  # 3 t: time alone
+    X[:, 3] = 1.0 + t  # the offset and time together: all three, each with a weight of a third of the largest or more
+    assert set(undetermined_columns(X[:, :4].T @ X[:, :4], names[:4])[0]) == {"offset A", "time^1", "temperature"}
+    assert undetermined_columns(X[:, :3].T @ X[:, :3], names[:3]) == []
+
+
+def test_a_configuration_whose_temperature_is_empty_is_named(tmp_path, drifting_csv, capsys):
+    """Before: 'check the tool file' (every row of configuration B skipped for its empty temperature)."""
+    lines = drifting_csv.read_text().splitlines()
+    head = lines[0].split(",")
+    heat, tool = head.index("temperature"), head.index("tool")
+    rows = [line.split(",") for line in lines[1:]]
+    for cells in rows:
+        if cells[tool] == "B":
+            cells[heat] = ""
+    path = tmp_path / "no_heat_b.csv"
+    path.write_text("\n".join([lines[0], *(",".join(cells) for cells in rows)]) + "\n")
+    n_b = sum(cells[tool] == "B" for cells in rows)
+    code = main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
+    printed = capsys.readouterr().out
+    assert code in (ExitCode.POOR_FIT, ExitCode.CHECK_FAILED)
+    expected = (
+        f"configuration B has no usable row in no_heat_b.csv: column 'temperature' is empty or not a number on {n_b:,} of its "
+        f"{n_b:,} rows, so it is missing from the calibration; the temperature is needed on every row once the file has the "
+        "column: fill it in, or remove the column"
+    )
+    assert expected in printed, printed
+    assert "check the tool file" not in printed and not (tmp_path / "c.yaml").exists()

@@ -188,6 +188,10 @@ class BagReader:
             lines.append(f"and {self.unlisted:,} more problem(s) not listed (the counts by reason are complete)")
         return lines
 
+    def unusable_configurations(self) -> list[str]:
+        """The tool configurations none of whose samples could be read, in words (a bag's messages have no cells: none)."""
+        return []
+
     def _note(self, text: str) -> None:
         if len(self.problems) < MAX_NOTES:
             self.problems.append(text)

@@ -82,6 +82,10 @@ class RecordingReader:
     Attributes:
         skipped: Rows skipped so far, by reason.
         extra_columns: Columns present but ignored.
+        rows_by_tool: Rows read so far per tool configuration name (a malformed row whose
+            tool cell can be read included).
+        bad_cells: Rows skipped for a cell that is empty or not a number, per (tool
+            configuration name, column): what :meth:`unusable_configurations` reports.
     """
 
     def __init__(
@@ -101,6 +105,8 @@ class RecordingReader:
         self._notes = ProblemNotes(self.path)
         self._last_time = -math.inf  # latest time of a valid row so far [s]
         self.unknown_tools: Counter[str] = Counter()
+        self.rows_by_tool: Counter[str] = Counter()
+        self.bad_cells: Counter[tuple[str, str]] = Counter()
         self.rows_read = 0
         try:
             self.size = self.path.stat().st_size
@@ -202,6 +208,31 @@ class RecordingReader:
         """The problems kept, then how many more were found (when any): for a report."""
         return self._notes.lines()
 
+    def unusable_configurations(self) -> list[str]:
+        """The tool configurations none of whose rows could be read, each in words with the column at fault.
+
+        E.g. a ``temperature`` column left empty on every row of configuration B: the
+        configuration is then missing from the calibration for that reason alone, not for
+        a tool file or a motion that is wrong.
+        """
+        out = []
+        for name, rows in self.rows_by_tool.items():
+            bad = Counter({column: n for (tool, column), n in self.bad_cells.items() if tool == name})
+            if not rows or sum(bad.values()) < rows:
+                continue
+            column, count = bad.most_common(1)[0]
+            why = (
+                "the temperature is needed on every row once the file has the column: fill it in, or remove the column"
+                if column == "temperature"
+                else "fix that column"
+            )
+            also = f" (and {rows - count:,} rows for other columns)" if count < rows else ""
+            out.append(
+                f"configuration {name} has no usable row in {self.path.name}: column '{column}' is empty or not a number on "
+                f"{count:,} of its {rows:,} rows{also}, so it is missing from the calibration; {why}"
+            )
+        return out
+
     def _skip(self, reason: str, line: int, detail: str) -> None:
         self.skipped[reason] += 1
         self._notes.note(line, detail, reason)
@@ -256,6 +287,8 @@ class RecordingReader:
             table, tools, numbers = self._parse_slow(block, first, final)
             categories, index = np.unique(np.array(tools, dtype=object), return_inverse=True) if tools else ([], np.zeros(0, int))
         self.rows_read += int(self._line - first + 1)
+        for category, count in zip(categories, np.bincount(index, minlength=len(categories)), strict=True):
+            self.rows_by_tool[str(category).strip()] += int(count)
         codes = self._codes(list(categories), index)
         unknown = codes < 0
         if unknown.any():
@@ -332,6 +365,9 @@ class RecordingReader:
             except ValueError:
                 bad = next(i for i in self._numeric if not is_number(cells[i]))
                 self._skip(MALFORMED, number, f"column '{self.columns[bad]}': '{cells[bad]}' is not a number")
+                tool = cells[self._tool_col].strip()
+                self.rows_by_tool[tool] += 1
+                self.bad_cells[tool, self.columns[bad]] += 1
                 continue
             tools.append(cells[self._tool_col].strip())
             numbers.append(number)

@@ -45,10 +45,22 @@ from ..core.exceptions import ConfigError, InsufficientExcitation
 from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
-from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, solve_normal
-from .offset_basis import AUTO, CONSTANT_ONLY, Candidate, OffsetBasis, candidates, choose, describe, model_sums, offset_setting
+from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, solve_normal, undetermined_columns
+from .offset_basis import (
+    AUTO,
+    CONSTANT_ONLY,
+    Candidate,
+    OffsetBasis,
+    candidates,
+    choose,
+    describe,
+    model_columns,
+    model_sums,
+    offset_setting,
+)
 from .offset_trace import OffsetTrace
 from .prior import Prior
+from .sensor import WRENCH_AXES
 
 #: What full rank needs, in words: the one advice text of the estimator and the excitation report.
 RANK_ADVICE = (
@@ -287,6 +299,26 @@ class OnlineEstimator(SampleSums):
             layout=self.layout,
             offset_model=offset_model,
         )
+
+    def undetermined(self, configurations: Sequence[str] | None = None, rcond: float = RCOND) -> list[list[str]]:
+        """The offset-model columns the data cannot determine, grouped by missing direction (none at full rank).
+
+        The groups of the known side ``[W; b]`` of the model in use (:func:`excitation_rank`)
+        that hold offset columns only, named as in the calibration file ('offset B',
+        'time^1', 'temperature'): a drift term that cannot be told from another one or
+        from a configuration's offset. Missing directions of C (too few centres of mass or
+        gravity directions) mix wrench axes and are left to the tool's advice.
+
+        Args:
+            configurations: Names of the tool configurations (indices when None).
+            rcond: Threshold of the numerical rank.
+        """
+        chosen = self.model_in_use(rcond)[0]
+        sums = self.model_sums(chosen)
+        known = np.r_[0:6, 12 : len(sums)]
+        names = [*WRENCH_AXES, *model_columns(chosen, self.basis, configurations)]
+        groups = undetermined_columns(sums[np.ix_(known, known)], names, rcond)
+        return [g for g in groups if not any(name in WRENCH_AXES for name in g)]
 
     # -- checkpoints --------------------------------------------------------------------
 

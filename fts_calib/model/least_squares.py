@@ -72,6 +72,38 @@ def excitation_rank(sums: np.ndarray, rcond: float = RCOND) -> int:
     return information_rank(sums[np.ix_(known, known)], rcond)[0]
 
 
+def undetermined_columns(S: np.ndarray, names: list[str], rcond: float = RCOND, share: float = 0.2) -> list[list[str]]:
+    """The columns an information matrix cannot separate: for each direction it misses, the columns that direction mixes.
+
+    Scaled to a unit diagonal like :func:`information_rank`; a column with no data at all
+    is a group of one. A missing direction's columns are those whose weight in it is at
+    least ``share`` of its largest, largest first: ``['time^1', 'temperature']`` when the
+    temperature followed time linearly over the samples.
+
+    Args:
+        S: Symmetric positive semi-definite matrix. Shape (n, n).
+        names: The name of each column. Length n.
+        rcond: Eigenvalues below ``rcond`` times the largest count as missing.
+        share: Smallest weight of a column in a missing direction, relative to the largest.
+
+    Returns:
+        One list of names per missing direction (empty when the matrix has full rank).
+    """
+    S = np.asarray(S, dtype=float)
+    empty = np.diag(S) <= 0
+    groups = [[names[i]] for i in np.flatnonzero(empty)]
+    filled = np.flatnonzero(~empty)
+    if not len(filled):
+        return groups
+    scaled, _ = _equilibrate(S[np.ix_(filled, filled)])
+    eig, vec = np.linalg.eigh(scaled)
+    for k in np.flatnonzero(eig <= rcond * max(float(eig[-1]), 0.0)):
+        weight = np.abs(vec[:, k])
+        order = [i for i in np.argsort(-weight) if weight[i] >= share * weight.max()]
+        groups.append([names[filled[i]] for i in order])
+    return groups
+
+
 def unexplained_strain(sums: np.ndarray, noise_cov: np.ndarray, n_eff: float, rcond: float = RCOND) -> float:
     """How much of the strains the known loads leave unexplained, in units of the noise alone.
 

@@ -296,7 +296,7 @@ def describe(
         "setting": setting,
         "criterion": "BIC (lowest wins)" if setting == AUTO else "set by the user",
         "candidates": [{"model": c.model, "columns": _columns(c, all_columns), "bic_above_best": float(s - best)} for c, s in scores],
-        "columns": _columns(chosen, all_columns),
+        "columns": model_columns(chosen, basis, names),
         "basis": basis.to_config(),
         "A": np.asarray(chosen.A).tolist(),
         "coefficients": np.asarray(coefficients).tolist(),
@@ -312,6 +312,17 @@ def describe(
         description["end"] = {k: points[-1][k] for k in ("time_s", "configuration", "temperature_C")}
     description["trajectory"] = points
     return description
+
+
+def model_columns(candidate: Candidate, basis: OffsetBasis, configurations: Sequence[str] | None = None) -> list[str]:
+    """The names of a model's offset columns, as the calibration file gives them ('offset', or 'offset A', 'time^1', 'temperature').
+
+    Args:
+        candidate: The model.
+        basis: The basis it maps.
+        configurations: The tool configuration names (indices when None).
+    """
+    return _columns(candidate, basis.column_names(configurations))
 
 
 def _columns(candidate: Candidate, names: Sequence[str]) -> list[str]:

@@ -15,6 +15,8 @@ from ..robot.tool import Tool
 
 #: Kept samples of a configuration before it counts in the advice.
 MIN_SAMPLES = 10
+#: The advice when nothing specific is missing.
+GENERIC = "more quasi-static samples"
 
 
 def missing_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.ndarray) -> str:
@@ -51,4 +53,34 @@ def missing_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.n
                     f"the centres of mass of {label} and every other configuration lie on one line: the tool "
                     "needs a configuration off that line (paper eqs 19-20)"
                 )
-    return "; ".join(words) or "more quasi-static samples"
+    return "; ".join(words) or GENERIC
+
+
+def undetermined_words(groups: Sequence[Sequence[str]]) -> str:
+    """The offset columns the data cannot determine, and why, in words ('' when none).
+
+    Args:
+        groups: Per missing direction, the offset-model columns it mixes, largest weight
+            first (:meth:`fts_calib.model.estimator.OnlineEstimator.undetermined`), e.g.
+            ``[['time^1', 'temperature']]``.
+    """
+    words = []
+    for group in groups:
+        quoted = " and ".join(f"'{name}'" for name in group)
+        if len(group) == 1:
+            words.append(f"the offset column {quoted} is undetermined: the kept samples give it no variation of its own")
+            continue
+        timed = any(name.startswith("time^") for name in group)
+        if "temperature" in group and timed:
+            why = (
+                "the temperature followed time over the kept samples (a warm-up), so a drift with time and one with temperature look alike"
+            )
+        elif timed and any(name.startswith("offset ") for name in group):
+            why = "a configuration's kept samples span too little of the run to tell its offset from a drift with time"
+        else:
+            why = "they move together over the kept samples (one is a linear function of the others)"
+        words.append(
+            f"the offset columns {quoted} cannot be told apart: {why}; --offsets auto fits a drift model without one of them, "
+            "or record a run over which they part"
+        )
+    return "; ".join(words)

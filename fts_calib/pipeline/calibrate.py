@@ -147,12 +147,14 @@ def calibrate_recording(
         for reason, count in reader.skipped.items():
             session.note_skipped(reason, count)
         problems, rows = reader.notes(), reader.rows_read
+        lost = reader.unusable_configurations()
     session.flush()
     if progress is not None:
         progress.update(progress.total, rows)
         progress.close()
     session.checkpoint()
-    hint = "the joint columns may be in rad already: run without --joints-in-degrees" if joints_in_degrees else ""
+    # what is really missing comes first: a configuration all of whose rows were unreadable
+    hint = "; ".join([*lost, *(["the joint columns may be in rad already: run without --joints-in-degrees"] if joints_in_degrees else [])])
     try:
         calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
     except (InsufficientExcitation, PoorFit) as exc:
