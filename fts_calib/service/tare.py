@@ -139,8 +139,9 @@ def check_load(residual: np.ndarray, noise: np.ndarray, what: str) -> None:
     if len(residual) < 2:
         return
     scatter = residual.std(axis=0)
-    # white noise shows in the differences of successive samples too (a slow change of the load does not)
-    successive = np.diff(residual, axis=0).std(axis=0) / np.sqrt(2.0)
+    # white noise shows in the differences of successive samples too (a slow change of the load does not): their
+    # mean magnitude is 2 sigma / sqrt(pi), and a few steps between still poses hardly move it (a standard deviation would)
+    successive = np.mean(np.abs(np.diff(residual, axis=0)), axis=0) * np.sqrt(np.pi) / 2.0
     expected = np.maximum.reduce([noise, successive, np.full(6, 1e-12)])
     ratio = scatter / expected
     worst = int(np.argmax(ratio))
