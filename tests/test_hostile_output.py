@@ -18,8 +18,8 @@ import pytest
 
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.core import fileio
-from fts_calib.core.fileio import OutputLock
+from fts_calib.core import outputs
+from fts_calib.core.outputs import OutputLock
 from fts_calib.core.resources import resolve
 from fts_calib.feeds.recording import RecordingWriter
 from fts_calib.model.calibration import Calibration, save_calibration
@@ -96,7 +96,7 @@ def test_a_block_device_or_socket_is_refused(tmp_path):
     server.bind(str(path))
     try:
         with pytest.raises(OSError, match="it is a socket, not a file"):
-            fileio.atomic_write_text(path, "x")
+            outputs.atomic_write_text(path, "x")
     finally:
         server.close()
     assert stat.S_ISSOCK(os.stat(path).st_mode)
@@ -106,7 +106,7 @@ def test_a_block_device_or_socket_is_refused(tmp_path):
 
 HOLDER = """
 import sys
-from fts_calib.core.fileio import OutputLock
+from fts_calib.core.outputs import OutputLock
 lock = OutputLock(sys.argv[1]).acquire()
 print("held", flush=True)
 sys.stdin.read()
@@ -143,12 +143,12 @@ def test_a_writer_is_refused_while_another_process_writes_the_file(tmp_path, cal
     target = tmp_path / "copy.yaml"
     first = _holder(target)
     try:
-        with pytest.raises(fileio.OutputInUse, match=f"process {first.pid}"):
-            fileio.atomic_write_text(target, "x")
+        with pytest.raises(outputs.OutputInUse, match=f"process {first.pid}"):
+            outputs.atomic_write_text(target, "x")
     finally:
         first.stdin.close()  # an orderly end releases it as well
         first.wait()
-    fileio.atomic_write_text(target, "x")
+    outputs.atomic_write_text(target, "x")
     assert target.read_text() == "x" and _leftovers(tmp_path) == []
 
 
@@ -178,7 +178,7 @@ class _FullDisk:
 @pytest.fixture
 def full_disk(monkeypatch):
     real = os.fdopen
-    monkeypatch.setattr(fileio.os, "fdopen", lambda fd, mode: _FullDisk(real(fd, mode)))
+    monkeypatch.setattr(outputs.os, "fdopen", lambda fd, mode: _FullDisk(real(fd, mode)))
 
 
 def test_a_full_disk_leaves_no_temporary_file(tmp_path, sensor, cal_file, full_disk, capsys):

@@ -14,7 +14,7 @@ import warnings
 from typing import Any
 
 from ..core.exceptions import FtsCalibError
-from ..core.fileio import holding_outputs
+from ..core.outputs import holding_outputs
 from .arguments import build_parser
 from .exit_codes import ExitCode, error_line, exit_code
 
@@ -26,7 +26,7 @@ def run_command(command: str, options: dict[str, Any]) -> int:
 
     The command holds the lock of its output file and checkpoint (``output``, ``checkpoint``)
     from start to end: a second run writing the same file is refused, naming the first
-    (:func:`fts_calib.core.fileio.holding_outputs`).
+    (:func:`fts_calib.core.outputs.holding_outputs`).
     """
     module = importlib.import_module(f".{command}", __package__)  # lazily: only the command run loads its modules
     with holding_outputs([options.get("output"), options.get("checkpoint")]):

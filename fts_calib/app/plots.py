@@ -13,7 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the headless backend)
 import numpy as np  # noqa: E402
 
-from ..core.fileio import AtomicFile  # noqa: E402
+from ..core.outputs import AtomicFile  # noqa: E402
 
 
 def _save(fig, path: str | Path) -> Path:

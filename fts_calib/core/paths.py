@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from .exceptions import ConfigError
-from .fileio import STDOUT, written_directly
+from .outputs import STDOUT, written_directly
 
 PathLike = str | Path
 

@@ -19,15 +19,30 @@ MIN_SAMPLES = 10
 GENERIC = "more quasi-static samples"
 
 
-def missing_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.ndarray) -> str:
-    """What is missing for rank 7, in words ('more quasi-static samples' when nothing specific).
+def missing_words(
+    tool: Tool,
+    kept: Sequence[int] | np.ndarray,
+    directions: np.ndarray,
+    undetermined: Sequence[Sequence[str]] = (),
+    cause: str = "",
+) -> str:
+    """What is missing for full rank, in words, the real cause first ('more quasi-static samples' when nothing specific).
 
     Args:
         tool: The calibration tool.
         kept: Kept samples per configuration, the tool's order. Length k.
         directions: Per configuration, the sum of ``[u; 1][u; 1]^T`` over the kept samples,
             ``u`` the unit gravity direction in the sensor frame. Shape (k, 4, 4).
+        undetermined: Offset-model columns the data cannot separate, per missing direction
+            (:func:`undetermined_words`); named before the tool's advice, which replaces
+            the generic words.
+        cause: A known cause, said first (e.g. a configuration none of whose rows could be read).
     """
+    apart, words = undetermined_words(undetermined), _tool_words(tool, kept, directions)
+    return "; ".join(w for w in (cause, apart, "" if apart and words == GENERIC else words) if w)
+
+
+def _tool_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.ndarray) -> str:
     names = tool.names
     seen = [k for k in range(len(names)) if kept[k] >= MIN_SAMPLES]
     if not seen:

@@ -40,7 +40,7 @@ from ..model.prior import Prior
 from ..robot.kinematics import Kinematics
 from ..robot.load import tool_load
 from ..robot.tool import Tool
-from .advice import GENERIC, missing_words, undetermined_words
+from .advice import missing_words
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
 from .fit import MAX_RATIO, FitCheck, check_fit, fit_rows, model_fit_sums
@@ -300,10 +300,7 @@ class CalibrationSession:
             check = self.fit_check(hint) if not accept_poor_fit and self._strains_unexplained() else None
             if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
                 raise PoorFit(check, None) from None
-            # what is really missing first: unreadable rows (the hint), offset columns the data cannot separate
-            apart = undetermined_words(self.estimator.undetermined(self.tool.names))
-            words = missing_words(self.tool, self.kept, self._directions)
-            words = "; ".join(w for w in (hint, apart, "" if apart and words == GENERIC else words) if w)
+            words = missing_words(self.tool, self.kept, self._directions, self.estimator.undetermined(self.tool.names), hint)
             raise InsufficientExcitation(exc.rank, exc.missing, words, exc.full) from None
         if calibration.quality is None:  # the estimator always measures the fit
             raise FtsCalibError("the estimator returned a calibration without its quality")

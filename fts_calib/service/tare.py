@@ -102,6 +102,8 @@ def check_window(
         ResultRefused: Fewer than :data:`MIN_STILL_FRACTION` of the samples are still; the
             message gives the share and what each rule rejected.
     """
+    if not len(samples):  # nothing to judge: the estimate says there is no sample
+        return np.zeros(6)
     joints = samples.joints if samples.joints.shape[1] else np.zeros((len(samples), 1))  # no joints: the strain rule alone
     batch = dataclasses.replace(samples, joints=joints)
     moving = np.zeros(joints.shape[1], dtype=bool) if continuous is None or not samples.joints.shape[1] else continuous
