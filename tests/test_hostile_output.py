@@ -408,3 +408,19 @@ def test_a_configuration_whose_temperature_is_empty_is_named(tmp_path, drifting_
     )
     assert expected in printed, printed
     assert "check the tool file" not in printed and not (tmp_path / "c.yaml").exists()
+
+
+def test_fields_of_a_newer_version_survive_a_load_and_save_inside_quality_too(tmp_path, sensor):
+    import yaml
+
+    from fts_calib.model.calibration import Quality, load_calibration
+
+    quality = Quality(10, 12, 7, 3.0, np.ones(6), np.zeros((6, 6)), np.zeros(6), np.zeros((6, 8)))
+    path = save_calibration(Calibration(sensor.C_bar, sensor.D, quality=quality), tmp_path / "q.yaml")
+    data = yaml.safe_load(path.read_text())
+    data["quality"]["drift_residual"] = {"Fx": 0.01}  # fields a newer version writes
+    data["health_v2"] = [1, 2, 3]
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    again = yaml.safe_load(save_calibration(load_calibration(path), tmp_path / "again.yaml").read_text())
+    assert again["quality"]["drift_residual"] == {"Fx": 0.01} and again["health_v2"] == [1, 2, 3]
+    assert again["quality"]["rank"] == 7 and again["D"] == data["D"]
