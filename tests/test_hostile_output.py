@@ -424,3 +424,15 @@ def test_fields_of_a_newer_version_survive_a_load_and_save_inside_quality_too(tm
     again = yaml.safe_load(save_calibration(load_calibration(path), tmp_path / "again.yaml").read_text())
     assert again["quality"]["drift_residual"] == {"Fx": 0.01} and again["health_v2"] == [1, 2, 3]
     assert again["quality"]["rank"] == 7 and again["D"] == data["D"]
+
+
+def test_streams_that_do_not_overlap_say_so_and_refer_to_no_unprinted_notes(tmp_path, ur5_recording, capsys):
+    """Joint stamps 0.9 s late (under the clock check's 1 s) on a 0.5 s bag: every channel sample before the first joint."""
+    bag = _bag(tmp_path / "short", ur5_recording, lambda k, t: t + 0.9, rows=50)
+    assert main(["calibrate", "--robot", "ur5", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.CHECK_FAILED
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last == (
+        "NO CALIBRATION: no usable sample: every row was skipped before the filter (strain before the first joint sample: 50): "
+        "no channel sample falls between two joint readings, so the two streams' stamps are on different clocks or do not "
+        "overlap in time (a bag: read the joints at its log time with --joint-stamps log)"
+    ), last

@@ -16,6 +16,7 @@ from ..core.paths import check_outputs
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import open_recording, recording_paths
+from ..feeds.sync import AFTER_JOINTS, BEFORE_JOINTS, JOINT_GAP
 from ..model.budget import wrench_noise
 from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
@@ -252,18 +253,26 @@ def format_fit(check: FitCheck) -> list[str]:
     return lines
 
 
-def _unusable(session: CalibrationSession) -> str | None:
+def _unusable(session: CalibrationSession, problems: list[str]) -> str | None:
     """Why no sample reached the filter when every row was skipped by the checks, or None.
 
     "Hold the arm still" would send the user to the robot for a file whose every row is
-    malformed (a text in the temperature column, a NaN strain).
+    malformed (a text in the temperature column, a NaN strain). When the joint and channel
+    streams did not overlap (every channel sample before, after or between joint readings
+    too far apart), that is the cause, said in words; notes are referred to only when printed.
     """
     p = session.progress()
     checks = {reason: n for reason, n in p.skipped.items() if not reason.startswith("filter:")}
     if p.kept or not p.seen or sum(checks.values()) < p.seen:
         return None
     counts = ", ".join(f"{reason}: {n:,}" for reason, n in sorted(checks.items(), key=lambda x: -x[1]))
-    return f"no usable sample: every row was skipped before the filter ({counts}); the notes above name the first"
+    text = f"no usable sample: every row was skipped before the filter ({counts})"
+    if max(checks, key=lambda reason: checks[reason]) in (BEFORE_JOINTS, AFTER_JOINTS, JOINT_GAP):
+        return (
+            f"{text}: no channel sample falls between two joint readings, so the two streams' stamps are on different "
+            "clocks or do not overlap in time (a bag: read the joints at its log time with --joint-stamps log)"
+        )
+    return f"{text}; the notes above name the first" if problems else text
 
 
 def format_summary(result: CalibrateResult, recording: str | Path, output: Path | None) -> str:
@@ -279,7 +288,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
         if isinstance(result.error, PoorFit):
             lines.append("NO CALIBRATION written: the fit is poor (above); fix the cause, or accept it knowingly with --accept-poor-fit")
         else:
-            lines.append(f"NO CALIBRATION: {_unusable(result.session) or result.error}")
+            lines.append(f"NO CALIBRATION: {_unusable(result.session, result.problems) or result.error}")
         return "\n".join(lines)
     cal, q = result.calibration, result.calibration.quality
     if q is None:  # CalibrationSession.solve always measures the fit
