@@ -282,3 +282,7 @@ class ResourceNotFound(FtsCalibError, FileNotFoundError):
 
 class RobotDataNotFound(FtsCalibError, FileNotFoundError):
     """The example-robot-data folder cannot be found; the message says what to install."""
+
+
+class NotARotation(ShapeError):
+    """A matrix given as a rotation is not one: ``|R^T R - I| > 1e-6`` or ``det R != +1``; the message gives both."""

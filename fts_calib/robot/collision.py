@@ -164,7 +164,7 @@ class CollisionChecker:
             The minimum over readings and pairs (inf distance when there is no pair).
         """
         geometry, data, names = self._groups[group]
-        theta, _ = self.kin.readings(readings)
+        theta, _ = self.kin.joint_array(readings)
         best = Clearance(np.inf, ("", ""), -1)
         if not names:
             return best
