@@ -8,6 +8,12 @@ collision checks, a cylinder along X of S from the sensor out (default: around t
 centres of mass), and optional ``tolerance`` ``{mass [kg], com [m]}``: how well the tool is
 known, for the accuracy budget (:class:`ToolTolerance`). Any other key (a typo such as ``mas``) is refused with the known keys.
 
+One quantity, two spellings, one rule: a file's keys are short because a tool file is in S
+throughout (``com``, ``inertia``); in code the frame is in the name, as everywhere in
+fts-calib (:attr:`ToolConfiguration.p_sensor_com`, ``inertia_com``). The loader maps
+``com`` -> ``p_sensor_com`` and ``inertia`` -> ``inertia_com``, and an error about the
+Python field names the file's key.
+
 Identifiability (paper eqs 18-20): one centre of mass gives the estimator rank 4, two
 give 6, and the full rank 7 needs three centres of mass that are not on one line.
 """
