@@ -97,8 +97,8 @@ def test_compensator_takes_a_pin_se3_and_refuses_what_is_not_a_rotation(calibrat
     T[:3, :3] = R
     with pytest.raises(ShapeError, match=r"R_world_sensor.shape=\(4, 4\) but expected \(3, 3\).*T\[:3, :3\]"):
         comp.external(x, T)
-    with pytest.raises(NotARotation, match=r"R_world_sensor is not a rotation: \|R\^T R - I\| = 0.0201"):
-        comp.external(x, 1.01 * R)  # |R^T R - I| = 1.01^2 - 1 on the diagonal
+    with pytest.raises(NotARotation, match=r"R_world_sensor is not a rotation: \|R\^T R - I\| = 0.0348"):
+        comp.external(x, 1.01 * R)  # R^T R - I = (1.01^2 - 1) I: Frobenius norm 0.0201 sqrt(3)
     with pytest.raises(NotARotation, match=r"reflection \(det = -1\)"):
         comp.external(x, R @ np.diag([1.0, 1.0, -1.0]))
     with pytest.raises(NotARotation, match="not a rotation"):

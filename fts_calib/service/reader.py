@@ -16,8 +16,8 @@ The one-sample methods write into buffers the object owns and allocate nothing p
 once the inputs are float64 arrays: the returned array is that buffer, overwritten by the
 next call (copy it to keep it). Other inputs (a list, float32, a ``pin.SE3`` for the
 orientation) are converted once per call; a wrong shape raises :class:`ShapeError` naming
-the argument, and an orientation that is not a rotation (``|R^T R - I| > 1e-6`` or
-``det R != +1``) raises :class:`NotARotation`. This module imports numpy only.
+the argument, and an orientation that is not a rotation (Frobenius norm of ``R^T R - I`` above 1e-6, or
+``det R <= 0``) raises :class:`NotARotation`. This module imports numpy only.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 #: Frames the external wrench can be expressed in.
 FRAMES = ("sensor", "world")
 
-#: Largest accepted entry of ``|R^T R - I|`` for an orientation (float64 rounding of a product of rotations is ~1e-15).
+#: Largest accepted Frobenius norm of ``R^T R - I`` for an orientation (float64 rounding of a product of rotations is ~1e-15).
 ROTATION_TOLERANCE = 1e-6
 
 _EYE = np.eye(3)  # for the batch check
@@ -49,7 +49,7 @@ def rotation(value, name: str = "R_world_sensor") -> np.ndarray:
 
     Raises:
         ShapeError: Not a (3, 3) matrix of numbers (a (4, 4) homogeneous transform included).
-        NotARotation: ``|R^T R - I| > 1e-6`` or ``det R <= 0`` (a reflection).
+        NotARotation: ``|R^T R - I|_F > 1e-6`` or ``det R <= 0`` (a reflection).
     """
     if type(value) is not np.ndarray or value.dtype != np.float64 or value.shape != (3, 3):
         if hasattr(value, "rotation") and not isinstance(value, np.ndarray):
@@ -60,14 +60,9 @@ def rotation(value, name: str = "R_world_sensor") -> np.ndarray:
         value = as_matrix(value, (3, 3), name)
     # in Python floats: one conversion beats the four numpy calls of R.T @ R - I on a 3 x 3
     a, b, c, d, e, f, g, h, i = value.ravel().tolist()
-    error = max(
-        abs(a * a + d * d + g * g - 1.0),
-        abs(b * b + e * e + h * h - 1.0),
-        abs(c * c + f * f + i * i - 1.0),
-        abs(a * b + d * e + g * h),
-        abs(a * c + d * f + g * i),
-        abs(b * c + e * f + h * i),
-    )
+    c00, c11, c22 = a * a + d * d + g * g - 1.0, b * b + e * e + h * h - 1.0, c * c + f * f + i * i - 1.0
+    c01, c02, c12 = a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i
+    error = (c00 * c00 + c11 * c11 + c22 * c22 + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)) ** 0.5  # Frobenius norm
     det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)  # NaN in any entry makes it NaN
     if not error <= ROTATION_TOLERANCE or det != det:
         raise NotARotation(f"{name} is not a rotation: |R^T R - I| = {error:.3g} but expected <= {ROTATION_TOLERANCE:g}")
@@ -84,7 +79,7 @@ def rotations(value, n: int, name: str = "R_world_sensor") -> np.ndarray:
         NotARotation: One of them is not a rotation; the message gives its index.
     """
     R = as_matrix(value, (n, 3, 3), name)
-    error = np.abs(np.einsum("nji,njk->nik", R, R) - _EYE).max(axis=(1, 2)) if n else np.zeros(0)
+    error = np.sqrt(((np.einsum("nji,njk->nik", R, R) - _EYE) ** 2).sum(axis=(1, 2))) if n else np.zeros(0)  # Frobenius
     bad = np.flatnonzero(~(error <= ROTATION_TOLERANCE))
     if bad.size:
         k = int(bad[0])
