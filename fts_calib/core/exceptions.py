@@ -285,4 +285,4 @@ class RobotDataNotFound(FtsCalibError, FileNotFoundError):
 
 
 class NotARotation(ShapeError):
-    """A matrix given as a rotation is not one: the Frobenius norm of ``R^T R - I`` above 1e-6, or ``det R <= 0``; the message gives the value."""
+    """A matrix given as a rotation is not one: the Frobenius norm of ``R^T R - I`` above 1e-6, or ``det R <= 0``."""
