@@ -1,9 +1,11 @@
 """The public API: a small lazy surface, the light and strict in-controller path, shipped names, one file whatever the route."""
 
+import ast
 import json
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -54,6 +56,15 @@ def test_at_most_40_names_loaded_lazily_and_dir_lists_them():
         assert getattr(fts_calib, name) is not None, name
     with pytest.raises(AttributeError, match="no attribute 'strain_reader'"):
         fts_calib.strain_reader  # noqa: B018
+
+
+def test_type_checkers_see_every_name_from_the_module_it_is_loaded_from():
+    """The ``if TYPE_CHECKING:`` imports (what mypy and IDEs read) and the run-time table name the same places."""
+    tree = ast.parse(Path(fts_calib.__file__).read_text(encoding="utf-8"))
+    block = next(node for node in tree.body if isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING")
+    seen = {alias.name: "." + node.module for node in block.body if isinstance(node, ast.ImportFrom) for alias in node.names}
+    assert seen == fts_calib._WHERE
+    assert sorted([*seen, "__version__"]) == fts_calib.__all__
 
 
 def test_the_in_controller_import_loads_nothing_heavy():

@@ -139,8 +139,8 @@ def _add_calibrate(commands) -> None:
         "encoders, timing, mount; in % of full scale and N or N·m) and the joint stream's latency from the moving samples "
         "(ms), both written into the file. Exits 1 when the data cannot determine C.",
         "fts-calib calibrate --robot ur5 --tool paper_tool recording.csv -o calibration.yaml\n"
-        "  fts-calib calibrate --robot ur5 run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
-        "  fts-calib calibrate --robot ur5 --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
+        "  fts-calib calibrate --robot ur5 --tool paper_tool run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
+        "  fts-calib calibrate --robot ur5 --tool paper_tool --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
     )
     add_recording(cal)
     _robot_and_tool(cal)
@@ -180,7 +180,7 @@ def _add_live(commands) -> None:
         "through RTDE (with --ur-wrench also the channels: the built-in sensor's wrench); --configuration names the "
         "tool configuration mounted, so that one run per configuration (--resume) needs no tool datagram.",
         "fts-calib live --robot ur5 --tool paper_tool --listen 127.0.0.1:5005 -o calibration.yaml\n"
-        "  fts-calib live --robot ur5 --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml",
+        "  fts-calib live --robot ur5 --tool paper_tool --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml",
     )
     _robot_and_tool(live)
     add_sensor(live)
