@@ -226,11 +226,23 @@ def _keys(value, prefix=""):
     return set()
 
 
-def test_python_and_command_line_write_files_with_the_same_fields(tmp_path, ur5_recording):
+def test_python_and_command_line_write_files_with_the_same_fields(tmp_path, ur5_recording, ur5):
+    """The command, fts_calib.calibrate on the recording, and on its arrays in memory (a CalibrationSession, as `live`)."""
+    import pandas as pd
+
     python_file = calibrate(ur5_recording, robot="ur5", tool="paper_tool").save(tmp_path / "python.yaml")
-    assert (
-        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(tmp_path / "cli.yaml"), "--quiet"]) == 0
-    )
-    from_python, from_cli = _keys(load_yaml(python_file)), _keys(load_yaml(tmp_path / "cli.yaml"))
-    assert from_python == from_cli, f"only in Python: {sorted(from_python - from_cli)}; only in the CLI: {sorted(from_cli - from_python)}"
+    table = pd.read_csv(ur5_recording)
+    arrays = {
+        "time": table["time"].to_numpy(),
+        "joints": table[list(ur5.joint_names)].to_numpy(),
+        "channels": table[[f"strain_{k}" for k in range(1, 9)]].to_numpy(),
+        "configuration": table["tool"].tolist(),
+    }
+    arrays_file = calibrate(arrays, robot=ur5, tool="paper_tool").save(tmp_path / "arrays.yaml")
+    argv = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(tmp_path / "cli.yaml"), "--quiet"]
+    assert main(argv) == 0
+    from_cli = _keys(load_yaml(tmp_path / "cli.yaml"))
+    for label, path in (("Python", python_file), ("arrays", arrays_file)):
+        keys = _keys(load_yaml(path))
+        assert keys == from_cli, f"only in {label}: {sorted(keys - from_cli)}; only in the CLI: {sorted(from_cli - keys)}"
     assert {"quality.accuracy_budget.total_percent_fs", "quality.accuracy_budget.stream_latency_estimate.latency_ms"} <= from_cli
