@@ -210,6 +210,9 @@ def test_calibrate_from_arrays_in_memory_recovers_the_sensor(ur5, paper_tool, sh
     assert cal.quality.budget is not None and "stream_latency_estimate" in cal.quality.budget
     with pytest.raises(ShapeError, match=r"has no \['configuration'\]"):
         calibrate({k: v for k, v in arrays.items() if k != "configuration"}, robot=ur5, tool=paper_tool)
+    short = {**arrays, "channels": arrays["channels"][:-1]}
+    with pytest.raises(ShapeError, match=r"\d+ rows of channels .* expected one of each per sample"):
+        calibrate(short, robot=ur5, tool=paper_tool)
     with pytest.raises(TypeError, match="tool"):
         calibrate(arrays, robot=ur5)  # no default tool
 

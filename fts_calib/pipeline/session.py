@@ -114,8 +114,7 @@ class CalibrationSession:
         self.full_scale = as_matrix(DEFAULT_FULL_SCALE if full_scale is None else full_scale, (6,), "full_scale")
         self.budget: AccuracyBudget | None = None
         self.latency: LatencyEstimate | None = None
-        self._kept_samples = KeptSamples()  # what the measured budget is computed from
-        self._moving = MovingSamples()  # the first valid samples, for the latency estimate
+        self._kept_samples, self._moving = KeptSamples(), MovingSamples()  # for the measured budget and the latency
         self.layout = channel_layout(layout)
         self.tool = tool
         self.settings = settings or PipelineConfig()
@@ -191,7 +190,8 @@ class CalibrationSession:
                 codes = configuration_indices([str(x) for x in given], self.tool.names)
         channels = np.asarray(channels, dtype=float)
         if not (len(readings) == len(t) == len(channels) == len(codes)):
-            raise ShapeError(f"add_batch: {len(t)} times, {len(readings)} readings, {len(channels)} strains and {len(codes)} tools")
+            counts = f"{len(t)} times, {len(readings)} joint readings, {len(channels)} rows of channels and {len(codes)} configurations"
+            raise ShapeError(f"add_batch: {counts}: expected one of each per sample")
         self.add_samples(SampleBatch(t, readings, channels.reshape(len(t), -1), codes, temperature))
 
     def add_samples(self, batch: SampleBatch) -> None:
