@@ -1,6 +1,7 @@
 """The public API: a small lazy surface, the light and strict in-controller path, shipped names, one file whatever the route."""
 
 import ast
+import importlib
 import json
 import subprocess
 import sys
@@ -152,6 +153,10 @@ def test_old_keyword_names_warn_and_give_the_same_result(calibration, ur5, truth
         np.testing.assert_array_equal(ur5.g_sensor(readings=joints), ur5.g_sensor(joints))
     with pytest.warns(DeprecationWarning, match=r"strains\(\) is now channels\(\)"):
         np.testing.assert_array_equal(truth.strains(np.ones(6)), truth.channels(np.ones(6)))
+    for old, new in (("load", "tool_wrench"), ("load_errors", "sensitivities")):
+        sys.modules.pop(f"fts_calib.robot.{old}", None)
+        with pytest.warns(DeprecationWarning, match=f"fts_calib.robot.{old} is now fts_calib.robot.{new}"):
+            importlib.import_module(f"fts_calib.robot.{old}")
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the new names never warn
         reader.wrench(channels=x)

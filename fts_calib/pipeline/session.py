@@ -80,7 +80,7 @@ class CalibrationSession:
         use_filter: Keep every valid sample instead of the quasi-static ones (for comparison).
         source: What the samples come from, for the calibration's provenance.
         clock: Wall-clock function in [s] (for checkpoint timing).
-        on_kept: Called with ``(time (k,), w_sensor (k, 6), strain (k, n), configuration
+        on_kept: Called with ``(time (k,), w_sensor (k, 6), channels (k, n), configuration
             indices (k,), joints (k, n_joints))`` for the samples entering the least squares,
             in order (e.g. to plot the convergence, or for the accuracy budget); None for nothing.
         source_record: What the checkpoint records of the source, to resume only with it
