@@ -60,7 +60,7 @@ bench: $(STAMP)
 
 # The planned sweeps shipped in trajectories/ (100 Hz, gzip); tests check that planning reproduces them.
 trajectories: $(STAMP)
-	@for r in $(ROBOTS); do $(BIN)/fts-calib trajectory --robot $$r -o trajectories/$$r --rate 100 --compress | tail -n 1 || exit 1; done
+	@for r in $(ROBOTS); do $(BIN)/fts-calib trajectory --robot $$r --tool paper_tool -o trajectories/$$r --rate 100 --compress | tail -n 1 || exit 1; done
 
 clean:
 	rm -rf $(VENV) $(VENV)-floors $(OUT) .cache .pytest_cache .ruff_cache .mypy_cache build dist

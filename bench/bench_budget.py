@@ -18,14 +18,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from fts_calib.app.calibrate import recording_latency, with_budget
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.bag_log import BagTopics
 from fts_calib.model.budget import DEFAULT_TARGET_PERCENT, range_moments
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.pipeline.settings import load_pipeline_config
-from fts_calib.planning.accuracy import KeptSamples
 from fts_calib.planning.sweeps import SweepPattern
 from fts_calib.planning.trajectory import plan_trajectories
 from fts_calib.robot.definition import load_robot
@@ -55,10 +52,8 @@ def own_error(calibration, sim, full_scale) -> np.ndarray:
 
 
 def calibrate(path, kin, tool_file, pipeline, full_scale):
-    kept = KeptSamples()
-    result = calibrate_recording(path, kin, tool_file, pipeline, on_kept=kept)
-    latency = recording_latency([path], kin, tool_file, result.calibration, full_scale, BagTopics(), False)
-    return with_budget(result, kin, tool_file, kept, full_scale, latency)
+    # the session measures the budget and the latency itself, as for every route to a calibration
+    return calibrate_recording(path, kin, tool_file, pipeline, full_scale=full_scale)
 
 
 def drawn_tool(tool, rng):

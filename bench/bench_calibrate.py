@@ -44,7 +44,7 @@ def write_recording(path: Path, rows: int) -> None:
                 n = min(len(t), rows - written)
                 if n <= 0:
                     break
-                writer.write(t[:n] + offset, q[:n], sensor.strains(W[:n], rng=rng), name)
+                writer.write(t[:n] + offset, q[:n], sensor.channels(W[:n], rng=rng), name)
                 written += n
                 offset += t[-1] + 2.0
 
@@ -62,7 +62,20 @@ def main():
             "import sys; from fts_calib.app.cli import main; code = main(sys.argv[1:]); "
             "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)"
         )
-        command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", str(path), "-o", str(Path(folder) / "cal.yaml"), "--quiet"]
+        command = [
+            sys.executable,
+            "-c",
+            child,
+            "calibrate",
+            "--robot",
+            "ur5",
+            "--tool",
+            "paper_tool",
+            str(path),
+            "-o",
+            str(Path(folder) / "cal.yaml"),
+            "--quiet",
+        ]
         start = time.perf_counter()
         result = subprocess.run(command, capture_output=True, text=True)
         seconds = time.perf_counter() - start

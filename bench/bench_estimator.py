@@ -8,8 +8,9 @@ import tracemalloc
 
 import numpy as np
 
-from fts_calib import OnlineEstimator, SimulatedSensor, static_wrench
+from fts_calib import OnlineEstimator, SimulatedSensor
 from fts_calib.model.sensor import P
+from fts_calib.robot.wrench import static_wrench
 
 
 def _data(n: int, rng: np.random.Generator):
@@ -19,7 +20,7 @@ def _data(n: int, rng: np.random.Generator):
     g *= 9.81 / np.linalg.norm(g, axis=1, keepdims=True)
     coms = np.array([[0.12, 0.0, 0.0], [0.08, 0.06, 0.0], [0.08, 0.0, 0.06]])  # [m], three configurations
     W = np.vstack([static_wrench(2.0, com, part) for com, part in zip(coms, np.array_split(g, 3), strict=True)])
-    return W, sensor.strains(W, rng=rng)
+    return W, sensor.channels(W, rng=rng)
 
 
 def per_sample(W, S, repeats: int = 200, calls: int = 500) -> float:

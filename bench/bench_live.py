@@ -40,6 +40,8 @@ def main():
                 "live",
                 "--robot",
                 "ur5",
+                "--tool",
+                "paper_tool",
                 "--listen",
                 f"127.0.0.1:{port}",
                 "-o",

@@ -3,70 +3,101 @@
 The sensor stays on the robot arm; the arm sweeps its last two joints while a calibration
 tool of known mass hangs on the sensor in three centre-of-mass configurations, and an
 online least-squares estimator recovers the calibration matrix C (6 x n: 6 x 8 for the
-paper's sensor) and the offsets D (see ``paper.md``: W = C Delta + D, C = C_bar P).
+paper's sensor) and the offsets D (see ``docs/method.md``: W = C Delta + D, C = C_bar P).
 
 Conventions: SI units; wrenches ``[Fx, Fy, Fz, Mx, My, Mz]`` on the sensor, in the sensor
-frame S; sample axis first.
+frame S; sample axis first; ``channels`` are raw sensor readings, ``joints`` joint
+readings [rad].
+
+The names below are loaded on first use (PEP 562), so that the in-controller path
+(``from fts_calib import Calibration, WrenchReader``) imports neither Pinocchio nor
+pandas, ruckig, matplotlib or rosbags. Everything else stays importable from its stage,
+e.g. ``from fts_calib.planning.sizing import size_plan``.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from ._version import __version__
-from .core.exceptions import (
-    BagError,
-    ConfigError,
-    FileFormatError,
-    FrameNotFound,
-    FtsCalibError,
-    FtsCalibWarning,
-    InsufficientExcitation,
-    JointError,
-    PayloadError,
-    PoorFit,
-    ProtocolError,
-    RecordingError,
-    ResourceNotFound,
-    RobotDataNotFound,
-    ShapeError,
-    StructureError,
-    TrajectoryError,
-    UnknownToolConfiguration,
-    UnsupportedJoint,
-)
-from .feeds.bag import BagReader
-from .feeds.bag_log import BagTopics
-from .feeds.batch import SampleBatch
-from .feeds.rtde import RtdePoller, connect_ur
-from .model.budget import AccuracyBudget
-from .model.calibration import Calibration, Quality, load_calibration, save_calibration
-from .model.channels import MALTESE_CROSS_8, WRENCH_6, ChannelLayout, channel_layout
-from .model.estimator import OnlineEstimator
-from .model.jig import jig_calibration
-from .model.least_squares import information_rank
-from .model.offset_basis import OFFSET_MODELS, OffsetBasis, evaluate_offsets
-from .model.offsets import OffsetEstimate, estimate_offsets
-from .model.prior import Prior
-from .model.sensor import WRENCH_AXES, P, c_bar_from_c, c_from_c_bar, project, wrench_from_strain
-from .model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
-from .pipeline.latency import LatencyEstimate, estimate_latency
-from .pipeline.session import CalibrationSession
-from .planning.accuracy import KeptSamples, measured_budget, plan_budget
-from .planning.sizing import SizedPlan, size_plan
-from .robot.definition import load_robot
-from .robot.kinematics import Kinematics
-from .robot.load import ToolLoad, tool_load
-from .robot.tool import Tool, ToolConfiguration, load_tool, save_tool
-from .robot.wrench import dynamic_wrench, static_wrench
-from .service.ati import AtiCalibration, load_ati_calibration, read_calibration
-from .service.export import export
-from .service.payload import PayloadEstimate, identify_payload
-from .service.reader import GravityCompensator, WrenchReader
-from .sim.sensor import SimulatedSensor, load_simulated_sensor
+
+if TYPE_CHECKING:  # type checkers and IDEs see the names; at run time __getattr__ loads them
+    from .core.exceptions import (
+        ConfigError,
+        FileFormatError,
+        FrameNotFound,
+        FtsCalibError,
+        FtsCalibWarning,
+        InsufficientExcitation,
+        PoorFit,
+        RecordingError,
+        ResourceNotFound,
+        ShapeError,
+        TrajectoryError,
+        UnknownToolConfiguration,
+    )
+    from .feeds.batch import SampleBatch
+    from .model.calibration import Calibration, Quality, load_calibration
+    from .model.channels import ChannelLayout
+    from .model.estimator import OnlineEstimator
+    from .model.sensor_config import SensorSpec, load_sensor_config
+    from .pipeline.calibrate import calibrate
+    from .pipeline.session import CalibrationSession
+    from .planning.trajectory import plan_trajectories
+    from .robot.definition import RobotDefinition, load_robot
+    from .robot.kinematics import Kinematics
+    from .robot.tool import Tool, ToolConfiguration, load_tool
+    from .robot.tool_wrench import tool_load
+    from .service.export import export
+    from .service.payload import PayloadEstimate, identify_payload
+    from .service.reader import GravityCompensator, WrenchReader
+    from .sim.recording import simulate_batches
+    from .sim.sensor import SimulatedSensor, load_simulated_sensor
+
+#: Where each public name lives: name -> module (relative to the package).
+_WHERE = {
+    "Calibration": ".model.calibration",
+    "CalibrationSession": ".pipeline.session",
+    "ChannelLayout": ".model.channels",
+    "ConfigError": ".core.exceptions",
+    "FileFormatError": ".core.exceptions",
+    "FrameNotFound": ".core.exceptions",
+    "FtsCalibError": ".core.exceptions",
+    "FtsCalibWarning": ".core.exceptions",
+    "GravityCompensator": ".service.reader",
+    "InsufficientExcitation": ".core.exceptions",
+    "Kinematics": ".robot.kinematics",
+    "OnlineEstimator": ".model.estimator",
+    "PayloadEstimate": ".service.payload",
+    "PoorFit": ".core.exceptions",
+    "Quality": ".model.calibration",
+    "RecordingError": ".core.exceptions",
+    "ResourceNotFound": ".core.exceptions",
+    "RobotDefinition": ".robot.definition",
+    "SampleBatch": ".feeds.batch",
+    "SensorSpec": ".model.sensor_config",
+    "ShapeError": ".core.exceptions",
+    "SimulatedSensor": ".sim.sensor",
+    "Tool": ".robot.tool",
+    "ToolConfiguration": ".robot.tool",
+    "TrajectoryError": ".core.exceptions",
+    "UnknownToolConfiguration": ".core.exceptions",
+    "WrenchReader": ".service.reader",
+    "calibrate": ".pipeline.calibrate",
+    "export": ".service.export",
+    "identify_payload": ".service.payload",
+    "load_calibration": ".model.calibration",
+    "load_robot": ".robot.definition",
+    "load_sensor_config": ".model.sensor_config",
+    "load_simulated_sensor": ".sim.sensor",
+    "load_tool": ".robot.tool",
+    "plan_trajectories": ".planning.trajectory",
+    "simulate_batches": ".sim.recording",
+    "tool_load": ".robot.tool_wrench",
+}
 
 __all__ = [
-    "AccuracyBudget",
-    "AtiCalibration",
-    "BagError",
-    "BagReader",
-    "BagTopics",
     "Calibration",
     "CalibrationSession",
     "ChannelLayout",
@@ -77,69 +108,48 @@ __all__ = [
     "FtsCalibWarning",
     "GravityCompensator",
     "InsufficientExcitation",
-    "JointError",
-    "KeptSamples",
     "Kinematics",
-    "LatencyEstimate",
-    "MALTESE_CROSS_8",
-    "OFFSET_MODELS",
-    "OffsetBasis",
-    "OffsetEstimate",
     "OnlineEstimator",
-    "P",
-    "PayloadError",
     "PayloadEstimate",
     "PoorFit",
-    "Prior",
-    "ProtocolError",
     "Quality",
     "RecordingError",
     "ResourceNotFound",
-    "RobotDataNotFound",
-    "RtdePoller",
+    "RobotDefinition",
     "SampleBatch",
     "SensorSpec",
     "ShapeError",
     "SimulatedSensor",
-    "SimulationSpec",
-    "SizedPlan",
-    "StructureError",
     "Tool",
     "ToolConfiguration",
-    "ToolLoad",
     "TrajectoryError",
     "UnknownToolConfiguration",
-    "UnsupportedJoint",
-    "WRENCH_6",
-    "WRENCH_AXES",
     "WrenchReader",
     "__version__",
-    "c_bar_from_c",
-    "c_from_c_bar",
-    "channel_layout",
-    "connect_ur",
-    "dynamic_wrench",
-    "estimate_latency",
-    "estimate_offsets",
-    "evaluate_offsets",
+    "calibrate",
     "export",
     "identify_payload",
-    "information_rank",
-    "jig_calibration",
-    "load_ati_calibration",
     "load_calibration",
     "load_robot",
     "load_sensor_config",
     "load_simulated_sensor",
     "load_tool",
-    "measured_budget",
-    "plan_budget",
-    "project",
-    "read_calibration",
-    "save_calibration",
-    "save_tool",
-    "size_plan",
-    "static_wrench",
+    "plan_trajectories",
+    "simulate_batches",
     "tool_load",
-    "wrench_from_strain",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name from its stage on first use (PEP 562) and keep it."""
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fts_calib' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value  # later look-ups skip __getattr__
+    return value
+
+
+def __dir__() -> list[str]:
+    """The public names and the module's own attributes."""
+    return sorted(set(globals()) | set(__all__))

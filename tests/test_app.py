@@ -68,7 +68,7 @@ def test_robots_from_python(capsys):
 
 def test_trajectory_from_python_with_the_defaults(tmp_path, capsys):
     out = tmp_path / "traj"
-    assert trajectory.run(robot="ur5", out=out, rate_hz=50.0, plot=False) == ExitCode.OK
+    assert trajectory.run(robot="ur5", tool="paper_tool", out=out, rate_hz=50.0, plot=False) == ExitCode.OK
     text = capsys.readouterr().out
     assert "predicted rank 7 of 7" in text and "predicted accuracy budget" in text and "sized to the target 0.05 %" in text
     assert "largest error: " in text and "largest from strain noise alone" in text
@@ -177,13 +177,17 @@ def _errors(tmp_path, ur5_joints):
         ([*ros2, "--payload", "paper_tool", "--configuration", "Z"], ExitCode.TOOL_CONFIGURATION, "'Z'"),
         (ros2, ExitCode.CONFIG, "--payload"),
         (
-            ["calibrate", "--robot", "ur5", str(no_strain_8), "--quiet", "-o", out],
+            ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(no_strain_8), "--quiet", "-o", out],
             ExitCode.ARRAY,
             "7 channels but the sensor's layout maltese-cross-8 has 8",
         ),
         (["robots", str(tmp_path / "robot.yaml")], ExitCode.ROBOT, "no_such_frame"),
         (["tare", "--calibration", cal, str(not_finite), "-o", out], ExitCode.EXCITATION, "no still sample"),
-        (["trajectory", "--robot", "ur5", "-o", str(tmp_path / "t"), "--rate", "0"], ExitCode.TRAJECTORY, "rate=0.0 Hz"),
+        (
+            ["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path / "t"), "--rate", "0"],
+            ExitCode.TRAJECTORY,
+            "rate=0.0 Hz",
+        ),
         (["payload", "--calibration", cal, "--robot", "ur5", str(still), "-o", out], ExitCode.PAYLOAD, "orientations"),
         (["export", "--format", "json", "--calibration", cal, "-o", unwritable], ExitCode.FILE_ACCESS, "cannot write"),
     ]
@@ -232,7 +236,19 @@ def test_network_mistakes_are_one_line_with_their_code(tmp_path, capsys):
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as busy:
         busy.bind(("127.0.0.1", 0))
         port = busy.getsockname()[1]
-        live = ["live", "--robot", "ur5", "--listen", f"127.0.0.1:{port}", "-o", str(tmp_path / "l.yaml"), "--idle-timeout", "1"]
+        live = [
+            "live",
+            "--robot",
+            "ur5",
+            "--tool",
+            "paper_tool",
+            "--listen",
+            f"127.0.0.1:{port}",
+            "-o",
+            str(tmp_path / "l.yaml"),
+            "--idle-timeout",
+            "1",
+        ]
         assert cli.main(live) == ExitCode.FILE_ACCESS
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and f"cannot use udp://127.0.0.1:{port}: Address already in use" in err, err
@@ -249,10 +265,40 @@ def test_network_mistakes_are_one_line_with_their_code(tmp_path, capsys):
 
 def test_trajectory_target_error_and_a_fixed_raster(tmp_path, capsys):
     out = tmp_path / "traj"
-    unreachable = ["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--no-plot", "--target-error", "0.01"]
+    unreachable = [
+        "trajectory",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "-o",
+        str(out),
+        "--rate",
+        "50",
+        "--no-plot",
+        "--target-error",
+        "0.01",
+    ]
     assert main(unreachable) == ExitCode.TRAJECTORY
     assert "no plan meets the target of 0.01 % of full scale: sensor mount alone gives" in capsys.readouterr().err
-    fixed = ["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--no-plot", "--levels", "2", "--stops", "3", "--span", "0.5"]
+    fixed = [
+        "trajectory",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "-o",
+        str(out),
+        "--rate",
+        "50",
+        "--no-plot",
+        "--levels",
+        "2",
+        "--stops",
+        "3",
+        "--span",
+        "0.5",
+    ]
     assert main(fixed) == ExitCode.OK
     text = capsys.readouterr().out
     assert "2 levels" in text and "this fixed raster meets the target of 0.05 %" in text

@@ -128,7 +128,10 @@ def gauge_run(tmp_path_factory, short_plan, seed):
 def test_the_factory_matrix_is_recalibrated_and_validated_against_the_file(tmp_path, gauge_run, capsys):
     cal, recording, truth, kin, tool = gauge_run
     out = tmp_path / "insitu.yaml"
-    assert main(["calibrate", "--robot", "ur5", str(recording), "--sensor", str(cal), "-o", str(out), "--quiet"]) == ExitCode.OK
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(recording), "--sensor", str(cal), "-o", str(out), "--quiet"])
+        == ExitCode.OK
+    )
     ours = load_calibration(out)
     assert ours.layout == load_ati_calibration(cal).layout
     z = np.abs(ours.C_bar - truth.C_bar) / ours.quality.stderr_C_bar  # 36 coefficients at 5 sigma
@@ -161,7 +164,7 @@ def test_two_configurations_and_the_factory_file_as_the_prior(tmp_path, gauge_ru
     lines = recording.read_text().splitlines(keepends=True)
     two = tmp_path / "ab.csv"
     two.write_text("".join([lines[0], *[line for line in lines[1:] if not line.rstrip().endswith(",C")]]))
-    args = ["calibrate", "--robot", "ur5", str(two), "--sensor", str(cal), "--quiet", "--offsets", "constant"]
+    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(two), "--sensor", str(cal), "--quiet", "--offsets", "constant"]
     factory_error = np.abs(np.eye(6) - truth.C_bar).max()  # 0.0298
     assert main([*args, "-o", str(tmp_path / "plain.yaml")]) == ExitCode.CHECK_FAILED
     assert "rank 6 of 7" in capsys.readouterr().out

@@ -65,7 +65,7 @@ def _one_error_line(capsys):
 
 
 def _calibrate(path, tmp_path, *extra):
-    return main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "cal.yaml"), "--quiet", *extra])
+    return main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "cal.yaml"), "--quiet", *extra])
 
 
 # -- clock sanity ------------------------------------------------------------------------
@@ -185,7 +185,10 @@ def test_replay_options_out_of_range_are_one_line(ur5_recording, capsys, option,
 def test_trajectory_with_a_sensor_file_without_simulation_names_the_file(tmp_path, capsys):
     path = tmp_path / "plain_sensor.yaml"
     path.write_text("name: plain\nstrain_unit: mV/V\nfull_scale: {force: 50.0, moment: 5.0}\n")
-    assert main(["trajectory", "--robot", "ur5", "--sensor", str(path), "-o", str(tmp_path / "t"), "--no-plot"]) == ExitCode.FILE
+    assert (
+        main(["trajectory", "--robot", "ur5", "--tool", "paper_tool", "--sensor", str(path), "-o", str(tmp_path / "t"), "--no-plot"])
+        == ExitCode.FILE
+    )
     assert "plain_sensor.yaml: field 'simulation': missing: the excitation report needs" in _one_error_line(capsys)
     assert not (tmp_path / "t").exists()
 

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from fts_calib import BagError, Calibration, RecordingError, UnknownToolConfiguration, load_calibration
+from fts_calib import Calibration, RecordingError, UnknownToolConfiguration, load_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
+from fts_calib.core.exceptions import BagError
 from fts_calib.core.resources import resolve
 from fts_calib.feeds.bag import BagReader
 from fts_calib.feeds.bag_log import WRENCH_STAMPED, BagTopics, parse_bag_argument
@@ -91,7 +92,7 @@ def test_one_bag_per_configuration_named_on_the_command_line(tmp_path, ur5_recor
     paths = _split_by_configuration(csv, paper_tool.names, ur5.joint_names, tmp_path)
     arguments = [f"{paths[name]}:{name}" for name in ("C", "A", "B")]  # any order: read in time order
     out = tmp_path / "cal.yaml"
-    assert main(["calibrate", "--robot", "ur5", *arguments, "-o", str(out), "--quiet"]) == ExitCode.OK
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", *arguments, "-o", str(out), "--quiet"]) == ExitCode.OK
     from_bags = load_calibration(out)
     assert from_bags.provenance["source"] == " ".join(arguments)
     _same_calibration(calibrate_recording(ur5_recording, ur5, paper_tool).calibration, from_bags)
@@ -192,7 +193,10 @@ def test_what_is_neither_a_csv_nor_a_bag_is_refused(tmp_path):
         open_recording(tmp_path, None, None)
     with pytest.raises(RecordingError, match="several recordings are read only as ROS 2 bags"):
         open_recording([tmp_path / "run.txt", tmp_path / "b.mcap"], None, None)
-    assert main(["calibrate", "--robot", "ur5", str(tmp_path / "run.txt"), "-o", str(tmp_path / "c.yaml")]) == ExitCode.RECORDING
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(tmp_path / "run.txt"), "-o", str(tmp_path / "c.yaml")])
+        == ExitCode.RECORDING
+    )
 
 
 def test_a_bag_without_joint_messages_and_a_path_that_does_not_exist_are_one_line(tmp_path, capsys):
@@ -200,7 +204,7 @@ def test_a_bag_without_joint_messages_and_a_path_that_does_not_exist_are_one_lin
     with BagWriter(tmp_path / "quiet") as writer:  # the topics exist, no joint state was logged
         writer.configuration(0.0, "A")
         writer.channels(0.0, np.zeros(8))
-    run = ["calibrate", "--robot", "ur5", "-o", str(tmp_path / "c.yaml"), "--quiet"]
+    run = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path / "c.yaml"), "--quiet"]
     assert main([*run, str(tmp_path / "quiet")]) == ExitCode.RECORDING
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "quiet, topic '/joint_states': no joint message: the bag has the topic but no message on it" in err[0], err
@@ -217,7 +221,7 @@ def test_replay_sends_a_bag_as_it_sends_the_csv(bags, ur5_recording):
 
 def test_validate_a_bag_as_the_csv(tmp_path, bags, ur5_recording, capsys):
     cal = tmp_path / "cal.yaml"
-    assert main(["calibrate", "--robot", "ur5", str(ur5_recording), "-o", str(cal), "--quiet"]) == ExitCode.OK
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(cal), "--quiet"]) == ExitCode.OK
     reports = []
     for recording in (ur5_recording, bags["mcap"]):
         capsys.readouterr()
@@ -238,7 +242,18 @@ def test_resume_a_bag_checkpoint_only_with_its_own_bag(tmp_path, ur5_recording, 
                 writer.channels(t, channels)
         bags[storage] = str(writer.path)
     checkpoint = tmp_path / "cp.json"
-    run = ["calibrate", "--robot", "ur5", "-o", str(tmp_path / "cal.yaml"), "--checkpoint", str(checkpoint), "--quiet"]
+    run = [
+        "calibrate",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "-o",
+        str(tmp_path / "cal.yaml"),
+        "--checkpoint",
+        str(checkpoint),
+        "--quiet",
+    ]
     assert main([*run, bags["mcap"]]) == ExitCode.CHECK_FAILED and checkpoint.exists()
     assert main([*run, "--resume", bags["mcap"]]) == ExitCode.CHECK_FAILED  # its own bag: resumed
     assert main([*run, "--resume", bags["sqlite3"]]) == ExitCode.FILE  # the same rows in another storage: other bytes

@@ -19,7 +19,7 @@ from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.settings import FilterConfig
 from fts_calib.planning.accuracy import plan_budget, predicted_still, sample_budget
 from fts_calib.robot.definition import RobotAccuracy
-from fts_calib.robot.load_errors import stops
+from fts_calib.robot.sensitivities import stops
 from fts_calib.robot.tool import ToolTolerance
 
 from .helpers import C_BAR_TRUE, D_TRUE, P_PAPER

@@ -39,7 +39,7 @@ def test_the_filter_makes_the_error_at_least_five_times_smaller_on_a_moving_tool
 
 def test_cli_calibrate_summary_and_file(tmp_path, ur5_recording, capsys):
     out = tmp_path / "cal.yaml"
-    assert main(["calibrate", "--robot", "ur5", str(ur5_recording), "-o", str(out), "--quiet"]) == 0
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out), "--quiet"]) == 0
     text = capsys.readouterr().out
     for part in ("rows in", "kept (", "filter: joint speed", "rank 7 of 7", "residual RMS: Fx", "± standard error", "D: Fx", "wrote"):
         assert part in text, part
@@ -62,7 +62,7 @@ def test_a_recording_of_one_configuration_cannot_determine_c(tmp_path, ur5_recor
     lines = _lines(ur5_recording)
     only_a = tmp_path / "a.csv"
     only_a.write_text("".join([lines[0], *[line for line in lines[1:] if line.rstrip().endswith(",A")]]))
-    assert main(["calibrate", "--robot", "ur5", str(only_a), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 1
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(only_a), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 1
     text = capsys.readouterr().out
     assert "NO CALIBRATION: insufficient excitation: the information matrix has rank 4 of 7" in text
     assert "need a second centre of mass: mount configuration B or C" in text
@@ -82,7 +82,7 @@ def test_bad_rows_are_counted_and_the_run_goes_on(tmp_path, ur5_recording, capsy
     path = tmp_path / "bad.csv"
     path.write_text("".join(bad))
     out = tmp_path / "c.yaml"
-    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(out), "--quiet"]) == 0
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out), "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "unknown tool configuration" in text and "line 101: column 'tool': unknown tool configuration 'D'" in text
     assert "non-finite value" in text and "time going backwards" in text and "malformed line" in text
@@ -96,10 +96,13 @@ def test_missing_column_and_empty_file_are_clear_errors(tmp_path, ur5_recording,
     lines = _lines(ur5_recording)
     path = tmp_path / "no_tool.csv"
     path.write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in lines[:50]))
-    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.RECORDING
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
+        == ExitCode.RECORDING
+    )
     assert "no_tool.csv, line 1, column 'tool': missing column(s) ['tool']" in capsys.readouterr().err
     (tmp_path / "empty.csv").write_text("")
-    assert main(["calibrate", "--robot", "ur5", str(tmp_path / "empty.csv"), "--quiet"]) == ExitCode.RECORDING
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(tmp_path / "empty.csv"), "--quiet"]) == ExitCode.RECORDING
     assert "empty.csv, line 1: empty file" in capsys.readouterr().err
 
 
@@ -117,10 +120,29 @@ def test_joint_columns_in_degrees(tmp_path, ur5_recording, capsys):
     path.write_text("".join(out_lines))
     assert header[1] == "shoulder_pan_joint"
     # refused by the clock check before anything is solved: the speeds are 57x the velocity limits
-    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.RECORDING
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
+        == ExitCode.RECORDING
+    )
     captured = capsys.readouterr()
     assert "the joint columns look like degrees" in captured.err and "--joints-in-degrees" in captured.err
-    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet", "--joints-in-degrees"]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--robot",
+                "ur5",
+                "--tool",
+                "paper_tool",
+                str(path),
+                "-o",
+                str(tmp_path / "c.yaml"),
+                "--quiet",
+                "--joints-in-degrees",
+            ]
+        )
+        == 0
+    )
 
 
 def test_a_robot_with_continuous_joints_calibrates(tmp_path, capsys):
@@ -129,7 +151,25 @@ def test_a_robot_with_continuous_joints_calibrates(tmp_path, capsys):
     from fts_calib.core.resources import data_dir
 
     recording = tmp_path / "kinova.csv"
-    assert main(["simulate", "--robot", "kinova", "--trajectory", str(data_dir("trajectories") / "kinova"), "-o", str(recording)]) == 0
-    assert main(["calibrate", "--robot", "kinova", str(recording), "-o", str(tmp_path / "cal.yaml"), "--quiet"]) == ExitCode.OK
+    assert (
+        main(
+            [
+                "simulate",
+                "--robot",
+                "kinova",
+                "--tool",
+                "paper_tool",
+                "--trajectory",
+                str(data_dir("trajectories") / "kinova"),
+                "-o",
+                str(recording),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(["calibrate", "--robot", "kinova", "--tool", "paper_tool", str(recording), "-o", str(tmp_path / "cal.yaml"), "--quiet"])
+        == ExitCode.OK
+    )
     assert "fit consistent" in capsys.readouterr().out
     assert load_calibration(tmp_path / "cal.yaml").quality.rank == 7

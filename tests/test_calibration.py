@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import Calibration, ConfigError, FileFormatError, OnlineEstimator, ShapeError, load_calibration, save_calibration
+from fts_calib import Calibration, ConfigError, FileFormatError, OnlineEstimator, ShapeError, load_calibration
+from fts_calib.model.calibration import save_calibration
 
 from .helpers import C_BAR_TRUE, D_TRUE, paper_simulation
 

@@ -104,7 +104,7 @@ def test_paper_layout_is_the_paper_projection():
     assert channel_layout(None) is MALTESE_CROSS_8
     np.testing.assert_array_equal(MALTESE_CROSS_8.projection, P)
     np.testing.assert_allclose(MALTESE_CROSS_8.pinv @ np.diag([4, 2, 2, 4, 2, 2]), P.T, atol=1e-12)
-    with pytest.raises(ShapeError, match=r"strain.shape=\(6,\).*\(8,\)"):
+    with pytest.raises(ShapeError, match=r"channels.shape=\(6,\).*\(8,\)"):
         OnlineEstimator().update(np.zeros(6), np.zeros(6))
 
 

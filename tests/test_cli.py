@@ -38,7 +38,7 @@ def test_no_command_prints_help(capsys):
 
 def test_trajectory_command_writes_checked_files(tmp_path, capsys):
     out = tmp_path / "traj"
-    assert main(["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50"]) == 0
+    assert main(["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--rate", "50"]) == 0
     text = capsys.readouterr().out
     assert "predicted rank 7 of 7" in text and "duration:" in text and "clearance:" in text
     assert sorted(p.name for p in out.iterdir()) == ["A.csv", "B.csv", "C.csv", "plan.png", "plan.yaml"]
@@ -47,7 +47,9 @@ def test_trajectory_command_writes_checked_files(tmp_path, capsys):
 def test_trajectory_command_fails_a_check_and_writes_no_trajectory(tmp_path, capsys):
     out = tmp_path / "traj"
     # 40 cm of clearance cannot be met: the plan is refused, the report says why
-    assert main(["trajectory", "--robot", "ur5", "-o", str(out), "--rate", "50", "--min-clearance", "0.4", "--no-plot"]) in (
+    assert main(
+        ["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--rate", "50", "--min-clearance", "0.4", "--no-plot"]
+    ) in (
         ExitCode.CHECK_FAILED,
         ExitCode.TRAJECTORY,
     )
@@ -57,5 +59,5 @@ def test_trajectory_command_fails_a_check_and_writes_no_trajectory(tmp_path, cap
 
 
 def test_trajectory_command_rejects_a_rate_of_zero(tmp_path, capsys):
-    assert main(["trajectory", "--robot", "ur5", "-o", str(tmp_path), "--rate", "0"]) == ExitCode.TRAJECTORY
+    assert main(["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path), "--rate", "0"]) == ExitCode.TRAJECTORY
     assert "rate=0.0 Hz but expected a finite rate > 0" in capsys.readouterr().err

@@ -5,16 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from fts_calib import (
-    ConfigError,
-    InsufficientExcitation,
-    OnlineEstimator,
-    ShapeError,
-    c_from_c_bar,
-    estimate_offsets,
-    information_rank,
-    jig_calibration,
-)
+from fts_calib import ConfigError, InsufficientExcitation, OnlineEstimator, ShapeError
+from fts_calib.model.jig import jig_calibration
+from fts_calib.model.least_squares import information_rank
+from fts_calib.model.offsets import estimate_offsets
+from fts_calib.model.sensor import c_from_c_bar
 
 from .helpers import C_BAR_TRUE, COMS, D_TRUE, TOOL_MASS, paper_simulation, random_gravity, strains_eq22, tool_wrench
 
@@ -230,7 +225,7 @@ def test_nan_and_inf_strains_are_rejected_and_counted(rng):
     ("w", "s", "match"),
     [
         (np.zeros(5), np.zeros(8), r"w_sensor.shape=\(5,\)"),
-        (np.zeros(6), np.zeros((2, 8)), r"strain.shape=\(2, 8\)"),
+        (np.zeros(6), np.zeros((2, 8)), r"channels.shape=\(2, 8\)"),
     ],
 )
 def test_update_with_wrong_shapes_names_received_and_expected(w, s, match):
@@ -240,9 +235,9 @@ def test_update_with_wrong_shapes_names_received_and_expected(w, s, match):
 
 def test_batch_with_mismatched_rows_or_widths_is_a_clear_error():
     est = OnlineEstimator()
-    with pytest.raises(ShapeError, match=r"strain.shape=\(4, 7\) but expected \(8,\) or \(N, 8\)"):
+    with pytest.raises(ShapeError, match=r"channels.shape=\(4, 7\) but expected \(8,\) or \(N, 8\)"):
         est.update_batch(np.zeros((4, 6)), np.zeros((4, 7)))
-    with pytest.raises(ShapeError, match="4 rows but strain has 3"):
+    with pytest.raises(ShapeError, match="4 rows but channels has 3"):
         est.update_batch(np.zeros((4, 6)), np.zeros((3, 8)))
     with pytest.raises(ValueError, match="forgetting"):
         OnlineEstimator(forgetting=1.5)

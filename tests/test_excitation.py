@@ -21,7 +21,7 @@ def test_predicted_standard_errors_match_those_of_a_simulated_calibration(paper_
     est = OnlineEstimator()
     for config in paper_tool.configurations:
         W = config.static_wrench(g[config.name])
-        est.update_batch(W, sensor.strains(W) + noise * rng.standard_normal((len(W), 8)))
+        est.update_batch(W, sensor.channels(W) + noise * rng.standard_normal((len(W), 8)))
     q = est.solve().quality
     np.testing.assert_allclose(predicted.stderr_C_bar, q.stderr_C_bar, rtol=0.05)
     np.testing.assert_allclose(predicted.stderr_D, q.stderr_D, rtol=0.05)
@@ -41,7 +41,7 @@ def test_predicted_standard_errors_of_a_factory_wrench_sensor(paper_tool, rng):
     est = OnlineEstimator(layout=WRENCH_6)
     for config in paper_tool.configurations:
         W = config.static_wrench(g[config.name])
-        est.update_batch(W, sensor.strains(W) + noise * rng.standard_normal((len(W), 6)))
+        est.update_batch(W, sensor.channels(W) + noise * rng.standard_normal((len(W), 6)))
     q = est.solve().quality
     assert predicted.stderr_C.shape == (6, 6) and predicted.noise_std.shape == (6,)
     np.testing.assert_allclose(predicted.stderr_C_bar, q.stderr_C_bar, rtol=0.05)

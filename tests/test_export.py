@@ -7,10 +7,11 @@ import subprocess
 import numpy as np
 import pytest
 
-from fts_calib import Calibration, ConfigError, load_calibration, save_calibration
+from fts_calib import Calibration, ConfigError, load_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
+from fts_calib.model.calibration import save_calibration
 from fts_calib.model.channels import WRENCH_6
 from fts_calib.service.export import c_header, export, json_text
 from fts_calib.sim.sensor import load_simulated_sensor

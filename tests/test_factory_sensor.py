@@ -77,13 +77,13 @@ def test_recalibration_finds_the_truth(ur5, paper_tool, factory_recording, facto
     rng = np.random.default_rng(0)
     W = np.vstack([tool_wrench(c.mass, c.p_sensor_com, random_gravity(300, rng)) for c in paper_tool.configurations])
     tared_factory = np.abs(np.linalg.solve(factory.C_bar, W.T).T - W).max(axis=0)
-    recalibrated = np.abs(cal.wrench(factory.strains(W)) - W).max(axis=0)
+    recalibrated = np.abs(cal.wrench(factory.channels(W)) - W).max(axis=0)
     assert np.all(recalibrated < tared_factory / 100), (recalibrated, tared_factory)
 
 
 def test_cli_selects_the_sensor_and_names_both_channel_counts(tmp_path, factory_recording, capsys):
     out = tmp_path / "cal.yaml"
-    args = ["calibrate", "--robot", "ur5", str(factory_recording), "-o", str(out), "--quiet"]
+    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(factory_recording), "-o", str(out), "--quiet"]
     assert main([*args, "--sensor", "factory_sensor"]) == ExitCode.OK
     text = capsys.readouterr().out
     assert "Δ6" in text and "Δ7" not in text
@@ -101,7 +101,7 @@ def test_a_session_refuses_samples_of_another_width(ur5, paper_tool):
     session = CalibrationSession(ur5, paper_tool, source="robot", layout=MALTESE_CROSS_8)
     with pytest.raises(ShapeError, match=r"robot has 6 channels but the sensor's layout maltese-cross-8 has 8"):
         session.add_batch(np.zeros(3), np.zeros((3, 6)), np.zeros((3, 6)), "A")
-    with pytest.raises(ShapeError, match=r"strain.shape=\(6,\) but expected \(8,\)"):
+    with pytest.raises(ShapeError, match=r"channels.shape=\(6,\) but expected \(8,\)"):
         session.add(0.0, np.zeros(6), np.zeros(6), "A")
 
 

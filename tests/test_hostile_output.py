@@ -124,12 +124,12 @@ def test_a_second_live_run_on_the_same_output_is_refused_naming_the_first(tmp_pa
     output = tmp_path / "cal.yaml"
     first = _holder(output)
     try:
-        code = main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"])
+        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"])
         line = _error_line(capsys)
         assert code == ExitCode.OUTPUT_IN_USE
         assert line.startswith(f"fts-calib live: error: {output} is being written by another fts-calib run (process {first.pid})")
         # its checkpoint too, when given on its own
-        code = main(["calibrate", "--robot", "ur5", "x.csv", "-o", str(tmp_path / "other.yaml"), "--checkpoint", str(output)])
+        code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", "x.csv", "-o", str(tmp_path / "other.yaml"), "--checkpoint", str(output)])
         assert code == ExitCode.OUTPUT_IN_USE and f"process {first.pid}" in _error_line(capsys)
     finally:
         first.kill()  # a crash: no chance to release anything
@@ -206,7 +206,7 @@ def _still_poses(path, sensor, kin, wrench_of, rng, poses=4, rows=500):
         q = HOME + np.array([0, 0, 0, 0, 0.6 * k, -0.5 * k])
         times.append(t0 + np.arange(rows) / 1000.0)
         joints.append(np.tile(q, (rows, 1)))
-        strains.append(sensor.strains(np.tile(wrench_of(q), (rows, 1)), rng=rng))
+        strains.append(sensor.channels(np.tile(wrench_of(q), (rows, 1)), rng=rng))
         t0 += rows / 1000.0 + 1.0  # a second between the windows: the move is not in the file
     with RecordingWriter(path, kin.joint_names) as writer:
         writer.write(np.concatenate(times), np.vstack(joints), np.vstack(strains), "A")
@@ -284,7 +284,7 @@ def _validate(cal, bag, *extra):
 def test_joint_stamps_that_do_not_move_are_named_with_the_way_out(tmp_path, ur5_recording, true_cal, capsys):
     """A log of simulated time: header stamps 0 while the log time runs (before: 'hold the arm still at the stops')."""
     bag = _bag(tmp_path / "sim_time", ur5_recording, lambda k, t: 0.0)
-    code = main(["calibrate", "--robot", "ur5", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"])
+    code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"])
     line = _error_line(capsys)
     assert code == ExitCode.RECORDING
     assert line.startswith(f"fts-calib calibrate: error: {bag}, topic '/joint_states': the joints' header stamps do not move: "), line
@@ -359,7 +359,7 @@ def drifting_csv(tmp_path_factory):
 
 def test_drift_offsets_name_the_columns_the_data_cannot_separate(tmp_path, drifting_csv, capsys):
     """Before: 'rank 11 of 12 ... more quasi-static samples'."""
-    code = main(["calibrate", "--robot", "ur5", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet", "--offsets", "drift"])
+    code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet", "--offsets", "drift"])
     assert code == ExitCode.CHECK_FAILED
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last.startswith("NO CALIBRATION: insufficient excitation: the information matrix has rank 11 of 12"), last
@@ -367,7 +367,7 @@ def test_drift_offsets_name_the_columns_the_data_cannot_separate(tmp_path, drift
         "the offset columns 'temperature' and 'time^1' cannot be told apart: the temperature followed time" in last
     ), last
     assert "more quasi-static samples" not in last
-    assert main(["calibrate", "--robot", "ur5", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.OK
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.OK
 
 
 def test_undetermined_columns_of_an_exact_collinearity():
@@ -398,7 +398,7 @@ def test_a_configuration_whose_temperature_is_empty_is_named(tmp_path, drifting_
     path = tmp_path / "no_heat_b.csv"
     path.write_text("\n".join([lines[0], *(",".join(cells) for cells in rows)]) + "\n")
     n_b = sum(cells[tool] == "B" for cells in rows)
-    code = main(["calibrate", "--robot", "ur5", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
+    code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
     printed = capsys.readouterr().out
     assert code in (ExitCode.POOR_FIT, ExitCode.CHECK_FAILED)
     expected = (
@@ -429,7 +429,7 @@ def test_fields_of_a_newer_version_survive_a_load_and_save_inside_quality_too(tm
 def test_streams_that_do_not_overlap_say_so_and_refer_to_no_unprinted_notes(tmp_path, ur5_recording, capsys):
     """Joint stamps 0.9 s late (under the clock check's 1 s) on a 0.5 s bag: every channel sample before the first joint."""
     bag = _bag(tmp_path / "short", ur5_recording, lambda k, t: t + 0.9, rows=50)
-    assert main(["calibrate", "--robot", "ur5", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.CHECK_FAILED
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.CHECK_FAILED
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last == (
         "NO CALIBRATION: no usable sample: every row was skipped before the filter (strain before the first joint sample: 50): "

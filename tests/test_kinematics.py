@@ -6,7 +6,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fts_calib import FrameNotFound, FtsCalibWarning, JointError
+from fts_calib import FrameNotFound, FtsCalibWarning
+from fts_calib.core.exceptions import JointError
 from fts_calib.core.resources import resolve
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
@@ -58,7 +59,7 @@ def test_batch_and_single_paths_agree_and_rotations_stay_orthonormal(name, robot
 def test_sensor_x_axis_is_the_tool_axis_of_the_flange(ur5, rng):
     """The mount's rpy makes S's X the flange's Z (the tool axis), as the definition says."""
     reading = random_readings(ur5, 1, rng)[0]
-    q = ur5.configuration(reading)
+    q = ur5.q_from_joints(reading)
     data = ur5.model.createData()
     pin.framesForwardKinematics(ur5.model, data, q)
     flange = data.oMf[ur5.model.getFrameId("tool0")]
@@ -74,7 +75,7 @@ def test_kinova_continuous_joints_take_angles_in_rad(kinova, rng):
         a[k], b[k] = 3.5, 3.5 - 2 * math.pi  # -2.7832 rad: the same angle
         np.testing.assert_allclose(kinova.sensor_pose(a).homogeneous, kinova.sensor_pose(b).homogeneous, atol=1e-12)
         np.testing.assert_allclose(kinova.sensor_poses(np.array([a, b]))[0][0], kinova.sensor_poses(np.array([a, b]))[0][1], atol=1e-12)
-    q = kinova.configuration(reading)
+    q = kinova.q_from_joints(reading)
     assert q.shape == (kinova.model.nq,) == (9,)
 
 
@@ -148,7 +149,7 @@ def test_motion_and_dynamic_wrench_match_finite_differences_of_the_pose(name, ro
 
 
 def test_tool_wrench_matrix_equals_the_pure_function(rng):
-    from fts_calib import static_wrench
+    from fts_calib.robot.wrench import static_wrench
 
     config = ToolConfiguration("X", 1.7, np.array([0.1, -0.02, 0.05]))
     g = rng.standard_normal((5, 3))

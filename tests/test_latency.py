@@ -7,7 +7,7 @@ from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.latency import estimate_latency
-from fts_calib.robot.load import tool_load
+from fts_calib.robot.tool_wrench import tool_load
 from fts_calib.sim.sensor import load_simulated_sensor
 
 ENCODER_STEP = 2 * np.pi / 2**20  # [rad] the readings are quantized as a 20-bit encoder's
@@ -26,7 +26,7 @@ def lagged_recording(kin, tool, plan, lag_s, rng):
         late = np.stack([np.interp(plan.time - lag_s, plan.time, plan.q[:, k]) for k in range(kin.n_joints)], axis=1)
         time.append(t)
         joints.append(np.round(late / ENCODER_STEP) * ENCODER_STEP)
-        channels.append(sensor.strains(W, time=t, rng=rng))
+        channels.append(sensor.channels(W, time=t, rng=rng))
         codes.append(np.full(len(t), c))
     return np.concatenate(time), np.vstack(joints), np.vstack(channels), np.concatenate(codes)
 

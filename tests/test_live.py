@@ -178,7 +178,20 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
     (tmp_path / "pipeline.yaml").write_text(yaml.safe_dump(pipeline))
     out = tmp_path / "cal.yaml"
     checkpoint = tmp_path / "cal.yaml.checkpoint.json"
-    command = [sys.executable, "-m", "fts_calib.app.cli", "live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(out)]
+    command = [
+        sys.executable,
+        "-m",
+        "fts_calib.app.cli",
+        "live",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "--listen",
+        "127.0.0.1:0",
+        "-o",
+        str(out),
+    ]
     command += ["--pipeline", str(tmp_path / "pipeline.yaml"), "--idle-timeout", "20", "--quiet"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
 

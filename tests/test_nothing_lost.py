@@ -29,7 +29,7 @@ from .helpers import DEADLINE_S, wait_for
 
 
 def _calibrate(recording, output, *extra):
-    return main(["calibrate", "--robot", "ur5", str(recording), "-o", str(output), "--quiet", *extra])
+    return main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(recording), "-o", str(output), "--quiet", *extra])
 
 
 def _one_error_line(capsys, command):
@@ -64,7 +64,9 @@ def test_live_refuses_its_default_checkpoint_without_resume_or_restart(tmp_path,
     output = tmp_path / "cal.yaml"
     checkpoint = tmp_path / "cal.yaml.checkpoint.json"  # live's default: OUTPUT.checkpoint.json
     checkpoint.write_text("a crashed run's samples")
-    assert main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"]) == ExitCode.CONFIG
+    assert (
+        main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"]) == ExitCode.CONFIG
+    )
     line, out = _one_error_line(capsys, "live")
     assert str(checkpoint) in line and "--resume" in line and "--restart" in line, line
     assert checkpoint.read_text() == "a crashed run's samples" and "listening" not in out
@@ -186,7 +188,10 @@ def test_simulate_refuses_to_write_over_a_trajectory(tmp_path, capsys):
     shutil.copyfile(data_dir("trajectories") / "ur5" / "A.csv.gz", trajectory)
     before = trajectory.read_bytes()
     for given in (tmp_path, trajectory):  # the folder of trajectories, or the one file
-        assert main(["simulate", "--robot", "ur5", "--trajectory", str(given), "-o", str(trajectory)]) == ExitCode.CONFIG
+        assert (
+            main(["simulate", "--robot", "ur5", "--tool", "paper_tool", "--trajectory", str(given), "-o", str(trajectory)])
+            == ExitCode.CONFIG
+        )
         line, out = _one_error_line(capsys, "simulate")
         assert f"-o {trajectory} is the trajectory file A.csv.gz" in line, line
         assert trajectory.read_bytes() == before and out == ""
@@ -202,9 +207,27 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, u
         assert out == "" and not checkpoint.exists(), "work was done before the output was checked"
     assert _calibrate(ur5_recording, tmp_path / "cal.yaml", "--checkpoint", str(tmp_path)) == ExitCode.FILE_ACCESS
     assert f"cannot write {tmp_path}: it is a folder" in _one_error_line(capsys, "calibrate")[0]
-    assert main(["simulate", "--robot", "ur5", "--trajectory", str(data_dir("trajectories") / "ur5"), "-o", str(tmp_path)]) == 14
+    assert (
+        main(
+            [
+                "simulate",
+                "--robot",
+                "ur5",
+                "--tool",
+                "paper_tool",
+                "--trajectory",
+                str(data_dir("trajectories") / "ur5"),
+                "-o",
+                str(tmp_path),
+            ]
+        )
+        == 14
+    )
     assert "it is a folder" in _one_error_line(capsys, "simulate")[0]
-    assert main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(tmp_path), "--quiet"]) == ExitCode.FILE_ACCESS
+    assert (
+        main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(tmp_path), "--quiet"])
+        == ExitCode.FILE_ACCESS
+    )
     line, out = _one_error_line(capsys, "live")
     assert "it is a folder" in line and "listening" not in out
 
@@ -264,7 +287,9 @@ def test_sighup_ends_live_with_its_checkpoint_and_calibration_written(tmp_path, 
     output = tmp_path / "cal.yaml"
     thread = threading.Thread(target=feed, daemon=True)
     thread.start()
-    code = main(["live", "--robot", "ur5", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet", "--idle-timeout", "20"])
+    code = main(
+        ["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet", "--idle-timeout", "20"]
+    )
     thread.join(timeout=DEADLINE_S)
     assert not problems, problems
     out = capsys.readouterr().out

@@ -11,8 +11,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fts_calib import InsufficientExcitation, load_calibration, save_calibration
+from fts_calib import InsufficientExcitation, load_calibration
 from fts_calib.core.resources import resolve
+from fts_calib.model.calibration import save_calibration
 from fts_calib.model.estimator import OnlineEstimator
 from fts_calib.model.offset_basis import CONSTANT_ONLY, OffsetBasis, evaluate_offsets
 from fts_calib.pipeline.session import CalibrationSession
@@ -214,7 +215,7 @@ def _validation_error(calibration, sensor, offsets_at_end, rng):
     g = random_gravity(1000, rng)
     W = np.vstack([tool_wrench(TOOL_MASS, com, g) for com in COMS])
     at_end = dataclasses.replace(sensor, D=sensor.D + offsets_at_end, noise_std=0.0, adc_bits=0)
-    return np.abs(calibration.wrench(at_end.strains(W)) - W).max(axis=0) / FULL_SCALE * 100.0
+    return np.abs(calibration.wrench(at_end.channels(W)) - W).max(axis=0) / FULL_SCALE * 100.0
 
 
 def _simulated_run(short_plan, ur5, paper_tool, drift, seed, offsets="auto", temperature=True):
@@ -288,7 +289,7 @@ def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_comm
     path = simulate_recording(tmp_path / "drift.csv", ur5, paper_tool, trajectories, sensor, np.random.default_rng(7), drift=drift)
     assert path.read_text().splitlines()[0].split(",")[-2:] == ["temperature", "tool"]
     out = tmp_path / "cal.yaml"
-    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(out), "--quiet"]) == 0
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out), "--quiet"]) == 0
     printed = capsys.readouterr().out
     assert "offsets: drift (chosen by BIC" in printed and "D moved over the run" in printed and "rank 11 of 11" in printed
     calibration = load_calibration(out)
@@ -296,7 +297,9 @@ def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_comm
     end = calibration.offset_model["end"]
     moved = drift.offsets([end["time_s"]], 2)[0]
     assert np.all(np.abs(calibration.D - (sensor.D + moved)) <= 5 * calibration.quality.stderr_D)
-    assert main(["calibrate", "--robot", "ur5", str(path), "-o", str(out), "--quiet", "--offsets", "constant"]) == 15  # poor fit
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out), "--quiet", "--offsets", "constant"]) == 15
+    )  # poor fit
     assert "--offsets auto or drift models them" in capsys.readouterr().out
 
 

@@ -98,15 +98,16 @@ def _payload_recording(path, ur5, poses, rng):
             reading[4], reading[5] = a, b
             t = 1.0 * k + np.arange(300) / 1000.0
             W = payload.static_wrench(ur5.g_sensor(reading, 9.81))
-            writer.write(t, np.tile(reading, (300, 1)), sensor.strains(np.tile(W, (300, 1)), rng=rng), "payload")
+            writer.write(t, np.tile(reading, (300, 1)), sensor.channels(np.tile(W, (300, 1)), rng=rng), "payload")
     return path, payload
 
 
 def test_cli_payload_identifies_and_refuses(tmp_path, ur5, rng, capsys):
-    from fts_calib import Calibration, save_calibration
+    from fts_calib import Calibration
     from fts_calib.app.cli import main
     from fts_calib.app.exit_codes import ExitCode
     from fts_calib.core.resources import resolve
+    from fts_calib.model.calibration import save_calibration
 
     sensor = load_simulated_sensor(resolve("sensor", "configs"))
     cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
@@ -126,10 +127,11 @@ def test_cli_payload_identifies_and_refuses(tmp_path, ur5, rng, capsys):
 
 def test_a_payload_recording_with_two_configuration_names_is_refused(tmp_path, ur5, ur5_recording, capsys):
     """Before: the rows of every configuration went into one fit (a tool change's B row counted as a 7th orientation of A)."""
-    from fts_calib import Calibration, save_calibration
+    from fts_calib import Calibration
     from fts_calib.app.cli import main
     from fts_calib.app.exit_codes import ExitCode
     from fts_calib.core.resources import resolve
+    from fts_calib.model.calibration import save_calibration
 
     sensor = load_simulated_sensor(resolve("sensor", "configs"))
     cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")

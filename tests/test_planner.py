@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import ConfigError, FileFormatError, JointError, TrajectoryError
+from fts_calib import ConfigError, FileFormatError, TrajectoryError
+from fts_calib.core.exceptions import JointError
 from fts_calib.core.resources import resolve
 from fts_calib.model.budget import DEFAULT_TARGET_PERCENT
 from fts_calib.model.sensor_config import load_sensor_config

@@ -69,7 +69,7 @@ def test_any_number_of_channels_round_trips(tmp_path, rng, n):
     assert reader.n_channels == n and chunks[0].channels.shape == (50, n)
     np.testing.assert_allclose(chunks[0].channels, s, rtol=1e-9)
     with (
-        pytest.raises(ShapeError, match=rf"strain.shape=\(1, 8\) but expected \(n, {n}\)"),
+        pytest.raises(ShapeError, match=rf"channels.shape=\(1, 8\) but expected \(n, {n}\)"),
         RecordingWriter(tmp_path / "w.csv", JOINTS, n) as w,
     ):
         w.write([0.0], [[0, 0]], [[0] * 8], "A")

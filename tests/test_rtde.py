@@ -189,7 +189,7 @@ def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, mo
         monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host, fake=fake: fake))
         options = ["--ur", "ur.invalid", "--ur-wrench", "--sensor", "factory_sensor", "--configuration", name]
         timing = ["--listen", "127.0.0.1:0", "--idle-timeout", "0.3", "--quiet", *(["--resume"] if k else [])]
-        code = main(["live", "--robot", "ur5", *options, "-o", str(out), *timing])
+        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", *options, "-o", str(out), *timing])
         text = capsys.readouterr().out
         assert f"RTDE: {len(run[0]):,} controller samples" in text, text
     assert code == ExitCode.OK, text
@@ -201,7 +201,10 @@ def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, mo
 
 
 def test_ur_wrench_needs_a_six_channel_sensor(tmp_path):
-    assert main(["live", "--robot", "ur5", "--ur", "ur.invalid", "--ur-wrench", "-o", str(tmp_path / "c.yaml")]) == ExitCode.CONFIG
+    assert (
+        main(["live", "--robot", "ur5", "--tool", "paper_tool", "--ur", "ur.invalid", "--ur-wrench", "-o", str(tmp_path / "c.yaml")])
+        == ExitCode.CONFIG
+    )
 
 
 @pytest.mark.slow  # streams the 9,009-row recording over loopback (about 2 s); its seeded noise is swept in test_calibrate.py

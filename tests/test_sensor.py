@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from fts_calib import Calibration, ShapeError, StructureError, c_bar_from_c, project, wrench_from_strain
-from fts_calib.model.sensor import P_NULL
+from fts_calib import Calibration, ShapeError
+from fts_calib.core.exceptions import StructureError
+from fts_calib.model.sensor import P_NULL, c_bar_from_c, project, wrench_from_strain
 
 from .helpers import C_BAR_TRUE, D_TRUE, strains_eq22
 from .paper import TABLE_1
@@ -61,7 +62,7 @@ def test_structure_check_names_the_residual():
     ("value", "shape"), [(np.zeros(7), r"\(7,\)"), (np.zeros((3, 6)), r"\(3, 6\)"), (np.zeros((2, 2, 8)), r"\(2, 2, 8\)")]
 )
 def test_wrong_strain_shape_says_received_and_expected(value, shape):
-    with pytest.raises(ShapeError, match=rf"strain.shape={shape} but expected \(8,\) or \(N, 8\)"):
+    with pytest.raises(ShapeError, match=rf"channels.shape={shape} but expected \(8,\) or \(N, 8\)"):
         project(value)
 
 

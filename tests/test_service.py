@@ -36,7 +36,7 @@ def test_single_and_batch_paths_give_the_wrench_that_made_the_strains(world, rng
     np.testing.assert_allclose(reader.wrench_batch(strains), W, rtol=0, atol=atol)
     for s, w in zip(strains[:3], W[:3], strict=True):
         np.testing.assert_allclose(reader.wrench(s), w, rtol=0, atol=atol)
-    with pytest.raises(ShapeError, match=r"strain.shape=\(7,\) but expected \(8,\)"):
+    with pytest.raises(ShapeError, match=r"channels.shape=\(7,\) but expected \(8,\)"):
         reader.wrench(np.zeros(7))
     reader.set_offsets(cal.D + 1.0)  # after a re-tare, in a running loop: every component reads 1 more
     np.testing.assert_allclose(reader.wrench(strains[0]), W[0] + 1.0, rtol=0, atol=atol)
@@ -70,7 +70,7 @@ def test_a_slowly_moving_payload_compensates_to_the_noise_floor(world, ur5, rng)
     readings = random_readings(ur5, 5000, rng)
     R = ur5.R_world_sensor(readings)
     g = np.einsum("nji,j->ni", R, ur5.g_world(9.81))
-    strains = sensor.strains(payload.static_wrench(g), rng=rng)
+    strains = sensor.channels(payload.static_wrench(g), rng=rng)
     comp = GravityCompensator(cal, payload, ur5.g_world(9.81))
     external = comp.external_batch(strains, R)
     sigma_W = np.sqrt(np.diag(sensor.C @ np.diag(sensor.noise_std**2) @ sensor.C.T))
@@ -86,7 +86,7 @@ def test_a_push_appears_with_its_true_size_in_every_frame(world, ur5, rng):
     tip = np.array([0.15, 0.02, 0.0])  # [m] in S
     f_s = R.T @ push_world
     truth = payload.static_wrench(R.T @ ur5.g_world(9.81)) + np.concatenate([f_s, np.cross(tip, f_s)])
-    strains = sensor.strains(np.tile(truth, (200, 1)), rng=rng)
+    strains = sensor.channels(np.tile(truth, (200, 1)), rng=rng)
     comp = GravityCompensator(cal, payload, ur5.g_world(9.81))
     sensor_frame = comp.external_batch(strains, np.tile(R, (200, 1, 1))).mean(axis=0)
     world_frame = comp.external_batch(strains, np.tile(R, (200, 1, 1)), frame="world").mean(axis=0)

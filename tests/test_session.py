@@ -70,7 +70,7 @@ def test_collinear_tool_is_explained(ur5, ur5_recording, paper_tool):
     session = CalibrationSession(ur5, line)
     for c in _chunks(ur5_recording, ur5, paper_tool):
         W = np.array([line.configurations[k].static_wrench(g) for k, g in zip(c.configuration, ur5.g_sensor(c.joints), strict=True)])
-        session.add_batch(c.time, c.joints, sensor.strains(W), c.configuration)
+        session.add_batch(c.time, c.joints, sensor.channels(W), c.configuration)
     session.flush()
     p = session.progress()
     assert p.rank == 6 and "lie on one line" in p.missing

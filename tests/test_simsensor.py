@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 import yaml
 
-from fts_calib import ConfigError, FileFormatError, ShapeError, SimulatedSensor, project
+from fts_calib import ConfigError, FileFormatError, ShapeError, SimulatedSensor
 from fts_calib.core.resources import resolve
+from fts_calib.model.sensor import project
 from fts_calib.model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 
 from .helpers import C_BAR_TRUE, D_TRUE
@@ -15,7 +16,7 @@ from .paper import TABLE_1
 def test_noiseless_strains_invert_the_model_exactly(rng):
     sensor = SimulatedSensor(C_BAR_TRUE, D_TRUE, null_coupling=rng.standard_normal((2, 6)) * 1e-3, null_offset=[0.1, -0.2])
     W = rng.standard_normal((50, 6)) * 10
-    S = sensor.strains(W)
+    S = sensor.channels(W)
     np.testing.assert_allclose(project(S) @ C_BAR_TRUE.T + D_TRUE, W, atol=1e-10)
 
 
@@ -23,28 +24,28 @@ def test_null_content_is_invisible_to_the_model_but_present(rng):
     plain = SimulatedSensor(C_BAR_TRUE, D_TRUE)
     coupled = SimulatedSensor(C_BAR_TRUE, D_TRUE, null_offset=[0.1, -0.2])
     W = rng.standard_normal((5, 6))
-    assert np.max(np.abs(coupled.strains(W) - plain.strains(W))) > 0.05
-    np.testing.assert_allclose(project(coupled.strains(W)), project(plain.strains(W)), atol=1e-12)
+    assert np.max(np.abs(coupled.channels(W) - plain.channels(W))) > 0.05
+    np.testing.assert_allclose(project(coupled.channels(W)), project(plain.channels(W)), atol=1e-12)
 
 
 def test_quantization_step_and_saturation():
     sensor = SimulatedSensor(C_BAR_TRUE, adc_bits=24, adc_full_scale=1000.0 / 128)
     assert sensor.lsb == pytest.approx(2 * 1000 / 128 / 2**24)
-    S = sensor.strains(np.array([[20.0, 5, -3, 0.5, 0.2, -0.1], [1e6, 0, 0, 0, 0, 0]]))
+    S = sensor.channels(np.array([[20.0, 5, -3, 0.5, 0.2, -0.1], [1e6, 0, 0, 0, 0, 0]]))
     np.testing.assert_allclose(S[0] / sensor.lsb, np.round(S[0] / sensor.lsb), atol=1e-6)
     assert np.max(np.abs(S[1])) <= sensor.adc_full_scale
 
 
 def test_noise_has_the_configured_spread(rng):
     sensor = SimulatedSensor(C_BAR_TRUE, noise_std=np.full(8, 1e-3))
-    S = sensor.strains(np.zeros((20000, 6)), rng=rng)
+    S = sensor.channels(np.zeros((20000, 6)), rng=rng)
     # std of a std estimate from 20000 samples: 1/sqrt(40000) = 0.5%
     np.testing.assert_allclose(S.std(axis=0), 1e-3, rtol=0.03)
 
 
 def test_drift_adds_rate_times_time():
     sensor = SimulatedSensor(C_BAR_TRUE, drift_rate=np.full(8, 1e-4))
-    S = sensor.strains(np.zeros((2, 6)), time=np.array([0.0, 10.0]))
+    S = sensor.channels(np.zeros((2, 6)), time=np.array([0.0, 10.0]))
     np.testing.assert_allclose(S[1] - S[0], 1e-3)
 
 

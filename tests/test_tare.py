@@ -5,11 +5,12 @@ import re
 import numpy as np
 import pytest
 
-from fts_calib import Calibration, ConfigError, UnknownToolConfiguration, load_calibration, save_calibration
+from fts_calib import Calibration, ConfigError, UnknownToolConfiguration, load_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
 from fts_calib.feeds.recording import RecordingWriter
+from fts_calib.model.calibration import save_calibration
 from fts_calib.robot.tool import load_tool
 from fts_calib.service.tare import tare_recording
 from fts_calib.sim.sensor import load_simulated_sensor
@@ -32,7 +33,7 @@ def _recording(path, sensor, ur5, wrench, rng, rows=1500):
     drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})
     t = np.arange(rows) / 1000.0
     with RecordingWriter(path, ur5.joint_names) as writer:
-        writer.write(t, np.tile(HOME, (rows, 1)), drifted.strains(np.tile(wrench, (rows, 1)), rng=rng), "A")
+        writer.write(t, np.tile(HOME, (rows, 1)), drifted.channels(np.tile(wrench, (rows, 1)), rng=rng), "A")
     return path
 
 
@@ -80,7 +81,7 @@ def test_re_tare_from_a_live_window(setup, rng):
 
     sensor, cal = setup
     drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})
-    strains = drifted.strains(np.zeros((2000, 6)), rng=rng)
+    strains = drifted.channels(np.zeros((2000, 6)), rng=rng)
     bound, listening, stop = [], threading.Event(), threading.Event()
     rate_hz = 5000.0  # a fast sensor: the 2,000 samples take 0.4 s of the 0.8 s window
 

@@ -67,7 +67,9 @@ def main() -> int:
         listed = run([cli, "robots"], outside, env)
         for name in SHIPPED_ROBOTS:
             expect(name in listed, f"'fts-calib robots' does not list {name}:\n{listed}")
-        planned = run([cli, "trajectory", "--robot", "ur5", "-o", "traj", "--rate", "50", "--no-plot"], outside, env)
+        planned = run(
+            [cli, "trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", "traj", "--rate", "50", "--no-plot"], outside, env
+        )
         for name in ("A", "B", "C"):
             expect((outside / "traj" / f"{name}.csv").is_file(), f"trajectory wrote no {name}.csv:\n{planned}")
         demo = run([cli, "demo", "--quick", "--out", "demo"], outside, env)

@@ -8,11 +8,13 @@ arguments (``tests/test_app.py`` checks it).
 from __future__ import annotations
 
 import argparse
+import textwrap
 
 from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
+from .parser import Parser
 from .sensor_arguments import add_prior, add_sensor
 
 
@@ -28,18 +30,26 @@ def _address(text: str) -> tuple[str, int]:
 
 
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
+    """A sub-command whose help starts with its purpose in one line and an example, then the details."""
+    first = example.splitlines()[0].split("  #")[0].strip()
+    head = f"{help_text[0].upper()}{help_text[1:]}.\nexample: {first}\n\n{textwrap.fill(description, 110)}"
     return commands.add_parser(
         name,
         help=help_text,
-        description=description,
-        epilog=f"example:\n  {example}",
+        description=head,
+        epilog=f"examples:\n  {example}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
 
 
-def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True) -> None:
+def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool_required: bool = True) -> None:
     parser.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
-    parser.add_argument("--tool", default="paper_tool", help="tool file: a shipped name or a YAML path (default: paper_tool)")
+    if tool_required:
+        parser.add_argument(
+            "--tool", required=True, help="the calibration tool mounted (required): a shipped name (paper_tool) or a YAML path"
+        )
+    else:
+        parser.add_argument("--tool", default="paper_tool", help="tool file: a shipped name or a YAML path (default: paper_tool)")
     if pipeline:
         parser.add_argument("--pipeline", default="pipeline", help="pipeline configuration: filter thresholds, live settings")
 
@@ -82,7 +92,7 @@ def _add_trajectory(commands) -> None:
         "and plan.png, with the predicted accuracy budget (strain noise, tool tolerance, encoders, stream timing, mount) "
         "in % of full scale. By default the raster is the shortest whose budget meets --target-error. Exits 1 when a "
         "check fails (the CSVs are then not written).",
-        "fts-calib trajectory --robot robots/ur5.yaml --tool configs/paper_tool.yaml -o out/trajectories --rate 500 --target-error 0.05",
+        "fts-calib trajectory --robot ur5 --tool paper_tool -o out/trajectories --rate 500 --target-error 0.05",
     )
     _robot_and_tool(traj)
     traj.add_argument("-o", "--out", required=True, help="output folder")
@@ -129,9 +139,9 @@ def _add_calibrate(commands) -> None:
         "a mistyped mass, a collinear tool file). Then the measured accuracy budget (noise in the data, tool tolerance, "
         "encoders, timing, mount; in % of full scale and N or N·m) and the joint stream's latency from the moving samples "
         "(ms), both written into the file. Exits 1 when the data cannot determine C.",
-        "fts-calib calibrate --robot ur5 --tool configs/paper_tool.yaml recording.csv -o calibration.yaml\n"
-        "  fts-calib calibrate --robot ur5 run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
-        "  fts-calib calibrate --robot ur5 --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
+        "fts-calib calibrate --robot ur5 --tool paper_tool recording.csv -o calibration.yaml\n"
+        "  fts-calib calibrate --robot ur5 --tool paper_tool run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
+        "  fts-calib calibrate --robot ur5 --tool paper_tool --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
     )
     add_recording(cal)
     _robot_and_tool(cal)
@@ -170,8 +180,8 @@ def _add_live(commands) -> None:
         "every few seconds; --resume continues after a crash. With --ur HOST the joints come from a UR controller "
         "through RTDE (with --ur-wrench also the channels: the built-in sensor's wrench); --configuration names the "
         "tool configuration mounted, so that one run per configuration (--resume) needs no tool datagram.",
-        "fts-calib live --robot ur5 --tool configs/paper_tool.yaml --listen 127.0.0.1:5005 -o calibration.yaml\n"
-        "  fts-calib live --robot ur5 --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml",
+        "fts-calib live --robot ur5 --tool paper_tool --listen 127.0.0.1:5005 -o calibration.yaml\n"
+        "  fts-calib live --robot ur5 --tool paper_tool --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml",
     )
     _robot_and_tool(live)
     add_sensor(live)
@@ -224,7 +234,7 @@ def _add_simulate(commands) -> None:
         "Play planned trajectories (one CSV per tool configuration) through the kinematics with the tool's full "
         "dynamic wrench (mass, centre of mass, inertia) and the simulated sensor of the sensor file (true C, offsets, "
         "noise, 24-bit ADC, null content, drift); write a recording in exactly the format a robot produces.",
-        "fts-calib simulate --robot ur5 --tool configs/paper_tool.yaml --trajectory out/trajectories -o recording.csv",
+        "fts-calib simulate --robot ur5 --tool paper_tool --trajectory out/trajectories -o recording.csv",
     )
     _robot_and_tool(sim, pipeline=False)
     sim.add_argument("--trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
@@ -250,8 +260,7 @@ def _add_validate(commands) -> None:
         "its weight alone). Error per axis in N or N·m and in % of full scale; with two calibrations, the same "
         "between them (paper: Table 1 against Table 2); --plot writes Fx and its error (paper Figs 9-10). "
         "Exits 1 when an error exceeds --max-error, or when less than --min-coverage of the samples could be compared.",
-        "fts-calib validate --calibration calibration.yaml --robot ur5 --tool configs/validation_tool.yaml "
-        "validation.csv --plot validation.png",
+        "fts-calib validate --calibration calibration.yaml --robot ur5 --tool validation_tool validation.csv --plot validation.png",
     )
     add_recording(val)
     val.add_argument(
@@ -267,7 +276,7 @@ def _add_validate(commands) -> None:
         metavar="CALIBRATION",
         help="a reference calibration compared too, e.g. the sensor's factory ATI .cal (the same as a second --calibration)",
     )
-    _robot_and_tool(val, pipeline=False)
+    _robot_and_tool(val, pipeline=False, tool_required=False)
     val.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: its full scale (default: sensor)")
     val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
     val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")
@@ -377,7 +386,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .._version import __version__
 
     codes = "\n".join(f"  {int(entry.code):>3}  {entry.meaning}" for entry in EXIT_CODES)
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="fts-calib",
         description="In-situ calibration of six-axis strain-gauge force/torque sensors.",
         epilog=f"Run 'fts-calib COMMAND --help' for the options and an example of each command.\n\nexit codes:\n{codes}",

@@ -2,32 +2,24 @@
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-import numpy as np
-
 from ..core.exceptions import FtsCalibError, PoorFit
 from ..core.paths import check_outputs
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
-from ..feeds.source import open_recording, recording_paths
+from ..feeds.source import recording_paths
 from ..feeds.sync import AFTER_JOINTS, BEFORE_JOINTS, JOINT_GAP
-from ..model.budget import wrench_noise
 from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
 from ..pipeline.fit import FitCheck
-from ..pipeline.latency import LatencyEstimate, estimate_latency
 from ..pipeline.session import CalibrationSession
-from ..planning.accuracy import KeptSamples, measured_budget
-from ..robot.kinematics import Kinematics
-from ..robot.tool import Tool
 from .exit_codes import ExitCode, writing
 from .report import format_budget, format_offsets
 from .setup import load_prior, load_sensor, load_setup
@@ -37,7 +29,7 @@ def run(
     *,
     recording: str | Path | Sequence[str | Path],
     robot: str | Path,
-    tool: str | Path = "paper_tool",
+    tool: str | Path,
     pipeline: str | Path = "pipeline",
     output: str | Path = "calibration.yaml",
     use_filter: bool = True,
@@ -106,7 +98,6 @@ def run(
     spec = load_sensor(sensor)
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)
-    kept = KeptSamples()
     bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
     result = calibrate_recording(
         paths,
@@ -122,14 +113,10 @@ def run(
         accept_poor_fit=accept_poor_fit,
         topics=BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps),
         layout=layout,
-        on_kept=kept,
         prior=shrink,
+        full_scale=spec.full_scale,
     )
     written = None
-    if result.calibration is not None:
-        topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps)
-        latency = recording_latency(paths, kin, loaded, result.calibration, spec.full_scale, topics, joints_in_degrees)
-        result = with_budget(result, kin, loaded, kept, spec.full_scale, latency)
     if result.calibration is not None:
         with writing(output):
             written = save_calibration(result.calibration, output)
@@ -137,56 +124,6 @@ def run(
     if result.calibration is not None:
         return ExitCode.OK
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
-
-
-#: Rows read again for the latency estimate, at most: 100 s at 1 kHz (a whole sized run of three configurations
-#: holds about 60,000) has dozens of moves, enough for a spread of microseconds, and bounds the memory and time
-#: of the second read (2 million rows took 1.4 GB and 20 s).
-_LATENCY_ROWS = 100_000
-
-
-def recording_latency(paths, kin: Kinematics, tool: Tool, calibration, full_scale, topics: BagTopics, joints_in_degrees: bool):
-    """The latency of the joint stream from the recording's moving samples (read again), or None.
-
-    See :func:`fts_calib.pipeline.latency.estimate_latency`; the first :data:`_LATENCY_ROWS` rows at most.
-    """
-    parts, rows = [], 0
-    with open_recording(paths, kin.joint_names, tool.names, topics=topics, continuous=kin.continuous) as reader:
-        for batch in reader:
-            joints = np.radians(batch.joints) if joints_in_degrees else batch.joints
-            parts.append((batch.time, joints, batch.channels, batch.configuration))
-            rows += len(batch)
-            if rows >= _LATENCY_ROWS:
-                break
-    if not parts:
-        return None
-    time, joints, channels, codes = (np.concatenate(column) for column in zip(*parts, strict=True))
-    order = np.argsort(time, kind="stable")
-    return estimate_latency(kin, tool, calibration, time[order], joints[order], channels[order], codes[order], full_scale)
-
-
-def with_budget(
-    result: CalibrateResult, kin: Kinematics, tool: Tool, kept: KeptSamples, full_scale, latency: LatencyEstimate | None = None
-) -> CalibrateResult:
-    """The result with the measured accuracy budget in its calibration's quality.
-
-    Strain noise as the data show it (the filter's noise floor, else the fit's residual
-    through C), the tool's tolerance, the robot's encoders, timing and mount
-    (:func:`fts_calib.planning.accuracy.measured_budget`), and the latency of the joint
-    stream estimated from the moving samples, when there are any.
-    """
-    cal = result.calibration
-    if cal is None or cal.quality is None or len(kept) != int(result.session.kept.sum()):
-        return result  # resumed from a checkpoint: the samples before it are not at hand, no budget from a part
-    floor = None if result.session.filter is None else result.session.filter.noise_floor
-    # without a noise floor the residual stands for the noise (an upper bound: it holds every random error)
-    sigma_w = cal.quality.residual_rms if floor is None else wrench_noise(cal.C, floor)
-    budget = measured_budget(kin, tool, kept, cal, sigma_w, full_scale)
-    record = budget.to_dict()
-    if latency is not None:
-        record["stream_latency_estimate"] = latency.as_dict()
-    quality = dataclasses.replace(cal.quality, budget=record)
-    return dataclasses.replace(result, calibration=dataclasses.replace(cal, quality=quality), budget=budget, latency=latency)
 
 
 class ProgressBar:

@@ -47,8 +47,8 @@ from ..planning.trajectory_io import TrajectoryFile
 from ..robot.collision import CollisionChecker
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
-from ..robot.load import tool_load
 from ..robot.tool import load_tool
+from ..robot.tool_wrench import tool_load
 from ..service.validate import AxisErrors, ValidationResult, validate_recording
 from ..sim.drift import OffsetDrift
 from ..sim.recording import simulate_recording

@@ -26,7 +26,7 @@ from .setup import load_prior, load_sensor, load_setup
 def run(
     *,
     robot: str | Path,
-    tool: str | Path = "paper_tool",
+    tool: str | Path,
     pipeline: str | Path = "pipeline",
     listen: tuple[str, int] = ("127.0.0.1", 5005),
     output: str | Path = "calibration.yaml",
@@ -111,10 +111,14 @@ def run(
         )
     source, record = f"live udp://{host}:{port}", live_source(host, port)
     if resume:
-        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout)
+        session = CalibrationSession.resume(
+            checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout, full_scale=spec.full_scale
+        )
         print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
     else:
-        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout)
+        session = CalibrationSession(
+            kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout, full_scale=spec.full_scale
+        )
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
     sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names, n_channels=layout.n_channels)

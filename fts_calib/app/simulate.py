@@ -54,7 +54,7 @@ def run(
     robot: str | Path,
     trajectory: str | Path,
     output: str | Path,
-    tool: str | Path = "paper_tool",
+    tool: str | Path,
     sensor: str | Path = "sensor",
     noise_std: float | None = None,
     noiseless: bool = False,

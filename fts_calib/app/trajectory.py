@@ -30,7 +30,7 @@ def run(
     *,
     robot: str | Path,
     out: str | Path,
-    tool: str | Path = "paper_tool",
+    tool: str | Path,
     pipeline: str | Path = "pipeline",
     rate_hz: float = 500.0,
     target_error_percent: float | None = None,

@@ -8,6 +8,14 @@ import numpy.typing as npt
 from .exceptions import ShapeError
 
 
+def _floats(value, name: str) -> np.ndarray:
+    """``value`` as a float array; ShapeError naming ``name`` when it holds something else than numbers."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:  # a string, None inside a list, a ragged list, an object without numbers
+        raise ShapeError(f"{name} must be numbers (an array or a list), got {type(value).__name__}: {exc}") from None
+
+
 def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
     """Return ``value`` as a float array of shape (N, width) and whether it was one sample.
 
@@ -19,7 +27,7 @@ def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
     Raises:
         ShapeError: The shape is neither (width,) nor (N, width).
     """
-    array = np.asarray(value, dtype=float)
+    array = _floats(value, name)
     if array.ndim == 1 and array.shape[0] == width:
         return array[None, :], True
     if array.ndim == 2 and array.shape[1] == width:
@@ -29,7 +37,7 @@ def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
 
 def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a float array of exactly ``shape``, or raise ShapeError."""
-    array = np.asarray(value, dtype=float)
+    array = _floats(value, name)
     if array.shape != shape:
         raise ShapeError(f"{name}.shape={array.shape} but expected {shape}")
     return array

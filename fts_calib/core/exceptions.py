@@ -315,3 +315,7 @@ class ResultRefused(FtsCalibError):
     def __init__(self, reason: str):
         self.reason = reason
         super().__init__(reason)
+
+
+class NotARotation(ShapeError):
+    """A matrix given as a rotation is not one: the Frobenius norm of ``R^T R - I`` above 1e-6, or ``det R <= 0``."""

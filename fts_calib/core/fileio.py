@@ -2,6 +2,8 @@
 
 Files are written through :mod:`fts_calib.core.outputs` (whole files only, devices and FIFOs
 written in place, one writer per file); its writers are importable from here too.
+PyYAML is imported on the first YAML read or write, not with this module: the
+in-controller path (:mod:`fts_calib.service.reader`) never needs it.
 """
 
 from __future__ import annotations
@@ -14,22 +16,28 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from .exceptions import ConfigError, FileFormatError
 from .outputs import STDOUT, AtomicFile, atomic_write_bytes, atomic_write_text, new_file_mode  # noqa: F401 (re-exported)
 
+_DUMPERS: list[Any] = []  # the YAML dumper class, made on first use (PyYAML imported then)
 
-class _FlowDumper(yaml.SafeDumper):
+
+def _flow_dumper() -> Any:
     """YAML dumper that writes lists of scalars on one line (matrix rows stay readable)."""
+    if not _DUMPERS:
+        import yaml
 
+        class FlowDumper(yaml.SafeDumper):
+            pass
 
-def _represent_list(dumper: yaml.SafeDumper, data: list) -> yaml.Node:
-    flow = all(not isinstance(item, (list, dict, tuple)) for item in data)
-    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flow)
+        def represent_list(dumper: yaml.SafeDumper, data: list) -> yaml.Node:
+            flow = all(not isinstance(item, (list, dict, tuple)) for item in data)
+            return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flow)
 
-
-_FlowDumper.add_representer(list, _represent_list)
+        FlowDumper.add_representer(list, represent_list)
+        _DUMPERS.append(FlowDumper)
+    return _DUMPERS[0]
 
 
 def to_plain(value: Any) -> Any:
@@ -49,7 +57,9 @@ def to_plain(value: Any) -> Any:
 
 def dump_yaml(data: Mapping[str, Any]) -> str:
     """Render a mapping as YAML text, with numeric rows in flow style, keys in given order."""
-    return yaml.dump(to_plain(data), Dumper=_FlowDumper, sort_keys=False, allow_unicode=True, width=120)
+    import yaml
+
+    return yaml.dump(to_plain(data), Dumper=_flow_dumper(), sort_keys=False, allow_unicode=True, width=120)
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
@@ -71,6 +81,8 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     except UnicodeDecodeError as exc:  # a binary file (or a compressed one) given for a YAML file
         byte = exc.object[exc.start : exc.start + 1].hex()
         raise FileFormatError(path, None, f"not a text file (byte 0x{byte} at offset {exc.start} is not UTF-8): expected YAML") from None
+    import yaml
+
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

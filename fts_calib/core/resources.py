@@ -75,6 +75,25 @@ def resolve(name_or_path: str | Path, kind: str) -> Path:
     raise ResourceNotFound(str(name_or_path), kind.rstrip("s"), shipped(kind))
 
 
+def locate(name_or_path: str | Path, kind: str) -> Path:
+    """A file a loader reads: a shipped name (no folder, no suffix, no such file: ``ur5``) or a path as given.
+
+    Unlike :func:`resolve`, a path that does not exist is returned as it is, so that its
+    loader reports the missing file by name.
+
+    Args:
+        name_or_path: A file path, or the stem of a shipped file (e.g. 'ur5').
+        kind: 'robots' or 'configs'.
+
+    Raises:
+        ResourceNotFound: A bare name that is neither a file nor shipped; lists the shipped names.
+    """
+    path = Path(name_or_path)
+    if path.exists() or path.suffix or len(path.parts) != 1:
+        return path
+    return resolve(path, kind)
+
+
 #: Environment variable naming the example-robot-data folder (the one holding ``robots/``).
 ROBOT_DATA_ENV = "EXAMPLE_ROBOT_DATA_DIR"
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.deprecation import renamed
 from ..core.exceptions import ShapeError
 from ..core.fileio import AtomicFile
 
@@ -48,29 +49,30 @@ class RecordingWriter:
             self.abort()
             raise
 
-    def write(self, time, readings, strain, tool: str | Sequence[str], temperature=None) -> None:
+    @renamed(readings="joints", strain="channels")
+    def write(self, time, joints, channels, tool: str | Sequence[str], temperature=None) -> None:
         """Append rows.
 
         Args:
             time: Times [s], shape (n,).
-            readings: Joint readings [rad], shape (n, n_joints).
-            strain: Raw channels, shape (n, n_channels).
+            joints: Joint joints [rad], shape (n, n_joints).
+            channels: Raw channels, shape (n, n_channels).
             tool: One configuration name for all rows, or one per row.
             temperature: Sensor temperatures [°C], shape (n,): required when the file has
                 the column, refused otherwise.
 
         Raises:
-            ShapeError: ``strain`` has another number of columns than ``n_channels``, or a
+            ShapeError: ``channels`` has another number of columns than ``n_channels``, or a
                 temperature is missing or not expected.
         """
         time = np.asarray(time, dtype=float)
-        if np.shape(strain)[-1] != self.n_channels:
-            raise ShapeError(f"strain.shape={np.shape(strain)} but expected (n, {self.n_channels}): the file's strain columns")
+        if np.shape(channels)[-1] != self.n_channels:
+            raise ShapeError(f"channels.shape={np.shape(channels)} but expected (n, {self.n_channels}): the file's channels columns")
         if (temperature is None) == self.temperature:
             has = "has a" if self.temperature else "has no"
             raise ShapeError(f"temperature {'missing' if temperature is None else 'given'}: the file {has} temperature column")
         heat = [] if temperature is None else [np.asarray(temperature, dtype=float).reshape(-1, 1)]
-        table = np.column_stack([time, np.asarray(readings, dtype=float), np.asarray(strain, dtype=float), *heat])
+        table = np.column_stack([time, np.asarray(joints, dtype=float), np.asarray(channels, dtype=float), *heat])
         buffer = io.StringIO()
         fmt = ",".join(["%.6f"] + ["%.9f"] * len(self.joint_names) + ["%.9e"] * self.n_channels + ["%.4f"] * len(heat))
         if isinstance(tool, str):

@@ -20,6 +20,7 @@ from collections import Counter
 import numpy as np
 
 from ..core.arrays import as_samples
+from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, ShapeError
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .offset_basis import OffsetBasis
@@ -85,12 +86,13 @@ class SampleSums:
         self.temperature_origin: float | None = None
         self.trace = OffsetTrace()  # the offset trajectory's sample points
 
-    def update(self, w_sensor, strain, weight: float = 1.0, time=None, configuration: int = 0, temperature=None) -> bool:
+    @renamed(strain="channels")
+    def update(self, w_sensor, channels, weight: float = 1.0, time=None, configuration: int = 0, temperature=None) -> bool:
         """Add one sample (eqs 15-16).
 
         Args:
             w_sensor: Known wrench on the sensor, in [N, N, N, N m, N m, N m]. Shape (6,).
-            strain: Raw channel readings. Shape (n,), n = ``layout.n_channels``.
+            channels: Raw channel readings. Shape (n,), n = ``layout.n_channels``.
             weight: Frequency weight >= 0.
             time: Sample time [s], or None (at the time origin: no drift term).
             configuration: Index of the tool configuration mounted, in [0, K).
@@ -101,9 +103,9 @@ class SampleSums:
             and counted in ``skipped``.
         """
         wrench = np.asarray(w_sensor, dtype=float)
-        s = np.asarray(strain, dtype=float)
+        s = np.asarray(channels, dtype=float)
         if wrench.shape != (6,) or s.shape != self._strain_shape:
-            raise ShapeError(f"w_sensor.shape={wrench.shape}, strain.shape={s.shape} but expected (6,) and {self._strain_shape}")
+            raise ShapeError(f"w_sensor.shape={wrench.shape}, channels.shape={s.shape} but expected (6,) and {self._strain_shape}")
         if configuration and self.basis.n_configurations > 1:  # the checks of _codes, for one index
             self._codes(np.array([configuration]), 1)
         self.samples_seen += 1
@@ -122,12 +124,13 @@ class SampleSums:
             self._flush()
         return True
 
-    def update_batch(self, w_sensor, strain, weight=None, time=None, configuration=None, temperature=None) -> int:
+    @renamed(strain="channels")
+    def update_batch(self, w_sensor, channels, weight=None, time=None, configuration=None, temperature=None) -> int:
         """Add many samples; the sums equal those of calling :meth:`update` on each in order.
 
         Args:
             w_sensor: Known wrenches, in [N, N, N, N m, N m, N m]. Shape (N, 6).
-            strain: Raw channel readings. Shape (N, n), n = ``layout.n_channels``.
+            channels: Raw channel readings. Shape (N, n), n = ``layout.n_channels``.
             weight: Frequency weights >= 0, shape (N,); all 1 when None.
             time: Sample times [s], shape (N,), or None (no drift term).
             configuration: Tool configuration index per sample in [0, K), shape (N,); all 0
@@ -138,9 +141,9 @@ class SampleSums:
             Number of samples used; rows with a non-finite value are skipped and counted.
         """
         W, _ = as_samples(w_sensor, 6, "w_sensor")
-        S, _ = as_samples(strain, self.layout.n_channels, "strain")
+        S, _ = as_samples(channels, self.layout.n_channels, "channels")
         if W.shape[0] != S.shape[0]:
-            raise ShapeError(f"w_sensor has {W.shape[0]} rows but strain has {S.shape[0]}: expected the same N")
+            raise ShapeError(f"w_sensor has {W.shape[0]} rows but channels has {S.shape[0]}: expected the same N")
         n = W.shape[0]
         weight, time, temperature = (
             self._column(v, n, name) for v, name in ((weight, "weight"), (time, "time"), (temperature, "temperature"))

@@ -20,8 +20,10 @@ import numpy as np
 
 from ..core import validation
 from ..core.arrays import as_matrix, frozen
+from ..core.deprecation import renamed
 from ..core.exceptions import FileFormatError, ShapeError
 from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, require
+from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .sensor import WRENCH_AXES, WRENCH_UNITS, wrench_from_strain
 
@@ -151,16 +153,28 @@ class Calibration:
         if self.offset_model is not None:
             object.__setattr__(self, "offset_model", dict(self.offset_model))
 
-    def wrench(self, strain) -> np.ndarray:
+    @renamed(strain="channels")
+    def wrench(self, channels) -> np.ndarray:
         """Wrench on the sensor from raw strains, ``C Delta + D``.
 
         Args:
-            strain: Raw channel readings. Shape (n,) or (N, n), n = ``layout.n_channels``.
+            channels: Raw channel readings. Shape (n,) or (N, n), n = ``layout.n_channels``.
 
         Returns:
             ``[Fx, Fy, Fz, Mx, My, Mz]`` in S, in [N] and [N m]. Shape (6,) or (N, 6).
         """
-        return wrench_from_strain(self.C, strain, self.D)
+        return wrench_from_strain(self.C, channels, self.D)
+
+    def save(self, path: str | Path) -> Path:
+        """Write this calibration to a YAML file of format ``fts-calib/1``, atomically (:func:`save_calibration`).
+
+        Args:
+            path: Destination; its folder is created when missing.
+
+        Returns:
+            The path written.
+        """
+        return save_calibration(self, path)
 
     def with_offsets(self, D, reason: str, time: str | None = None) -> Calibration:
         """Copy with new offsets; the current ones go to ``offset_history`` with the time.
@@ -276,7 +290,7 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     """Read a calibration file of format ``fts-calib/1``.
 
     Args:
-        path: The YAML file.
+        path: The YAML file, or the name of a shipped one (``"paper_table1_calibration"``).
         rtol: Accepted mismatch between the file's C and ``C_bar @ P``, relative to max|C|.
             P is the projection of the file's ``channels`` layout (the paper's 8-bridge one
             when the field is absent, as in files written before layouts existed).
@@ -288,7 +302,7 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     Fields this version does not know (a newer version's) are kept in ``extra`` (top level)
     and ``quality.extra``, and :func:`save_calibration` writes them back.
     """
-    path = Path(path)
+    path = locate(path, "configs")
     data = load_yaml(path)
     fmt = data.get("format")
     if fmt != FORMAT:

@@ -16,13 +16,15 @@ import numpy as np
 
 from .._version import __version__
 from ..core.arrays import as_samples
+from ..core.deprecation import renamed
 from ..core.exceptions import InsufficientExcitation, ShapeError
 from .calibration import Calibration, now_iso
 from .channels import MALTESE_CROSS_8, ChannelLayout
 from .least_squares import fit_quality, information_rank
 
 
-def jig_calibration(w_sensor, strain, rcond: float = 1e-12, layout: ChannelLayout = MALTESE_CROSS_8) -> Calibration:
+@renamed(strain="channels")
+def jig_calibration(w_sensor, channels, rcond: float = 1e-12, layout: ChannelLayout = MALTESE_CROSS_8) -> Calibration:
     """Offline calibration from a jig (paper eq 9 and its first validation stage).
 
     Pure axial loads are applied step by step and the strains recorded with their offsets
@@ -31,7 +33,7 @@ def jig_calibration(w_sensor, strain, rcond: float = 1e-12, layout: ChannelLayou
 
     Args:
         w_sensor: Applied wrenches, in [N, N, N, N m, N m, N m]. Shape (N, 6).
-        strain: Strains with offsets removed. Shape (N, n), n = ``layout.n_channels``.
+        channels: Strains with offsets removed. Shape (N, n), n = ``layout.n_channels``.
         rcond: Singular values below ``rcond`` times the largest count as zero.
         layout: The sensor's channel layout; the paper's 8-bridge one by default.
 
@@ -39,9 +41,9 @@ def jig_calibration(w_sensor, strain, rcond: float = 1e-12, layout: ChannelLayou
         InsufficientExcitation: The projected strains do not span 6 directions.
     """
     W, _ = as_samples(w_sensor, 6, "w_sensor")
-    S, _ = as_samples(strain, layout.n_channels, "strain")
+    S, _ = as_samples(channels, layout.n_channels, "channels")
     if W.shape[0] != S.shape[0]:
-        raise ShapeError(f"w_sensor has {W.shape[0]} rows but strain has {S.shape[0]}: expected the same N")
+        raise ShapeError(f"w_sensor has {W.shape[0]} rows but channels has {S.shape[0]}: expected the same N")
     ok = np.all(np.isfinite(W), axis=1) & np.all(np.isfinite(S), axis=1)
     W, X = W[ok], S[ok] @ layout.projection.T
     U, s, Vt = np.linalg.svd(X, full_matrices=False)

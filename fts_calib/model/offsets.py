@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.arrays import as_samples, frozen
+from ..core.deprecation import renamed
 from ..core.exceptions import InsufficientExcitation, ShapeError
 from .channels import MALTESE_CROSS_8, ChannelLayout
 
@@ -38,7 +39,8 @@ class OffsetEstimate:
         object.__setattr__(self, "stderr_D", frozen(self.stderr_D))
 
 
-def estimate_offsets(C_bar, strain, w_sensor=None, layout: ChannelLayout = MALTESE_CROSS_8) -> OffsetEstimate:
+@renamed(strain="channels")
+def estimate_offsets(C_bar, channels, w_sensor=None, layout: ChannelLayout = MALTESE_CROSS_8) -> OffsetEstimate:
     """Re-tare: the offsets D alone, with C_bar known, from a few samples of a known load.
 
     ``D = mean(W_known - C Delta)``: the frequent use the paper stresses (offset removal
@@ -46,7 +48,7 @@ def estimate_offsets(C_bar, strain, w_sensor=None, layout: ChannelLayout = MALTE
 
     Args:
         C_bar: Known modified calibration matrix. Shape (6, 6).
-        strain: Raw channels under the known load. Shape (N, n) or (n,).
+        channels: Raw channels under the known load. Shape (N, n) or (n,).
         w_sensor: The known load in [N, N, N, N m, N m, N m], shape (N, 6) or (6,);
             zero (nothing mounted) when None.
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
@@ -55,12 +57,12 @@ def estimate_offsets(C_bar, strain, w_sensor=None, layout: ChannelLayout = MALTE
         InsufficientExcitation: No finite sample.
     """
     C = layout.c_from_c_bar(C_bar)
-    S, _ = as_samples(strain, layout.n_channels, "strain")
+    S, _ = as_samples(channels, layout.n_channels, "channels")
     W = np.zeros((len(S), 6)) if w_sensor is None else as_samples(w_sensor, 6, "w_sensor")[0]
     if len(W) == 1 and len(S) > 1:
         W = np.repeat(W, len(S), axis=0)
     if len(W) != len(S):
-        raise ShapeError(f"w_sensor has {len(W)} rows but strain has {len(S)}: expected the same N")
+        raise ShapeError(f"w_sensor has {len(W)} rows but channels has {len(S)}: expected the same N")
     residual = W - S @ C.T
     ok = np.all(np.isfinite(residual), axis=1)
     n = int(ok.sum())

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.arrays import as_matrix, as_samples, frozen
+from ..core.deprecation import renamed
 from ..core.exceptions import ShapeError, StructureError
 
 #: Projection of the 8 bridge strains onto the 6 wrench-like combinations (paper eq 6).
@@ -49,16 +50,17 @@ WRENCH_AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 WRENCH_UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
 
 
-def project(strain) -> np.ndarray:
+@renamed(strain="channels")
+def project(channels) -> np.ndarray:
     """Project raw strains onto the paper's six combinations (eq 5): ``Delta_bar = P Delta``.
 
     Args:
-        strain: Raw bridge strains, in sensor units. Shape (8,) or (N, 8).
+        channels: Raw bridge strains, in sensor units. Shape (8,) or (N, 8).
 
     Returns:
         Projected strains, shape (6,) or (N, 6).
     """
-    batch, single = as_samples(strain, 8, "strain")
+    batch, single = as_samples(channels, 8, "channels")
     out = batch @ P.T
     return out[0] if single else out
 
@@ -105,13 +107,14 @@ def c_bar_from_c(C, rtol: float = 1e-6, projection=None) -> np.ndarray:
     return C_bar
 
 
-def wrench_from_strain(C, strain, D=None) -> np.ndarray:
+@renamed(strain="channels")
+def wrench_from_strain(C, channels, D=None) -> np.ndarray:
     """Wrench from raw strains (eq 3): ``W = C Delta + D``.
 
     Args:
-        C: Calibration matrix, in [N or N m per strain unit]. Shape (6, n), n channels
+        C: Calibration matrix, in [N or N m per channels unit]. Shape (6, n), n channels
             (8 for the paper's sensor).
-        strain: Raw channel readings. Shape (n,) or (N, n).
+        channels: Raw channel readings. Shape (n,) or (N, n).
         D: Wrench offsets in [N, N, N, N m, N m, N m]. Shape (6,); zero when None.
 
     Returns:
@@ -120,7 +123,7 @@ def wrench_from_strain(C, strain, D=None) -> np.ndarray:
     C = np.asarray(C, dtype=float)
     if C.ndim != 2 or C.shape[0] != 6:
         raise ShapeError(f"C.shape={C.shape} but expected (6, n)")
-    batch, single = as_samples(strain, C.shape[1], "strain")
+    batch, single = as_samples(channels, C.shape[1], "channels")
     out = batch @ C.T
     if D is not None:
         out = out + as_matrix(D, (6,), "D")

@@ -24,9 +24,13 @@ from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError, ShapeError, StructureError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_array, read_number, read_positive, require
+from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 
 #: The keys of a sensor file and of its sections (any other is refused).
+#: Full scale per wrench axis when a sensor file gives none, [N, N, N, N m, N m, N m] (the paper's nominal range).
+DEFAULT_FULL_SCALE = (50.0, 50.0, 50.0, 5.0, 5.0, 5.0)
+
 SENSOR_FILE_KEYS = ("name", "strain_unit", "channels", "full_scale", "rate_hz", "simulation")
 FULL_SCALE_KEYS = ("force", "moment")
 SIMULATION_KEYS = ("C", "C_bar", "D", "noise_std", "null_coupling", "null_offset", "drift_rate", "adc")
@@ -185,10 +189,15 @@ def _read_simulation(raw, path: Path, layout: ChannelLayout) -> SimulationSpec:
 def load_sensor_config(path: str | Path) -> SensorSpec:
     """Read a sensor configuration file (see the module docstring).
 
+    Args:
+        path: The YAML file, or the name of a shipped one (``"sensor"``: the paper's sensor,
+            ``"factory_sensor"``: a 6-axis wrench), as ``--sensor`` on the command line.
+
     Raises:
+        ResourceNotFound: A bare name that is neither a file nor shipped (lists them).
         FileFormatError: A missing, unknown or malformed field; the message names file and field.
     """
-    path = Path(path)
+    path = locate(path, "configs")
     data = load_yaml(path)
     check_keys(data, SENSOR_FILE_KEYS, path)
     full = data.get("full_scale") or {}
@@ -196,8 +205,8 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
         raise FileFormatError(path, "full_scale", "expected {force: N, moment: N·m}")
     check_keys(full, FULL_SCALE_KEYS, path, "full_scale")
     # force and moment fill the six entries of SensorSpec.full_scale: checked here, by their names
-    force = read_positive(full.get("force", 50.0), path, "full_scale.force")
-    moment = read_positive(full.get("moment", 5.0), path, "full_scale.moment")
+    force = read_positive(full.get("force", DEFAULT_FULL_SCALE[0]), path, "full_scale.force")
+    moment = read_positive(full.get("moment", DEFAULT_FULL_SCALE[3]), path, "full_scale.moment")
     with fields_of(path, names={"projection": "channels.projection"}):
         layout = channel_layout(data.get("channels"))
     simulated = _read_simulation(data["simulation"], path, layout) if data.get("simulation") is not None else None

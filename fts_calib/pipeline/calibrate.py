@@ -11,28 +11,32 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
-from ..core.exceptions import InsufficientExcitation, PoorFit
+from ..core.exceptions import InsufficientExcitation, PoorFit, ShapeError
 from ..core.paths import check_distinct
+from ..core.resources import locate
 from ..feeds.bag_log import BagTopics
+from ..feeds.batch import SampleBatch
 from ..feeds.source import open_recording, recording_paths
 from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.prior import Prior
+from ..model.sensor_config import SensorSpec, load_sensor_config
+from ..robot.definition import RobotDefinition, load_robot
 from ..robot.kinematics import Kinematics
-from ..robot.tool import Tool
+from ..robot.tool import Tool, load_tool
 from .checkpoint import check_start, recording_source
 from .clock import clock_checked
 from .latency import LatencyEstimate
 from .session import CalibrationSession
-from .settings import PipelineConfig
+from .settings import PipelineConfig, load_pipeline_config
 
 
 class ProgressSink(Protocol):
@@ -58,7 +62,7 @@ class CalibrateResult:
         rows: Rows read.
         seconds: Wall-clock time of the run [s].
         error: Why there is no calibration, or None.
-        budget: The measured accuracy budget (the ``calibrate`` command adds it), or None.
+        budget: The measured accuracy budget (also in the calibration's quality), or None.
         latency: The joint stream's latency estimated from the moving samples, or None.
     """
 
@@ -88,6 +92,7 @@ def calibrate_recording(
     topics: BagTopics | None = None,
     layout: ChannelLayout = MALTESE_CROSS_8,
     prior: Prior | None = None,
+    full_scale=None,
 ) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
@@ -111,6 +116,8 @@ def calibrate_recording(
         layout: The sensor's channel layout; a recording of another number of channels is
             refused (ShapeError naming both).
         prior: Shrink C_bar toward a known calibration (ridge, :mod:`fts_calib.model.prior`).
+        full_scale: Full scale per wrench axis [N, N m], shape (6,), for the measured budget
+            in %; a sensor file's default when None.
 
     Raises:
         RecordingError: The file cannot be read at all (missing, no data row, a missing
@@ -134,10 +141,21 @@ def calibrate_recording(
             progress.total = max(float(reader.size), 1.0)
         record = None if checkpoint is None else recording_source(paths)
         if resume and checkpoint is not None and Path(checkpoint).exists():
-            session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout)
+            session = CalibrationSession.resume(
+                checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, full_scale=full_scale
+            )
         else:
             session = CalibrationSession(
-                kin, tool, settings, checkpoint, use_filter, source, on_kept=on_kept, source_record=record, layout=layout
+                kin,
+                tool,
+                settings,
+                checkpoint,
+                use_filter,
+                source,
+                on_kept=on_kept,
+                source_record=record,
+                layout=layout,
+                full_scale=full_scale,
             )
         chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if joints_in_degrees else c for c in reader)
         for chunk in clock_checked(reader.path, chunks, kin, settings.filter if use_filter else None, joints_in_degrees):
@@ -159,4 +177,104 @@ def calibrate_recording(
         calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
     except (InsufficientExcitation, PoorFit) as exc:
         calibration, error = None, exc
-    return CalibrateResult(calibration, session, problems, rows, time.perf_counter() - start, error)
+    seconds = time.perf_counter() - start
+    return CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency)
+
+
+def calibrate(
+    recording_or_arrays,
+    *,
+    robot,
+    tool,
+    sensor="sensor",
+    settings=None,
+    use_filter: bool = True,
+    joints_in_degrees: bool = False,
+    accept_poor_fit: bool = False,
+    prior: Prior | None = None,
+) -> Calibration:
+    """Calibrate a sensor from a recording or from arrays in memory: the ``calibrate`` command, from Python.
+
+    The calibration holds what the command writes (the fit check, the measured accuracy
+    budget, the stream-latency estimate): ``calibrate(...).save(path)`` writes the same file.
+
+    Args:
+        recording_or_arrays: A recording (CSV or CSV.gz; time, joints, ``strain_1..n``,
+            tool), ROS 2 bags, or a list of them; or arrays in memory: a
+            :class:`~fts_calib.feeds.batch.SampleBatch`, or a mapping with ``time`` [s] (N,),
+            ``joints`` [rad] (N, n_joints) in the robot's joint order, ``channels`` (N, n)
+            raw, ``configuration`` (one tool configuration name, or one per sample), and
+            optionally ``temperature`` [°C] (N,).
+        robot: A shipped robot name (``"ur5"``), a robot YAML path, a
+            :class:`~fts_calib.robot.definition.RobotDefinition` or a
+            :class:`~fts_calib.robot.kinematics.Kinematics`.
+        tool: The calibration tool: a shipped name (``"paper_tool"``), a tool YAML path or a
+            :class:`~fts_calib.robot.tool.Tool`. Required: a wrong tool gives a wrong C.
+        sensor: The sensor: a shipped name (``"sensor"``: the paper's 8 bridges), a YAML
+            path or a :class:`~fts_calib.model.sensor_config.SensorSpec` (its channel layout
+            and full scale).
+        settings: Pipeline settings: a :class:`~fts_calib.pipeline.settings.PipelineConfig`,
+            a shipped name or a YAML path; the shipped ``pipeline`` when None.
+        use_filter: Keep only the quasi-static samples (False: every valid one).
+        joints_in_degrees: The joint readings are in degrees.
+        accept_poor_fit: Return a calibration whose fit check is poor instead of raising.
+        prior: Shrink C_bar toward a known calibration (:mod:`fts_calib.model.prior`).
+
+    Returns:
+        The calibration.
+
+    Raises:
+        InsufficientExcitation: The data cannot determine C; the message says what is missing.
+        PoorFit: The data do not fit the tool's model (and ``accept_poor_fit`` is False).
+        RecordingError: A recording cannot be read (the message names file, line and column).
+        ShapeError: Arrays of inconsistent lengths or a wrong number of channels.
+        ResourceNotFound: A name that is neither a file nor shipped.
+
+    Example::
+
+        calibration = fts_calib.calibrate("recording.csv.gz", robot="ur5", tool="paper_tool")
+        calibration.save("calibration.yaml")
+    """
+    kin = robot if isinstance(robot, Kinematics) else Kinematics(robot if isinstance(robot, RobotDefinition) else load_robot(robot))
+    tool = tool if isinstance(tool, Tool) else load_tool(tool)
+    spec = sensor if isinstance(sensor, SensorSpec) else load_sensor_config(sensor)
+    if not isinstance(settings, PipelineConfig):
+        settings = load_pipeline_config(locate("pipeline" if settings is None else settings, "configs"))
+    if isinstance(recording_or_arrays, (str, Path)) or (
+        isinstance(recording_or_arrays, Sequence) and all(isinstance(p, (str, Path)) for p in recording_or_arrays)
+    ):
+        result = calibrate_recording(
+            recording_or_arrays,
+            kin,
+            tool,
+            settings,
+            use_filter=use_filter,
+            joints_in_degrees=joints_in_degrees,
+            accept_poor_fit=accept_poor_fit,
+            layout=spec.layout,
+            prior=prior,
+            full_scale=spec.full_scale,
+        )
+        if result.calibration is None:
+            raise result.error if result.error is not None else InsufficientExcitation(0, 7)
+        return result.calibration
+    session = CalibrationSession(
+        kin, tool, settings, use_filter=use_filter, source="arrays in memory", layout=spec.layout, full_scale=spec.full_scale
+    )
+    if isinstance(recording_or_arrays, SampleBatch):
+        batch = recording_or_arrays
+        session.add_samples(dataclasses.replace(batch, joints=np.radians(batch.joints)) if joints_in_degrees else batch)
+    elif isinstance(recording_or_arrays, Mapping):
+        arrays = recording_or_arrays
+        missing = [key for key in ("time", "joints", "channels", "configuration") if key not in arrays]
+        if missing:
+            raise ShapeError(f"recording_or_arrays has no {missing}: expected time, joints, channels and configuration")
+        joints = np.radians(np.asarray(arrays["joints"], dtype=float)) if joints_in_degrees else arrays["joints"]
+        session.add_batch(arrays["time"], joints, arrays["channels"], arrays["configuration"], arrays.get("temperature"))
+    else:
+        raise ShapeError(
+            f"recording_or_arrays is a {type(recording_or_arrays).__name__}: expected a recording path (or a list of them), "
+            "a SampleBatch, or a mapping with time, joints, channels and configuration"
+        )
+    session.flush()
+    return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)

@@ -3,7 +3,7 @@ r"""The constant latency between the joint and channel streams, estimated from t
 When the joint readings are ``tau`` late (the row of time t holds the joints of t - tau),
 the wrench predicted from them along a motion is late too: with the measured wrench
 ``W_meas = C Delta + D`` and the tool's moving wrench predicted from the readings
-(:func:`fts_calib.robot.load.tool_load`, the one dynamic model: mass, centre of mass,
+(:func:`fts_calib.robot.tool_wrench.tool_load`, the one dynamic model: mass, centre of mass,
 inertia, joint rates estimated from the readings as the filter does),
 
 .. math::
@@ -28,8 +28,8 @@ import numpy as np
 
 from ..model.calibration import Calibration
 from ..robot.kinematics import Kinematics
-from ..robot.load import tool_load
 from ..robot.tool import Tool
+from ..robot.tool_wrench import tool_load
 from .qsfilter import joint_rates
 
 _MIN_SPEED = 0.2  # [rad/s] a joint at least this fast: the wrench changes enough to show a lag

@@ -22,7 +22,7 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
 
 The filter never computes kinematics: :meth:`QuasiStaticFilter.process` applies rules 1-3
 and returns the joint rates of the samples it decided; the caller computes the tool's load
-along that motion (:func:`fts_calib.robot.load.tool_load`) and
+along that motion (:func:`fts_calib.robot.tool_wrench.tool_load`) and
 :meth:`QuasiStaticFilter.dynamic_rule` applies rule 4 to it
 (:func:`fts_calib.pipeline.still.quasi_static` does both).
 
@@ -46,8 +46,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..feeds.batch import SampleBatch
-from ..robot.load import ToolLoad
 from ..robot.tool import Tool
+from ..robot.tool_wrench import ToolLoad
 from .settings import FilterConfig
 
 #: The rules, in the order they are reported.

@@ -3,13 +3,13 @@
 Data flow, one way, one :class:`SampleBatch` at a time: checks (finite values in range, time
 order, known tool configuration, joint limits; :mod:`fts_calib.pipeline.checks`) -> quasi-static
 filter decisions from joint rates and strain stationarity -> the sensor motion and the
-tool's load (:func:`fts_calib.robot.load.tool_load`, the only kinematics) -> the filter's
+tool's load (:func:`fts_calib.robot.tool_wrench.tool_load`, the only kinematics) -> the filter's
 dynamic rule -> online least squares on the static wrench (paper eqs 12-18).
 
 From a controller's own loop::
 
     session = CalibrationSession(kin, tool)
-    session.add(t, joints, strain, "A")      # [s], joint readings [rad], raw strains, configuration
+    session.add(t, joints, channels, "A")    # [s], joint readings [rad], raw channels, configuration
     print(session.progress().missing)        # e.g. "need a third centre of mass not on the line through A and B"
     calibration = session.solve()
 
@@ -30,20 +30,26 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
+from ..core.arrays import as_matrix
+from ..core.deprecation import renamed
+from ..core.exceptions import FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
 from ..feeds.batch import SampleBatch, configuration_indices
+from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
 from ..model.least_squares import unexplained_strain
 from ..model.prior import Prior
+from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
-from ..robot.load import tool_load
 from ..robot.tool import Tool
+from ..robot.tool_wrench import tool_load
 from .advice import missing_words
-from .checkpoint import read_checkpoint, write_checkpoint
+from .budget import KeptSamples, MovingSamples, with_measured_budget
+from .checkpoint import read_checkpoint, restore_state, session_state, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
 from .fit import MAX_RATIO, FitCheck, check_fit, fit_rows, model_fit_sums
+from .latency import LatencyEstimate
 from .progress import Progress
 from .provenance import session_provenance
 from .qsfilter import QuasiStaticFilter
@@ -74,13 +80,20 @@ class CalibrationSession:
         use_filter: Keep every valid sample instead of the quasi-static ones (for comparison).
         source: What the samples come from, for the calibration's provenance.
         clock: Wall-clock function in [s] (for checkpoint timing).
-        on_kept: Called with ``(time (k,), w_sensor (k, 6), strain (k, n), configuration
+        on_kept: Called with ``(time (k,), w_sensor (k, 6), channels (k, n), configuration
             indices (k,), joints (k, n_joints))`` for the samples entering the least squares,
             in order (e.g. to plot the convergence, or for the accuracy budget); None for nothing.
         source_record: What the checkpoint records of the source, to resume only with it
             (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
             Samples of another number of channels are refused (ShapeError naming both).
+        full_scale: Full scale per wrench axis [N, N, N, N m, N m, N m], shape (6,), for the
+            measured accuracy budget in % (:mod:`fts_calib.pipeline.budget`); a sensor file's
+            default (50 N, 5 N m) when None.
+
+    Attributes:
+        budget: The measured accuracy budget of the last :meth:`solve`, or None.
+        latency: The stream-latency estimate of the last :meth:`solve`, or None.
     """
 
     def __init__(
@@ -95,8 +108,13 @@ class CalibrationSession:
         on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
+        full_scale=None,
     ):
         self.kin = kin
+        self.full_scale = as_matrix(DEFAULT_FULL_SCALE if full_scale is None else full_scale, (6,), "full_scale")
+        self.budget: AccuracyBudget | None = None
+        self.latency: LatencyEstimate | None = None
+        self._kept_samples, self._moving = KeptSamples(), MovingSamples()  # for the measured budget and the latency
         self.layout = channel_layout(layout)
         self.tool = tool
         self.settings = settings or PipelineConfig()
@@ -125,32 +143,34 @@ class CalibrationSession:
 
     # -- input --------------------------------------------------------------------------
 
-    def add(self, t: float, joints, strain, configuration: str, temperature: float | None = None) -> None:
+    @renamed(strain="channels")
+    def add(self, t: float, joints, channels, configuration: str, temperature: float | None = None) -> None:
         """Add one sample.
 
         Args:
             t: Time [s].
             joints: Joint readings [rad], (n_joints,) or a mapping joint name -> value.
-            strain: Raw channels, (n,), n = ``layout.n_channels``.
+            channels: Raw channels, (n,), n = ``layout.n_channels``.
             configuration: Tool configuration name.
             temperature: Sensor temperature [°C] (for the drift offset model), or None.
         """
-        readings, _ = self.kin.readings(joints)
-        channels = np.array(strain, dtype=float)  # a copy: a controller may refill its buffer for the next tick
+        readings, _ = self.kin.joint_array(joints)
+        channels = np.array(channels, dtype=float)  # a copy: a controller may refill its buffer for the next tick
         if channels.shape != (self.layout.n_channels,):
-            raise ShapeError(f"strain.shape={channels.shape} but expected ({self.layout.n_channels},), the {self.layout.name} layout")
+            raise ShapeError(f"channels.shape={channels.shape} but expected ({self.layout.n_channels},), the {self.layout.name} layout")
         code = int(configuration_indices([configuration], self.tool.names)[0])
         self._staged.append((float(t), readings[0].copy(), channels, code, math.nan if temperature is None else float(temperature)))
         if len(self._staged) >= _STAGE:
             self._flush_staged()
 
-    def add_batch(self, t, joints, strain, configuration, temperature=None) -> None:
+    @renamed(strain="channels")
+    def add_batch(self, t, joints, channels, configuration, temperature=None) -> None:
         """Add many samples, in time order.
 
         Args:
             t: Times [s], shape (n,).
             joints: Joint readings [rad], shape (n, n_joints) or a mapping of (n,) arrays.
-            strain: Raw channels, shape (n, n_channels).
+            channels: Raw channels, shape (n, n_channels).
             configuration: Configuration names (one, or one per sample) or indices in the
                 tool's order.
             temperature: Sensor temperatures [°C], shape (n,), or None.
@@ -158,7 +178,7 @@ class CalibrationSession:
         Raises:
             ShapeError: The arrays do not have one row per time.
         """
-        readings, _ = self.kin.readings(joints)
+        readings, _ = self.kin.joint_array(joints)
         t = np.asarray(t, dtype=float).reshape(-1)
         if isinstance(configuration, str):
             codes = np.repeat(configuration_indices([configuration], self.tool.names), len(t))
@@ -168,10 +188,11 @@ class CalibrationSession:
                 codes = given.astype(np.int64)
             else:
                 codes = configuration_indices([str(x) for x in given], self.tool.names)
-        strain = np.asarray(strain, dtype=float)
-        if not (len(readings) == len(t) == len(strain) == len(codes)):
-            raise ShapeError(f"add_batch: {len(t)} times, {len(readings)} readings, {len(strain)} strains and {len(codes)} tools")
-        self.add_samples(SampleBatch(t, readings, strain.reshape(len(t), -1), codes, temperature))
+        channels = np.asarray(channels, dtype=float)
+        if not (len(readings) == len(t) == len(channels) == len(codes)):
+            counts = f"{len(t)} times, {len(readings)} joint readings, {len(channels)} rows of channels and {len(codes)} configurations"
+            raise ShapeError(f"add_batch: {counts}: expected one of each per sample")
+        self.add_samples(SampleBatch(t, readings, channels.reshape(len(t), -1), codes, temperature))
 
     def add_samples(self, batch: SampleBatch) -> None:
         """Add a batch from a feed (configuration indices in the tool's order), in time order."""
@@ -202,7 +223,9 @@ class CalibrationSession:
                 int(batch.configuration[i]),
                 None if batch.temperature is None else float(batch.temperature[i]),
             )
-            self._accumulate(batch.select(ok), final=False)
+            valid = batch.select(ok)
+            self._moving.add(valid.time, valid.joints, valid.channels, valid.configuration)
+            self._accumulate(valid, final=False)
         self._maybe_checkpoint()
 
     def _accumulate(self, batch: SampleBatch, final: bool) -> None:
@@ -216,6 +239,7 @@ class CalibrationSession:
             return
         codes = kept.configuration
         self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature)
+        self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints)
         self.kept += np.bincount(codes, minlength=len(self.kept))
@@ -279,7 +303,11 @@ class CalibrationSession:
         return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
-        """The calibration from everything kept so far, with its fit check in the quality.
+        """The calibration from everything kept so far, with its fit check, measured budget and latency in the quality.
+
+        The measured accuracy budget and the stream-latency estimate
+        (:func:`fts_calib.pipeline.budget.with_measured_budget`) are left out only for a
+        session resumed from a checkpoint (the samples before it are not at hand).
 
         Args:
             accept_poor_fit: Return a calibration whose fit is poor (its quality records the
@@ -309,6 +337,10 @@ class CalibrationSession:
         calibration = replace(calibration, quality=quality, provenance={**calibration.provenance, **self._provenance})
         if not check.ok and not accept_poor_fit:
             raise PoorFit(check, calibration)
+        noise_floor = None if self.filter is None else self.filter.noise_floor
+        calibration, self.budget, self.latency = with_measured_budget(
+            calibration, self.kin, self.tool, self._kept_samples, int(self.kept.sum()), noise_floor, self._moving, self.full_scale
+        )
         return calibration
 
     def _strains_unexplained(self) -> bool:
@@ -332,21 +364,7 @@ class CalibrationSession:
         """Write the checkpoint now (atomically); None without a checkpoint path."""
         if self.checkpoint_path is None:
             return None
-        last = self.checks.last_time
-        state = {
-            "robot": self.kin.robot.name,
-            "tool": self.tool.name,
-            "source": self.source_record,
-            "configurations": self.tool.names,
-            "estimator": self.estimator.state(),
-            "kept": self.kept.tolist(),
-            "seen": self.seen,
-            "skipped": dict(self.checks.skipped),
-            "directions": self._directions.tolist(),
-            "fit_sums": self._fit_sums.tolist(),
-            "last_time": None if last == -math.inf else last,
-            "filter": None if self.filter is None else self.filter.state(),
-        }
+        state = session_state(self)
         self._last_checkpoint = self._clock()
         return write_checkpoint(self.checkpoint_path, state)
 
@@ -361,6 +379,7 @@ class CalibrationSession:
         clock: Callable[[], float] = _time.monotonic,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
+        full_scale=None,
     ) -> CalibrationSession:
         """A session continuing from a checkpoint; samples up to its last time are skipped.
 
@@ -375,26 +394,6 @@ class CalibrationSession:
         state = read_checkpoint(path, kin.robot.name, tool, source_record)
         record = source_record if source_record is not None else state.get("source")
         use_filter = state.get("filter") is not None
-        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout)
-        try:
-            session.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
-            if "basis" in state["estimator"]:  # a checkpoint of an older version has constant offsets only
-                estimator.offsets = session.settings.offsets.model
-            m = 10 + estimator.basis.n_drift
-            session._fit_sums = np.zeros((len(tool.configurations), m, m))
-            session.kept = np.array(state["kept"], dtype=np.int64)
-            session.seen = int(state["seen"])
-            session.checks.skipped = Counter({str(k): int(v) for k, v in state["skipped"].items()})
-            session._directions = np.array(state["directions"], dtype=float)
-            if "fit_sums" in state:
-                session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)
-        except (KeyError, TypeError, ValueError) as exc:
-            raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
-        if session.estimator.layout != session.layout:
-            found, expected = session.estimator.layout.name, session.layout.name
-            raise FileFormatError(path, "estimator.channels", f"is of a {found} sensor but the sensor is {expected}: give its --sensor")
-        if state.get("last_time") is not None:
-            session.checks.last_time = session.checks.resume_time = float(state["last_time"])
-        if session.filter is not None and state.get("filter"):
-            session.filter.restore(state["filter"])
+        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout, full_scale=full_scale)
+        restore_state(session, state, path)
         return session

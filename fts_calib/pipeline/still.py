@@ -1,7 +1,7 @@
 """Quasi-static samples: the filter's decisions, the sensor motion and the tool's load, in that order.
 
 The one place that joins the three: :class:`QuasiStaticFilter` decides from joint rates and
-strain stationarity (rules 1-3), :func:`fts_calib.robot.load.tool_load` computes the
+strain stationarity (rules 1-3), :func:`fts_calib.robot.tool_wrench.tool_load` computes the
 tool's load along the motion of the still samples (the only kinematics), and the filter's
 dynamic rule (4) judges that load. The calibration session, tare and payload
 identification all take their samples from :func:`quasi_static`.
@@ -15,8 +15,8 @@ import numpy as np
 
 from ..feeds.batch import SampleBatch
 from ..robot.kinematics import Kinematics
-from ..robot.load import tool_load
 from ..robot.tool import Tool
+from ..robot.tool_wrench import tool_load
 from .qsfilter import QuasiStaticFilter
 
 

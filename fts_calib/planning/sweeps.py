@@ -95,7 +95,7 @@ def sweep_ranges(kin: Kinematics, home: np.ndarray, margin: float) -> np.ndarray
     return np.array(out)
 
 
-def wrist_ranges(kin: Kinematics, checker: CollisionChecker, reading: np.ndarray, full: np.ndarray, min_clearance: float) -> RangeReport:
+def wrist_ranges(kin: Kinematics, checker: CollisionChecker, joints: np.ndarray, full: np.ndarray, min_clearance: float) -> RangeReport:
     """Narrow the first sweep joint's range to where the tool and last links clear the wrist.
 
     The largest interval where they stay clear for every angle of the second sweep joint (a
@@ -109,7 +109,7 @@ def wrist_ranges(kin: Kinematics, checker: CollisionChecker, reading: np.ndarray
     second = np.linspace(full[1, 0], full[1, 1], _WRIST_SECOND)
     worst = []
     for value in first:
-        grid = np.repeat(reading[None, :], len(second), axis=0)
+        grid = np.repeat(joints[None, :], len(second), axis=0)
         grid[:, index[0]] = value
         grid[:, index[1]] = second
         worst.append(checker.clearance(grid, "wrist"))

@@ -24,6 +24,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from ..core.deprecation import renamed
 from ..core.exceptions import FrameNotFound
 from .joints import locked_configuration
 from .kinematics import Kinematics
@@ -153,18 +154,19 @@ class CollisionChecker:
         """
         return list(self._groups[group][2])
 
-    def clearance(self, readings, group: str = "all") -> Clearance:
-        """The smallest distance over the readings, and where.
+    @renamed(readings="joints")
+    def clearance(self, joints, group: str = "all") -> Clearance:
+        """The smallest distance over the joint readings, and where.
 
         Args:
-            readings: Joint readings, (n_joints,) or (N, n_joints).
+            joints: Joint readings [rad], (n_joints,) or (N, n_joints).
             group: Which pairs (see :meth:`pairs`).
 
         Returns:
             The minimum over readings and pairs (inf distance when there is no pair).
         """
         geometry, data, names = self._groups[group]
-        theta, _ = self.kin.readings(readings)
+        theta, _ = self.kin.joint_array(joints)
         best = Clearance(np.inf, ("", ""), -1)
         if not names:
             return best

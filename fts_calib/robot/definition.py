@@ -39,7 +39,7 @@ from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number, require
-from ..core.resources import example_robot_data_dir
+from ..core.resources import example_robot_data_dir, locate
 
 #: Prefix of URDF paths inside the example-robot-data package.
 ROBOT_DATA_PREFIX = "example-robot-data:"
@@ -309,12 +309,17 @@ def _vector3(raw: Any, path: Path, field_name: str, angles: bool) -> np.ndarray:
 def load_robot(path: str | Path) -> RobotDefinition:
     """Read and check a robot definition file (see the module docstring).
 
+    Args:
+        path: The YAML file, or the name of a shipped robot (``"ur5"``: ``robots/ur5.yaml``,
+            as ``--robot ur5`` on the command line).
+
     Raises:
+        ResourceNotFound: A bare name that is neither a file nor a shipped robot (lists them).
         FileFormatError: A missing, unknown or malformed field (a sensor ``rpy`` in degrees),
             or a URDF that does not exist; the message names the file and the field.
         RobotDataNotFound: The URDF is in example-robot-data, which is not installed.
     """
-    path = Path(path)
+    path = locate(path, "robots")
     data = load_yaml(path)
     check_keys(data, ROBOT_KEYS, path)
     base = path.resolve().parent

@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.arrays import frozen
-from ..core.exceptions import FtsCalibWarning, JointError
+from ..core.exceptions import FtsCalibWarning, JointError, UnsupportedJoint
 from .definition import LimitSpec
 
 #: Readings of a bounded revolute joint beyond this magnitude look like degrees.
@@ -241,3 +241,30 @@ def warn_problems(
         detail = ", ".join(f"{n}: {c}" for n, c in by_joint.items())
         warnings.warn(f"{rows} reading(s) outside the joint limits ({detail})", FtsCalibWarning, stacklevel=stacklevel + 1)
     return ReadingCheck(rows, by_joint, degrees)
+
+
+def joint_infos(model: pin.Model) -> list[JointInfo]:
+    """The actuated joints of a model, in order: name, kind, axis, limits, indices.
+
+    Raises:
+        UnsupportedJoint: A joint is neither revolute, continuous nor prismatic.
+    """
+    data = model.createData()
+    q0 = pin.neutral(model)
+    pin.computeJointJacobians(model, data, q0)
+    infos = []
+    for jid in range(1, model.njoints):
+        joint = model.joints[jid]
+        short = joint.shortname()
+        name = model.names[jid]
+        if joint.nv != 1 or not (short.startswith("JointModelR") or short.startswith("JointModelP")):
+            raise UnsupportedJoint(f"joint '{name}' is a {short}; only revolute, continuous and prismatic joints are supported")
+        column = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, joint.idx_v]
+        prismatic = short.startswith("JointModelP")
+        axis = column[:3] if prismatic else column[3:]
+        axis = axis / np.linalg.norm(axis)
+        kind = "prismatic" if prismatic else ("continuous" if joint.nq == 2 else "revolute")
+        lower = -math.inf if kind == "continuous" else float(model.lowerPositionLimit[joint.idx_q])
+        upper = math.inf if kind == "continuous" else float(model.upperPositionLimit[joint.idx_q])
+        infos.append(JointInfo(name, kind, frozen(axis), lower, upper, float(model.velocityLimit[joint.idx_v]), joint.idx_q, joint.idx_v))
+    return infos

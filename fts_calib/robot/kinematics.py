@@ -21,17 +21,27 @@ by hand.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from ..core.arrays import frozen
-from ..core.exceptions import FrameNotFound, ShapeError, UnsupportedJoint
+from ..core.deprecation import renamed, renamed_method
+from ..core.exceptions import FileFormatError, FrameNotFound, ShapeError
 from ._batch import Chain
-from .definition import RobotDefinition
-from .joints import JointInfo, ReadingCheck, find_problems, known_joints, locked_configuration, reading_array, resolve_limits, warn_problems
+from .definition import RobotDefinition, SensorMount
+from .joints import (
+    ReadingCheck,
+    find_problems,
+    joint_infos,
+    known_joints,
+    locked_configuration,
+    reading_array,
+    resolve_limits,
+    warn_problems,
+)
 
 
 @dataclass(frozen=True)
@@ -56,8 +66,16 @@ class SensorMotion:
 class Kinematics:
     """Forward kinematics of a robot definition, for one reading or a batch.
 
+    Three ways to build one, from what a user already holds::
+
+        kin = Kinematics(load_robot("ur5"))                       # a shipped name or a robot YAML
+        kin = Kinematics.from_urdf("arm.urdf", parent_frame="tool0", xyz=(0, 0, 0.02))  # [m]
+        kin = Kinematics.from_model(model, parent_frame="tool0")  # an existing pin.Model (copied)
+
     Args:
         robot: A robot definition (see :func:`fts_calib.robot.definition.load_robot`).
+        model: A Pinocchio model of the robot to use instead of reading ``robot.urdf``
+            (copied: the sensor frame is added to the copy); None reads the URDF.
 
     Attributes:
         full_model: The URDF's model, every joint included (the locked ones too).
@@ -71,14 +89,14 @@ class Kinematics:
         UnsupportedJoint: A joint is neither revolute, continuous nor prismatic.
     """
 
-    def __init__(self, robot: RobotDefinition):
+    def __init__(self, robot: RobotDefinition, model: pin.Model | None = None):
         self.robot = robot
-        full = pin.buildModelFromUrdf(str(robot.urdf))
+        full = pin.buildModelFromUrdf(str(robot.urdf)) if model is None else pin.Model(model)
         self.full_model = full
         lock_ids, q_lock = locked_configuration(full, robot.locked_joints)
         model = pin.buildReducedModel(full, lock_ids, q_lock) if lock_ids else full
         self.model = model
-        self.joints = tuple(self._joint_info(model))
+        self.joints = tuple(joint_infos(model))
         self.joint_names = tuple(j.name for j in self.joints)
         self._index = {name: i for i, name in enumerate(self.joint_names)}
         self.sensor_frame_id = self._add_sensor_frame(model, robot)
@@ -96,29 +114,56 @@ class Kinematics:
 
     # -- construction -------------------------------------------------------------------
 
-    @staticmethod
-    def _joint_info(model: pin.Model) -> list[JointInfo]:
-        data = model.createData()
-        q0 = pin.neutral(model)
-        pin.computeJointJacobians(model, data, q0)
-        infos = []
-        for jid in range(1, model.njoints):
-            joint = model.joints[jid]
-            short = joint.shortname()
-            name = model.names[jid]
-            if joint.nv != 1 or not (short.startswith("JointModelR") or short.startswith("JointModelP")):
-                raise UnsupportedJoint(f"joint '{name}' is a {short}; only revolute, continuous and prismatic joints are supported")
-            column = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, joint.idx_v]
-            prismatic = short.startswith("JointModelP")
-            axis = column[:3] if prismatic else column[3:]
-            axis = axis / np.linalg.norm(axis)
-            kind = "prismatic" if prismatic else ("continuous" if joint.nq == 2 else "revolute")
-            lower = -math.inf if kind == "continuous" else float(model.lowerPositionLimit[joint.idx_q])
-            upper = math.inf if kind == "continuous" else float(model.upperPositionLimit[joint.idx_q])
-            infos.append(
-                JointInfo(name, kind, frozen(axis), lower, upper, float(model.velocityLimit[joint.idx_v]), joint.idx_q, joint.idx_v)
-            )
-        return infos
+    @classmethod
+    def from_urdf(
+        cls, urdf: str | Path, parent_frame: str, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0), name: str | None = None, **fields: Any
+    ) -> Kinematics:
+        """Kinematics of a URDF with the sensor mounted on one of its frames, no robot YAML needed.
+
+        Args:
+            urdf: The URDF file.
+            parent_frame: The URDF frame the sensor is attached to (e.g. 'tool0').
+            xyz: Origin of the sensor frame S in the parent frame [m]. Shape (3,).
+            rpy: Roll, pitch, yaw from the parent frame to S [rad]. Shape (3,).
+            name: The robot's name; the URDF's file name when None.
+            **fields: Other :class:`~fts_calib.robot.definition.RobotDefinition` fields
+                (``sweep_joints``, ``home``, ``locked_joints``, ``limits``, ``accuracy``...).
+
+        Raises:
+            FileFormatError: The URDF does not exist.
+            FrameNotFound: ``parent_frame`` is not in the URDF (lists the frames).
+        """
+        path = Path(urdf)
+        if not path.is_file():
+            raise FileFormatError(path, None, "URDF file not found")
+        mount = SensorMount(parent_frame=parent_frame, xyz=np.asarray(xyz, dtype=float), rpy=np.asarray(rpy, dtype=float))
+        fields.setdefault("package_dirs", (path.resolve().parent,))
+        return cls(RobotDefinition(name=name or path.stem, urdf=path, sensor=mount, urdf_spec=str(path), **fields))
+
+    @classmethod
+    def from_model(
+        cls, model: pin.Model, parent_frame: str, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0), name: str | None = None, **fields: Any
+    ) -> Kinematics:
+        """Kinematics of an existing Pinocchio model with the sensor mounted on one of its frames.
+
+        The model is copied (the sensor frame is added to the copy). Without a URDF there is
+        no collision geometry: planning (:mod:`fts_calib.planning`) needs :meth:`from_urdf`
+        or a robot YAML; calibrating, the budget and the service path do not.
+
+        Args:
+            model: The robot's model (revolute, continuous and prismatic joints).
+            parent_frame: The model frame the sensor is attached to.
+            xyz: Origin of the sensor frame S in the parent frame [m]. Shape (3,).
+            rpy: Roll, pitch, yaw from the parent frame to S [rad]. Shape (3,).
+            name: The robot's name; the model's when None.
+            **fields: Other :class:`~fts_calib.robot.definition.RobotDefinition` fields.
+
+        Raises:
+            FrameNotFound: ``parent_frame`` is not in the model (lists the frames).
+        """
+        mount = SensorMount(parent_frame=parent_frame, xyz=np.asarray(xyz, dtype=float), rpy=np.asarray(rpy, dtype=float))
+        robot = RobotDefinition(name=name or model.name or "robot", urdf=Path(), sensor=mount, urdf_spec="(a pin.Model)", **fields)
+        return cls(robot, model=model)
 
     @staticmethod
     def _add_sensor_frame(model: pin.Model, robot: RobotDefinition) -> int:
@@ -136,18 +181,20 @@ class Kinematics:
 
     # -- collision geometry: placed by forward kinematics --------------------------------
 
-    def distances(self, reading, geometry: pin.GeometryModel, geometry_data: pin.GeometryData) -> int:
+    @renamed(reading="joints")
+    def distances(self, joints, geometry: pin.GeometryModel, geometry_data: pin.GeometryData) -> int:
         """Distances of every collision pair of ``geometry`` at one reading.
 
         Fills ``geometry_data.distanceResults`` and returns the index of the closest pair.
         """
-        theta, single = self.readings(reading)
+        theta, single = self.joint_array(joints)
         if not single:
             raise ShapeError(f"distances takes one reading; got {len(theta)}")
         q = theta[0] if self._plain_q else self._q(theta)[0]
         return int(pin.computeDistances(self.model, self.data, geometry, geometry_data, q))
 
-    def jacobian(self, reading) -> np.ndarray:
+    @renamed(reading="joints")
+    def jacobian(self, joints) -> np.ndarray:
         """Jacobian of the sensor frame at one reading, axes of the world, origin of S.
 
         ``[v; omega] = J qdot``: linear velocity of the origin of S and angular velocity, in
@@ -156,16 +203,17 @@ class Kinematics:
         Returns:
             Shape (6, n_joints).
         """
-        theta, single = self.readings(reading)
+        theta, single = self.joint_array(joints)
         if not single:
             raise ShapeError(f"jacobian takes one reading; got {len(theta)}")
         q = theta[0] if self._plain_q else self._q(theta)[0]
         return pin.computeFrameJacobian(self.model, self.data, q, self.sensor_frame_id, pin.LOCAL_WORLD_ALIGNED)
 
-    def joint_axis_world(self, reading, joint_name: str) -> np.ndarray:
+    @renamed(reading="joints")
+    def joint_axis_world(self, joints, joint_name: str) -> np.ndarray:
         """Unit axis of a joint in the world frame at one reading. Shape (3,)."""
         self._check_names([joint_name], "joint")
-        self.sensor_pose(reading)  # runs forwardKinematics on this reading
+        self.sensor_pose(joints)  # runs forwardKinematics on this reading
         jid = self.model.getJointId(joint_name)
         return self.data.oMi[jid].rotation @ self.joints[self._index[joint_name]].axis
 
@@ -181,30 +229,38 @@ class Kinematics:
         """Number of actuated joints (one reading each)."""
         return len(self.joints)
 
-    def readings(self, readings) -> tuple[np.ndarray, bool]:
+    def joint_array(self, joints) -> tuple[np.ndarray, bool]:
         """Joint readings as a float array (N, n_joints), and whether it was one reading.
 
         Args:
-            readings: An array (n_joints,) or (N, n_joints) in :attr:`joint_names` order, or
+            joints: An array (n_joints,) or (N, n_joints) in :attr:`joint_names` order, or
                 a mapping joint name -> value or -> array (N,).
 
         Raises:
             JointError: Unknown or missing joint names, or the wrong number of values; the
                 message lists the expected joints.
         """
-        if type(readings) is np.ndarray and readings.dtype == np.float64 and readings.shape == (self.n_joints,):
-            return readings[None, :], True  # the common single reading, without further checks
-        return reading_array(readings, self.joint_names)
+        if type(joints) is np.ndarray and joints.dtype == np.float64 and joints.shape == (self.n_joints,):
+            return joints[None, :], True  # the common single reading, without further checks
+        return reading_array(joints, self.joint_names)
 
-    def configuration(self, readings) -> np.ndarray:
-        """Pinocchio configurations from joint readings (continuous joints -> cos, sin).
+    readings = renamed_method("readings", joint_array)
+
+    @renamed(readings="joints")
+    def q_from_joints(self, joints) -> np.ndarray:
+        """Pinocchio's configuration vector q from joint readings (continuous joints -> cos, sin).
+
+        Args:
+            joints: Joint readings [rad], (n_joints,) or (N, n_joints), or a mapping.
 
         Returns:
             q, shape (nq,) for one reading or (N, nq) for a batch.
         """
-        theta, single = self.readings(readings)
+        theta, single = self.joint_array(joints)
         q = self._q(theta)
         return q[0] if single else q
+
+    configuration = renamed_method("configuration", q_from_joints)
 
     def _q(self, theta: np.ndarray) -> np.ndarray:
         if self._plain_q:
@@ -227,23 +283,25 @@ class Kinematics:
         """
         return find_problems(theta, self.joint_names, self.limits, self._bounded)
 
-    def check_readings(self, readings) -> ReadingCheck:
+    @renamed(readings="joints")
+    def check_readings(self, joints) -> ReadingCheck:
         """Warn about readings outside the joint limits or that look like degrees.
 
         Emits one :class:`FtsCalibWarning` per kind of problem and returns the counts.
         """
-        theta, _ = self.readings(readings)
+        theta, _ = self.joint_array(joints)
         return warn_problems(theta, self.joint_names, self.limits, self._bounded, stacklevel=2)
 
     # -- one reading: Pinocchio ---------------------------------------------------------
 
-    def sensor_pose(self, readings) -> pin.SE3:
+    @renamed(readings="joints")
+    def sensor_pose(self, joints) -> pin.SE3:
         """``T_world_sensor`` for one reading, through Pinocchio.
 
         Args:
-            readings: One reading, (n_joints,) or a mapping joint name -> value.
+            joints: One reading [rad], (n_joints,) or a mapping joint name -> value.
         """
-        theta, single = self.readings(readings)
+        theta, single = self.joint_array(joints)
         if not single:
             raise ShapeError(f"sensor_pose takes one reading; got {len(theta)} (use sensor_poses for a batch)")
         return self._pose_one(theta[0])
@@ -255,28 +313,30 @@ class Kinematics:
 
     # -- batches: vectorised recursion --------------------------------------------------
 
-    def sensor_poses(self, readings) -> tuple[np.ndarray, np.ndarray]:
+    @renamed(readings="joints")
+    def sensor_poses(self, joints) -> tuple[np.ndarray, np.ndarray]:
         """Poses of S in the world for a batch, by the vectorised recursion.
 
         Args:
-            readings: (N, n_joints) or a mapping joint name -> (N,).
+            joints: Joint readings [rad], (N, n_joints) or a mapping joint name -> (N,).
 
         Returns:
             ``(R_world_sensor (N, 3, 3), p_world_sensor (N, 3))`` in [m].
         """
-        theta, _ = self.readings(readings)
+        theta, _ = self.joint_array(joints)
         return self._chain.poses(theta)
 
-    def R_world_sensor(self, readings) -> np.ndarray:
+    @renamed(readings="joints")
+    def R_world_sensor(self, joints) -> np.ndarray:
         """Orientation of the sensor frame in the world.
 
         Args:
-            readings: One reading (n_joints,) or a batch (N, n_joints), or a mapping.
+            joints: One reading [rad] (n_joints,) or a batch (N, n_joints), or a mapping.
 
         Returns:
             ``R_world_sensor``, shape (3, 3) or (N, 3, 3).
         """
-        theta, single = self.readings(readings)
+        theta, single = self.joint_array(joints)
         if single:
             return self._pose_one(theta[0]).rotation
         return self._chain.rotations(theta)
@@ -292,36 +352,38 @@ class Kinematics:
             cached = self._g_cache[gravity] = g
         return cached
 
-    def g_sensor(self, readings, gravity: float | None = None) -> np.ndarray:
+    @renamed(readings="joints")
+    def g_sensor(self, joints, gravity: float | None = None) -> np.ndarray:
         """Gravity in the sensor frame, ``R_world_sensor.T @ g_world``, in [m/s^2].
 
         Args:
-            readings: One reading or a batch (see :meth:`readings`).
+            joints: One reading or a batch [rad] (see :meth:`joint_array`).
             gravity: Magnitude of gravity [m/s^2] (e.g. the tool file's); the model's when None.
 
         Returns:
             Shape (3,) or (N, 3).
         """
         g = self.g_world(gravity)
-        theta, single = self.readings(readings)
+        theta, single = self.joint_array(joints)
         if single:
             return self._pose_one(theta[0]).rotation.T.dot(g)
         return self._chain.in_sensor(theta, g)
 
-    def sensor_motion(self, readings, velocities, accelerations) -> SensorMotion:
+    @renamed(readings="joints")
+    def sensor_motion(self, joints, velocities, accelerations) -> SensorMotion:
         """Spatial velocity and classical acceleration of S, expressed in S.
 
         Args:
-            readings: Joint positions, one (n_joints,) or a batch (N, n_joints), or a mapping.
-            velocities: Joint velocities [rad/s or m/s], same shape as the readings.
+            joints: Joint positions [rad], one (n_joints,) or a batch (N, n_joints), or a mapping.
+            velocities: Joint velocities [rad/s or m/s], same shape as ``joints``.
             accelerations: Joint accelerations [rad/s^2 or m/s^2], same shape.
 
         Returns:
             :class:`SensorMotion` with arrays (3,) for one reading or (N, 3) for a batch.
         """
-        theta, single = self.readings(readings)
-        dtheta, _ = self.readings(velocities)
-        ddtheta, _ = self.readings(accelerations)
+        theta, single = self.joint_array(joints)
+        dtheta, _ = self.joint_array(velocities)
+        ddtheta, _ = self.joint_array(accelerations)
         if dtheta.shape != theta.shape or ddtheta.shape != theta.shape:
             raise ShapeError(f"positions {theta.shape}, velocities {dtheta.shape} and accelerations {ddtheta.shape} must match")
         if single:

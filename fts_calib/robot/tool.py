@@ -8,6 +8,12 @@ collision checks, a cylinder along X of S from the sensor out (default: around t
 centres of mass), and optional ``tolerance`` ``{mass [kg], com [m]}``: how well the tool is
 known, for the accuracy budget (:class:`ToolTolerance`). Any other key (a typo such as ``mas``) is refused with the known keys.
 
+One quantity, two spellings, one rule: a file's keys are short because a tool file is in S
+throughout (``com``, ``inertia``); in code the frame is in the name, as everywhere in
+fts-calib (:attr:`ToolConfiguration.p_sensor_com`, ``inertia_com``). The loader maps
+``com`` -> ``p_sensor_com`` and ``inertia`` -> ``inertia_com``, and an error about the
+Python field names the file's key.
+
 Identifiability (paper eqs 18-20): one centre of mass gives the estimator rank 4, two
 give 6, and the full rank 7 needs three centres of mass that are not on one line.
 """
@@ -25,6 +31,7 @@ from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning, UnknownToolConfiguration
 from ..core.fileio import atomic_write_text, check_keys, dump_yaml, fields_of, load_yaml, read_array, read_number, require
+from ..core.resources import locate
 from .wrench import apply_wrench_matrix, dynamic_wrench, wrench_matrix
 
 #: Default magnitude of gravity in [m/s^2].
@@ -257,12 +264,17 @@ def load_tool(path: str | Path) -> Tool:
     Warns (:class:`FtsCalibWarning`) when the centres of mass are collinear: the
     calibration can then reach rank 6 at most.
 
+    Args:
+        path: The YAML file, or the name of a shipped tool (``"paper_tool"``:
+            ``configs/paper_tool.yaml``, as ``--tool paper_tool`` on the command line).
+
     Raises:
+        ResourceNotFound: A bare name that is neither a file nor a shipped tool (lists them).
         FileFormatError: A missing field, an unknown key (e.g. ``mas``: the known keys are
             listed), a non-positive mass, a wrong shape, a duplicate configuration name; the
             message names the file and the field.
     """
-    path = Path(path)
+    path = locate(path, "configs")
     data = load_yaml(path)
     check_keys(data, TOOL_KEYS, path)
     name = str(require(data, "name", path))

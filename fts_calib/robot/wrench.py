@@ -25,7 +25,6 @@ At rest (omega = alpha = a = 0) the moving wrench equals the static one.
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
 from ..core.arrays import as_matrix, as_samples
 
@@ -37,6 +36,8 @@ def wrench_matrix(mass: float, p_sensor_com) -> np.ndarray:
         mass: Tool mass in [kg].
         p_sensor_com: Centre of mass of the tool in the sensor frame, in [m]. Shape (3,).
     """
+    import pinocchio as pin  # here, not at the top: the in-controller path (service.reader) imports this module
+
     c = as_matrix(p_sensor_com, (3,), "p_sensor_com")
     return mass * np.vstack([np.eye(3), pin.skew(c)])
 

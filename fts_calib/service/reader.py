@@ -1,6 +1,6 @@
-r"""In service: wrenches from strains inside a control loop, and gravity compensation of a payload.
+r"""In service: wrenches from raw channels inside a control loop, and gravity compensation of a payload.
 
-Frames and units: strains raw; wrenches ``[Fx, Fy, Fz, Mx, My, Mz]`` in [N] and [N m], the
+Frames and units: channels raw; wrenches ``[Fx, Fy, Fz, Mx, My, Mz]`` in [N] and [N m], the
 load on the sensor expressed in the sensor frame S with the moment about its origin, unless
 asked otherwise. The external wrench (a hand pushing the tool, a contact) is what the
 sensor measures less the payload's weight at the current orientation:
@@ -14,7 +14,10 @@ the sensor origin), or about a tool point p given in S (``M_p = M - p \times F``
 
 The one-sample methods write into buffers the object owns and allocate nothing per call
 once the inputs are float64 arrays: the returned array is that buffer, overwritten by the
-next call (copy it to keep it).
+next call (copy it to keep it). Other inputs (a list, float32, a ``pin.SE3`` for the
+orientation) are converted once per call; a wrong shape raises :class:`ShapeError` naming
+the argument, and an orientation that is not a rotation (Frobenius norm of ``R^T R - I`` above 1e-6, or
+``det R <= 0``) raises :class:`NotARotation`. This module imports numpy only.
 """
 
 from __future__ import annotations
@@ -22,19 +25,83 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.arrays import as_matrix, as_samples
-from ..core.exceptions import ConfigError, ShapeError
+from ..core.deprecation import renamed
+from ..core.exceptions import ConfigError, NotARotation, ShapeError
 from ..model.calibration import Calibration
 from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 
 #: Frames the external wrench can be expressed in.
 FRAMES = ("sensor", "world")
 
+#: Largest accepted Frobenius norm of ``R^T R - I`` for an orientation (float64 rounding of a product of rotations is ~1e-15).
+ROTATION_TOLERANCE = 1e-6
+
+_EYE = np.eye(3)  # for the batch check
+
+
+def rotation(value, name: str = "R_world_sensor") -> np.ndarray:
+    """``value`` as a (3, 3) rotation matrix, checked.
+
+    Args:
+        value: A (3, 3) array or nested list, or an object with a ``rotation`` attribute
+            (a ``pin.SE3`` ``T_world_sensor``: its rotation is ``R_world_sensor``).
+        name: The argument's name, for the messages.
+
+    Raises:
+        ShapeError: Not a (3, 3) matrix of numbers (a (4, 4) homogeneous transform included).
+        NotARotation: ``|R^T R - I|_F > 1e-6`` or ``det R <= 0`` (a reflection).
+    """
+    if type(value) is not np.ndarray or value.dtype != np.float64 or value.shape != (3, 3):
+        if hasattr(value, "rotation") and not isinstance(value, np.ndarray):
+            value = value.rotation
+        array = np.asarray(value) if isinstance(value, np.ndarray) else None
+        if array is not None and array.shape == (4, 4):
+            raise ShapeError(f"{name}.shape=(4, 4) but expected (3, 3): a rotation; pass the transform's T[:3, :3]")
+        value = as_matrix(value, (3, 3), name)
+    # in Python floats: one conversion beats the four numpy calls of R.T @ R - I on a 3 x 3
+    a, b, c, d, e, f, g, h, i = value.ravel().tolist()
+    c00, c11, c22 = a * a + d * d + g * g - 1.0, b * b + e * e + h * h - 1.0, c * c + f * f + i * i - 1.0
+    c01, c02, c12 = a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i
+    error = (c00 * c00 + c11 * c11 + c22 * c22 + 2.0 * (c01 * c01 + c02 * c02 + c12 * c12)) ** 0.5  # Frobenius norm
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)  # NaN in any entry makes it NaN
+    if not error <= ROTATION_TOLERANCE or det != det:
+        raise NotARotation(f"{name} is not a rotation: |R^T R - I| = {error:.3g} but expected <= {ROTATION_TOLERANCE:g}")
+    if det <= 0:
+        raise NotARotation(f"{name} is a reflection (det = {det:.6g}) but expected a rotation (det = +1)")
+    return value
+
+
+def rotations(value, n: int, name: str = "R_world_sensor") -> np.ndarray:
+    """``value`` as (n, 3, 3) rotation matrices, each checked as :func:`rotation` does.
+
+    Raises:
+        ShapeError: Another shape.
+        NotARotation: One of them is not a rotation; the message gives its index.
+    """
+    R = as_matrix(value, (n, 3, 3), name)
+    error = np.sqrt(((np.einsum("nji,njk->nik", R, R) - _EYE) ** 2).sum(axis=(1, 2))) if n else np.zeros(0)  # Frobenius
+    bad = np.flatnonzero(~(error <= ROTATION_TOLERANCE))
+    if bad.size:
+        k = int(bad[0])
+        raise NotARotation(f"{name}[{k}] is not a rotation: |R^T R - I| = {error[k]:.3g} but expected <= {ROTATION_TOLERANCE:g}")
+    det = np.linalg.det(R) if n else np.ones(0)
+    bad = np.flatnonzero(det <= 0)
+    if bad.size:
+        k = int(bad[0])
+        raise NotARotation(f"{name}[{k}] is a reflection (det = {det[k]:.6g}) but expected a rotation (det = +1)")
+    return R
+
 
 class WrenchReader:
-    """Wrench from raw strains with a calibration, for a 1 kHz loop.
+    """Wrench from raw channels with a calibration, for a 1 kHz loop.
 
     Args:
         calibration: The sensor's calibration; its layout fixes the number of channels n.
+
+    Example::
+
+        reader = WrenchReader(load_calibration("calibration.yaml"))
+        w_sensor = reader.wrench(channels)  # (n,) raw -> (6,) [N, N m], a buffer reused by the next call
     """
 
     def __init__(self, calibration: Calibration):
@@ -42,32 +109,39 @@ class WrenchReader:
         self.n_channels = calibration.layout.n_channels
         self.D = np.array(calibration.D, dtype=float)  # a copy: set_offsets changes it, the calibration stays
         self._out = np.empty(6)
+        self._shape = (self.n_channels,)
 
-    def wrench(self, strain: np.ndarray) -> np.ndarray:
-        """``C strain + D`` for one sample, into an internal buffer.
+    @renamed(strain="channels")
+    def wrench(self, channels) -> np.ndarray:
+        """``C channels + D`` for one sample, into an internal buffer.
 
         Args:
-            strain: Raw channels, float64, shape (n,).
+            channels: Raw channels, shape (n,): a float64 array (no copy), or anything that
+                converts to one (a list, float32).
 
         Returns:
             The wrench [N, N m], shape (6,): a buffer overwritten by the next call.
+
+        Raises:
+            ShapeError: ``channels`` is not n numbers.
         """
-        if strain.shape != (self.n_channels,):
-            raise ShapeError(f"strain.shape={strain.shape} but expected ({self.n_channels},), the calibration's channels")
-        np.dot(self.C, strain, out=self._out)
+        if not (type(channels) is np.ndarray and channels.dtype == np.float64 and channels.shape == self._shape):
+            channels = as_matrix(channels, self._shape, "channels")  # a list, float32: converted; else ShapeError
+        np.dot(self.C, channels, out=self._out)
         np.add(self._out, self.D, out=self._out)
         return self._out
 
-    def wrench_batch(self, strain) -> np.ndarray:
-        """``C strain + D`` for many samples.
+    @renamed(strain="channels")
+    def wrench_batch(self, channels) -> np.ndarray:
+        """``C channels + D`` for many samples.
 
         Args:
-            strain: Raw channels, shape (N, n).
+            channels: Raw channels, shape (N, n).
 
         Returns:
             Shape (N, 6), [N, N m] (a new array).
         """
-        S, _ = as_samples(strain, self.n_channels, "strain")
+        S, _ = as_samples(channels, self.n_channels, "channels")
         return S @ self.C.T + self.D
 
     def set_offsets(self, D) -> None:
@@ -93,51 +167,58 @@ class GravityCompensator:
         self._w = np.empty(6)
         self._rotated = np.empty(6)
 
-    def external(self, strain: np.ndarray, R_world_sensor: np.ndarray, frame: str = "sensor", point=None) -> np.ndarray:
+    @renamed(strain="channels")
+    def external(self, channels, R_world_sensor, frame: str = "sensor", point=None) -> np.ndarray:
         """External wrench for one sample, into an internal buffer.
 
         Args:
-            strain: Raw channels, float64, shape (n,).
-            R_world_sensor: Orientation of the sensor in the world, shape (3, 3).
+            channels: Raw channels, shape (n,) (float64 avoids a copy).
+            R_world_sensor: Orientation of the sensor in the world, shape (3, 3); a
+                ``pin.SE3`` ``T_world_sensor`` is taken as its ``rotation``.
             frame: 'sensor' (S) or 'world' (axes of the world, moment still about the sensor origin).
             point: A tool point in S [m], shape (3,): the moment is taken about it; None for the sensor origin.
 
         Returns:
             ``[F, M]`` [N, N m], shape (6,): a buffer overwritten by the next call.
+
+        Raises:
+            ShapeError: A wrong shape or type; the message names the argument.
+            NotARotation: ``R_world_sensor`` is not a rotation.
         """
-        measured = self.reader.wrench(strain)
-        np.dot(R_world_sensor.T, self.g_world, out=self._g)
+        measured = self.reader.wrench(channels)
+        R = rotation(R_world_sensor)
+        np.dot(R.T, self.g_world, out=self._g)
         np.dot(self._weight, self._g, out=self._w)
         np.subtract(measured, self._w, out=self._w)
         if point is not None:  # M -= point x F, component by component: no temporary array
+            p = point if type(point) is np.ndarray and point.shape == (3,) else as_matrix(point, (3,), "point")
             f, m = self._w[:3], self._w[3:]
-            m[0] -= point[1] * f[2] - point[2] * f[1]
-            m[1] -= point[2] * f[0] - point[0] * f[2]
-            m[2] -= point[0] * f[1] - point[1] * f[0]
+            m[0] -= p[1] * f[2] - p[2] * f[1]
+            m[1] -= p[2] * f[0] - p[0] * f[2]
+            m[2] -= p[0] * f[1] - p[1] * f[0]
         if frame == "sensor":
             return self._w
         if frame != "world":
             raise ConfigError("frame", frame, f"one of {FRAMES}")
-        np.dot(R_world_sensor, self._w[:3], out=self._rotated[:3])
-        np.dot(R_world_sensor, self._w[3:], out=self._rotated[3:])
+        np.dot(R, self._w[:3], out=self._rotated[:3])
+        np.dot(R, self._w[3:], out=self._rotated[3:])
         return self._rotated
 
-    def external_batch(self, strain, R_world_sensor, frame: str = "sensor", point=None) -> np.ndarray:
+    @renamed(strain="channels")
+    def external_batch(self, channels, R_world_sensor, frame: str = "sensor", point=None) -> np.ndarray:
         """External wrench for many samples.
 
         Args:
-            strain: Raw channels, shape (N, n).
-            R_world_sensor: Orientations, shape (N, 3, 3).
+            channels: Raw channels, shape (N, n).
+            R_world_sensor: Orientations, shape (N, 3, 3), each a rotation.
             frame: 'sensor' or 'world' (see :meth:`external`).
             point: Tool point in S [m], shape (3,), or None.
 
         Returns:
             Shape (N, 6), [N, N m].
         """
-        measured = self.reader.wrench_batch(strain)
-        R = np.asarray(R_world_sensor, dtype=float)
-        if R.shape != (len(measured), 3, 3):
-            raise ShapeError(f"R_world_sensor.shape={R.shape} but expected ({len(measured)}, 3, 3)")
+        measured = self.reader.wrench_batch(channels)
+        R = rotations(R_world_sensor, len(measured))
         g = np.einsum("nji,j->ni", R, self.g_world)
         out = measured - g @ self._weight.T
         if point is not None:

@@ -33,8 +33,8 @@ from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, forward_in_ti
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
 from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
 from ..robot.kinematics import Kinematics
-from ..robot.load import tool_load
 from ..robot.tool import Tool
+from ..robot.tool_wrench import tool_load
 
 _PLOT_POINTS = 20_000  # samples kept for the plot, at most twice this
 _WINDOW_S = FilterConfig().derivative_window_s  # the joint-rate window [s]: the filter's, so both see the same rates

@@ -22,8 +22,8 @@ from ..feeds.batch import SampleBatch
 from ..feeds.recording import RecordingWriter
 from ..planning.trajectory_io import TrajectoryFile
 from ..robot.kinematics import Kinematics
-from ..robot.load import tool_load
 from ..robot.tool import Tool
+from ..robot.tool_wrench import tool_load
 from .drift import OffsetDrift
 from .sensor import SimulatedSensor
 
@@ -98,7 +98,7 @@ def simulate_batches(
                 W = W - drift.offsets(t - start_time, changes)  # the sensor reads W - delta D: its offsets moved
                 temperature = drift.temperature(t - start_time)
             codes = np.full(len(t), code, dtype=np.int64)
-            yield SampleBatch(t, traj.q[part], sensor.strains(W, time=t, rng=rng), codes, temperature)
+            yield SampleBatch(t, traj.q[part], sensor.channels(W, time=t, rng=rng), codes, temperature)
         offset += traj.time[-1] - traj.time[0] + tool_change_s
 
 

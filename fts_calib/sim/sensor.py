@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.arrays import as_samples
+from ..core.deprecation import renamed_method
 from ..core.exceptions import FileFormatError
 from ..model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 
@@ -36,8 +37,8 @@ class SimulatedSensor(SimulationSpec):
         """The simulated sensor of a sensor file's ``simulation`` section."""
         return spec if isinstance(spec, cls) else cls(**{f.name: getattr(spec, f.name) for f in fields(spec)})
 
-    def strains(self, w_sensor, time=None, rng: np.random.Generator | None = None) -> np.ndarray:
-        """Raw strains that the sensor reads under the given wrenches.
+    def channels(self, w_sensor, time=None, rng: np.random.Generator | None = None) -> np.ndarray:
+        """Raw channels that the sensor reads under the given wrenches.
 
         Args:
             w_sensor: Wrench on the sensor, [N, N, N, N m, N m, N m]. Shape (6,) or (N, 6).
@@ -59,9 +60,14 @@ class SimulatedSensor(SimulationSpec):
             strain = np.clip(np.round(strain / lsb) * lsb, -self.adc_full_scale, self.adc_full_scale - lsb)
         return strain[0] if single else strain
 
+    strains = renamed_method("strains", channels)
+
 
 def load_simulated_sensor(path: str | Path) -> SimulatedSensor:
     """The simulated sensor of a sensor configuration file (its ``simulation`` section).
+
+    Args:
+        path: The YAML file, or a shipped name (``"sensor"``: the paper's, true C = Table 1).
 
     Raises:
         FileFormatError: The file is malformed or has no ``simulation`` section.

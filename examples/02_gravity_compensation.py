@@ -1,16 +1,19 @@
-"""Hand guiding a UR5 with the calibrated sensor: re-tare, payload identification, a push, an overload."""
+"""Gravity compensation: hand guiding a UR5 with the calibrated sensor.
+
+The sensor measures the payload's weight as well as a hand pushing the tool. Shown here:
+re-tare the offsets with nothing mounted (``estimate_offsets``), identify an unknown
+gripper's mass and centre of mass from six still wrist orientations (``identify_payload``),
+then a 1 kHz loop where ``GravityCompensator.external`` removes the gripper's weight at
+the current orientation, so that an admittance law moves the tool along a push and stops
+on an overload. Each result is printed beside the truth of the simulation.
+"""
 
 import math
 
 import numpy as np
 
-from fts_calib import estimate_offsets, load_calibration
-from fts_calib.core.resources import resolve
-from fts_calib.robot.definition import load_robot
-from fts_calib.robot.kinematics import Kinematics
-from fts_calib.robot.tool import ToolConfiguration, load_tool
-from fts_calib.service.payload import identify_payload
-from fts_calib.service.reader import GravityCompensator
+from fts_calib import GravityCompensator, Kinematics, ToolConfiguration, identify_payload, load_calibration, load_robot, load_tool
+from fts_calib.model.offsets import estimate_offsets
 from fts_calib.sim.sensor import load_simulated_sensor
 
 RATE = 1000.0  # [Hz] the control loop
@@ -33,15 +36,15 @@ def external_push(t: float) -> np.ndarray:
 
 def main():
     """Run the loop on a simulated sensor and print what happened."""
-    kin = Kinematics(load_robot(resolve("ur5", "robots")))
-    sensor = load_simulated_sensor(resolve("sensor", "configs"))  # the "real" sensor, with unknown offsets
-    gripper = load_tool(resolve("validation_tool", "configs")).configurations[0]  # the payload, unknown to the loop
+    kin = Kinematics(load_robot("ur5"))  # a shipped robot, by name
+    sensor = load_simulated_sensor("sensor")  # the "real" sensor, with unknown offsets
+    gripper = load_tool("validation_tool").configurations[0]  # the payload, unknown to the loop
     rng = np.random.default_rng(0)
     g_world = kin.g_world(9.81)
 
     # 1. the calibration of the paper (Table 1) has no offsets: re-tare with nothing mounted, arm still
-    calibration = load_calibration(resolve("paper_table1_calibration", "configs"))
-    tare = estimate_offsets(calibration.C_bar, sensor.strains(np.zeros((500, 6)), rng=rng))
+    calibration = load_calibration("paper_table1_calibration")
+    tare = estimate_offsets(calibration.C_bar, sensor.channels(np.zeros((500, 6)), rng=rng))
     calibration = calibration.with_offsets(tare.D, "re-tare, nothing mounted")
     print(
         "1. re-tare, nothing mounted: D = "
@@ -57,8 +60,8 @@ def main():
         reading = HOME.copy()
         reading[[3, 5]] += wrist
         g = kin.g_sensor(reading, 9.81)
-        strains = sensor.strains(np.tile(gripper.static_wrench(g), (300, 1)), rng=rng)  # 0.3 s still
-        W.append(calibration.wrench(strains))
+        channels = sensor.channels(np.tile(gripper.static_wrench(g), (300, 1)), rng=rng)  # 0.3 s still
+        W.append(calibration.wrench(channels))
         G.append(np.tile(g, (300, 1)))
     payload = identify_payload(np.vstack(W), np.vstack(G))
     print(
@@ -81,8 +84,8 @@ def main():
         f_world = external_push(t)
         f_sensor = R.T @ f_world
         truth = gripper.static_wrench(R.T @ g_world) + np.concatenate([f_sensor, np.cross(tip, f_sensor)])
-        strain = sensor.strains(truth, rng=rng)  # what the sensor reads at this tick
-        external = compensator.external(strain, R, frame="world")
+        channels = sensor.channels(truth, rng=rng)  # what the sensor reads at this tick
+        external = compensator.external(channels, R, frame="world")
         magnitude = float(np.linalg.norm(external[:3]))
         peak = max(peak, magnitude)
         if magnitude > OVERLOAD:
