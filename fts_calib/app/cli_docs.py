@@ -12,6 +12,7 @@ printed); ``tests/test_docs.py`` fails when the committed page differs from it.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -79,10 +80,24 @@ def _synopsis(name: str, parser: argparse.ArgumentParser) -> str:
     return " ".join(words)
 
 
+def _description(text: str, summary: str) -> list[str]:
+    """The description's paragraphs on one line each, without the summary and example lines the page shows apart."""
+    paragraphs = []
+    for block in re.split(r"\n\s*\n", text):
+        kept = [
+            line
+            for line in block.splitlines()
+            if not line.strip().lower().startswith(("example:", "examples:"))
+            and line.strip().rstrip(".").lower() != summary.strip().rstrip(".").lower()
+        ]
+        if " ".join(kept).strip():
+            paragraphs.append(" ".join(" ".join(kept).split()))
+    return paragraphs
+
+
 def _command_section(name: str, parser: argparse.ArgumentParser, summary: str) -> list[str]:
     lines = [f"## `fts-calib {name}`", "", f"{summary[:1].upper()}{summary[1:]}.", "", "```sh", _synopsis(name, parser), "```", ""]
-    if parser.description:
-        lines += [" ".join(parser.description.split()), ""]
+    lines += [f"{paragraph}\n" for paragraph in _description(parser.description or "", summary)]
     lines += ["| option | value | default | what it does |", "|---|---|---|---|"]
     for action in _options(parser):
         names = ", ".join(f"`{s}`" for s in action.option_strings) or f"`{_value(action).strip('`')}`"
