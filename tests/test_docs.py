@@ -79,6 +79,14 @@ def test_every_link_resolves_inside_the_repository(page):
     assert not bad, f"{page.relative_to(ROOT)}: " + "; ".join(bad)
 
 
+def test_the_index_and_the_readme_link_every_docs_page():
+    pages = {p.name for p in DOCS.glob("*.md") if p.name != "README.md"} | {Path(p).name for p in PAGES_FROM_OTHER_BRANCHES}
+    index = {m.group(1) for m in LINK.finditer((DOCS / "README.md").read_text(encoding="utf-8")) if m.group(1)}
+    readme = {m.group(1) for m in LINK.finditer(README.read_text(encoding="utf-8")) if m.group(1)}
+    assert pages <= index, f"docs/README.md does not link {sorted(pages - index)}"
+    assert {f"docs/{name}" for name in pages} | {"docs/README.md"} <= readme, "README.md links every docs page"
+
+
 def test_no_page_mentions_the_shared_folder():
     for page in _pages():
         assert "../shared" not in page.read_text(encoding="utf-8"), page
