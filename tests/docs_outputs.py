@@ -197,7 +197,8 @@ def rewritten(expected: list[str], actual: list[str], rtol: float) -> list[str]:
         return actual
     # numbers may have moved beyond any tolerance: align on the text alone
     alignment = align(expected, actual, math.inf)
-    if alignment is None:
+    if alignment is None:  # the text changed where the block shows it: the whole output, to shorten again by hand
+        print(f"note: a shortened block now shows the whole output ({len(actual)} lines): shorten it again with '{ELISION}' lines")
         return actual
     return [ELISION if j < 0 else actual[j] for j in alignment]
 
