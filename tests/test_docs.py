@@ -237,10 +237,11 @@ def _fake_modules(log: list) -> dict[str, types.ModuleType]:
 
 
 def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
-    """The UR snippet streams every row at the file's period, the ROS 2 one sends every row but
-    the first with its time, and the in-controller code gives C channels + D."""
+    """The UR snippets stream every row at the file's period (ur_rtde) or write one servoj per row
+    (URScript), the ROS 2 one sends every row but the first with its time, and the in-controller
+    code gives C channels + D."""
     blocks = _blocks(README, "python")
-    assert len(blocks) == 3, "the UR, ROS 2 and in-controller snippets"
+    assert len(blocks) == 4, "the UR (ur_rtde and URScript), ROS 2 and in-controller snippets"
     log: list = []
     for name, mod in _fake_modules(log).items():
         monkeypatch.setitem(sys.modules, name, mod)
@@ -267,8 +268,16 @@ def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
         np.testing.assert_allclose(np.array([a[0] for a in servo]), positions, rtol=0, atol=1e-9)
         assert {a[3] for a in servo} == {1.0 / 500.0}  # one row per 2 ms: the default rate of trajectory
 
+        exec(compile(blocks[1], "README.md (URScript)", "exec"), {})
+        script = (folder / "plan" / "A.script").read_text().splitlines()
+        assert script[0] == "def fts_calib_play():" and script[-2:] == ["  stopj(2.0)", "end"], script[:2] + script[-2:]
+        servoj = [line for line in script if line.startswith("  servoj([")]
+        assert len(servoj) == n and all("t=0.002," in line for line in servoj)
+        played = np.array([[float(v) for v in line.split("[")[1].split("]")[0].split(",")] for line in servoj])
+        np.testing.assert_allclose(played, positions, rtol=0, atol=1e-9)
+
         log.clear()
-        exec(compile(blocks[1], "README.md (ROS 2)", "exec"), {})
+        exec(compile(blocks[2], "README.md (ROS 2)", "exec"), {})
         goal = next(args[0] for call, args, _ in log if call == "client.send_goal_async")
         assert goal.trajectory.joint_names == joint_names
         points = goal.trajectory.points
@@ -281,7 +290,7 @@ def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
         calibration = ROOT / "configs" / "paper_table1_calibration.yaml"
         shutil.copy(calibration, folder / "calibration.yaml")
         scope: dict = {}
-        exec(compile(blocks[2], "README.md (controller)", "exec"), scope)
+        exec(compile(blocks[3], "README.md (controller)", "exec"), scope)
         from fts_calib import load_calibration
 
         expected = load_calibration(calibration).D  # channels all zero: the wrench is D
