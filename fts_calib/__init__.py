@@ -13,6 +13,7 @@ from ._version import __version__
 from .core.exceptions import (
     BagError,
     ConfigError,
+    FeedTimeout,
     FileFormatError,
     FrameNotFound,
     FtsCalibError,
@@ -71,6 +72,7 @@ __all__ = [
     "CalibrationSession",
     "ChannelLayout",
     "ConfigError",
+    "FeedTimeout",
     "FileFormatError",
     "FrameNotFound",
     "FtsCalibError",

@@ -131,6 +131,7 @@ def test_the_documented_exit_codes_keep_their_numbers():
         "OTHER": 13,
         "FILE_ACCESS": 14,
         "POOR_FIT": 15,
+        "TIMEOUT": 16,
         "INTERRUPTED": 130,
     }
 

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from ..core.exceptions import (
     ConfigError,
+    FeedTimeout,
     FileFormatError,
     FrameNotFound,
     FtsCalibError,
@@ -57,6 +58,7 @@ class ExitCode(enum.IntEnum):
     OTHER = 13
     FILE_ACCESS = 14
     POOR_FIT = 15
+    TIMEOUT = 16
     INTERRUPTED = 130
 
 
@@ -108,6 +110,11 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
     ExitCodeEntry(ExitCode.TRAJECTORY, (TrajectoryError,), "planning or verifying a trajectory failed"),
     ExitCodeEntry(ExitCode.PAYLOAD, (PayloadError,), "the orientations of a payload recording cannot determine the payload"),
     ExitCodeEntry(ExitCode.PROTOCOL, (ProtocolError,), "a live-protocol datagram is not a valid message"),
+    ExitCodeEntry(
+        ExitCode.TIMEOUT,
+        (FeedTimeout,),
+        "a network peer did not answer within its timeout (a UR controller that accepts the connection and sends nothing: --ur-timeout)",
+    ),
     ExitCodeEntry(ExitCode.ARRAY, (ShapeError, StructureError), "an array has the wrong shape, or C is not of the form C_bar P"),
     ExitCodeEntry(ExitCode.OTHER, (FtsCalibError,), "any other fts-calib error"),
     ExitCodeEntry(ExitCode.FILE_ACCESS, (OSError,), "the system refused to read or write a file or a socket"),

@@ -28,7 +28,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.arrays import frozen
-from ..core.exceptions import FrameNotFound, ShapeError, UnsupportedJoint
+from ..core.bounded import read_bounded
+from ..core.exceptions import FileFormatError, FrameNotFound, JointError, ShapeError, UnsupportedJoint
 from ._batch import Chain
 from .definition import RobotDefinition
 from .joints import JointInfo, ReadingCheck, find_problems, known_joints, locked_configuration, reading_array, resolve_limits, warn_problems
@@ -53,6 +54,27 @@ class SensorMotion:
     R_world_sensor: np.ndarray
 
 
+def _build_model(robot: RobotDefinition) -> pin.Model:
+    """Pinocchio's model of the robot definition's URDF.
+
+    Raises:
+        FileFormatError: The file is not a URDF Pinocchio can read (the message names it and
+            the robot file's ``urdf`` field).
+    """
+    where = robot.source if robot.source is not None else robot.urdf
+    head = read_bounded(robot.urdf, "URDF")
+    if b"<robot" not in head:  # before Pinocchio, whose XML parser prints to the terminal
+        raise FileFormatError(
+            where, "urdf", f"{robot.urdf} is not a URDF: it holds no <robot> element (expected the robot's URDF XML file)"
+        )
+    try:
+        return pin.buildModelFromUrdf(str(robot.urdf))
+    except (ValueError, RuntimeError) as exc:  # Pinocchio's "does not contain a valid URDF model", a parse error
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        message = f"{robot.urdf} is not a URDF that Pinocchio can read ({reason}): expected a <robot> XML file"
+        raise FileFormatError(where, "urdf", message) from None
+
+
 class Kinematics:
     """Forward kinematics of a robot definition, for one reading or a batch.
 
@@ -73,13 +95,20 @@ class Kinematics:
 
     def __init__(self, robot: RobotDefinition):
         self.robot = robot
-        full = pin.buildModelFromUrdf(str(robot.urdf))
+        full = _build_model(robot)
         self.full_model = full
         lock_ids, q_lock = locked_configuration(full, robot.locked_joints)
         model = pin.buildReducedModel(full, lock_ids, q_lock) if lock_ids else full
         self.model = model
         self.joints = tuple(self._joint_info(model))
         self.joint_names = tuple(j.name for j in self.joints)
+        if robot.sweep_joints is None and len(self.joints) < 2:  # the sweeps turn two joints: the last two by default
+            found = ", ".join(f"'{name}'" for name in self.joint_names) or "none"
+            message = (
+                f"{robot.urdf} has {len(self.joints)} actuated joint(s) ({found}) but a calibration sweeps two "
+                "(the last two actuated joints, or the robot file's sweep_joints)"
+            )
+            raise JointError(message, list(self.joint_names), [])
         self._index = {name: i for i, name in enumerate(self.joint_names)}
         self.sensor_frame_id = self._add_sensor_frame(model, robot)
         self.data = model.createData()
@@ -108,7 +137,8 @@ class Kinematics:
             name = model.names[jid]
             if joint.nv != 1 or not (short.startswith("JointModelR") or short.startswith("JointModelP")):
                 raise UnsupportedJoint(f"joint '{name}' is a {short}; only revolute, continuous and prismatic joints are supported")
-            column = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, joint.idx_v]
+            # a one-joint model's Jacobian comes back as a vector: shape it (6, nv) again
+            column = np.reshape(pin.getJointJacobian(model, data, jid, pin.LOCAL), (6, -1))[:, joint.idx_v]
             prismatic = short.startswith("JointModelP")
             axis = column[:3] if prismatic else column[3:]
             axis = axis / np.linalg.norm(axis)
