@@ -139,7 +139,7 @@ def run(
         )
         print(f"reading the {what} of the UR at {ur} through RTDE", flush=True)
     with using_udp(host, port):
-        receiver = UdpReceiver(host, port)
+        receiver = UdpReceiver(host, port, listen_any)
     print(
         f"listening on udp://{receiver.address[0]}:{receiver.address[1]} for {kin.robot.name} with '{loaded.name}'; "
         "Ctrl-C or an 'end' message writes the calibration",
@@ -151,6 +151,8 @@ def run(
     finally:
         receiver.close()
     if rtde is not None and rtde.samples == 0 and isinstance(rtde.error, FeedTimeout):
+        if not resume:  # a checkpoint of nothing would only stand in the way of the next run
+            checkpoint.unlink(missing_ok=True)
         raise rtde.error
     print(format_stats(stats, sync))
     if rtde is not None:
