@@ -25,6 +25,7 @@ from ..core.exceptions import (
     FtsCalibError,
     InsufficientExcitation,
     JointError,
+    LimitError,
     PayloadError,
     PoorFit,
     ProtocolError,
@@ -91,8 +92,9 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
     ExitCodeEntry(ExitCode.CONFIG, (ConfigError,), "a setting, option or argument has a value fts-calib cannot use"),
     ExitCodeEntry(
         ExitCode.FILE,
-        (FileFormatError, ResourceNotFound),
-        "a file or a shipped name does not resolve, or a file (robot, tool, calibration, settings) has a missing or wrong field",
+        (FileFormatError, ResourceNotFound, LimitError),
+        "a file or a shipped name does not resolve, or a file (robot, tool, calibration, settings) has a missing or wrong field, "
+        "or is beyond a limit of size, depth or number",
     ),
     ExitCodeEntry(ExitCode.RECORDING, (RecordingError,), "a recording cannot be read (missing, empty, a missing column)"),
     ExitCodeEntry(

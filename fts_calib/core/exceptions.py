@@ -264,6 +264,14 @@ class ProtocolError(FtsCalibError, ValueError):
         super().__init__(f"{reason} datagram: {detail}")
 
 
+class LimitError(FtsCalibError, ValueError):
+    """An input beyond a limit of :mod:`fts_calib.core.bounded` (depth, digits, an alias); the message says which.
+
+    The readers re-raise it naming their file (:class:`FileFormatError`) or count it (a
+    datagram: :class:`ProtocolError`).
+    """
+
+
 class FeedTimeout(FtsCalibError):
     """A network peer (a robot controller, a sender) did not answer within its timeout.
 
