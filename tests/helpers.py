@@ -79,3 +79,55 @@ def wait_for(condition, what: str, timeout_s: float = DEADLINE_S) -> None:
     while not condition():
         assert time.monotonic() < deadline, f"waited {timeout_s:g} s for {what}"
         time.sleep(POLL_S)
+
+
+class FakeRtdeServer:
+    """A TCP server on 127.0.0.1 (port 0) standing in for a UR controller's RTDE port.
+
+    ``answer=True`` answers RTDE's protocol-version request as a controller does
+    (``>HBB``: size 4, type 'V', accepted); ``answer=False`` accepts the connection and
+    says nothing (the case that must not hang). It serves until closed (a context manager).
+    """
+
+    def __init__(self, answer: bool = True):
+        import socket
+        import threading
+
+        self.answer = answer
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(4)
+        self.sock.settimeout(0.05)
+        self.port = self.sock.getsockname()[1]
+        self._stop = threading.Event()
+        self._clients = []
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+        self._thread.start()
+
+    def _serve(self):
+        import struct
+
+        while not self._stop.is_set():
+            try:
+                client, _ = self.sock.accept()
+            except OSError:
+                continue
+            self._clients.append(client)
+            if self.answer:
+                client.settimeout(5.0)
+                request = client.recv(5)
+                if len(request) == 5 and request[2] == 86:
+                    client.sendall(struct.pack(">HBB", 4, 86, 1))
+
+    def close(self):
+        self._stop.set()
+        self._thread.join(timeout=5.0)
+        for client in self._clients:
+            client.close()
+        self.sock.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -133,6 +133,7 @@ def test_the_documented_exit_codes_keep_their_numbers():
         "POOR_FIT": 15,
         "OUTPUT_IN_USE": 16,
         "RESULT_REFUSED": 17,
+        "TIMEOUT": 18,
         "INTERRUPTED": 130,
     }
 

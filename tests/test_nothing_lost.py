@@ -29,7 +29,22 @@ from .helpers import DEADLINE_S, wait_for
 
 
 def _calibrate(recording, output, *extra):
-    return main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(recording), "-o", str(output), "--quiet", *extra])
+    return main(
+        [
+            "calibrate",
+            "--robot",
+            "ur5",
+            "--tool",
+            "paper_tool",
+            "--tool",
+            "paper_tool",
+            str(recording),
+            "-o",
+            str(output),
+            "--quiet",
+            *extra,
+        ]
+    )
 
 
 def _one_error_line(capsys, command):
@@ -65,7 +80,23 @@ def test_live_refuses_its_default_checkpoint_without_resume_or_restart(tmp_path,
     checkpoint = tmp_path / "cal.yaml.checkpoint.json"  # live's default: OUTPUT.checkpoint.json
     checkpoint.write_text("a crashed run's samples")
     assert (
-        main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"]) == ExitCode.CONFIG
+        main(
+            [
+                "live",
+                "--robot",
+                "ur5",
+                "--tool",
+                "paper_tool",
+                "--tool",
+                "paper_tool",
+                "--listen",
+                "127.0.0.1:0",
+                "-o",
+                str(output),
+                "--quiet",
+            ]
+        )
+        == ExitCode.CONFIG
     )
     line, out = _one_error_line(capsys, "live")
     assert str(checkpoint) in line and "--resume" in line and "--restart" in line, line
@@ -225,7 +256,22 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, u
     )
     assert "it is a folder" in _one_error_line(capsys, "simulate")[0]
     assert (
-        main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(tmp_path), "--quiet"])
+        main(
+            [
+                "live",
+                "--robot",
+                "ur5",
+                "--tool",
+                "paper_tool",
+                "--tool",
+                "paper_tool",
+                "--listen",
+                "127.0.0.1:0",
+                "-o",
+                str(tmp_path),
+                "--quiet",
+            ]
+        )
         == ExitCode.FILE_ACCESS
     )
     line, out = _one_error_line(capsys, "live")
@@ -256,8 +302,8 @@ def test_sighup_ends_live_with_its_checkpoint_and_calibration_written(tmp_path, 
     receivers, problems = [], []
 
     class Receiver(UdpReceiver):
-        def __init__(self, host, port):
-            super().__init__(host, port)
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
             receivers.append(self)
 
     def feed():
@@ -288,7 +334,22 @@ def test_sighup_ends_live_with_its_checkpoint_and_calibration_written(tmp_path, 
     thread = threading.Thread(target=feed, daemon=True)
     thread.start()
     code = main(
-        ["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet", "--idle-timeout", "20"]
+        [
+            "live",
+            "--robot",
+            "ur5",
+            "--tool",
+            "paper_tool",
+            "--tool",
+            "paper_tool",
+            "--listen",
+            "127.0.0.1:0",
+            "-o",
+            str(output),
+            "--quiet",
+            "--idle-timeout",
+            "20",
+        ]
     )
     thread.join(timeout=DEADLINE_S)
     assert not problems, problems

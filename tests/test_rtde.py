@@ -31,7 +31,7 @@ from fts_calib.robot.tool import load_tool
 from fts_calib.sim.recording import simulate_batches
 from fts_calib.sim.sensor import simulated_sensor
 
-from .helpers import wait_for
+from .helpers import FakeRtdeServer, wait_for
 
 JOINTS = [f"j{k}" for k in range(1, 7)]
 PERIOD_S = 0.002  # [s] e-Series controller cycle (500 Hz)
@@ -154,8 +154,10 @@ def test_a_controller_that_does_not_answer(monkeypatch):
         raise RuntimeError("One of the RTDE input registers are already in use!")
 
     monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=refuse))
-    with pytest.raises(ConnectionError, match="UR controller at 10.0.0.7 .*already in use"):
-        connect_ur("10.0.0.7")
+    with FakeRtdeServer() as server:  # the handshake answered, then ur_rtde refuses
+        monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
+        with pytest.raises(ConnectionError, match="UR controller at 127.0.0.1 .*already in use"):
+            connect_ur("127.0.0.1")
 
 
 def test_a_robot_that_is_not_a_six_joint_arm_is_refused():
@@ -184,14 +186,17 @@ def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, mo
     """`live --ur HOST --ur-wrench --configuration X`, then --resume with the next: C_bar to within its standard errors."""
     sensor, runs = factory_runs
     out = tmp_path / "ur.yaml"
+    server = FakeRtdeServer()
+    monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
     for k, (name, run) in enumerate(runs.items()):
         fake = FakeUR(*run, reads=1)
         monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host, fake=fake: fake))
-        options = ["--ur", "ur.invalid", "--ur-wrench", "--sensor", "factory_sensor", "--configuration", name]
+        options = ["--ur", "127.0.0.1", "--ur-wrench", "--sensor", "factory_sensor", "--configuration", name]
         timing = ["--listen", "127.0.0.1:0", "--idle-timeout", "0.3", "--quiet", *(["--resume"] if k else [])]
-        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", *options, "-o", str(out), *timing])
+        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", "--tool", "paper_tool", *options, "-o", str(out), *timing])
         text = capsys.readouterr().out
         assert f"RTDE: {len(run[0]):,} controller samples" in text, text
+    server.close()
     assert code == ExitCode.OK, text
     cal = load_calibration(out)
     assert cal.quality.samples_seen == sum(len(run[0]) for run in runs.values())
@@ -202,7 +207,22 @@ def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, mo
 
 def test_ur_wrench_needs_a_six_channel_sensor(tmp_path):
     assert (
-        main(["live", "--robot", "ur5", "--tool", "paper_tool", "--ur", "ur.invalid", "--ur-wrench", "-o", str(tmp_path / "c.yaml")])
+        main(
+            [
+                "live",
+                "--robot",
+                "ur5",
+                "--tool",
+                "paper_tool",
+                "--tool",
+                "paper_tool",
+                "--ur",
+                "ur.invalid",
+                "--ur-wrench",
+                "-o",
+                str(tmp_path / "c.yaml"),
+            ]
+        )
         == ExitCode.CONFIG
     )
 

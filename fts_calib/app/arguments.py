@@ -190,7 +190,16 @@ def _add_live(commands) -> None:
         "--plan", help="plan.yaml of the sized trajectories being run: the status line shows the motion left and the next configuration"
     )
     live.add_argument(
-        "--listen", type=_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address to bind (default 127.0.0.1:5005)"
+        "--listen",
+        type=_address,
+        default=("127.0.0.1", 5005),
+        metavar="HOST:PORT",
+        help="address to bind (default 127.0.0.1:5005, loopback); a network address is warned about; 0:PORT needs --listen-any",
+    )
+    live.add_argument(
+        "--listen-any",
+        action="store_true",
+        help="bind every network interface on the --listen port (any host that reaches this one can feed the run; warned about)",
     )
     live.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write")
     live.add_argument("--checkpoint", help="checkpoint file (default: OUTPUT.checkpoint.json)")

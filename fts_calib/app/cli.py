@@ -9,6 +9,7 @@ exits with the code of its family (:mod:`fts_calib.app.exit_codes`).
 from __future__ import annotations
 
 import importlib
+import io
 import sys
 import warnings
 from typing import Any
@@ -37,8 +38,16 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"fts-calib: warning: {message}", file=sys.stderr)
 
 
+def _printable_output() -> None:
+    """Let the printouts show what the terminal cannot encode (a file name that is not UTF-8) as escapes, not die on it."""
+    for stream in (sys.stdout, sys.stderr):
+        if isinstance(stream, io.TextIOWrapper) and stream.errors == "strict":
+            stream.reconfigure(errors="backslashreplace")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fts-calib`` command; returns the exit status (:mod:`fts_calib.app.exit_codes`)."""
+    _printable_output()
     parser = build_parser()
     args = parser.parse_args(argv)  # a usage error exits with 2 (argparse)
     if args.command is None:

@@ -19,11 +19,13 @@ from pathlib import Path
 
 from ..core.exceptions import (
     ConfigError,
+    FeedTimeout,
     FileFormatError,
     FrameNotFound,
     FtsCalibError,
     InsufficientExcitation,
     JointError,
+    LimitError,
     OutputInUse,
     PayloadError,
     PoorFit,
@@ -61,6 +63,7 @@ class ExitCode(enum.IntEnum):
     POOR_FIT = 15
     OUTPUT_IN_USE = 16
     RESULT_REFUSED = 17
+    TIMEOUT = 18
     INTERRUPTED = 130
 
 
@@ -93,8 +96,9 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
     ExitCodeEntry(ExitCode.CONFIG, (ConfigError,), "a setting, option or argument has a value fts-calib cannot use"),
     ExitCodeEntry(
         ExitCode.FILE,
-        (FileFormatError, ResourceNotFound),
-        "a file or a shipped name does not resolve, or a file (robot, tool, calibration, settings) has a missing or wrong field",
+        (FileFormatError, ResourceNotFound, LimitError),
+        "a file or a shipped name does not resolve, or a file (robot, tool, calibration, settings) has a missing or wrong field, "
+        "or is beyond a limit of size, depth or number",
     ),
     ExitCodeEntry(ExitCode.RECORDING, (RecordingError,), "a recording cannot be read (missing, empty, a missing column)"),
     ExitCodeEntry(
@@ -123,6 +127,11 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
     ExitCodeEntry(ExitCode.TRAJECTORY, (TrajectoryError,), "planning or verifying a trajectory failed"),
     ExitCodeEntry(ExitCode.PAYLOAD, (PayloadError,), "the orientations of a payload recording cannot determine the payload"),
     ExitCodeEntry(ExitCode.PROTOCOL, (ProtocolError,), "a live-protocol datagram is not a valid message"),
+    ExitCodeEntry(
+        ExitCode.TIMEOUT,
+        (FeedTimeout,),
+        "a network peer did not answer within its timeout (a UR controller that accepts the connection and sends nothing: --ur-timeout)",
+    ),
     ExitCodeEntry(ExitCode.ARRAY, (ShapeError, StructureError), "an array has the wrong shape, or C is not of the form C_bar P"),
     ExitCodeEntry(ExitCode.OTHER, (FtsCalibError,), "any other fts-calib error"),
     ExitCodeEntry(ExitCode.FILE_ACCESS, (OSError,), "the system refused to read or write a file or a socket"),

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 
 from ..feeds.bag_log import JOINT_STAMPS, BagTopics
+from ..feeds.rtde import TIMEOUT_S
 
 #: Help text of the recording argument of calibrate, validate and replay.
 RECORDING_HELP = (
@@ -51,4 +52,13 @@ def add_ur(parser: argparse.ArgumentParser) -> None:
         "--ur-wrench",
         action="store_true",
         help="with --ur: the channels are the built-in sensor's raw wrench (needs a wrench-6 --sensor, e.g. factory_sensor)",
+    )
+    ur.add_argument(
+        "--ur-timeout",
+        dest="ur_timeout_s",
+        type=float,
+        default=TIMEOUT_S,
+        metavar="SECONDS",
+        help=f"with --ur: the longest wait for the controller's handshake, connection and first sample, in s (default {TIMEOUT_S:g}; "
+        "then exit 16)",
     )

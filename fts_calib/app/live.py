@@ -7,11 +7,11 @@ import sys
 import time
 from pathlib import Path
 
-from ..core.exceptions import ConfigError, FtsCalibError, InsufficientExcitation, PoorFit, UnknownToolConfiguration
+from ..core.exceptions import ConfigError, FeedTimeout, FtsCalibError, InsufficientExcitation, PoorFit, UnknownToolConfiguration
 from ..core.paths import check_outputs
-from ..feeds.rtde import RtdePoller, connect_ur
+from ..feeds.rtde import TIMEOUT_S, RtdePoller, connect_ur
 from ..feeds.sync import Synchronizer
-from ..feeds.udp import UdpReceiver
+from ..feeds.udp import UdpReceiver, listen_host
 from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
 from ..pipeline.checkpoint import check_start, live_source
@@ -41,6 +41,8 @@ def run(
     sensor: str | Path = "sensor",
     ur: str | None = None,
     ur_wrench: bool = False,
+    ur_timeout_s: float = TIMEOUT_S,
+    listen_any: bool = False,
     configuration: str | None = None,
     plan: str | Path | None = None,
     offsets: str | None = None,
@@ -71,6 +73,11 @@ def run(
             ``ur`` extra) instead of joint datagrams; None for none.
         ur_wrench: With ``ur``: the channels are the built-in sensor's raw wrench (a
             ``wrench-6`` sensor file), not strain datagrams.
+        ur_timeout_s: With ``ur``: the longest wait for the controller (its RTDE handshake,
+            the connection, the first sample), in [s]; beyond it the run stops with exit 16.
+        listen_any: Allow ``listen`` to bind beyond loopback (every interface, or a network
+            address): any host that reaches this one may then feed the calibration. Without
+            it a wildcard address (0.0.0.0, ::, 0) is refused.
         configuration: The tool configuration mounted from the start (tool datagrams may
             change it); None: wait for a tool datagram.
         plan: ``plan.yaml`` of the sized trajectories being run: the status line then shows
@@ -83,11 +90,13 @@ def run(
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
-        refused it (the checkpoint is kept in both cases).
+        refused it (the checkpoint is kept in both cases); 16 (an error) when the UR
+        controller does not answer within ``ur_timeout_s``.
         Ctrl-C, SIGTERM and SIGHUP end the run the same way: checkpoint and calibration written.
     """
     checkpoint = Path(checkpoint or f"{output}.checkpoint.json")
     host, port = listen
+    host = listen_host(host, listen_any, port)  # before any work: a refused address wastes nothing
     inputs = {"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor}
     check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
     check_start(checkpoint, resume, restart)
@@ -126,13 +135,15 @@ def run(
         sync.add_tool(-math.inf, configuration)
     rtde = None
     if ur is not None:
-        rtde = RtdePoller(connect_ur(ur), kin.joint_names, ur_wrench, host_clock=None if ur_wrench else time.time)
+        print(f"connecting to the UR at {ur} (RTDE, waiting at most {ur_timeout_s:g} s)", flush=True)
+        receive = connect_ur(ur, ur_timeout_s)
+        rtde = RtdePoller(receive, kin.joint_names, ur_wrench, host_clock=None if ur_wrench else time.time, timeout_s=ur_timeout_s)
         what = (
             "joints and the built-in sensor's wrench" if ur_wrench else "joints (strains: datagrams stamped with this host's time.time())"
         )
         print(f"reading the {what} of the UR at {ur} through RTDE", flush=True)
     with using_udp(host, port):
-        receiver = UdpReceiver(host, port)
+        receiver = UdpReceiver(host, port, listen_any)
     print(
         f"listening on udp://{receiver.address[0]}:{receiver.address[1]} for {kin.robot.name} with '{loaded.name}'; "
         "Ctrl-C or an 'end' message writes the calibration",
@@ -143,6 +154,10 @@ def run(
         stats = runner.run(idle_timeout_s=idle_timeout_s)
     finally:
         receiver.close()
+    if rtde is not None and rtde.samples == 0 and isinstance(rtde.error, FeedTimeout):
+        if not resume:  # a checkpoint of nothing would only stand in the way of the next run
+            checkpoint.unlink(missing_ok=True)
+        raise rtde.error
     print(format_stats(stats, sync))
     if rtde is not None:
         print(format_rtde(rtde))

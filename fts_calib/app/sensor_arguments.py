@@ -31,5 +31,5 @@ def add_prior(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=1.0,
         metavar="LAMBDA",
-        help="weight of --prior relative to the data: 0 none, 1 as much as the data, large: the prior (default: 1)",
+        help="weight of --prior relative to the data: 0 none, 1 as much as the data, 1e12 (the most): the prior (default: 1)",
     )

@@ -174,6 +174,8 @@ class JointError(FtsCalibError, KeyError):
         super().__init__(message)
 
     def __str__(self) -> str:
+        if not self.expected:  # the message says what was expected
+            return self.message
         return f"{self.message}; expected joints, in order: {', '.join(self.expected)}"
 
 
@@ -260,6 +262,28 @@ class ProtocolError(FtsCalibError, ValueError):
     def __init__(self, reason: str, detail: str):
         self.reason = reason
         super().__init__(f"{reason} datagram: {detail}")
+
+
+class LimitError(FtsCalibError, ValueError):
+    """An input beyond a limit of :mod:`fts_calib.core.bounded` (depth, digits, an alias); the message says which.
+
+    The readers re-raise it naming their file (:class:`FileFormatError`) or count it (a
+    datagram: :class:`ProtocolError`).
+    """
+
+
+class FeedTimeout(FtsCalibError):
+    """A network peer (a robot controller, a sender) did not answer within its timeout.
+
+    Attributes:
+        what: What was waited for, in words (e.g. 'the RTDE handshake of the UR at 10.0.0.7:30004').
+        timeout_s: How long it was waited for [s].
+    """
+
+    def __init__(self, what: str, timeout_s: float, hint: str = ""):
+        self.what = what
+        self.timeout_s = timeout_s
+        super().__init__(f"no answer within {timeout_s:g} s: waited for {what}" + (f"; {hint}" if hint else ""))
 
 
 class PayloadError(FtsCalibError):

@@ -17,8 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from .bounded import parse_yaml, read_bounded_text
 from .exceptions import ConfigError, FileFormatError
 from .outputs import STDOUT, AtomicFile, atomic_write_bytes, atomic_write_text, new_file_mode  # noqa: F401 (re-exported)
+from .text import utf8_safe
 
 _DUMPERS: list[Any] = []  # the YAML dumper class, made on first use (PyYAML imported then)
 
@@ -29,7 +31,10 @@ def _flow_dumper() -> Any:
         import yaml
 
         class FlowDumper(yaml.SafeDumper):
-            pass
+            """No aliases in what we write: the loader refuses them."""
+
+            def ignore_aliases(self, data: Any) -> bool:  # noqa: D102
+                return True
 
         def represent_list(dumper: yaml.SafeDumper, data: list) -> yaml.Node:
             flow = all(not isinstance(item, (list, dict, tuple)) for item in data)
@@ -41,17 +46,19 @@ def _flow_dumper() -> Any:
 
 
 def to_plain(value: Any) -> Any:
-    """Convert numpy arrays and scalars, tuples and mappings into plain YAML-safe types."""
+    """Convert numpy arrays and scalars, tuples and mappings into plain YAML-safe types (text: :func:`~fts_calib.core.text.utf8_safe`)."""
     if isinstance(value, np.ndarray):
         return to_plain(value.tolist())
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, Mapping):
-        return {str(k): to_plain(v) for k, v in value.items()}
+        return {utf8_safe(str(k)): to_plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [to_plain(v) for v in value]
     if isinstance(value, Path):
-        return str(value)
+        return utf8_safe(str(value))
+    if isinstance(value, str):
+        return utf8_safe(value)
     return value
 
 
@@ -63,33 +70,15 @@ def dump_yaml(data: Mapping[str, Any]) -> str:
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """Read a YAML file whose top level is a mapping.
+    """Read a YAML file whose top level is a mapping, within the limits of :mod:`fts_calib.core.bounded`.
 
     Raises:
-        FileFormatError: The file is missing, is not valid YAML (the message gives line and
-            column), or its top level is not a mapping.
+        FileFormatError: The file is missing, larger than the limit, binary, not valid YAML
+            or beyond a limit (anchors, depth, numbers; the message gives line and column),
+            or its top level is not a mapping.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise FileFormatError(path, None, "file not found") from None
-    except IsADirectoryError:
-        raise FileFormatError(path, None, "is a folder, not a YAML file") from None
-    except OSError as exc:
-        raise FileFormatError(path, None, f"cannot read: {exc.strerror}") from None
-    except UnicodeDecodeError as exc:  # a binary file (or a compressed one) given for a YAML file
-        byte = exc.object[exc.start : exc.start + 1].hex()
-        raise FileFormatError(path, None, f"not a text file (byte 0x{byte} at offset {exc.start} is not UTF-8): expected YAML") from None
-    import yaml
-
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise FileFormatError(path, None, f"not valid YAML{where}: {problem}") from None
+    data = parse_yaml(read_bounded_text(path, "YAML"), path)
     if not isinstance(data, dict):
         raise FileFormatError(path, None, f"expected a mapping at the top level, got {type(data).__name__}")
     return data
@@ -145,7 +134,7 @@ def read_array(value: Any, shape: tuple[int, ...], path: str | Path, field: str)
     """
     try:
         array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise FileFormatError(path, field, f"expected numbers of shape {shape}, got {value!r}") from None
     if array.shape != shape:
         raise FileFormatError(path, field, f"shape {array.shape} but expected {shape}")
@@ -168,7 +157,7 @@ def read_number(value: Any, path: str | Path, field: str, unit: str = "") -> flo
     """
     try:
         return float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise FileFormatError(path, field, f"expected a number{' in ' + unit if unit else ''}, got {value!r}") from None
 
 

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import IO
 
 from .exceptions import OutputInUse
+from .text import utf8_safe
 
 try:
     import fcntl
@@ -46,12 +47,13 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     Args:
         path: Destination file; its folder is created when missing. ``-`` is standard
             output; an existing character device or FIFO is written directly.
-        text: Content, written as UTF-8.
+        text: Content, written as UTF-8 (the undecodable bytes of a file name in it as
+            backslash escapes: :func:`fts_calib.core.text.utf8_safe`).
 
     Returns:
         The destination path.
     """
-    return atomic_write_bytes(path, text.encode("utf-8"))
+    return atomic_write_bytes(path, utf8_safe(text).encode("utf-8"))
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:

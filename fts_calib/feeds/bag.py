@@ -35,6 +35,7 @@ synchronizer (a joint stream never reaches into another bag).
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -43,6 +44,7 @@ import numpy as np
 
 from ..core.exceptions import BagError, ConfigError, UnknownToolConfiguration
 from .bag_log import (
+    BAG_SUFFIXES,
     FLOAT64_ARRAY,
     JOINT_STATE,
     STRING,
@@ -55,7 +57,7 @@ from .bag_log import (
     seconds,
     stamp_s,
 )
-from .batch import UNKNOWN_TOOL, SampleBatch
+from .batch import DUPLICATE, UNKNOWN_TOOL, SampleBatch, repeated_rows
 from .row_notes import MAX_NOTES
 from .sync import Synchronizer
 
@@ -71,6 +73,25 @@ FROZEN_SHARE = 0.01
 
 #: Skip reason counted by the bag reader (channel samples; the synchronizer counts the others).
 MALFORMED = "malformed message"
+
+
+def _refuse_repeated_parts(parts: Sequence[BagPart]) -> None:
+    """Refuse bags given twice (a bag folder and its own storage file, or one path twice): their samples would count twice.
+
+    Raises:
+        BagError: Two of ``parts`` hold the same storage file; the message names both.
+    """
+    owner: dict[str, Path] = {}
+    for part in parts:
+        path = part.path
+        files = [p for p in path.iterdir() if p.suffix in BAG_SUFFIXES] if path.is_dir() else [path]
+        for file in files:
+            key = os.path.realpath(file)
+            if key in owner:
+                first = owner[key]
+                same = "the same bag" if first == path else f"the same bag as {first} (which holds {file.name})"
+                raise BagError(path, None, f"given twice: {same}; its samples would count twice: give each bag once")
+            owner[key] = path
 
 
 class BagReader:
@@ -137,6 +158,8 @@ class BagReader:
         self._reader = None  # the bag being read
         self._joint_index: dict[tuple[str, ...], np.ndarray | None] = {}
         self.joint_names: list[str] = list(joint_names or [])
+        self._previous: np.ndarray | None = None  # the last sample placed (time, joints, channels, configuration)
+        _refuse_repeated_parts(self.parts)
         starts, self._counts = [], []
         for part in self.parts:
             if part.configuration is not None and not self._open_tools and part.configuration not in self.tool_codes:
@@ -383,5 +406,16 @@ class BagReader:
                 self.unknown_tools[name] += int(np.sum(batch.configuration == k))
             self.skipped[UNKNOWN_TOOL] += int(unknown.sum())
         keep = ~unknown
+        full = np.column_stack((batch.time, batch.joints, batch.channels, codes))
+        if self._previous is not None and self._previous.shape != full.shape[1:]:
+            self._previous = None  # another channel count: nothing to repeat
+        repeated = repeated_rows(full, self._previous) & keep
+        self._previous = full[-1]
+        if repeated.any():  # a message recorded twice: each sample counts once
+            self.skipped[DUPLICATE] += int(repeated.sum())
+            if self.skipped[DUPLICATE] == int(repeated.sum()):
+                first = float(batch.time[np.argmax(repeated)])
+                self._note(f"{part.path}, topic '{self.topics.channels}' at {first:.9f} s: a sample recorded twice; dropped (counted once)")
+            keep &= ~repeated
         if keep.any():
             yield SampleBatch(batch.time[keep], batch.joints[keep], batch.channels[keep], codes[keep])

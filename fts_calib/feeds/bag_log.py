@@ -10,7 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.exceptions import BagError, ConfigError
+from ..core.exceptions import BagError, ConfigError, FileFormatError
+from ..core.fileio import load_yaml
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64_ARRAY = "std_msgs/msg/Float64MultiArray"
@@ -94,6 +95,12 @@ def open_bag(path: Path):
     """
     from rosbags.highlevel import AnyReader, AnyReaderError
 
+    metadata = path / "metadata.yaml"
+    if path.is_dir() and metadata.is_file():  # read by rosbags, without limits: checked here first
+        try:
+            load_yaml(metadata)
+        except FileFormatError as exc:
+            raise BagError(path, None, f"not a readable ROS 2 bag: {exc}") from None
     try:
         reader = AnyReader([path], default_typestore=typestore())
         reader.open()
@@ -101,6 +108,8 @@ def open_bag(path: Path):
         raise BagError(path, None, "bag not found") from None
     except AnyReaderError as exc:
         raise BagError(path, None, f"not a readable ROS 2 bag: {exc}") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:  # a damaged file that rosbags does not name
+        raise BagError(path, None, f"not a readable ROS 2 bag: {type(exc).__name__}: {exc}") from None
     return reader
 
 

@@ -20,6 +20,34 @@ from ..core.exceptions import ShapeError
 UNKNOWN_CONFIGURATION = -1
 #: The skip reason of such a sample (the recording reader and the session's checks count it).
 UNKNOWN_TOOL = "unknown tool configuration"
+#: The skip reason of a sample identical to the one before it in every value (a row or a message
+#: recorded twice): dropped and counted by the readers, so that no sample weighs twice.
+DUPLICATE = "duplicate sample"
+
+
+def repeated_rows(table: np.ndarray, previous: np.ndarray | None) -> np.ndarray:
+    """Which rows of a table equal the row before them in every column (the first row: ``previous``).
+
+    A log that holds every sample twice (a CSV written twice over, a bag given with its own
+    storage file) must not count each sample twice: the standard errors would be too small by
+    sqrt 2, and the repeated stamps stall every rate estimate. Rows that merely share a time
+    stamp (a coarse clock) differ in their values and are kept.
+
+    Args:
+        table: Samples, one row each (time, joints, channels, ...; any columns). Shape (N, k).
+        previous: The last row of the table before this one (a reader reads in chunks), or None.
+            Shape (k,).
+
+    Returns:
+        True where a row repeats the one before it. Shape (N,) bool.
+    """
+    table = np.asarray(table)
+    same = np.zeros(len(table), dtype=bool)
+    if len(table) > 1:
+        same[1:] = np.all(table[1:] == table[:-1], axis=1)
+    if len(table) and previous is not None:
+        same[0] = bool(np.all(table[0] == previous))
+    return same
 
 
 @dataclass(frozen=True)

@@ -14,8 +14,10 @@ is optional, the sensor's temperature in [°C] (for the drift offset model). ``s
 optional, in every message: an integer >= 0 that each sender increases by one per
 datagram it sends (all types in one sequence), so that a receiver counts the datagrams
 lost on the way (:class:`fts_calib.feeds.udp.SeqGaps`); a datagram without it is valid.
-A datagram larger than :data:`MAX_DATAGRAM` bytes, or one that is not such an object,
-raises :class:`ProtocolError`, which a receiver counts and skips.
+A datagram larger than :data:`MAX_DATAGRAM` bytes, nested deeper than :data:`MAX_NESTING`,
+with an integer of more than 20 digits, a number that is not finite (``NaN``, ``Infinity``,
+``1e400``), or that is not such an object, raises :class:`ProtocolError`, which a receiver
+counts and skips (:mod:`fts_calib.core.bounded` parses it).
 """
 
 from __future__ import annotations
@@ -24,10 +26,13 @@ import json
 import math
 from dataclasses import dataclass
 
+from ..core.bounded import LimitError, loads_json
 from ..core.exceptions import ProtocolError
 
 #: Largest datagram accepted, in bytes (a joints message of a 7-joint arm is ~250 bytes).
 MAX_DATAGRAM = 8192
+#: Deepest nesting of a datagram's JSON (the messages nest two levels: an object holding a list or an object).
+MAX_NESTING = 4
 
 
 @dataclass(frozen=True)
@@ -93,8 +98,10 @@ def decode(data: bytes) -> Message:
     if len(data) > MAX_DATAGRAM:
         raise ProtocolError("oversized", f"{len(data)} bytes, at most {MAX_DATAGRAM}")
     try:
-        obj = json.loads(data)
-    except (UnicodeDecodeError, ValueError) as exc:
+        obj = loads_json(data, MAX_NESTING)
+    except LimitError as exc:
+        raise ProtocolError("malformed", str(exc)) from None
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise ProtocolError("malformed", f"not JSON ({exc})") from None
     if not isinstance(obj, dict):
         raise ProtocolError("malformed", "expected a JSON object")
@@ -107,7 +114,10 @@ def decode(data: bytes) -> Message:
         heat = obj.get("temperature")
         if heat is not None and (isinstance(heat, bool) or not isinstance(heat, (int, float)) or not math.isfinite(heat)):
             raise ProtocolError("malformed", f"'temperature' must be a finite number of °C, got {heat!r}")
-        return Strain(_time(obj), tuple(float(v) for v in values), seq, None if heat is None else float(heat))
+        strain = tuple(float(v) for v in values)
+        if not math.isfinite(sum(strain)):  # 1e400 parses as inf; one sum tells any non-finite value
+            raise ProtocolError("malformed", "'strain' holds a number that is not finite (or beyond the float range)")
+        return Strain(_time(obj), strain, seq, None if heat is None else float(heat))
     if kind == "joints":
         q = obj.get("q")
         if (
@@ -116,7 +126,10 @@ def decode(data: bytes) -> Message:
             or not all(isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) for k, v in q.items())
         ):
             raise ProtocolError("malformed", "'q' must map joint names to numbers")
-        return Joints(_time(obj), {k: float(v) for k, v in q.items()}, seq)
+        joints = {k: float(v) for k, v in q.items()}
+        if not math.isfinite(sum(joints.values())):
+            raise ProtocolError("malformed", "'q' holds a joint reading that is not finite (or beyond the float range)")
+        return Joints(_time(obj), joints, seq)
     if kind == "tool":
         name = obj.get("name")
         if not isinstance(name, str) or not name:

@@ -37,9 +37,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..core.bounded import MAX_CHANNELS, MAX_COLUMNS
 from ..core.exceptions import FtsCalibWarning, RecordingError
 from ..core.fileio import is_number
-from .batch import UNKNOWN_TOOL, SampleBatch
+from .batch import DUPLICATE, UNKNOWN_TOOL, SampleBatch, repeated_rows
 from .recording_writer import RecordingWriter, strain_columns
 from .row_notes import MAX_NOTES, ProblemNotes, value_problems
 
@@ -48,7 +49,7 @@ __all__ = ["MALFORMED", "UNKNOWN_TOOL", "RecordingReader", "RecordingWriter", "s
 
 def _header_channels(columns: Sequence[str]) -> int:
     """n: the largest k of the header's ``strain_k`` columns (8 when there is none, for the message)."""
-    found = [int(c[7:]) for c in columns if c.startswith("strain_") and c[7:].isdigit() and int(c[7:]) >= 1]
+    found = [int(c[7:]) for c in columns if c.startswith("strain_") and c[7:].isdigit() and len(c) <= 12 and int(c[7:]) >= 1]
     return max(found) if found else 8
 
 
@@ -131,9 +132,22 @@ class RecordingReader:
             raise RecordingError(self.path, 1, None, message) from None
         except (OSError, EOFError, zlib.error) as exc:
             raise RecordingError(self.path, 1, None, f"cannot read the header: {exc}") from None
+        if header.count(",") >= MAX_COLUMNS:  # before any work on the columns (a 1 MB header)
+            message = (
+                f"the header has more than {MAX_COLUMNS:,} columns, the most a recording may have (time, the joints, "
+                f"at most {MAX_CHANNELS} strain columns, tool, temperature): not a recording's header"
+            )
+            raise RecordingError(self.path, 1, None, message)
         self.columns = [c.strip() for c in header.strip().split(",")]
         #: Number of channels: the header's strain_1 ... strain_n columns.
         self.n_channels = _header_channels(self.columns)
+        too_many = next(
+            (c for c in self.columns if c.startswith("strain_") and c[7:].isdigit() and (len(c) > 12 or int(c[7:]) > MAX_CHANNELS)), None
+        )
+        if too_many is not None:
+            raise RecordingError(
+                self.path, 1, too_many[:24], f"a channel number beyond {MAX_CHANNELS}, the most channels a sensor may have"
+            )
         self.strain_columns = strain_columns(self.n_channels)
         #: Whether the file has the optional ``temperature`` column (sensor temperature, °C).
         self.has_temperature = "temperature" in self.columns
@@ -144,10 +158,11 @@ class RecordingReader:
             expected = ",".join(["time", *(self.joint_names or ["<joints>"]), "strain_1", "...", "strain_n", "tool"])
             raise RecordingError(self.path, 1, None, f"empty file: expected a header line '{expected}'")
         required = ["time", *self.joint_names, *self.strain_columns, "tool"]
-        repeated = sorted({c for c in self.columns if self.columns.count(c) > 1 and c in required})
+        counts = Counter(self.columns)  # linear in the columns: the header may be long
+        repeated = sorted(c for c in set(required) if counts[c] > 1)
         if repeated:
             raise RecordingError(self.path, 1, repeated[0], f"column repeated: {repeated}")
-        missing = [c for c in required if c not in self.columns]
+        missing = [c for c in required if c not in counts]
         if missing:
             delimiter = next((name for d, name in ((";", "';'"), ("\t", "tabs")) if len(self.columns) == 1 and d in header), None)
             hint = (
@@ -156,7 +171,8 @@ class RecordingReader:
                 else f"; the header has {self.columns}"
             )
             raise RecordingError(self.path, 1, missing[0], f"missing column(s) {missing}{hint}")
-        self.extra_columns = [c for c in self.columns if c not in (*required, "temperature")]
+        known = {*required, "temperature"}
+        self.extra_columns = [c for c in self.columns if c not in known]
         if self.extra_columns:
             warnings.warn(f"{self.path}: ignoring extra columns {self.extra_columns}", FtsCalibWarning, stacklevel=2)
         self._numeric = [self.columns.index(c) for c in self._numeric_names]
@@ -164,6 +180,7 @@ class RecordingReader:
         # numeric columns as float, the rest as text (the parser then refuses a bad number)
         self._dtypes = {c: (np.float64 if k in self._numeric else str) for k, c in enumerate(self.columns)}
         self._line = 1
+        self._previous_row: np.ndarray | None = None  # the last row read (numbers and configuration), for repeats
 
     @property
     def _numeric_names(self) -> list[str]:
@@ -303,6 +320,16 @@ class RecordingReader:
             self.skipped[UNKNOWN_TOOL] += int(unknown.sum())
             keep = ~unknown
             table, codes, numbers = table[keep], codes[keep], numbers[keep]
+        full = np.column_stack((table, codes))
+        repeated = repeated_rows(full, self._previous_row)
+        if len(full):
+            self._previous_row = full[-1]
+        if repeated.any():
+            count = int(repeated.sum())
+            self.skipped[DUPLICATE] += count
+            self._notes.note(int(numbers[np.argmax(repeated)]), "the same values as the row before it: dropped (counted once)", DUPLICATE)
+            self._notes.count(count - 1, DUPLICATE)
+            table, codes, numbers = table[~repeated], codes[~repeated], numbers[~repeated]
         self._note_values(table, numbers)
         self._notes.flush()
         if len(table):

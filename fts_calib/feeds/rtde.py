@@ -19,18 +19,27 @@ ever add to it); a constant delay left over is the joint stream's ``latency_s``.
 
 ``ur_rtde`` is an optional extra (``pip install 'fts-calib[ur]'``), imported only by
 :func:`connect_ur`.
+
+Every wait on the controller has a watchdog (``timeout_s``, ``--ur-timeout``, 5 s by
+default): :func:`connect_ur` first asks the controller for RTDE's protocol version over a
+plain socket (:func:`probe_rtde`), so that a host that accepts the connection and then says
+nothing is named in one line instead of hanging ``ur_rtde``'s constructor, which does not
+return to Python (Ctrl-C included) until it is answered; the constructor then runs in a
+daemon thread that the caller waits for in short, interruptible steps.
 """
 
 from __future__ import annotations
 
 import collections
 import math
+import socket
+import struct
 import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
-from ..core.exceptions import ConfigError
+from ..core.exceptions import ConfigError, FeedTimeout
 from .protocol import Joints, Message, Strain, ToolChange
 from .sync import Synchronizer
 
@@ -38,6 +47,12 @@ from .sync import Synchronizer
 POLL_S = 0.0005
 #: Samples kept between two drains, at most (20 s at 500 Hz): older ones are dropped and counted.
 MAX_PENDING = 10_000
+#: The TCP port of a UR controller's RTDE interface.
+RTDE_PORT = 30004
+#: How long each wait on the controller lasts at most, by default [s] (``--ur-timeout``).
+TIMEOUT_S = 5.0
+#: RTDE's request for the protocol version (package type 'V'), and the version asked for.
+_RTDE_VERSION_REQUEST, _RTDE_PROTOCOL = 86, 2
 
 
 class RtdeReceive(Protocol):
@@ -53,22 +68,84 @@ class RtdeReceive(Protocol):
         ...
 
 
-def connect_ur(host: str) -> RtdeReceive:
-    """An ``rtde_receive.RTDEReceiveInterface`` connected to the UR controller at ``host``.
+def probe_rtde(host: str, port: int = RTDE_PORT, timeout_s: float = TIMEOUT_S) -> None:
+    """Check that an RTDE server answers at ``host:port``: connect, ask its protocol version, read the answer.
+
+    A plain socket with a deadline on every step, so that a host that accepts the connection
+    and sends nothing is a clear error, not a hang; Ctrl-C works throughout.
+
+    Args:
+        host: The controller's address.
+        port: RTDE's port (30004 on every UR controller).
+        timeout_s: The longest wait of each step (connect, answer) [s].
+
+    Raises:
+        FeedTimeout: No connection, or no answer, within ``timeout_s``.
+        ConnectionError: The connection is refused or closed, or the answer is not RTDE's.
+    """
+    where = f"the UR controller at {host}:{port} (RTDE)"
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s) as sock:
+            sock.sendall(struct.pack(">HBH", 5, _RTDE_VERSION_REQUEST, _RTDE_PROTOCOL))
+            answer = b""
+            while len(answer) < 4:
+                part = sock.recv(4 - len(answer))
+                if not part:
+                    raise ConnectionError(f"{where} closed the connection without answering RTDE's protocol request")
+                answer += part
+    except TimeoutError:
+        hint = "is HOST the robot's controller, with RTDE enabled? (--ur-timeout sets the wait)"
+        raise FeedTimeout(f"{where} to answer RTDE's protocol request", timeout_s, hint) from None
+    except OSError as exc:
+        if isinstance(exc, ConnectionError):
+            raise
+        raise ConnectionError(f"cannot connect to {where}: {exc.strerror or exc}") from None
+    if answer[2] != _RTDE_VERSION_REQUEST:
+        raise ConnectionError(f"{where} answered, but not as an RTDE server (package type {answer[2]}): is HOST a UR controller?")
+
+
+def connect_ur(host: str, timeout_s: float = TIMEOUT_S) -> RtdeReceive:
+    """An ``rtde_receive.RTDEReceiveInterface`` connected to the UR controller at ``host``, within ``timeout_s``.
+
+    Args:
+        host: The controller's address.
+        timeout_s: The longest wait of each step (the handshake, then the connection of
+            ``ur_rtde``) [s].
 
     Raises:
         ConfigError: ``ur_rtde`` is not installed (the message says how to install it).
-        ConnectionError: The controller does not answer at ``host``.
+        FeedTimeout: The controller does not answer within ``timeout_s``.
+        ConnectionError: The controller refuses the connection at ``host``.
     """
     try:
         import rtde_receive  # type: ignore[import-not-found]
     except ImportError:
         message = "--ur reads the arm through ur_rtde, which is not installed: pip install 'fts-calib[ur]'"
         raise ConfigError("ur", host, "", message=message) from None
-    try:
-        return rtde_receive.RTDEReceiveInterface(host)
-    except RuntimeError as exc:
-        raise ConnectionError(f"cannot connect to the UR controller at {host} (RTDE, port 30004): {exc}") from None
+    if not (math.isfinite(timeout_s) and timeout_s > 0):
+        raise ConfigError("ur_timeout_s", timeout_s, "a finite number of seconds > 0", "s")
+    probe_rtde(host, RTDE_PORT, timeout_s)
+    result: dict[str, object] = {}
+
+    def build() -> None:
+        try:
+            result["receiver"] = rtde_receive.RTDEReceiveInterface(host)
+        except Exception as exc:  # noqa: BLE001 (handed to the waiting thread, which names it)
+            result["error"] = exc
+
+    thread = threading.Thread(target=build, name="ur-rtde-connect", daemon=True)  # a daemon: never keeps the process alive
+    thread.start()
+    deadline = time.monotonic() + timeout_s
+    while thread.is_alive() and time.monotonic() < deadline:
+        thread.join(0.05)  # short steps: Ctrl-C is seen between them
+    if thread.is_alive():
+        raise FeedTimeout(f"ur_rtde to connect to the UR controller at {host} (it answered RTDE's protocol request)", timeout_s)
+    error = result.get("error")
+    if isinstance(error, RuntimeError):
+        raise ConnectionError(f"cannot connect to the UR controller at {host} (RTDE, port {RTDE_PORT}): {error}") from None
+    if isinstance(error, BaseException):
+        raise error
+    return result["receiver"]  # type: ignore[return-value]
 
 
 class RtdePoller:
@@ -82,6 +159,8 @@ class RtdePoller:
             external sensor's strains, stamped with it, come over UDP); None keeps the
             controller's clock.
         poll_s: Pause between two reads [s].
+        timeout_s: The longest wait for the first sample after :meth:`start` [s] (the live
+            runner's watchdog: a controller that connects and never publishes).
 
     Attributes:
         samples: Controller samples read (each once).
@@ -99,6 +178,7 @@ class RtdePoller:
         wrench: bool,
         host_clock: Callable[[], float] | None = None,
         poll_s: float = POLL_S,
+        timeout_s: float = TIMEOUT_S,
     ):
         if len(joint_names) != 6:
             raise ConfigError(
@@ -109,6 +189,7 @@ class RtdePoller:
         self.wrench = wrench
         self.host_clock = host_clock
         self.poll_s = float(poll_s)
+        self.timeout_s = float(timeout_s)
         self.samples = 0
         self.dropped = 0
         self.offset_s = math.inf if host_clock is not None else 0.0

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..core.arrays import as_matrix, as_samples, frozen
+from ..core.bounded import MAX_CHANNELS
 from ..core.exceptions import ConfigError, ShapeError
 from .sensor import P_NULL, P, c_bar_from_c
 
@@ -43,8 +44,8 @@ class ChannelLayout:
             channel patterns no wrench produces (the paper's two patterns for its sensor).
 
     Raises:
-        ConfigError: Unknown name, or a projection that is not 6 x n with n >= 6, not
-            finite, or not of full row rank 6.
+        ConfigError: Unknown name, or a projection that is not 6 x n with 6 <= n <=
+            :data:`~fts_calib.core.bounded.MAX_CHANNELS` (64), not finite, or not of full row rank 6.
     """
 
     name: str
@@ -59,6 +60,11 @@ class ChannelLayout:
         if projection.ndim != 2 or projection.shape[0] != 6 or projection.shape[1] < 6:
             expected = "a 6 x n matrix with n >= 6 (one column per channel)"
             raise ConfigError("projection", projection.shape, expected, reason=f"has shape {projection.shape} but expected {expected}")
+        if projection.shape[1] > MAX_CHANNELS:  # before the SVDs, whose cost grows with the cube of n
+            expected = f"at most {MAX_CHANNELS} channels (columns)"
+            raise ConfigError(
+                "projection", projection.shape, expected, reason=f"has {projection.shape[1]:,} columns but expected {expected}"
+            )
         if not np.all(np.isfinite(projection)):
             raise ConfigError(
                 "projection", "a NaN or inf entry", "finite numbers", reason="has a NaN or inf entry but expected finite numbers"

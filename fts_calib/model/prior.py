@@ -30,7 +30,12 @@ import numpy as np
 
 from ..core import validation
 from ..core.arrays import as_matrix, frozen
+from ..core.exceptions import ConfigError
 from .least_squares import information_rank, solve_normal
+
+#: Largest prior weight lambda: at 1e12 the data pull C_bar 1e-12 of the way from the prior (the prior to
+#: rounding); far beyond it ``S_XX + M`` overflows (at 1e308 no eigenvalue solver converges).
+MAX_WEIGHT = 1e12
 
 
 @dataclass(frozen=True)
@@ -40,7 +45,8 @@ class Prior:
     Attributes:
         C_bar: The prior's modified calibration matrix (same channel layout as the data).
             Shape (6, 6).
-        weight: lambda >= 0, relative to the data's information (see the module docstring).
+        weight: lambda, 0 to :data:`MAX_WEIGHT` (1e12), relative to the data's information (see
+            the module docstring).
         source: Where it came from (a file name), for the quality report.
     """
 
@@ -50,7 +56,14 @@ class Prior:
 
     def __post_init__(self):
         object.__setattr__(self, "C_bar", frozen(validation.finite_array("prior C_bar", as_matrix(self.C_bar, (6, 6), "C_bar"))))
-        object.__setattr__(self, "weight", validation.non_negative("prior_weight", self.weight))
+        weight = validation.non_negative("prior_weight", self.weight)
+        if weight > MAX_WEIGHT:
+            message = (
+                f"--prior-weight {weight:g} but expected at most {MAX_WEIGHT:g}: there the result is already the prior's C_bar "
+                "to rounding (a larger weight only overflows the solve); to use the prior as it is, use that calibration"
+            )
+            raise ConfigError("prior_weight", weight, f"0 to {MAX_WEIGHT:g}", message=message)
+        object.__setattr__(self, "weight", weight)
 
     def solve(self, S_XX: np.ndarray, S_WX: np.ndarray, rcond: float):
         """Solve the shrunk normal equations.

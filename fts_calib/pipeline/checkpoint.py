@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..core.bounded import load_json_file
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning
 from ..core.fileio import atomic_write_text
 from ..feeds.bag_log import parse_bag_argument
@@ -118,6 +119,10 @@ def write_checkpoint(path: str | Path, state: dict[str, Any]) -> Path:
     return atomic_write_text(Path(path), json.dumps(document))
 
 
+#: Largest checkpoint read [bytes]: a checkpoint holds sums, not samples (about 20 kB).
+MAX_CHECKPOINT_BYTES = 256 << 20
+
+
 def read_checkpoint(path: str | Path, robot: str, tool: Tool, source: dict[str, Any] | None = None) -> dict[str, Any]:
     """The state in a checkpoint, after checking that it is one of this robot, tool and source.
 
@@ -133,12 +138,9 @@ def read_checkpoint(path: str | Path, robot: str, tool: Tool, source: dict[str, 
         FileFormatError: Missing, not a checkpoint, or one of another robot, tool or source.
     """
     path = Path(path)
-    try:
-        state = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise FileFormatError(path, None, "checkpoint not found") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise FileFormatError(path, None, f"not a checkpoint: {exc}") from None
+    if not path.exists():
+        raise FileFormatError(path, None, "checkpoint not found")
+    state = load_json_file(path, "checkpoint", MAX_CHECKPOINT_BYTES, finite=False)
     if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
         raise FileFormatError(path, "format", f"expected {CHECKPOINT_FORMAT!r}")
     names = tool.names

@@ -104,7 +104,11 @@ def estimate_latency(
     codes = np.asarray(configuration, dtype=np.int64)
     if len(time) < 3:
         return None
-    dt = float(np.median(np.diff(time)))
+    steps = np.diff(time)
+    steps = steps[steps > 0]  # repeated stamps (a sample logged twice) have no step: the period is that of the others
+    if not len(steps):
+        return None
+    dt = float(np.median(steps))
     residual, rate, move = [], [], []
     new = np.concatenate([[True], np.diff(codes) != 0])
     bounds = [*np.nonzero(new)[0], len(time)]

@@ -19,7 +19,7 @@ import threading
 import time
 from typing import TextIO
 
-from ..core.exceptions import FtsCalibError
+from ..core.exceptions import FeedTimeout, FtsCalibError
 from ..feeds.rtde import RtdePoller
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
@@ -160,6 +160,8 @@ class LiveRunner:
                 now = time.monotonic()
                 if self._drain_rtde():
                     last_data = now
+                if self.rtde is not None and self.rtde.samples == 0 and now - start >= self.rtde.timeout_s:
+                    self.rtde.error = FeedTimeout("the first sample of the UR controller (RTDE)", self.rtde.timeout_s)
                 if self.rtde is not None and self.rtde.error is not None:
                     break  # the controller's connection is lost: what was read is kept
                 if datagrams:
@@ -203,7 +205,8 @@ def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
     """Message counts and CPU use of a live run, one line each."""
     lines = [
         f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
-        f"{stats.malformed} malformed and {stats.oversized} oversized skipped, {_lost(stats)}; "
+        f"{stats.malformed} malformed and {stats.oversized} oversized skipped, {_lost(stats)}"
+        f"{f', {stats.duplicates:,} duplicates dropped (a seq number received twice)' if stats.duplicates else ''}; "
         f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
         f"({100 * stats.cpu_s / max(stats.wall_s, 1e-9):.0f} % of one core)"
     ]

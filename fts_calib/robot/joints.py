@@ -259,7 +259,8 @@ def joint_infos(model: pin.Model) -> list[JointInfo]:
         name = model.names[jid]
         if joint.nv != 1 or not (short.startswith("JointModelR") or short.startswith("JointModelP")):
             raise UnsupportedJoint(f"joint '{name}' is a {short}; only revolute, continuous and prismatic joints are supported")
-        column = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, joint.idx_v]
+        # a one-joint model's Jacobian comes back as a vector: shape it (6, nv) again
+        column = np.reshape(pin.getJointJacobian(model, data, jid, pin.LOCAL), (6, -1))[:, joint.idx_v]
         prismatic = short.startswith("JointModelP")
         axis = column[:3] if prismatic else column[3:]
         axis = axis / np.linalg.norm(axis)

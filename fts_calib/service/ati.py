@@ -31,6 +31,7 @@ import numpy as np
 
 from .._version import __version__
 from ..core.arrays import frozen
+from ..core.bounded import MAX_CHANNELS, read_bounded
 from ..core.exceptions import ConfigError, FileFormatError
 from ..model.calibration import Calibration, load_calibration
 from ..model.channels import ChannelLayout
@@ -107,12 +108,9 @@ def _elements(path: Path) -> list[tuple[str, dict[str, str], int]]:
     found: list[tuple[str, dict[str, str], int]] = []
     parser = xml.parsers.expat.ParserCreate()
     parser.StartElementHandler = lambda tag, attrs: found.append((tag, dict(attrs), parser.CurrentLineNumber))
+    data = read_bounded(path, "ATI calibration (XML)")
     try:
-        parser.Parse(path.read_bytes(), True)
-    except FileNotFoundError:
-        raise FileFormatError(path, None, "file not found") from None
-    except OSError as exc:
-        raise FileFormatError(path, None, f"cannot read: {exc.strerror}") from None
+        parser.Parse(data, True)
     except xml.parsers.expat.ExpatError as exc:
         message = f"line {exc.lineno}, column {exc.offset + 1}: not valid XML ({xml.parsers.expat.ErrorString(exc.code)})"
         raise FileFormatError(path, None, message + ": expected an ATI calibration file (<FTSensor><Calibration>...)") from None
@@ -169,7 +167,12 @@ def load_ati_calibration(path: str | Path) -> AtiCalibration:
     n = len(axes["Fx"][0])
     gauges = sensor.get("NumGages")
     if gauges is not None and gauges.strip().isdigit():
-        n = int(gauges)
+        n = int(gauges) if len(gauges.strip()) <= 9 else MAX_CHANNELS + 1  # int() of 5,000 digits raises
+    width = max(n, *(len(axes[a][0]) for a in AXIS_NAMES))
+    if width > MAX_CHANNELS:  # before any matrix work (an SVD grows with the cube of n)
+        raise FileFormatError(
+            path, "UserAxis.values", f"{width:,} gauges but fts-calib reads at most {MAX_CHANNELS}: not a sensor's calibration"
+        )
     for name in AXIS_NAMES:
         values, _, line = axes[name]
         if len(values) != n:

@@ -1,0 +1,572 @@
+"""Hostile and careless input, round 3 (issue 21, part A): no traceback, no hang, each case one clear line.
+
+Each test is a case that died, hung or counted samples twice before, run through the
+command line's entry point (``main``) where a user meets it: the first line of the message
+and the exit code are asserted. The unit tests at the end check the bounded parsers of
+:mod:`fts_calib.core.bounded` on their own.
+"""
+
+import json
+import math
+import os
+import re
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import textwrap
+import threading
+import types
+import warnings
+
+import numpy as np
+import pytest
+
+from fts_calib import FileFormatError, FtsCalibWarning
+from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
+from fts_calib.core.bounded import MAX_CHANNELS, MAX_COLUMNS, MAX_DEPTH, LimitError, json_depth, loads_json, parse_yaml
+from fts_calib.core.text import utf8_safe
+from fts_calib.feeds.batch import repeated_rows
+from fts_calib.feeds.protocol import MAX_NESTING, Strain, encode
+from fts_calib.feeds.sync import Synchronizer
+from fts_calib.feeds.udp import LiveStats, SeqGaps, UdpReceiver, feed_datagram, listen_host
+from fts_calib.model.calibration import load_calibration
+from fts_calib.pipeline.live import LiveRunner
+from fts_calib.pipeline.session import CalibrationSession
+
+from .helpers import DEADLINE_S, FakeRtdeServer, wait_for
+
+
+def _error(capsys):
+    """The one line a failed command printed on stderr (after any warnings)."""
+    lines = [line for line in capsys.readouterr().err.strip().splitlines() if "warning:" not in line]
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+def _calibrate(tmp_path, recording, *extra, robot="ur5"):
+    return main(
+        ["calibrate", "--robot", robot, "--tool", "paper_tool", str(recording), "-o", str(tmp_path / "cal.yaml"), "--quiet", *extra]
+    )
+
+
+@pytest.fixture(scope="module")
+def calibration_file(tmp_path_factory, ur5_recording):
+    """A calibration of the simulated UR5 run, written by calibrate."""
+    out = tmp_path_factory.mktemp("cal") / "cal.yaml"
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out), "--quiet"]) == ExitCode.OK
+    return out
+
+
+# -- the program dies: files --------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "expected"),
+    [
+        (
+            "laughs.yaml",
+            "format: fts-calib/1\na: &a [1, 1, 1, 1, 1, 1, 1, 1, 1]\nb: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]\nc: [*b, *b, *b]\n",
+            r"laughs\.yaml: line 3, column 8: a YAML alias \(\*a\) is not accepted: fts-calib files use no anchors or aliases; "
+            "write the values out",
+        ),
+        (
+            "deep.yaml",
+            "C: " + "[" * 20_000 + "]" * 20_000 + "\n",
+            # libyaml's scanner stops at 1,000 levels before any event; PyYAML's own parser meets our limit first
+            r"deep\.yaml: (not valid YAML at line 1, column 1003: exceeded maximum nesting depth|line 1, column 67: nested more than 64)",
+        ),
+        (
+            "deep_block.yaml",
+            "".join("  " * k + "- \n" for k in range(200)),
+            rf"deep_block\.yaml: line {MAX_DEPTH + 1}, column {2 * MAX_DEPTH + 1}: nested more than {MAX_DEPTH} levels deep",
+        ),
+        ("digits.yaml", "D: [" + "9" * 400 + ", 0]\n", r"digits\.yaml: line 1, column 5: an integer of 400 digits \(at most 20\)"),
+        ("overflow.yaml", "D: [1.0e+400, 0]\n", r"overflow\.yaml: line 1, column 5: the number 1\.0e\+400 is beyond the float range"),
+    ],
+)
+def test_a_hostile_calibration_yaml_is_one_line(tmp_path, capsys, name, text, expected):
+    path = tmp_path / name
+    path.write_text(text)
+    code = main(["export", "--format", "json", "--calibration", str(path), "-o", str(tmp_path / "out.json")])
+    assert code == ExitCode.FILE
+    line = _error(capsys)
+    assert re.match(f"fts-calib export: error: {re.escape(str(tmp_path))}/{expected}", line), line
+    assert not (tmp_path / "out.json").exists()
+
+
+def test_a_file_larger_than_any_fts_calib_file_is_refused_before_it_is_read(tmp_path, capsys):
+    path = tmp_path / "huge.yaml"
+    with open(path, "wb") as handle:
+        handle.truncate(17 << 20)  # sparse: 17 MiB of zeros without writing them
+    assert main(["export", "--format", "json", "--calibration", str(path), "-o", str(tmp_path / "o.json")]) == ExitCode.FILE
+    assert (
+        _error(capsys) == f"fts-calib export: error: {path}: larger than 16 MiB, the most a YAML file of fts-calib may be: not such a file"
+    )
+
+
+def _ati(n, gauges=None):
+    rows = "\n".join(
+        f'    <UserAxis Name="{axis}" values="{" ".join("1" if i == k else "0" for i in range(n))}" max="100"/>'
+        for k, axis in enumerate(("Fx", "Fy", "Fz", "Tx", "Ty", "Tz"))
+    )
+    head = f'<FTSensor Serial="FT1" NumGages="{gauges or n}">\n  <Calibration ForceUnits="N" TorqueUnits="N-m">\n'
+    return head + rows + "\n  </Calibration>\n</FTSensor>\n"
+
+
+def test_a_matrix_of_30000_channels_is_refused_before_any_svd(tmp_path, ur5_recording, capsys):
+    """A 6 x 30,000 ATI matrix (a full SVD would need 7 GB): refused from its width."""
+    ati = tmp_path / "FT_wide.cal"
+    ati.write_text(_ati(30_000))
+    assert _calibrate(tmp_path, ur5_recording, "--sensor", str(ati)) == ExitCode.FILE
+    assert _error(capsys) == (
+        f"fts-calib calibrate: error: {ati}: field 'UserAxis.values': 30,000 gauges but fts-calib reads at most {MAX_CHANNELS}: "
+        "not a sensor's calibration"
+    )
+    # the sensor YAML's projection: the same limit, in the channel layout itself (100 columns: the rule, not the size)
+    sensor = tmp_path / "wide_sensor.yaml"
+    rows = [[1.0 if i == k else 0.0 for i in range(100)] for k in range(6)]
+    sensor.write_text(f"name: wide\nchannels:\n  projection: {rows}\n")
+    assert _calibrate(tmp_path, ur5_recording, "--sensor", str(sensor)) == ExitCode.FILE
+    assert _error(capsys) == (
+        f"fts-calib calibrate: error: {sensor}: field 'channels.projection': has 100 columns but expected at most {MAX_CHANNELS} "
+        "channels (columns)"
+    )
+
+
+def test_a_header_of_a_megabyte_of_columns_is_refused_at_once(tmp_path, capsys):
+    path = tmp_path / "wide.csv"
+    path.write_text("time," + ",".join(f"column_{k}" for k in range(100_000)) + "\n0.0\n")
+    assert _calibrate(tmp_path, path) == ExitCode.RECORDING
+    assert _error(capsys) == (
+        f"fts-calib calibrate: error: {path}, line 1: the header has more than {MAX_COLUMNS:,} columns, the most a recording may have "
+        f"(time, the joints, at most {MAX_CHANNELS} strain columns, tool, temperature): not a recording's header"
+    )
+    path.write_text("time,strain_100,tool\n0.0,1.0,A\n")
+    assert _calibrate(tmp_path, path) == ExitCode.RECORDING
+    assert _error(capsys).endswith(
+        f"line 1, column 'strain_100': a channel number beyond {MAX_CHANNELS}, the most channels a sensor may have"
+    )
+
+
+def test_a_repeated_column_among_many_is_found(tmp_path, ur5_recording, capsys):
+    """The repeated-column check is linear now; it still names the column."""
+    lines = ur5_recording.read_text().splitlines(keepends=True)[:50]
+    header = lines[0].rstrip("\n") + "," + ",".join(f"extra_{k}" for k in range(900)) + ",strain_3\n"
+    path = tmp_path / "repeated.csv"
+    path.write_text(header + "".join(line.rstrip("\n") + ",0" * 901 + "\n" for line in lines[1:]))
+    assert _calibrate(tmp_path, path) == ExitCode.RECORDING
+    assert _error(capsys).endswith("line 1, column 'strain_3': column repeated: ['strain_3']")
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory, ur5_recording):
+    from fts_calib.sim.bag import recording_to_bag
+
+    return recording_to_bag(ur5_recording, tmp_path_factory.mktemp("bag") / "run", "mcap")
+
+
+def test_a_bag_whose_metadata_is_binary_is_one_line(tmp_path, bag, capsys):
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    for file in bag.iterdir():
+        os.symlink(file, broken / file.name)
+    (broken / "metadata.yaml").unlink()
+    (broken / "metadata.yaml").write_bytes(bytes([0x83, 0xFF, 0x00, 0x12]) * 200)
+    assert _calibrate(tmp_path, broken) == ExitCode.RECORDING
+    assert _error(capsys) == (
+        f"fts-calib calibrate: error: {broken}: not a readable ROS 2 bag: {broken}/metadata.yaml: not a text file "
+        "(byte 0x83 at offset 0 is not UTF-8): expected YAML"
+    )
+
+
+def test_a_bag_given_with_its_own_storage_file_is_refused(tmp_path, bag, capsys):
+    mcap = next(bag.glob("*.mcap"))
+    code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(bag), str(mcap), "-o", str(tmp_path / "cal.yaml"), "--quiet"])
+    assert code == ExitCode.RECORDING
+    assert _error(capsys) == (
+        f"fts-calib calibrate: error: {mcap}: given twice: the same bag as {bag} (which holds {mcap.name}); "
+        "its samples would count twice: give each bag once"
+    )
+
+
+def test_a_csv_with_every_row_doubled_gives_the_calibration_of_the_rows_once(tmp_path, ur5_recording, calibration_file, capsys):
+    """Each row twice (ZeroDivisionError in the latency estimate before): the repeats are dropped and counted."""
+    lines = ur5_recording.read_text().splitlines(keepends=True)
+    doubled = tmp_path / "doubled.csv"
+    doubled.write_text(lines[0] + "".join(line + line for line in lines[1:]))
+    capsys.readouterr()
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(doubled), "-o", str(tmp_path / "cal.yaml")]) == ExitCode.OK
+    out = capsys.readouterr().out
+    rows = len(lines) - 1
+    assert f"duplicate sample               {rows:,}" in out, out
+    assert f"{doubled}, line 3: the same values as the row before it: dropped (counted once)" in out
+    once, twice = load_calibration(calibration_file), load_calibration(tmp_path / "cal.yaml")
+    # the same rows in the same order: the same sums, the same calibration to rounding
+    assert twice.quality.samples_used == once.quality.samples_used
+    np.testing.assert_allclose(twice.C, once.C, rtol=0, atol=1e-9 * np.abs(once.C).max())
+
+
+def test_a_prior_weight_of_1e308_is_refused(tmp_path, ur5_recording, calibration_file, capsys):
+    assert _calibrate(tmp_path, ur5_recording, "--prior", str(calibration_file), "--prior-weight", "1e308") == ExitCode.CONFIG
+    assert _error(capsys) == (
+        "fts-calib calibrate: error: --prior-weight 1e+308 but expected at most 1e+12: there the result is already the prior's "
+        "C_bar to rounding (a larger weight only overflows the solve); to use the prior as it is, use that calibration"
+    )
+
+
+ONE_JOINT_URDF = """\
+<robot name="one">
+  <link name="base"/>
+  <link name="arm"/>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+def _robot(tmp_path, urdf):
+    path = tmp_path / "robot.yaml"
+    path.write_text(f"name: one\nurdf: {urdf}\nsensor:\n  parent_frame: arm\n  xyz: [0, 0, 0]\n  rpy: [0, 0, 0]\n")
+    return path
+
+
+def test_a_urdf_with_one_joint_names_the_joint_and_asks_for_two(tmp_path, ur5_recording, capsys):
+    (tmp_path / "one.urdf").write_text(ONE_JOINT_URDF)
+    robot = _robot(tmp_path, "one.urdf")
+    assert _calibrate(tmp_path, ur5_recording, robot=str(robot)) == ExitCode.ROBOT
+    assert _error(capsys) == (
+        f"fts-calib calibrate: error: {tmp_path}/one.urdf has 1 actuated joint(s) ('shoulder') but a calibration sweeps two "
+        "(the last two actuated joints, or the robot file's sweep_joints)"
+    )
+
+
+def test_a_urdf_field_pointing_at_a_csv_names_the_file(tmp_path, ur5_recording, capsys):
+    robot = _robot(tmp_path, str(ur5_recording))
+    assert main(["robots", str(robot)]) == ExitCode.FILE
+    assert _error(capsys) == (
+        f"fts-calib robots: error: {robot}: field 'urdf': {ur5_recording} is not a URDF: it holds no <robot> element "
+        "(expected the robot's URDF XML file)"
+    )
+
+
+def test_a_file_name_that_is_not_utf8_is_written_escaped(tmp_path, ur5_recording, capsys):
+    """The provenance of a recording named with a byte that is not UTF-8: the calibration and its exports are written."""
+    name = os.fsdecode(b"run\xff.csv")
+    recording = tmp_path / name
+    recording.write_bytes(ur5_recording.read_bytes())
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(recording), "-o", str(tmp_path / "cal.yaml"), "--quiet"])
+        == ExitCode.OK
+    )
+    cal = load_calibration(tmp_path / "cal.yaml")  # readable again: the byte is written as \xff
+    assert cal.provenance["source"].endswith("run\\xff.csv"), cal.provenance["source"]
+    for kind in ("json", "c-header", "ati"):
+        out = tmp_path / f"export.{kind}"
+        assert main(["export", "--format", kind, "--calibration", str(tmp_path / "cal.yaml"), "-o", str(out)]) == ExitCode.OK
+        out.read_text(encoding="utf-8")  # valid UTF-8
+    assert "run\\\\xff.csv" in (tmp_path / "export.json").read_text()
+
+
+# -- the program dies: live datagrams -------------------------------------------------------
+
+HOSTILE_DATAGRAMS = {
+    "nested 4,000 deep": b"[" * 4000 + b"]" * 4000,
+    "400-digit channel": b'{"type":"strain","t":1.0,"strain":[' + b"9" * 400 + b',0,0,0,0,0,0,0],"seq":1}',
+    "1e400 channel": b'{"type":"strain","t":1.0,"strain":[1e400,0,0,0,0,0,0,0]}',
+    "NaN channel": b'{"type":"strain","t":1.0,"strain":[NaN,0,0,0,0,0,0,0]}',
+    "1e400 joint": b'{"type":"joints","t":1.0,"q":{"a":1e400}}',
+}
+REASONS = {
+    "nested 4,000 deep": f"malformed datagram: nested 4000 levels deep (at most {MAX_NESTING})",
+    "400-digit channel": "malformed datagram: an integer of 400 digits (at most 20)",
+    "1e400 channel": "malformed datagram: 'strain' holds a number that is not finite (or beyond the float range)",
+    "NaN channel": "malformed datagram: NaN is not a number fts-calib accepts (expected a finite number)",
+    "1e400 joint": "malformed datagram: 'q' holds a joint reading that is not finite (or beyond the float range)",
+}
+
+
+@pytest.mark.parametrize("case", list(HOSTILE_DATAGRAMS))
+def test_a_hostile_datagram_is_counted_with_its_reason_and_skipped(case):
+    stats = LiveStats()
+    assert feed_datagram(HOSTILE_DATAGRAMS[case], None, stats) is None
+    assert stats.malformed == 1 and stats.first_malformed == REASONS[case]
+    assert feed_datagram(encode(Strain(2.0, (1.0,) * 8)), None, stats) is not None  # the next one is read
+    assert stats.strain == 1
+
+
+def test_hostile_datagrams_do_not_end_a_live_run(ur5, paper_tool):
+    """Every hostile datagram at a running receiver, then 'end': the run ends on it, each counted."""
+    receiver = UdpReceiver("127.0.0.1", 0)
+    session = CalibrationSession(ur5, paper_tool, source="test")
+    sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
+    runner = LiveRunner(session, receiver, sync)
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=DEADLINE_S)))
+    thread.start()
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            for data in HOSTILE_DATAGRAMS.values():
+                sock.sendto(data, receiver.address)
+            wait_for(lambda: runner.stats.received >= len(HOSTILE_DATAGRAMS), "the hostile datagrams to arrive")
+            sock.sendto(b'{"type":"end"}', receiver.address)
+        thread.join(timeout=DEADLINE_S)
+    finally:
+        receiver.close()
+    assert not thread.is_alive(), "the live run did not end"
+    assert result["stats"].ended and result["stats"].malformed == len(HOSTILE_DATAGRAMS)
+
+
+def test_every_datagram_twice_counts_each_once():
+    """A sender (or a network) that sends every datagram twice: duplicates by seq dropped and counted."""
+    stats = LiveStats()
+    for seq in range(372):
+        data = encode(Strain(seq * 0.001, (float(seq),) * 8, seq))
+        feed_datagram(data, None, stats, ("127.0.0.1", 9))
+        feed_datagram(data, None, stats, ("127.0.0.1", 9))
+    assert stats.received == 744 and stats.strain == 372 and stats.duplicates == 372 and stats.gaps == 0
+
+
+def test_a_late_datagram_fills_its_gap_and_a_repeat_of_it_is_dropped():
+    gaps = SeqGaps()
+    assert all(gaps.observe("a", seq) for seq in (0, 1, 3, 4))
+    assert gaps.missing == 1
+    assert gaps.observe("a", 2) and gaps.missing == 0  # late (reordered): used
+    assert not gaps.observe("a", 2) and not gaps.observe("a", 4)  # repeats: dropped
+    assert gaps.observe("b", 2)  # another sender: its own numbers
+    assert gaps.observe("a", 0 + 10_000) and gaps.observe("a", 0)  # far back: a sender that started again
+
+
+# -- the program hangs: network waits -------------------------------------------------------
+
+
+def _fake_rtde_module(monkeypatch, receiver):
+    monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host: receiver))
+
+
+def _live_ur(tmp_path, *extra):
+    return [
+        "live",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "--ur",
+        "127.0.0.1",
+        "--listen",
+        "127.0.0.1:0",
+        "-o",
+        str(tmp_path / "c.yaml"),
+        *extra,
+    ]
+
+
+def _in_thread(argv):
+    """``main(argv)`` on a thread joined with a deadline (a hang fails the test instead of stalling it)."""
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(code=main(argv)), daemon=True)
+    thread.start()
+    thread.join(timeout=DEADLINE_S)
+    assert not thread.is_alive(), f"fts-calib {' '.join(argv)} did not return within {DEADLINE_S} s"
+    return result["code"]
+
+
+def test_a_host_that_accepts_and_says_nothing_is_named_within_the_timeout(tmp_path, monkeypatch, capsys):
+    _fake_rtde_module(monkeypatch, None)
+    with FakeRtdeServer(answer=False) as server:
+        monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
+        code = _in_thread(_live_ur(tmp_path, "--ur-timeout", "0.3"))
+    assert code == ExitCode.TIMEOUT == 18
+    assert not list(tmp_path.iterdir())
+    assert capsys.readouterr().err.strip() == (
+        f"fts-calib live: error: no answer within 0.3 s: waited for the UR controller at 127.0.0.1:{server.port} (RTDE) to answer "
+        "RTDE's protocol request; is HOST the robot's controller, with RTDE enabled? (--ur-timeout sets the wait)"
+    )
+
+
+def test_a_controller_that_connects_and_never_publishes_is_named(tmp_path, monkeypatch, capsys):
+    class Silent:  # connected, but no sample ever comes (its time never moves past the start)
+        def getTimestamp(self):  # noqa: N802
+            return -math.inf
+
+    _fake_rtde_module(monkeypatch, Silent())
+    with FakeRtdeServer() as server:
+        monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
+        code = _in_thread(_live_ur(tmp_path, "--ur-timeout", "0.3", "--quiet"))
+    assert code == ExitCode.TIMEOUT
+    assert _error(capsys) == "fts-calib live: error: no answer within 0.3 s: waited for the first sample of the UR controller (RTDE)"
+    assert not list(tmp_path.iterdir()), "nothing written: the next run starts afresh"
+
+
+def test_ctrl_c_ends_a_wait_on_a_silent_controller(tmp_path):
+    """SIGINT while the handshake waits (60 s): the process ends at once with 130, no traceback."""
+    with FakeRtdeServer(answer=False) as server:
+        script = textwrap.dedent(
+            f"""
+            import sys, types
+            sys.modules["rtde_receive"] = types.SimpleNamespace(RTDEReceiveInterface=lambda host: None)
+            import fts_calib.feeds.rtde
+            fts_calib.feeds.rtde.RTDE_PORT = {server.port}
+            from fts_calib.app.cli import main
+            sys.exit(main({_live_ur(tmp_path, "--ur-timeout", "60")!r}))
+            """
+        )
+        proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            assert proc.stdout.readline().startswith("connecting to the UR at 127.0.0.1"), "no 'connecting' line"
+            wait_for(lambda: server._clients, "the probe to connect")
+            proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=DEADLINE_S)
+        finally:
+            proc.kill()
+    assert proc.returncode == ExitCode.INTERRUPTED, err
+    assert err.strip() == "fts-calib live: interrupted"
+
+
+# -- exposure -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("address", ["0:5005", "0.0.0.0:5005"])
+def test_binding_every_interface_needs_listen_any(tmp_path, capsys, address):
+    code = main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", address, "-o", str(tmp_path / "c.yaml")])
+    assert code == ExitCode.CONFIG
+    assert _error(capsys) == (
+        f"fts-calib live: error: --listen {address} would bind every network interface: any host that reaches this one could send "
+        "datagrams into the calibration. Listen on loopback (--listen 127.0.0.1:5005, the default) when the sender runs here; "
+        "otherwise say so: this host's address on the sender's network (--listen 192.168.1.20:5005), or every interface with "
+        "--listen-any (live)"
+    )
+    assert not (tmp_path / "c.yaml.checkpoint.json").exists()
+
+
+def test_listen_any_reaches_the_socket_and_is_warned_about(tmp_path, monkeypatch, capsys):
+    """`live --listen-any`: the flag reaches the receiver, which warns; the socket itself stays on loopback here."""
+    from fts_calib.feeds import udp
+
+    def loopback_instead(host, listen_any=False, port=None):  # the flag checked, then loopback
+        assert listen_any, f"--listen-any did not reach the receiver ({host})"
+        return "127.0.0.1"
+
+    monkeypatch.setattr(udp, "listen_host", loopback_instead)
+    monkeypatch.setattr(udp, "_is_loopback", lambda host: False)
+    out = tmp_path / "c.yaml"
+    argv = [
+        "live",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "--listen-any",
+        "--listen",
+        "127.0.0.1:0",
+        "--idle-timeout",
+        "0.1",
+        "--quiet",
+        "-o",
+        str(out),
+    ]
+    assert main(argv) == ExitCode.CHECK_FAILED  # no data came: no calibration
+    err = capsys.readouterr().err
+    assert re.search(r"fts-calib: warning: listening on udp://127\.0\.0\.1:\d+, beyond loopback: any host that reaches this one", err)
+
+
+def test_listen_any_binds_every_interface_and_a_network_address_is_warned_about(monkeypatch):
+    assert listen_host("0", listen_any=True) == listen_host("127.0.0.1", listen_any=True) == "0.0.0.0"
+    assert listen_host("192.168.1.20", listen_any=True) == "192.168.1.20"
+    assert listen_host("127.0.0.1") == "127.0.0.1" and listen_host("192.168.1.20") == "192.168.1.20"
+    # the warning, on a socket that only pretends to be beyond loopback (tests bind 127.0.0.1)
+    monkeypatch.setattr("fts_calib.feeds.udp._is_loopback", lambda host: False)
+    with pytest.warns(FtsCalibWarning, match=r"listening on udp://127\.0\.0\.1:\d+, beyond loopback: any host that reaches"):
+        UdpReceiver("127.0.0.1", 0).close()
+    monkeypatch.undo()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        UdpReceiver("127.0.0.1", 0).close()  # loopback: no warning
+
+
+# -- the bounded parsers on their own ------------------------------------------------------
+
+
+def test_json_depth_counts_brackets_outside_strings_only():
+    assert json_depth(b'{"a": [1, 2]}') == 2
+    assert json_depth(b'{"a": "[[[[{{{{"}') == 1  # brackets in a string do not nest
+    assert json_depth(b'{"a": "\\"[[[", "b": [[[]]]}') == 4  # an escaped quote does not end the string
+    assert json_depth(b"[" * 5000 + b"]" * 5000) == 5000
+    assert json_depth(b"12") == 0
+
+
+def test_loads_json_limits():
+    assert loads_json(b'{"a": [1, 2.5, "x"]}') == {"a": [1, 2.5, "x"]}
+    with pytest.raises(LimitError, match="nested 3 levels deep"):
+        loads_json(b"[[[1]]]", max_depth=2)
+    with pytest.raises(LimitError, match="an integer of 21 digits"):
+        loads_json(b"[" + b"1" * 21 + b"]")
+    with pytest.raises(LimitError, match="Infinity is not a number"):
+        loads_json(b"[-Infinity]")
+    assert math.isnan(loads_json(b"[NaN]", finite=False)[0])  # our own checkpoints may hold them
+    with pytest.raises(json.JSONDecodeError):
+        loads_json(b"{")
+
+
+def test_parse_yaml_keeps_what_a_real_file_holds_and_refuses_the_rest(tmp_path):
+    text = "a: [1, -2.5e-3, .inf, 12345678901234567890]\nb: {c: [[1, 2], [3, 4]]}\nd: text with * and & inside\n"
+    assert parse_yaml(text, "f.yaml") == {
+        "a": [1, -2.5e-3, math.inf, 12345678901234567890],
+        "b": {"c": [[1, 2], [3, 4]]},
+        "d": "text with * and & inside",
+    }
+    deep = "x: " + "[" * (MAX_DEPTH - 1) + "]" * (MAX_DEPTH - 1)  # the mapping and 63 lists: at the limit, read
+    assert parse_yaml(deep, "f.yaml")["x"] is not None
+    with pytest.raises(FileFormatError, match="nested more than 64 levels deep"):
+        parse_yaml("x: " + "[" * MAX_DEPTH + "]" * MAX_DEPTH, "f.yaml")
+    with pytest.raises(FileFormatError, match=r"f\.yaml: line 2, column 4: a YAML alias \(\*base\)"):
+        parse_yaml("a: &base {m: 1}\nb: *base\n", "f.yaml")
+
+
+def test_our_yaml_writer_never_writes_an_alias(tmp_path):
+    from fts_calib.core.fileio import dump_yaml, load_yaml
+
+    shared = [1.0, 2.0]
+    path = tmp_path / "shared.yaml"
+    path.write_text(dump_yaml({"a": shared, "b": shared, "c": {"d": shared}}))
+    assert load_yaml(path) == {"a": shared, "b": shared, "c": {"d": shared}}
+
+
+def test_utf8_safe_escapes_only_what_utf8_cannot_hold():
+    assert utf8_safe("plain µ °C") == "plain µ °C"
+    assert utf8_safe(os.fsdecode(b"run\xff\xfe.csv")) == "run\\xff\\xfe.csv"
+    assert utf8_safe("lone \ud800 surrogate") == "lone \\ud800 surrogate"
+
+
+def test_repeated_rows_are_equal_in_every_column_and_across_chunks():
+    table = np.array([[0.0, 1.0], [0.0, 1.0], [0.0, 2.0], [0.1, 2.0], [0.1, 2.0]])
+    np.testing.assert_array_equal(repeated_rows(table, None), [False, True, False, False, True])
+    np.testing.assert_array_equal(repeated_rows(table[3:], table[2]), [False, True])
+    np.testing.assert_array_equal(repeated_rows(table[1:2], table[0]), [True])
+    nan = np.array([[np.nan, 1.0], [np.nan, 1.0]])
+    np.testing.assert_array_equal(repeated_rows(nan, None), [False, False])  # NaN rows: the checks count them, not this
+
+
+def test_an_rtde_server_that_answers_as_another_protocol_is_named(monkeypatch):
+    from fts_calib.feeds.rtde import probe_rtde
+
+    with socket.socket() as srv:
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(1)
+        port = srv.getsockname()[1]
+
+        def serve():
+            client, _ = srv.accept()
+            with client:
+                client.recv(5)
+                client.sendall(struct.pack(">HBB", 4, 84, 0))  # a text-message package, not the version answer
+
+        thread = threading.Thread(target=serve, daemon=True)
+        thread.start()
+        with pytest.raises(ConnectionError, match=rf"127\.0\.0\.1:{port} \(RTDE\) answered, but not as an RTDE server"):
+            probe_rtde("127.0.0.1", port, 5.0)
+        thread.join(timeout=DEADLINE_S)
