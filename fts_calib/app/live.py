@@ -111,10 +111,14 @@ def run(
         )
     source, record = f"live udp://{host}:{port}", live_source(host, port)
     if resume:
-        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout)
+        session = CalibrationSession.resume(
+            checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout, limits=spec.limits
+        )
         print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
     else:
-        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout)
+        session = CalibrationSession(
+            kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout, limits=spec.limits
+        )
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
     sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names, n_channels=layout.n_channels)
@@ -143,6 +147,12 @@ def run(
     if rtde is not None:
         print(format_rtde(rtde))
     print("\n".join(format_counts(session)))
+    found = session.detected_limits()
+    if found is not None:  # a live stream cannot be read again without them
+        print(
+            f"  note: {', '.join(found.detected)} (detected in the data): its samples went into the calibration; "
+            "declare the channels' range in the sensor file (range, adc_bits) to refuse them"
+        )
     try:
         calibration = session.solve(accept_poor_fit=accept_poor_fit, prior=shrink)
     except InsufficientExcitation as exc:

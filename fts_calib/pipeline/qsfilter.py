@@ -12,7 +12,11 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
    (centred on the sample) at most ``max_strain_std``, or, with ``auto``,
    ``strain_std_factor`` times the noise floor: the median of that deviation over the first
    200 samples the joint rules keep (vibration after a stop shows here; until those
-   samples have come, nothing is decided); a window holding fewer than three quarters of
+   samples have come, nothing is decided), never below a channel's quantization noise
+   step / sqrt(12) (:mod:`fts_calib.model.channel_limits`: a channel of integer counts
+   whose noise is a fraction of a count reads one code for seconds, its measured scatter
+   is 0, and a single one-count step would otherwise be "motion"; the step is declared or
+   learnt from the channel's values as they stream); a window holding fewer than three quarters of
    half a window's samples (at least 3) shows nothing and fails: a lone sample beside a
    gap or at a stream's end (its deviation and joint rates would be zero by construction);
 4. *dynamic wrench*: the dynamic part of the tool's wrench (Newton-Euler, from the
@@ -46,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..feeds.batch import SampleBatch
+from ..model.channel_limits import GridWatch, quantization_noise
 from ..robot.load import ToolLoad
 from ..robot.tool import Tool
 from .settings import FilterConfig
@@ -220,12 +225,16 @@ class QuasiStaticFilter:
         settings: Thresholds.
         continuous: Which joints are continuous (unwrapped before differentiating), the
             robot's joint order. Shape (n_joints,) bool.
+        resolution: Declared step of each channel, raw units (0: learnt from the values),
+            shape (n,); None: learnt for every channel.
     """
 
-    def __init__(self, settings: FilterConfig, continuous: np.ndarray):
+    def __init__(self, settings: FilterConfig, continuous: np.ndarray, resolution=None):
         self.settings = settings
         self.rejected = dict.fromkeys(RULES, 0)
-        self.noise_floor: np.ndarray | None = None
+        self.measured_floor: np.ndarray | None = None
+        self._declared = None if resolution is None else np.asarray(resolution, dtype=float).reshape(-1)
+        self._grid: GridWatch | None = None
         self._context = 0
         self._buffer: SampleBatch | None = None
         # context kept on each side of a decided sample: its strain window, and the derivative
@@ -234,15 +243,43 @@ class QuasiStaticFilter:
         self._continuous = np.asarray(continuous, dtype=bool)
         self._dt: float | None = None
 
+    @property
+    def resolution(self) -> np.ndarray | None:
+        """Step of each channel, raw units (declared, else learnt; 0: none seen), shape (n,); None before any sample."""
+        if self._grid is None:
+            return None if self._declared is None else self._declared.copy()
+        return self._grid.resolution
+
+    @property
+    def noise_floor(self) -> np.ndarray | None:
+        """The strain noise per channel, raw units, shape (n,); None until measured.
+
+        The scatter measured over the first still windows (:attr:`measured_floor`), never
+        below the quantization noise step / sqrt(12) of a channel's resolution.
+        """
+        if self.measured_floor is None:
+            return None
+        resolution = self.resolution
+        return self.measured_floor if resolution is None else np.maximum(self.measured_floor, quantization_noise(resolution))
+
     def state(self) -> dict:
-        """What a checkpoint keeps of the filter (the noise floor)."""
-        return {"noise_floor": None if self.noise_floor is None else self.noise_floor.tolist(), "rejected": dict(self.rejected)}
+        """What a checkpoint keeps of the filter (the noise floor measured, and the channels' resolution)."""
+        floor = None if self.measured_floor is None else self.measured_floor.tolist()
+        resolution = None if self._grid is None else self._grid.state()
+        return {"noise_floor": floor, "resolution": resolution, "rejected": dict(self.rejected)}
 
     def restore(self, state: dict) -> None:
         """Restore :meth:`state`."""
         if state.get("noise_floor") is not None:
-            self.noise_floor = np.asarray(state["noise_floor"], dtype=float)
+            self.measured_floor = np.asarray(state["noise_floor"], dtype=float)
+        if state.get("resolution") is not None:
+            self._watch_grid(len(state["resolution"])).restore(state["resolution"])
         self.rejected.update({k: int(v) for k, v in state.get("rejected", {}).items() if k in self.rejected})
+
+    def _watch_grid(self, n: int) -> GridWatch:
+        if self._grid is None:
+            self._grid = GridWatch(self._declared if self._declared is not None and len(self._declared) == n else np.zeros(n))
+        return self._grid
 
     def process(self, batch: SampleBatch, final: bool = False) -> Decided:
         """Add samples (in time order) and return those that can now be decided (rules 1-3).
@@ -251,6 +288,8 @@ class QuasiStaticFilter:
             batch: New samples, not before the previous ones.
             final: No more samples will come: decide everything.
         """
+        if len(batch):
+            self._watch_grid(batch.channels.shape[1]).update(batch.channels)
         buf = batch if self._buffer is None else SampleBatch.concatenate([self._buffer, batch])
         time = buf.time
         n = len(time)
@@ -342,7 +381,7 @@ class QuasiStaticFilter:
         Returns:
             True while the samples must wait.
         """
-        if self.settings.max_strain_std is not None or self.noise_floor is not None or len(index) == 0:
+        if self.settings.max_strain_std is not None or self.measured_floor is not None or len(index) == 0:
             return False
         speed_ok, accel_ok, _, _, s_left, s_right = self._still(buf, index)
         still = np.nonzero(speed_ok & accel_ok & self._judged(buf.time, s_left, s_right))[0][:_FLOOR_SAMPLES]
@@ -350,7 +389,7 @@ class QuasiStaticFilter:
         if len(still) < _FLOOR_SAMPLES and not give_up:
             return True
         if len(still):
-            self.noise_floor = np.median(windowed_std(buf.channels, s_left[still], s_right[still]), axis=0)
+            self.measured_floor = np.median(windowed_std(buf.channels, s_left[still], s_right[still]), axis=0)
         return False
 
     def _decide(self, buf: SampleBatch, index) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -366,13 +405,13 @@ class QuasiStaticFilter:
         std[joints_ok] = windowed_std(channels, s_left[joints_ok], s_right[joints_ok])
         if settings.max_strain_std is not None:
             threshold = np.full(channels.shape[1], settings.max_strain_std)
-        elif self.noise_floor is None:
+        elif (floor := self.noise_floor) is None:
             threshold = np.full(channels.shape[1], -1.0)  # no still sample at all: nothing is known to be stationary
         else:
             # a tiny absolute floor keeps noiseless (simulated) data from failing on rounding; at the scale
             # of the typical reading (a median: one wild value must not loosen the threshold of all)
             scale = float(np.max(np.median(np.abs(channels), axis=0)))
-            threshold = np.maximum(settings.strain_std_factor * self.noise_floor, 1e-9 * scale)
+            threshold = np.maximum(settings.strain_std_factor * floor, 1e-9 * scale)
         strain_ok = np.all(std <= threshold, axis=1) & self._judged(buf.time, s_left, s_right)
         # a moving sample is counted by the joint rules only: its strain was not looked at
         self.rejected["joint speed"] += int((~speed_ok).sum())

@@ -4,7 +4,9 @@ The frequent use the paper stresses: offsets drift, C does not, so before use th
 held still a moment and D is estimated again (:func:`fts_calib.model.offsets.estimate_offsets`)
 with C_bar kept. With nothing mounted, the known load is zero; with a known tool
 configuration on, it is that configuration's weight at the orientation the kinematics give
-(paper eqs 17-18), and only the quasi-static samples count. The calibration keeps its
+(paper eqs 17-18), and only the quasi-static samples count; samples with a channel at its
+rail (declared, or detected in the recording: :mod:`fts_calib.model.channel_limits`) are
+refused and counted. The calibration keeps its
 previous offsets, and when and why they were replaced, in ``offset_history``; the result
 also says how far the offsets drifted since the calibration run (against the offsets it
 ended with, the first of the history) and over how long (from the calibration's time).
@@ -29,8 +31,10 @@ from ..feeds.source import open_recording
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from ..model.calibration import Calibration
+from ..model.channel_limits import ChannelLimits, detect_limits
 from ..model.channels import CALIBRATION_HINT, check_channels
 from ..model.offsets import OffsetEstimate, estimate_offsets
+from ..pipeline.checks import RailTally, refuse_railed
 from ..pipeline.qsfilter import QuasiStaticFilter
 from ..pipeline.settings import PipelineConfig
 from ..pipeline.still import quasi_static
@@ -51,6 +55,8 @@ class TareResult:
             [N, N, N, N m, N m, N m]. Shape (6,).
         elapsed_s: Time since the calibration run [s] (from its provenance time), or None
             when the file does not say.
+        rails: One line per channel whose samples were refused at its rail
+            (:meth:`fts_calib.pipeline.checks.RailTally.lines`).
     """
 
     calibration: Calibration
@@ -59,6 +65,17 @@ class TareResult:
     samples_seen: int
     since_calibration: np.ndarray = field(default_factory=lambda: np.zeros(6))
     elapsed_s: float | None = None
+    rails: tuple[str, ...] = ()
+
+
+def _within_rails(samples: SampleBatch, limits: ChannelLimits | None, names) -> tuple[SampleBatch, tuple[str, ...]]:
+    """The samples with no channel at its rail (declared, or detected in them), and the tally's lines."""
+    if not len(samples):
+        return samples, ()
+    found = detect_limits(samples.channels, limits)
+    tally = RailTally(found.n_channels)
+    keep = refuse_railed(samples.channels, samples.configuration, samples.time, found, tally)
+    return samples.select(keep), tuple(tally.lines(names))
 
 
 def _known_load(
@@ -115,6 +132,7 @@ def tare_recording(
     tool: Tool | None = None,
     configuration: str | None = None,
     settings: PipelineConfig | None = None,
+    limits: ChannelLimits | None = None,
 ) -> TareResult:
     """Re-tare from a recording (see the module docstring).
 
@@ -125,6 +143,7 @@ def tare_recording(
         tool: The mounted tool, or None for nothing mounted.
         configuration: The mounted configuration of ``tool``.
         settings: Pipeline settings (filter thresholds).
+        limits: The channels' declared resolution and rails; what is not declared is detected.
 
     Raises:
         RecordingError: The recording cannot be read.
@@ -140,8 +159,10 @@ def tare_recording(
     samples = SampleBatch.concatenate(chunks)
     check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
     finite = np.all(np.isfinite(samples.channels), axis=1) & (np.all(np.isfinite(samples.joints), axis=1) if kin is not None else True)
-    strain, load = _known_load(kin, tool, configuration, settings, samples.select(finite))
-    return _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {_what(tool, configuration)}", seen)
+    within, rails = _within_rails(samples.select(finite), limits, reader.tool_names or ["(none)"])
+    strain, load = _known_load(kin, tool, configuration, settings, within)
+    result = _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {_what(tool, configuration)}", seen)
+    return dataclasses.replace(result, rails=rails)
 
 
 def tare_live(
@@ -154,11 +175,13 @@ def tare_live(
     configuration: str | None = None,
     settings: PipelineConfig | None = None,
     on_listening: Callable[[tuple[str, int]], None] | None = None,
+    limits: ChannelLimits | None = None,
 ) -> TareResult:
     """Re-tare from a live window of ``seconds`` [s] (> 0) on the UDP protocol (see :mod:`fts_calib.pipeline.live`).
 
     ``on_listening`` is called with the bound (host, port) once the socket listens (port 0
-    picks a free one), before the window starts.
+    picks a free one), before the window starts. ``limits``: the channels' declared
+    resolution and rails; what is not declared is detected in the window.
     """
     validation.positive("seconds", seconds, "s")
     settings = settings or PipelineConfig()
@@ -183,8 +206,13 @@ def tare_live(
     if not strains:
         heard = f"{stats.received:,} datagrams, none of them strain" if stats.received else "no datagram at all"
         raise InsufficientExcitation(0, 1, f"{heard} on udp://{host}:{port} in {seconds:g} s: is the sender running, to this port?")
+    names = [configuration or "(none)"]
     if sync is None:
         s = np.array(strains, dtype=float).reshape(len(strains), -1)
-        return _apply(calibration, s, np.zeros((len(s), 6)), reason, len(s))
-    strain, load = _known_load(kin, tool, configuration, settings, sync.pop(final=True))
-    return _apply(calibration, strain, load, reason, len(strains))
+        zeros = np.zeros(len(s))  # no joints, no times: one pose
+        within, rails = _within_rails(SampleBatch(zeros, np.zeros((len(s), 0)), s, zeros.astype(np.int64)), limits, names)
+        result = _apply(calibration, within.channels, np.zeros((len(within), 6)), reason, len(s))
+        return dataclasses.replace(result, rails=rails)
+    within, rails = _within_rails(sync.pop(final=True), limits, names)
+    strain, load = _known_load(kin, tool, configuration, settings, within)
+    return dataclasses.replace(_apply(calibration, strain, load, reason, len(strains)), rails=rails)
