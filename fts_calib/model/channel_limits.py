@@ -231,11 +231,16 @@ class GridWatch:
 GRID_VALUES = 4096
 
 
-def on_adc_boundary(value: float, step: float) -> bool:
-    """Whether ``value`` is an end of an ADC's code range on a grid of ``step``.
+def on_adc_boundary(value: float, step: float, high: bool = True) -> bool:
+    """Whether ``value`` is the upper (or lower) end of an ADC's code range on a grid of ``step``.
 
-    The ends of a b-bit converter (8 to 32 bits) in counts of ``step``: 0 and 2^b - 1
-    (unsigned), -2^(b-1) and 2^(b-1) - 1 (signed).
+    The ends of a b-bit converter (8 to 32 bits) in counts of ``step``: lower 0 (unsigned)
+    or -2^(b-1) (signed); upper 2^b - 1 (unsigned) or 2^(b-1) - 1 (signed).
+
+    Args:
+        value: A reading, raw units.
+        step: The grid's step, raw units.
+        high: The upper end (True) or the lower one.
     """
     if step <= 0 or not math.isfinite(value):
         return False
@@ -243,10 +248,9 @@ def on_adc_boundary(value: float, step: float) -> bool:
     if abs(code - round(code)) > GRID_TOLERANCE + 1e-12 * abs(code):  # off the grid: not a code at all
         return False
     code = round(code)
-    ends = {0}
-    for bits in range(8, 33):
-        ends.update((2**bits - 1, -(2 ** (bits - 1)), 2 ** (bits - 1) - 1))
-    return code in ends
+    if high:
+        return any(code in (2**bits - 1, 2 ** (bits - 1) - 1) for bits in range(8, 33))
+    return code == 0 or any(code == -(2 ** (bits - 1)) for bits in range(8, 33))
 
 
 class RailWatch:
@@ -256,7 +260,8 @@ class RailWatch:
     stretches of at least :data:`RAIL_MIN_SAMPLES` consecutive samples exactly at it (a new
     extreme starts afresh). :meth:`rails` judges them with the channels' resolution: on a
     grid, such an extreme is a rail when it is an end of an ADC's code range
-    (:func:`on_adc_boundary`; a quantized channel with sub-count noise holds its largest
+    (:func:`on_adc_boundary`; a channel stuck at one value all along takes the step the
+    other channels share; a quantized channel with sub-count noise holds its largest
     reading over a whole pose, and the same pose in another tool configuration repeats it,
     so holding alone proves nothing); off a grid, when it is held in at least
     :data:`RAIL_MIN_STRETCHES` separate stretches (a noisy linear channel never reads exactly
@@ -314,13 +319,18 @@ class RailWatch:
         Args:
             resolution: Step of each channel (0: not on a grid), raw units. Shape (n,).
         """
-        resolution = np.broadcast_to(np.asarray(resolution, dtype=float), (self.n_channels,))
+        resolution = np.broadcast_to(np.asarray(resolution, dtype=float), (self.n_channels,)).copy()
+        steps = resolution[resolution > 0]
+        if len(steps) and np.allclose(steps, steps[0], rtol=GRID_TOLERANCE, atol=0.0):
+            # a channel stuck all along shows no step of its own: it shares the converter of the others
+            resolution[resolution == 0] = steps[0]
         count = self.stretches + (self.open >= RAIL_MIN_SAMPLES)
         found = np.zeros((2, self.n_channels), dtype=bool)
         for side in (0, 1):
             for k in range(self.n_channels):
                 if resolution[k] > 0:
-                    found[side, k] = count[side, k] >= 1 and on_adc_boundary(float(self.extreme[side, k]), float(resolution[k]))
+                    extreme, step = float(self.extreme[side, k]), float(resolution[k])
+                    found[side, k] = count[side, k] >= 1 and on_adc_boundary(extreme, step, high=side == 1)
                 else:
                     found[side, k] = count[side, k] >= RAIL_MIN_STRETCHES
         return np.where(found[0], self.extreme[0], -np.inf), np.where(found[1], self.extreme[1], np.inf)

@@ -100,8 +100,11 @@ def _known_load(
     return still.samples.channels, still.w_sensor if still.w_sensor is not None else np.zeros((0, 6))
 
 
-def _apply(calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int) -> TareResult:
+def _apply(calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int, rails=()) -> TareResult:
     if not len(strain):
+        if rails:  # holding still would not help: a channel is beyond its range at this load
+            railed = "; ".join(rails)
+            raise InsufficientExcitation(0, 1, f"no sample to re-tare from: a channel is at its rail ({railed}); check the sensor's zero")
         raise InsufficientExcitation(0, 1, "no still sample to re-tare from: hold the arm still while recording")
     estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout)
     what = f"{reason} ({estimate.samples_used:,} samples)"
@@ -161,7 +164,7 @@ def tare_recording(
     finite = np.all(np.isfinite(samples.channels), axis=1) & (np.all(np.isfinite(samples.joints), axis=1) if kin is not None else True)
     within, rails = _within_rails(samples.select(finite), limits, reader.tool_names or ["(none)"])
     strain, load = _known_load(kin, tool, configuration, settings, within)
-    result = _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {_what(tool, configuration)}", seen)
+    result = _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {_what(tool, configuration)}", seen, rails)
     return dataclasses.replace(result, rails=rails)
 
 
@@ -211,8 +214,8 @@ def tare_live(
         s = np.array(strains, dtype=float).reshape(len(strains), -1)
         zeros = np.zeros(len(s))  # no joints, no times: one pose
         within, rails = _within_rails(SampleBatch(zeros, np.zeros((len(s), 0)), s, zeros.astype(np.int64)), limits, names)
-        result = _apply(calibration, within.channels, np.zeros((len(within), 6)), reason, len(s))
+        result = _apply(calibration, within.channels, np.zeros((len(within), 6)), reason, len(s), rails)
         return dataclasses.replace(result, rails=rails)
     within, rails = _within_rails(sync.pop(final=True), limits, names)
     strain, load = _known_load(kin, tool, configuration, settings, within)
-    return dataclasses.replace(_apply(calibration, strain, load, reason, len(strains)), rails=rails)
+    return dataclasses.replace(_apply(calibration, strain, load, reason, len(strains), rails), rails=rails)
