@@ -280,21 +280,18 @@ class RailWatch:
         self.open = np.zeros((2, n_channels), dtype=np.int64)
 
     def update(self, channels) -> None:
-        """Add samples, in time order. Shape (N, n); non-finite rows are ignored."""
+        """Add samples, in time order. Shape (N, n), finite readings (the checks skip the others first)."""
         channels = np.asarray(channels, dtype=float).reshape(-1, self.n_channels)
-        channels = channels[np.all(np.isfinite(channels), axis=1)]
         if not len(channels):
             return
-        for side, sign in ((0, -1.0), (1, 1.0)):
-            best = sign * (sign * channels).max(axis=0)
-            newer = sign * best > sign * self.extreme[side]
+        for side, best in ((0, channels.min(axis=0)), (1, channels.max(axis=0))):
+            newer = best < self.extreme[0] if side == 0 else best > self.extreme[1]
             self.extreme[side, newer] = best[newer]
             self.stretches[side, newer] = 0
             self.open[side, newer] = 0
-            at = channels == self.extreme[side]
-            touched = at.any(axis=0)
+            touched = best == self.extreme[side]  # only a batch that reaches the extreme can hold it
             for k in np.nonzero(touched)[0]:
-                self._stretches(side, int(k), at[:, k])
+                self._stretches(side, int(k), channels[:, k] == self.extreme[side, k])
             idle = ~touched
             self.stretches[side, idle & (self.open[side] >= RAIL_MIN_SAMPLES)] += 1
             self.open[side, idle] = 0
@@ -353,7 +350,7 @@ def detect_limits(channels, declared: ChannelLimits | None = None, names=None) -
     names = list(names) if names is not None else [f"strain_{k + 1}" for k in range(n)]
     resolution = detect_resolution(channels[np.all(np.isfinite(channels), axis=1)]) if len(channels) else np.zeros(n)
     watch = RailWatch(n)
-    watch.update(channels)
+    watch.update(channels[np.all(np.isfinite(channels), axis=1)])
     low, high = watch.rails(np.where(declared.resolution > 0, declared.resolution, resolution))
     return declared.with_detected(resolution, low, high, detected_names(declared, resolution, low, high, names))
 
