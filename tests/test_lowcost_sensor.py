@@ -312,3 +312,20 @@ def test_tare_refuses_the_samples_of_a_channel_stuck_at_its_rail(lowcost, ur5, t
         writer.write(np.arange(500) / RATE_HZ, np.tile(HOME, (500, 1)), counts, "nothing")
     with pytest.raises(InsufficientExcitation, match=r"a channel is at its rail \(strain_7 at its rail 1023 in 1 pose"):
         tare_recording(Calibration(linear.C_bar, np.zeros(6)), path)
+
+
+def test_validate_json_never_overwrites_an_input(lowcost_recording, tmp_path, capsys):
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import exit_code
+    from fts_calib.core.exceptions import ConfigError
+    from fts_calib.model.calibration import Calibration, save_calibration
+
+    recording, sensor_file, _ = lowcost_recording
+    sensor = SimulatedSensor.from_spec(load_sensor_config(sensor_file).simulated)
+    calibration = save_calibration(Calibration(sensor.C_bar, sensor.D_readings), tmp_path / "true.yaml")
+    before = calibration.read_bytes()
+    code = main(["validate", str(recording), "--calibration", str(calibration), "--robot", "ur5", "--json", str(calibration)])
+    err = capsys.readouterr().err
+    assert code == exit_code(ConfigError("json", None, "")), err
+    assert "--json" in err and "calibration 1" in err, err
+    assert calibration.read_bytes() == before
