@@ -59,7 +59,7 @@ def static_poses(kin, tool, joints: np.ndarray) -> tuple[SampleBatch, np.ndarray
 
 
 def run_session(kin, tool, batch: SampleBatch, channels: np.ndarray, limits=None, settings=CONSTANT) -> CalibrationSession:
-    session = CalibrationSession(kin, tool, settings, limits=limits)  # the 8 channels of the Maltese cross
+    session = CalibrationSession(kin, tool, settings.with_limits(limits))  # the 8 channels of the Maltese cross
     session.add_samples(dataclasses.replace(batch, channels=channels))
     session.flush()
     return session
@@ -175,7 +175,7 @@ def test_railed_samples_are_refused_counted_and_named(lowcost, ur5, paper_tool, 
     assert at_rail.any(axis=1).any(), "the shipped sensor's strain_7 rails in some poses"
     session = run_session(ur5, paper_tool, batch, counts, spec.limits)
     assert session.skipped[RAILED] == int(at_rail.any(axis=1).sum())
-    lines = session.rail_lines()
+    lines = session.checks.rails.lines(paper_tool.names)
     railed_channels = np.nonzero(at_rail.any(axis=0))[0]
     assert len(lines) == len(railed_channels)
     for line, k in zip(lines, railed_channels, strict=True):
@@ -329,3 +329,20 @@ def test_validate_json_never_overwrites_an_input(lowcost_recording, tmp_path, ca
     assert code == exit_code(ConfigError("json", None, "")), err
     assert "--json" in err and "calibration 1" in err, err
     assert calibration.read_bytes() == before
+
+
+def test_a_resumed_session_keeps_its_railed_counts(lowcost, ur5, paper_tool, tmp_path, rng):
+    spec, sensor = lowcost
+    batch, W = static_poses(ur5, paper_tool, pose_joints(rng))
+    counts = dataclasses.replace(sensor, quadratic=0.0).strains(W, rng=rng)
+    settings = CONSTANT.with_limits(spec.limits)
+    whole = run_session(ur5, paper_tool, batch, counts, spec.limits)
+    half = len(batch) // 2
+    first = CalibrationSession(ur5, paper_tool, settings, checkpoint=tmp_path / "run.checkpoint.json")
+    first.add_samples(dataclasses.replace(batch.rows(0, half), channels=counts[:half]))
+    first.checkpoint()
+    resumed = CalibrationSession.resume(tmp_path / "run.checkpoint.json", ur5, paper_tool, settings)
+    resumed.add_samples(dataclasses.replace(batch.rows(half, len(batch)), channels=counts[half:]))
+    resumed.flush()
+    assert resumed.skipped[RAILED] == whole.skipped[RAILED] > 0
+    assert resumed.checks.rails.lines(paper_tool.names) == whole.checks.rails.lines(paper_tool.names)

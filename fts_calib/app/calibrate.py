@@ -236,7 +236,7 @@ def format_counts(session: CalibrationSession) -> list[str]:
     if p.skipped:
         lines.append("not kept, by reason (a filtered sample can fail several rules):")
         lines.append(table(["reason", "samples"], [[r, f"{n:,}"] for r, n in sorted(p.skipped.items(), key=lambda x: -x[1])], "  "))
-    lines += [f"  {line}" for line in session.rail_lines()]
+    lines += [f"  {line}" for line in ([] if session.checks.rails is None else session.checks.rails.lines(session.tool.names))]
     return lines
 
 

@@ -94,6 +94,7 @@ def run(
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
+    settings = settings.with_limits(spec.limits)  # railed samples refused from the start, as the recording's
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)
     expected = None if plan is None else load_plan_progress(plan, spec.rate_hz)
@@ -111,14 +112,10 @@ def run(
         )
     source, record = f"live udp://{host}:{port}", live_source(host, port)
     if resume:
-        session = CalibrationSession.resume(
-            checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout, limits=spec.limits
-        )
+        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout)
         print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
     else:
-        session = CalibrationSession(
-            kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout, limits=spec.limits
-        )
+        session = CalibrationSession(kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout)
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
     sync = Synchronizer(kin.joint_names, kin.continuous, max_gap_s, latency_s, configurations=loaded.names, n_channels=layout.n_channels)
@@ -147,7 +144,7 @@ def run(
     if rtde is not None:
         print(format_rtde(rtde))
     print("\n".join(format_counts(session)))
-    found = session.detected_limits()
+    found = None if session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
     if found is not None:  # a live stream cannot be read again without them
         print(
             f"  note: {', '.join(found.detected)} (detected in the data): its samples went into the calibration; "

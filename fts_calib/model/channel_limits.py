@@ -188,19 +188,26 @@ class GridWatch:
     before that) and completes the declared resolution where it is 0.
 
     Args:
-        declared: Declared step of each channel (0: unknown), raw units. Shape (n,).
+        declared: Declared step of each channel (0: unknown), raw units, shape (n,); None:
+            nothing declared (n is that of the first readings).
     """
 
-    def __init__(self, declared) -> None:
-        self.declared = np.asarray(declared, dtype=float).reshape(-1)
-        n = len(self.declared)
-        self._values: list[np.ndarray] = [np.zeros(0) for _ in range(n)]
-        self._resolution = self.declared.copy()
+    def __init__(self, declared=None) -> None:
+        self.declared = None if declared is None else np.asarray(declared, dtype=float).reshape(-1)
+        self._values: list[np.ndarray] = []
+        self._resolution = None if self.declared is None else self.declared.copy()
         self._dirty = False
 
     def update(self, channels) -> None:
         """Add readings. Shape (N, n)."""
-        channels = np.asarray(channels, dtype=float).reshape(-1, len(self.declared))
+        channels = np.asarray(channels, dtype=float)
+        if not len(channels):
+            return
+        if self.declared is None or len(self.declared) != channels.shape[1]:  # nothing declared for n channels
+            self.declared = np.zeros(channels.shape[1])
+            self._resolution = self.declared.copy()
+        if len(self._values) != len(self.declared):
+            self._values = [np.zeros(0) for _ in self.declared]
         for k in np.nonzero(self.declared == 0)[0]:
             if len(self._values[k]) < GRID_VALUES:
                 column = channels[:, k]
@@ -208,23 +215,31 @@ class GridWatch:
                 self._dirty = True
 
     @property
-    def resolution(self) -> np.ndarray:
-        """Step of each channel, raw units (declared, else detected; 0: none seen). Shape (n,)."""
+    def resolution(self) -> np.ndarray | None:
+        """Step of each channel, raw units (declared, else detected; 0: none seen), shape (n,); None before anything."""
+        if self._resolution is None or self.declared is None:
+            return None
         if self._dirty:
             for k in np.nonzero(self.declared == 0)[0]:
                 self._resolution[k] = _step(self._values[k])
             self._dirty = False
         return self._resolution.copy()
 
-    def state(self) -> list[float]:
-        """What a checkpoint keeps: the resolution so far."""
-        return self.resolution.tolist()
+    def floor(self, measured: np.ndarray | None) -> np.ndarray | None:
+        """A measured noise floor (raw units, shape (n,)) never below the quantization noise step / sqrt(12); None stays None."""
+        resolution = self.resolution
+        return measured if measured is None or resolution is None else np.maximum(measured, quantization_noise(resolution))
+
+    def state(self) -> list[float] | None:
+        """What a checkpoint keeps: the resolution so far (None before any reading)."""
+        resolution = self.resolution
+        return None if resolution is None else resolution.tolist()
 
     def restore(self, state) -> None:
-        """Restore :meth:`state` (a detected resolution stands until new values refine it)."""
+        """Restore a resolution a checkpoint kept (a detected one stands until new values refine it)."""
         values = np.asarray(state, dtype=float).reshape(-1)
-        if values.shape == self.declared.shape:
-            self._resolution = np.where(self.declared > 0, self.declared, values)
+        declared = self.declared if self.declared is not None and len(self.declared) == len(values) else np.zeros(len(values))
+        self.declared, self._resolution = declared, np.where(declared > 0, declared, values)
 
 
 #: Distinct values of a channel :class:`GridWatch` keeps, at most.

@@ -122,7 +122,8 @@ def calibrate_recording(
         layout: The sensor's channel layout; a recording of another number of channels is
             refused (ShapeError naming both).
         prior: Shrink C_bar toward a known calibration (ridge, :mod:`fts_calib.model.prior`).
-        limits: The channels' declared resolution and rails (the sensor file's); None for none.
+        limits: The channels' declared resolution and rails (the sensor file's), in place of
+            ``settings.checks.limits``; None: those.
             Rails not declared are detected (see the module docstring).
 
     Raises:
@@ -138,12 +139,13 @@ def calibrate_recording(
     check_start(checkpoint, resume, restart)
     check_distinct({"--checkpoint": checkpoint}, {("the recording" if k == 0 else f"recording {k + 1}"): p for k, p in enumerate(paths)})
     settings = settings or PipelineConfig()
+    settings = settings if limits is None else settings.with_limits(limits)
     pending: list[tuple] = []  # the kept samples of a run that may be done again, for on_kept
-    run = _Run(paths, kin, tool, settings, use_filter, checkpoint, topics, layout, joints_in_degrees, progress)
-    session, problems, rows = run.read(resume, limits, on_kept=None if on_kept is None else lambda *a: pending.append(a))
-    found = session.detected_limits() if not resume else None
+    run = _Run(paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress)
+    session, problems, rows = run.read(resume, settings, on_kept=None if on_kept is None else lambda *a: pending.append(a))
+    found = None if resume or session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
     if found is not None:  # a rail nobody declared: its samples went in; calibrate again without them
-        session, problems, rows = run.read(False, found, on_kept)
+        session, problems, rows = run.read(False, settings.with_limits(found), on_kept)
     elif on_kept is not None:
         for kept in pending:
             on_kept(*kept)
@@ -161,14 +163,14 @@ def calibrate_recording(
 class _Run:
     """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice."""
 
-    def __init__(self, paths, kin, tool, settings, use_filter, checkpoint, topics, layout, joints_in_degrees, progress):
-        self.paths, self.kin, self.tool, self.settings = paths, kin, tool, settings
+    def __init__(self, paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress):
+        self.paths, self.kin, self.tool = paths, kin, tool
         self.use_filter, self.checkpoint, self.topics, self.layout = use_filter, checkpoint, topics, layout
         self.joints_in_degrees, self.progress = joints_in_degrees, progress
 
-    def read(self, resume: bool, limits: ChannelLimits | None, on_kept) -> tuple[CalibrationSession, list[str], int]:
-        """The session after the whole recording, the reader's notes and the rows read."""
-        paths, kin, tool, settings, checkpoint, progress = self.paths, self.kin, self.tool, self.settings, self.checkpoint, self.progress
+    def read(self, resume: bool, settings: PipelineConfig, on_kept) -> tuple[CalibrationSession, list[str], int]:
+        """The session after the whole recording (with these settings), the reader's notes and the rows read."""
+        paths, kin, tool, checkpoint, progress = self.paths, self.kin, self.tool, self.checkpoint, self.progress
         source = " ".join(map(str, paths))
         live = settings.live
         with open_recording(
@@ -179,9 +181,7 @@ class _Run:
             record = None if checkpoint is None else recording_source(paths)
             layout = self.layout
             if resume and checkpoint is not None and Path(checkpoint).exists():
-                session = CalibrationSession.resume(
-                    checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, limits=limits
-                )
+                session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout)
             else:
                 session = CalibrationSession(
                     kin,
@@ -193,7 +193,6 @@ class _Run:
                     on_kept=on_kept,
                     source_record=record,
                     layout=layout,
-                    limits=limits,
                 )
             degrees = self.joints_in_degrees
             chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if degrees else c for c in reader)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..core.exceptions import FtsCalibWarning
 from ..feeds.batch import UNKNOWN_TOOL, SampleBatch
-from ..model.channel_limits import ChannelLimits, RailWatch, railed
+from ..model.channel_limits import ChannelLimits, RailWatch, detected_names, railed
 from ..robot.kinematics import Kinematics
 from .settings import DEFAULT_MAX_ABS_CHANNEL
 
@@ -232,8 +232,8 @@ class SampleChecks:
         self._count(OUT_OF_RANGE, ok & finite & ~in_range)
         ok &= in_range
         n = batch.channels.shape[1]
-        if self.rails is None:
-            self.rails, self.watch = RailTally(n), RailWatch(n)
+        self.rails = self.rails or RailTally(n)
+        self.watch = self.watch or RailWatch(n)
         within = np.ones(len(time), dtype=bool)
         within[ok] = refuse_railed(batch.channels[ok], batch.configuration[ok], time[ok], self.limits, self.rails)
         self._count(RAILED, ok & ~within)
@@ -262,6 +262,37 @@ class SampleChecks:
             if self.watch is not None:
                 self.watch.update(batch.channels[ok])
         return ok
+
+    def state(self) -> dict:
+        """What a checkpoint keeps: the samples skipped, by reason, and the railed ones."""
+        return {"skipped": dict(self.skipped), "rails": None if self.rails is None else self.rails.state()}
+
+    def restore(self, state: dict) -> None:
+        """Restore :meth:`state` (of a checkpoint)."""
+        self.skipped = Counter({str(k): int(v) for k, v in state["skipped"].items()})
+        if state.get("rails") is not None:
+            self.rails = RailTally(len(state["rails"]["last"]))
+            self.rails.restore(state["rails"])
+
+    def detected_limits(self, resolution) -> ChannelLimits | None:
+        """The limits with the rails :attr:`watch` found and :attr:`limits` do not declare; None when there are none.
+
+        A rail found here was not refused (it was not known while the samples came): a
+        recording is then calibrated again with these limits
+        (:func:`fts_calib.pipeline.calibrate.calibrate_recording`).
+
+        Args:
+            resolution: Step of each channel (the filter's: declared or learnt), raw units,
+                shape (n,); None: the declared.
+        """
+        if self.watch is None:
+            return None
+        n = self.watch.n_channels
+        declared = self.limits if self.limits is not None else ChannelLimits.none(n)
+        low, high = self.watch.rails(declared.resolution if resolution is None else resolution)
+        if not np.any((np.isfinite(low) & ~np.isfinite(declared.low)) | (np.isfinite(high) & ~np.isfinite(declared.high))):
+            return None
+        return declared.with_detected(None, low, high, detected_names(declared, None, low, high, [f"strain_{k + 1}" for k in range(n)]))
 
     def _check_temperature(self, temperature_C: np.ndarray) -> None:
         """Warn once about temperatures beyond :data:`PLAUSIBLE_TEMPERATURE_C` (another unit)."""

@@ -12,11 +12,8 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
    (centred on the sample) at most ``max_strain_std``, or, with ``auto``,
    ``strain_std_factor`` times the noise floor: the median of that deviation over the first
    200 samples the joint rules keep (vibration after a stop shows here; until those
-   samples have come, nothing is decided), never below a channel's quantization noise
-   step / sqrt(12) (:mod:`fts_calib.model.channel_limits`: a channel of integer counts
-   whose noise is a fraction of a count reads one code for seconds, its measured scatter
-   is 0, and a single one-count step would otherwise be "motion"; the step is declared or
-   learnt from the channel's values as they stream); a window holding fewer than three quarters of
+   samples have come, nothing is decided), never below a channel's quantization noise step / sqrt(12)
+   (:class:`fts_calib.model.channel_limits.GridWatch`); a window holding fewer than three quarters of
    half a window's samples (at least 3) shows nothing and fails: a lone sample beside a
    gap or at a stream's end (its deviation and joint rates would be zero by construction);
 4. *dynamic wrench*: the dynamic part of the tool's wrench (Newton-Euler, from the
@@ -50,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..feeds.batch import SampleBatch
-from ..model.channel_limits import GridWatch, quantization_noise
+from ..model.channel_limits import ChannelLimits, GridWatch
 from ..robot.load import ToolLoad
 from ..robot.tool import Tool
 from .settings import FilterConfig
@@ -225,16 +222,14 @@ class QuasiStaticFilter:
         settings: Thresholds.
         continuous: Which joints are continuous (unwrapped before differentiating), the
             robot's joint order. Shape (n_joints,) bool.
-        resolution: Declared step of each channel, raw units (0: learnt from the values),
-            shape (n,); None: learnt for every channel.
+        limits: The channels' declared resolution (0 or None: learnt from the values, :attr:`grid`).
     """
 
-    def __init__(self, settings: FilterConfig, continuous: np.ndarray, resolution=None):
+    def __init__(self, settings: FilterConfig, continuous: np.ndarray, limits: ChannelLimits | None = None):
         self.settings = settings
         self.rejected = dict.fromkeys(RULES, 0)
         self.measured_floor: np.ndarray | None = None
-        self._declared = None if resolution is None else np.asarray(resolution, dtype=float).reshape(-1)
-        self._grid: GridWatch | None = None
+        self.grid = GridWatch(None if limits is None else limits.resolution)
         self._context = 0
         self._buffer: SampleBatch | None = None
         # context kept on each side of a decided sample: its strain window, and the derivative
@@ -244,42 +239,22 @@ class QuasiStaticFilter:
         self._dt: float | None = None
 
     @property
-    def resolution(self) -> np.ndarray | None:
-        """Step of each channel, raw units (declared, else learnt; 0: none seen), shape (n,); None before any sample."""
-        if self._grid is None:
-            return None if self._declared is None else self._declared.copy()
-        return self._grid.resolution
-
-    @property
     def noise_floor(self) -> np.ndarray | None:
-        """The strain noise per channel, raw units, shape (n,); None until measured.
-
-        The scatter measured over the first still windows (:attr:`measured_floor`), never
-        below the quantization noise step / sqrt(12) of a channel's resolution.
-        """
-        if self.measured_floor is None:
-            return None
-        resolution = self.resolution
-        return self.measured_floor if resolution is None else np.maximum(self.measured_floor, quantization_noise(resolution))
+        """The strain noise per channel, raw units, shape (n,): :attr:`measured_floor`, at least step / sqrt(12)."""
+        return self.grid.floor(self.measured_floor)
 
     def state(self) -> dict:
         """What a checkpoint keeps of the filter (the noise floor measured, and the channels' resolution)."""
         floor = None if self.measured_floor is None else self.measured_floor.tolist()
-        resolution = None if self._grid is None else self._grid.state()
-        return {"noise_floor": floor, "resolution": resolution, "rejected": dict(self.rejected)}
+        return {"noise_floor": floor, "resolution": self.grid.state(), "rejected": dict(self.rejected)}
 
     def restore(self, state: dict) -> None:
         """Restore :meth:`state`."""
         if state.get("noise_floor") is not None:
             self.measured_floor = np.asarray(state["noise_floor"], dtype=float)
         if state.get("resolution") is not None:
-            self._watch_grid(len(state["resolution"])).restore(state["resolution"])
+            self.grid.restore(state["resolution"])
         self.rejected.update({k: int(v) for k, v in state.get("rejected", {}).items() if k in self.rejected})
-
-    def _watch_grid(self, n: int) -> GridWatch:
-        if self._grid is None:
-            self._grid = GridWatch(self._declared if self._declared is not None and len(self._declared) == n else np.zeros(n))
-        return self._grid
 
     def process(self, batch: SampleBatch, final: bool = False) -> Decided:
         """Add samples (in time order) and return those that can now be decided (rules 1-3).
@@ -288,8 +263,7 @@ class QuasiStaticFilter:
             batch: New samples, not before the previous ones.
             final: No more samples will come: decide everything.
         """
-        if len(batch):
-            self._watch_grid(batch.channels.shape[1]).update(batch.channels)
+        self.grid.update(batch.channels)
         buf = batch if self._buffer is None else SampleBatch.concatenate([self._buffer, batch])
         time = buf.time
         n = len(time)

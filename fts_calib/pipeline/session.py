@@ -1,8 +1,7 @@
 """A calibration session: samples in, a calibration out, for recordings, live feeds and controllers.
 
-Data flow, one way, one :class:`SampleBatch` at a time: checks (finite values in range, no
-channel at its rail, time order, known tool configuration, joint limits;
-:mod:`fts_calib.pipeline.checks`) -> quasi-static
+Data flow, one way, one :class:`SampleBatch` at a time: checks (finite values in range, rails, time
+order, known tool configuration, joint limits; :mod:`fts_calib.pipeline.checks`) -> quasi-static
 filter decisions from joint rates and strain stationarity -> the sensor motion and the
 tool's load (:func:`fts_calib.robot.load.tool_load`, the only kinematics) -> the filter's
 dynamic rule -> online least squares on the static wrench (paper eqs 12-18).
@@ -34,7 +33,6 @@ import numpy as np
 from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
 from ..feeds.batch import SampleBatch, configuration_indices
 from ..model.calibration import Calibration
-from ..model.channel_limits import ChannelLimits, RailWatch, detected_names
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
 from ..model.least_squares import unexplained_strain
@@ -44,7 +42,7 @@ from ..robot.load import tool_load
 from ..robot.tool import Tool
 from .advice import missing_words
 from .checkpoint import read_checkpoint, write_checkpoint
-from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, RAILED, UNKNOWN_TOOL, RailTally, SampleChecks
+from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
 from .fit import MAX_RATIO, FitCheck, check_fit, fit_rows, model_fit_sums
 from .progress import Progress
 from .provenance import session_provenance
@@ -57,7 +55,6 @@ __all__ = [
     "BEFORE_CHECKPOINT",
     "NON_FINITE",
     "OUTSIDE_LIMITS",
-    "RAILED",
     "UNKNOWN_TOOL",
     "CalibrationSession",
     "Progress",
@@ -84,11 +81,6 @@ class CalibrationSession:
             (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
             Samples of another number of channels are refused (ShapeError naming both).
-        limits: The channels' resolution and rails (:mod:`fts_calib.model.channel_limits`,
-            the sensor file's ``channel_limits``): samples with a channel at its rail are
-            skipped and counted, and the noise floor is never below the quantization noise;
-            None: nothing declared (the resolution is learnt from the data, rails are
-            detected for :meth:`detected_limits` but not refused).
     """
 
     def __init__(
@@ -103,11 +95,9 @@ class CalibrationSession:
         on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
-        limits: ChannelLimits | None = None,
     ):
         self.kin = kin
         self.layout = channel_layout(layout)
-        self.limits = limits
         self.tool = tool
         self.settings = settings or PipelineConfig()
         self.checkpoint_path = Path(checkpoint) if checkpoint else None
@@ -115,9 +105,8 @@ class CalibrationSession:
         self.source_record = source_record
         n = len(tool.configurations)
         self.estimator = OnlineEstimator(layout=self.layout, offsets=self.settings.offsets.model, basis=self.settings.offsets.basis(n))
-        resolution = None if limits is None else limits.resolution
-        self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous, resolution) if use_filter else None
-        self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, limits)
+        self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous, self.settings.checks.limits) if use_filter else None
+        self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
         self._directions = np.zeros((n, 4, 4))  # sum of [u; 1][u; 1]^T per configuration, u = g / |g|
@@ -287,31 +276,7 @@ class CalibrationSession:
             return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
         chosen = self.estimator.model_in_use()[0]
         sums, per_configuration = model_fit_sums(self._fit_sums, chosen.model, chosen.columns, self.estimator.basis.n_configurations)
-        resolution = None if self.filter is None else self.filter.resolution
-        return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration, resolution)
-
-    def detected_limits(self) -> ChannelLimits | None:
-        """The limits with the rails the data show and the session's limits do not declare, or None when there are none.
-
-        A rail found here was not refused (it was not known while the samples came): a
-        recording is then calibrated again with these limits (:func:`fts_calib.pipeline.calibrate.calibrate_recording`).
-        """
-        if self.checks.watch is None:
-            return None
-        declared = self.limits if self.limits is not None else ChannelLimits.none(self.layout.n_channels)
-        resolution = self.filter.resolution if self.filter is not None else None
-        resolution = declared.resolution if resolution is None else resolution
-        low, high = self.checks.watch.rails(resolution)
-        new = (np.isfinite(low) & ~np.isfinite(declared.low)) | (np.isfinite(high) & ~np.isfinite(declared.high))
-        if not new.any():
-            return None
-        names = [f"strain_{k + 1}" for k in range(self.layout.n_channels)]
-        detected = detected_names(declared, None, low, high, names)
-        return declared.with_detected(None, low, high, detected)
-
-    def rail_lines(self) -> list[str]:
-        """One line per channel whose samples were refused at its rail (:meth:`RailTally.lines`)."""
-        return [] if self.checks.rails is None else self.checks.rails.lines(self.tool.names)
+        return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)  # noise: floored at step/sqrt(12)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
         """The calibration from everything kept so far, with its fit check in the quality.
@@ -376,8 +341,7 @@ class CalibrationSession:
             "estimator": self.estimator.state(),
             "kept": self.kept.tolist(),
             "seen": self.seen,
-            "skipped": dict(self.checks.skipped),
-            "rails": None if self.checks.rails is None else self.checks.rails.state(),
+            **self.checks.state(),  # skipped, by reason, and at the rails
             "directions": self._directions.tolist(),
             "fit_sums": self._fit_sums.tolist(),
             "last_time": None if last == -math.inf else last,
@@ -397,7 +361,6 @@ class CalibrationSession:
         clock: Callable[[], float] = _time.monotonic,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
-        limits: ChannelLimits | None = None,
     ) -> CalibrationSession:
         """A session continuing from a checkpoint; samples up to its last time are skipped.
 
@@ -412,7 +375,7 @@ class CalibrationSession:
         state = read_checkpoint(path, kin.robot.name, tool, source_record)
         record = source_record if source_record is not None else state.get("source")
         use_filter = state.get("filter") is not None
-        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout, limits=limits)
+        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout)
         try:
             session.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
             if "basis" in state["estimator"]:  # a checkpoint of an older version has constant offsets only
@@ -421,12 +384,7 @@ class CalibrationSession:
             session._fit_sums = np.zeros((len(tool.configurations), m, m))
             session.kept = np.array(state["kept"], dtype=np.int64)
             session.seen = int(state["seen"])
-            session.checks.skipped = Counter({str(k): int(v) for k, v in state["skipped"].items()})
-            if state.get("rails") is not None:
-                n = session.layout.n_channels
-                session.checks.rails = RailTally(n)
-                session.checks.rails.restore(state["rails"])
-                session.checks.watch = RailWatch(n)
+            session.checks.restore(state)
             session._directions = np.array(state["directions"], dtype=float)
             if "fit_sums" in state:
                 session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)

@@ -309,7 +309,7 @@ def identify_payload_from_recording(
     found = detect_limits(samples.channels[finite], limits)
     checks = SampleChecks(kin, limits=found)
     samples = samples.select(checks.accept(samples))  # a NaN, a railed channel or a row out of order never poisons a window
-    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, found.resolution), kin, None, samples, final=True)
+    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, found), kin, None, samples, final=True)
     estimate = identify_payload(
         calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_separation_deg=min_separation_deg
     )
