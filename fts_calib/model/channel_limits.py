@@ -275,8 +275,8 @@ class RailWatch:
     stretches of at least :data:`RAIL_MIN_SAMPLES` consecutive samples exactly at it (a new
     extreme starts afresh). :meth:`rails` judges them with the channels' resolution: on a
     grid, such an extreme is a rail when it is an end of an ADC's code range
-    (:func:`on_adc_boundary`; a channel stuck at one value all along takes the step the
-    other channels share; a quantized channel with sub-count noise holds its largest
+    (:func:`on_adc_boundary`; the lower end 0, a common reading, in two stretches; a
+    channel stuck at one value all along takes the step the other channels share; a quantized channel with sub-count noise holds its largest
     reading over a whole pose, and the same pose in another tool configuration repeats it,
     so holding alone proves nothing); off a grid, when it is held in at least
     :data:`RAIL_MIN_STRETCHES` separate stretches (a noisy linear channel never reads exactly
@@ -342,7 +342,9 @@ class RailWatch:
             for k in range(self.n_channels):
                 if resolution[k] > 0:
                     extreme, step = float(self.extreme[side, k]), float(resolution[k])
-                    found[side, k] = count[side, k] >= 1 and on_adc_boundary(extreme, step, high=side == 1)
+                    # 0 is a common reading too (a decimal column rounded near zero): held twice, like a value off a grid
+                    held = RAIL_MIN_STRETCHES if extreme == 0.0 else 1
+                    found[side, k] = count[side, k] >= held and on_adc_boundary(extreme, step, high=side == 1)
                 else:
                     found[side, k] = count[side, k] >= RAIL_MIN_STRETCHES
         return np.where(found[0], self.extreme[0], -np.inf), np.where(found[1], self.extreme[1], np.inf)

@@ -15,8 +15,9 @@ data again:
 
 The expected residual is the strain noise through C, ``sigma_W = sqrt(diag(C Sigma C^T))``
 with ``Sigma`` the filter's noise floor per channel (the scatter of the still windows, never
-below a quantized channel's step / sqrt(12): at a still pose the rounding error of a
-channel with sub-count noise is a constant of that pose, a noise across poses), or
+below a quantized channel's step / sqrt(12), :attr:`QuasiStaticFilter.noise_floor`: at a
+still pose the rounding error of a channel with sub-count noise is a constant of that pose,
+a noise across poses), or
 a floor of ``1e-6`` of the tool's weight (and of its moment ``m g |c|``) where the noise
 is below it (noiseless or quantized data). A fit is *consistent* when every ratio
 ``rms_c / sigma_W`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap
@@ -37,7 +38,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model.channel_limits import quantization_noise
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor import WRENCH_AXES
 from ..robot.tool import Tool
@@ -302,7 +302,6 @@ def check_fit(
     hint: str = "",
     layout: ChannelLayout = MALTESE_CROSS_8,
     per_configuration: bool = False,
-    resolution: np.ndarray | None = None,
 ) -> FitCheck:
     """Judge the fit of the tool's model to the kept samples (see the module docstring).
 
@@ -319,14 +318,10 @@ def check_fit(
         per_configuration: One offset per configuration (the per-configuration and drift
             offset models) instead of one for all; drift columns are those of ``sums``
             (:func:`model_fit_sums`).
-        resolution: Step of each channel (raw units, shape (n,); 0: not quantized), or None:
-            the noise is never below the quantization noise step / sqrt(12).
 
     Returns:
         The verdict; its diagnosis names the first alternative that fits.
     """
-    if noise_std is not None and resolution is not None:
-        noise_std = np.maximum(noise_std, quantization_noise(resolution))
     counts = np.asarray(counts, dtype=float)
     if not counts.sum() > 0:  # no sample in the sums: nothing to judge
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
