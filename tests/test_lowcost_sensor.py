@@ -346,3 +346,32 @@ def test_a_resumed_session_keeps_its_railed_counts(lowcost, ur5, paper_tool, tmp
     resumed.flush()
     assert resumed.skipped[RAILED] == whole.skipped[RAILED] > 0
     assert resumed.checks.rails.lines(paper_tool.names) == whole.checks.rails.lines(paper_tool.names)
+
+
+def test_payload_refuses_railed_samples_and_finds_the_mass(lowcost, ur5, paper_tool, tmp_path, rng):
+    from fts_calib.feeds.recording import RecordingWriter
+    from fts_calib.model.calibration import Calibration
+    from fts_calib.service.payload import identify_payload_from_recording
+
+    _, sensor = lowcost
+    linear = dataclasses.replace(sensor, quadratic=0.0)
+    n = int(POSE_S * RATE_HZ)
+    joints = np.repeat(pose_joints(rng), n, axis=0)
+    time = np.repeat(np.arange(POSES) * (POSE_S + GAP_S), n) + np.tile(np.arange(n) / RATE_HZ, POSES)
+    W = tool_load(ur5, paper_tool, joints, 0).static  # configuration A: strain_7 within its range
+    W[: 2 * n] += np.array([0.0, 0.0, 60.0, 0.0, 0.0, 0.0])  # the first two poses pressed: strain_7 at its rail there
+    counts = linear.strains(W, rng=rng)
+    assert np.all(counts[: 2 * n, 6] == 1023.0), "the pressed poses rail"
+    path = tmp_path / "payload.csv"
+    with RecordingWriter(path, ur5.joint_names, 8) as writer:
+        writer.write(time, joints, counts, "A")
+    railed = int(np.sum(np.any((counts <= 0) | (counts >= 1023), axis=1)))
+    # random poses: some closer than the 15° a payload wizard asks for; they determine it all the same
+    found = identify_payload_from_recording(path, ur5, Calibration(linear.C_bar, linear.D_readings), min_separation_deg=1.0)
+    assert len(found.rails) == 1 and found.rails[0].startswith("strain_7 at its rail 1023 in ")
+    assert found.rails[0].endswith(f": {railed:,} samples")
+    # the pressed poses would pull the mass by about 60 N / 9.81 m/s^2 over a sixth of the samples
+    # (1 kg); without them: the noise of 1 count through C (about 0.4 N on a force axis) over
+    # the samples left, and the rounding bias of each pose (|C_i| / sqrt(12), over >= 2 poses)
+    mass = paper_tool.configurations[0].mass
+    assert abs(found.estimate.mass - mass) < 0.05 * mass, found.estimate
