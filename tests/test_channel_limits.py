@@ -141,3 +141,24 @@ def test_limits_refuse_bad_values():
         ChannelLimits([-1.0], [0.0], [1.0])
     with pytest.raises(ConfigError, match="low < high"):
         ChannelLimits([1.0], [2.0], [1.0])
+
+
+IDENTITY = "[[1,0,0,0,0,0],[0,1,0,0,0,0],[0,0,1,0,0,0],[0,0,0,1,0,0],[0,0,0,0,1,0],[0,0,0,0,0,1]]"
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        ("adc: {bits: 10, range: [0, 1023], gain: 128}", r"simulation.adc.*either range or gain and reference"),
+        ("adc: {bits: 10, range: [5, 1]}", r"simulation.adc.range.*\[5.0, 1.0\] but expected \[low, high\] with low < high"),
+        ("nonlinearity: 0.03", r"simulation.nonlinearity.*expected \{quadratic: fraction, cubic: fraction\}"),
+        ("nonlinearity: {quadratic: 0.03, cubc: 0.01}", r"simulation.nonlinearity.*did you mean 'cubic'"),
+        ("nonlinearity: {quadratic: .nan}", r"simulation.nonlinearity.quadratic.*finite"),
+        ("channel_offset: [1, 2]", r"simulation.channel_offset.*one number or 8"),
+    ],
+)
+def test_bad_simulation_of_a_lowcost_sensor_is_refused_with_the_field(tmp_path, extra, match):
+    path = tmp_path / "sensor.yaml"
+    path.write_text(f"name: test\nstrain_unit: counts\nsimulation:\n  C_bar: {IDENTITY}\n  {extra}\n")
+    with pytest.raises(FileFormatError, match=match):
+        load_sensor_config(path)

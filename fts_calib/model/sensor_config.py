@@ -298,7 +298,8 @@ def _read_simulation(raw, path: Path, layout: ChannelLayout, sensor_full_scale: 
         raise FileFormatError(path, "simulation.nonlinearity", "expected {quadratic: fraction, cubic: fraction} of full scale at full load")
     check_keys(nonlinearity, NONLINEARITY_KEYS, path, "simulation.nonlinearity")
     n, n_null = layout.n_channels, layout.n_channels - 6
-    with fields_of(path, "simulation.", {"adc_bits": "adc.bits", "adc_full_scale": "adc", "adc_range": "adc.range"}):
+    names = {"adc_bits": "adc.bits", "adc_full_scale": "adc", "adc_range": "adc.range"}
+    with fields_of(path, "simulation.", {**names, "quadratic": "nonlinearity.quadratic", "cubic": "nonlinearity.cubic"}):
         return SimulationSpec(
             C_bar=C_bar,
             D=read_array(raw.get("D", [0.0] * 6), (6,), path, "simulation.D"),
