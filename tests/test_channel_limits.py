@@ -64,7 +64,7 @@ def test_the_rule_refuses_a_channel_at_or_beyond_its_rail_and_counts_it_per_chan
     # strain_1 railed at t 5.0 and 5.1 (configuration B): one pose, two samples, readings 0 and 1024
     assert tally.lines(["A", "B"]) == [
         "strain_1 at its rail 0-1024 in 1 pose (B 1): 2 samples",
-        "strain_3 at its rail 1023 in 1 pose (A 1): 1 samples",
+        "strain_3 at its rail 1023 in 1 pose (A 1): 1 sample",
     ]
     # no rail known: every sample passes
     assert refuse_railed(channels, np.zeros(5), np.arange(5.0), ChannelLimits.none(3), tally).all()

@@ -14,7 +14,7 @@ the declared or detected range of the channel) is skipped as railed: its reading
 follows the load. :class:`RailTally` counts them per channel and configuration, with the
 poses (railed samples of a channel less than :data:`POSE_GAP_S` apart are one pose) and
 the readings, for the summary
-("strain_7 at its rail 1023 in 8 poses (A 3, B 2, C 3), 11,234 samples"); validate, tare
+("strain_7 at its rail 1023 in 8 poses (A 3, B 2, C 3): 11,234 samples"); validate, tare
 and payload count theirs with the same class.
 """
 
@@ -141,7 +141,8 @@ class RailTally:
             per = ", ".join(f"{configurations[c] if 0 <= c < len(configurations) else 'unknown'} {n}" for c, n in mine)
             poses = sum(n for _, n in mine)
             samples = sum(n for (j, _), n in self.samples.items() if j == k)
-            out.append(f"{names[k]} at its rail {reading} in {poses} pose{'s' if poses != 1 else ''} ({per}): {samples:,} samples")
+            plural = ("s" if poses != 1 else "", "s" if samples != 1 else "")
+            out.append(f"{names[k]} at its rail {reading} in {poses} pose{plural[0]} ({per}): {samples:,} sample{plural[1]}")
         return out
 
     def state(self) -> dict:
