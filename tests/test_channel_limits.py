@@ -162,3 +162,12 @@ def test_bad_simulation_of_a_lowcost_sensor_is_refused_with_the_field(tmp_path, 
     path.write_text(f"name: test\nstrain_unit: counts\nsimulation:\n  C_bar: {IDENTITY}\n  {extra}\n")
     with pytest.raises(FileFormatError, match=match):
         load_sensor_config(path)
+
+
+def test_a_pipeline_file_cannot_declare_channel_limits(tmp_path):
+    from fts_calib.pipeline.settings import load_pipeline_config
+
+    path = tmp_path / "pipeline.yaml"
+    path.write_text("checks:\n  limits: 5\n")
+    with pytest.raises(FileFormatError, match=r"checks.limits.*the sensor file's"):
+        load_pipeline_config(path)

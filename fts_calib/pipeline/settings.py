@@ -104,6 +104,8 @@ class ChecksConfig:
 
     def __post_init__(self):
         object.__setattr__(self, "max_abs_channel", validation.positive("checks.max_abs_channel", self.max_abs_channel))
+        if self.limits is not None and not isinstance(self.limits, ChannelLimits):  # a pipeline file's 'limits:'
+            raise ConfigError("checks.limits", self.limits, "nothing here: a channel's resolution and range are the sensor file's")
 
 
 @dataclass(frozen=True)
