@@ -242,7 +242,7 @@ def _add_simulate(commands) -> None:
         "simulate a recording from planned trajectories",
         "Play planned trajectories (one CSV per tool configuration) through the kinematics with the tool's full "
         "dynamic wrench (mass, centre of mass, inertia) and the simulated sensor of the sensor file (true C, offsets, "
-        "noise, 24-bit ADC, null content, drift); write a recording in exactly the format a robot produces.",
+        "noise, ADC quantization and rails, null content, drift, nonlinearity); write a recording in exactly the format a robot produces.",
         "fts-calib simulate --robot ur5 --tool paper_tool --trajectory out/trajectories -o recording.csv",
     )
     _robot_and_tool(sim, pipeline=False)
@@ -257,6 +257,11 @@ def _add_simulate(commands) -> None:
     sim.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
     sim.add_argument("--tool-change", dest="tool_change_s", type=float, default=2.0, help="pause between configurations in s (default 2)")
     sim.add_argument("--static", dest="dynamic", action="store_false", help="the tool's static wrench only (no dynamics)")
+    sim.add_argument(
+        "--poses-only",
+        action="store_true",
+        help="record only the samples where the arm holds still at a stop: a static-pose recording (poses separated by gaps)",
+    )
 
 
 def _add_validate(commands) -> None:
@@ -291,6 +296,13 @@ def _add_validate(commands) -> None:
     val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")
     val.add_argument("--static", dest="dynamic", action="store_false", help="expect the tool's weight alone (no dynamics)")
     val.add_argument("--plot", dest="plot_path", metavar="PNG", help="PNG of Fx and its error")
+    val.add_argument(
+        "--json",
+        dest="json_path",
+        metavar="FILE",
+        help='write the errors of the first calibration for scripts: {"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N} '
+        "(N, N·m)",
+    )
     val.add_argument(
         "--max-error", dest="max_error_percent", type=float, metavar="PERCENT", help="exit 1 when an error exceeds this %% of full scale"
     )

@@ -115,6 +115,7 @@ def run(
         layout=layout,
         prior=shrink,
         full_scale=spec.full_scale,
+        limits=spec.limits,
     )
     written = None
     if result.calibration is not None:
@@ -175,6 +176,7 @@ def format_counts(session: CalibrationSession) -> list[str]:
     if p.skipped:
         lines.append("not kept, by reason (a filtered sample can fail several rules):")
         lines.append(table(["reason", "samples"], [[r, f"{n:,}"] for r, n in sorted(p.skipped.items(), key=lambda x: -x[1])], "  "))
+    lines += [f"  {line}" for line in ([] if session.checks.rails is None else session.checks.rails.lines(session.tool.names))]
     return lines
 
 
@@ -217,6 +219,8 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     rate = result.rows / max(result.seconds, 1e-9)
     lines = [f"recording {recording}: {result.rows:,} rows in {result.seconds:.2f} s ({rate / 1000:,.0f}k rows/s)"]
     lines += format_counts(result.session)
+    if result.detected:
+        lines.append(f"detected in the data, not declared in the sensor file: {', '.join(result.detected)}; calibrated again with it")
     for problem in result.problems:
         lines.append(f"  note: {problem}")
     if isinstance(result.error, PoorFit):

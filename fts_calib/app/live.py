@@ -103,6 +103,7 @@ def run(
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
+    settings = settings.with_limits(spec.limits)  # railed samples refused from the start, as the recording's
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)
     expected = None if plan is None else load_plan_progress(plan, spec.rate_hz)
@@ -162,6 +163,12 @@ def run(
     if rtde is not None:
         print(format_rtde(rtde))
     print("\n".join(format_counts(session)))
+    found = None if session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
+    if found is not None:  # a live stream cannot be read again without them
+        print(
+            f"  note: {', '.join(found.detected)} (detected in the data): its samples went into the calibration; "
+            "declare the channels' range in the sensor file (range, adc_bits) to refuse them"
+        )
     try:
         calibration = session.solve(accept_poor_fit=accept_poor_fit, prior=shrink)
     except InsufficientExcitation as exc:

@@ -69,6 +69,8 @@ def run(
     found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_separation_deg)
     estimate = found.estimate
     print(format_payload(estimate, found.rows))
+    for line in found.rails:
+        print(f"  refused: {line}")
     header = (
         f"payload identified by fts-calib from {recording} ({estimate.samples} samples, {len(estimate.poses)} "
         f"orientations)\nmass {estimate.mass:.6g} ± {estimate.stderr_mass:.2g} kg; com ± "

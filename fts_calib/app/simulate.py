@@ -62,6 +62,7 @@ def run(
     seed: int = 0,
     tool_change_s: float = 2.0,
     dynamic: bool = True,
+    poses_only: bool = False,
 ) -> int:
     """Write a recording of planned trajectories, in the format a robot produces (``fts-calib simulate``).
 
@@ -77,6 +78,8 @@ def run(
         seed: Seed of the noise.
         tool_change_s: Pause between configurations, in [s].
         dynamic: The tool's full dynamic wrench (False: its static weight only).
+        poses_only: Record only the samples where the arm holds still at a stop: a static-pose
+            recording (poses separated by gaps).
 
     Returns:
         0.
@@ -99,8 +102,12 @@ def run(
     missing = [name for name in loaded.names if name not in {t.tool for t in trajectories}]
     rng = None if noiseless else np.random.default_rng(seed)
     with writing(output):
-        path = simulate_recording(output, kin, loaded, trajectories, simulated, rng, tool_change_s=tool_change_s, dynamic=dynamic)
+        path = simulate_recording(
+            output, kin, loaded, trajectories, simulated, rng, tool_change_s=tool_change_s, dynamic=dynamic, poses_only=poses_only
+        )
     rows = sum(len(t.time) for t in trajectories)
+    if poses_only:
+        rows = sum(int(np.sum(np.all(t.qd == 0.0, axis=1) & np.all(t.qdd == 0.0, axis=1))) for t in trajectories)
     noise = "none" if rng is None else f"up to {simulated.noise_std.max():.2g} {spec.strain_unit} per channel (seed {seed})"
     wrench = "moving (Newton-Euler)" if dynamic else "static"
     print(
@@ -108,5 +115,13 @@ def run(
         + (f" (no trajectory for {missing})" if missing else "")
         + f"; tool wrench {wrench}, noise {noise}, "
         + (f"{simulated.adc_bits}-bit ADC" if simulated.adc_bits else "no quantization")
+        + (f", {_nonlinearity(simulated)}" if simulated.quadratic or simulated.cubic else "")
+        + ("; still at the stops only (a static-pose recording)" if poses_only else "")
     )
     return ExitCode.OK
+
+
+def _nonlinearity(sensor) -> str:
+    """The simulated sensor's nonlinearity in words, e.g. 'quadratic 3 % FS at full load'."""
+    terms = [f"{name} {100 * value:g} %" for name, value in (("quadratic", sensor.quadratic), ("cubic", sensor.cubic)) if value]
+    return "nonlinearity " + " + ".join(terms) + " of full scale at full load"

@@ -103,6 +103,8 @@ def run(
     with writing(target):
         written = save_calibration(result.calibration, target)
     print(format_tare(result))
+    for line in result.rails:
+        print(f"  refused: {line}")
     print(f"wrote {written} (previous offsets kept in offset_history: {len(result.calibration.offset_history)} entries)")
     return ExitCode.OK
 

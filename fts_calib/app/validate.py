@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -10,6 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import ConfigError
+from ..core.fileio import atomic_write_text
+from ..core.paths import check_outputs
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import MIN_COVERAGE, recording_paths
@@ -53,6 +56,7 @@ def run(
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
     joint_stamps: str = BagTopics.joint_stamps,
+    json_path: str | Path | None = None,
 ) -> int:
     """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
 
@@ -76,6 +80,9 @@ def run(
         channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
         joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
+        json_path: Where to write the errors of the first calibration for scripts,
+            ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}`` (N, N·m),
+            atomically; None for none. Not written when no sample was compared.
 
     Returns:
         0, or 1 when an error exceeds ``max_error_percent`` or when fewer than
@@ -87,8 +94,13 @@ def run(
     """
     if not 0.0 <= min_coverage <= 1.0:  # NaN too
         raise ConfigError("min_coverage", min_coverage, "a share in [0, 1] (e.g. 0.5)")
-    kin, loaded, _ = load_setup(robot, tool)
     calibrations = [*calibrations, *([reference] if reference is not None else [])]
+    inputs = {f"calibration {k + 1}": p for k, p in enumerate(calibrations)}
+    inputs.update({f"recording {k + 1}": p for k, p in enumerate(recording_paths(recording))})
+    check_outputs(
+        {"--json": json_path, "--plot": plot_path}, {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor}
+    )
+    kin, loaded, _ = load_setup(robot, tool)
     loaded_calibrations = [read_calibration(p) for p in calibrations]
     spec = load_sensor(sensor)
     full_scale = spec.full_scale.copy()
@@ -98,7 +110,9 @@ def run(
         full_scale[3:] = full_scale_moment
     full_scale = dataclasses.replace(spec, full_scale=full_scale).full_scale  # the sensor spec refuses <= 0, NaN
     topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps)
-    result = validate_recording(recording_paths(recording), kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic, topics=topics)
+    result = validate_recording(
+        recording_paths(recording), kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic, topics=topics, limits=spec.limits
+    )
     recording = " ".join(map(str, recording_paths(recording)))
     print(
         f"validation of {len(calibrations)} calibration(s) over {result.samples:,} of {result.rows_read:,} samples "
@@ -109,6 +123,8 @@ def run(
     skipped = ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items())
     if skipped:
         print("skipped: " + skipped)
+    for line in result.rails:
+        print(f"  {line}")
     for problem in result.problems:
         print(f"  note: {problem}")
     if result.samples == 0:  # zeros would read as a perfect calibration
@@ -128,6 +144,10 @@ def run(
         print(format_errors(str(path), errors))
     if result.between is not None:
         print(format_errors(f"{calibrations[0]} against {calibrations[1]}", result.between))
+    if json_path is not None:
+        with writing(json_path):
+            written_json = atomic_write_text(json_path, json.dumps(result.as_json(), indent=2) + "\n")
+        print(f"wrote {written_json}")
     if plot_path is not None:
         from .plots import plot_validation
 

@@ -8,13 +8,25 @@ sensor: 50 N and 5 N m), used to express errors in % of full scale; ``rate_hz`` 
 sample rate); optional ``simulation``, the true model of the simulated sensor: ``C``
 (6 x n, must be of the form C_bar P) or ``C_bar`` (6x6), ``D`` (6), ``noise_std`` (one
 number or n, raw units), ``null_coupling`` ((n - 6) x 6), ``null_offset`` (n - 6),
-``drift_rate`` (one number or n, raw units per s) and ``adc`` ``{bits, gain, reference}``
-(full scale of the ADC = reference / gain, in raw units). An unknown key (a typo) is
-refused with the known keys listed.
+``drift_rate`` (one number or n, raw units per s), ``adc`` ``{bits, gain, reference}``
+(full scale of the ADC = reference / gain, in raw units: codes from -full scale in steps of
+2 full scale / 2^bits) or ``{bits, range: [low, high]}`` (codes from low to high in steps
+of (high - low) / (2^bits - 1): ``{bits: 10, range: [0, 1023]}`` reads integer counts),
+``channel_offset`` (one number or n, raw units: the reading at zero load, e.g. mid-range
+of an unsigned ADC) and ``nonlinearity`` ``{quadratic, cubic}`` (each a fraction of full
+scale at full load, see :class:`SimulationSpec`). An unknown key (a typo) is refused with
+the known keys listed.
+
+What the channels can read (:mod:`fts_calib.model.channel_limits`), all optional:
+``resolution`` (one number or n, raw units: the step of an ADC's counts), ``range``
+(``[low, high]`` for every channel, or n of them: the lowest and highest reading, its
+rails) and ``adc_bits`` (with ``range``: the resolution is (high - low) / (2^bits - 1)).
+What is not declared is detected from the data.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,16 +37,28 @@ from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError, ShapeError, StructureError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_array, read_number, read_positive, require
 from ..core.resources import locate
+from .channel_limits import ChannelLimits
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 
 #: The keys of a sensor file and of its sections (any other is refused).
-#: Full scale per wrench axis when a sensor file gives none, [N, N, N, N m, N m, N m] (the paper's nominal range).
-DEFAULT_FULL_SCALE = (50.0, 50.0, 50.0, 5.0, 5.0, 5.0)
-
-SENSOR_FILE_KEYS = ("name", "strain_unit", "channels", "full_scale", "rate_hz", "simulation")
+SENSOR_FILE_KEYS = ("name", "strain_unit", "channels", "full_scale", "rate_hz", "resolution", "range", "adc_bits", "simulation")
 FULL_SCALE_KEYS = ("force", "moment")
-SIMULATION_KEYS = ("C", "C_bar", "D", "noise_std", "null_coupling", "null_offset", "drift_rate", "adc")
-ADC_KEYS = ("bits", "gain", "reference")
+SIMULATION_KEYS = (
+    "C",
+    "C_bar",
+    "D",
+    "noise_std",
+    "null_coupling",
+    "null_offset",
+    "drift_rate",
+    "adc",
+    "channel_offset",
+    "nonlinearity",
+)
+ADC_KEYS = ("bits", "gain", "reference", "range")
+NONLINEARITY_KEYS = ("quadratic", "cubic")
+#: The paper's full scale, [N, N, N, N m, N m, N m]: the default of a sensor file's.
+DEFAULT_FULL_SCALE = (50.0, 50.0, 50.0, 5.0, 5.0, 5.0)
 
 
 @dataclass(frozen=True)
@@ -57,6 +81,16 @@ class SimulationSpec:
         adc_bits: ADC resolution; 0 disables quantization.
         adc_full_scale: Largest strain the ADC reads (reference / gain), raw units; beyond
             it readings saturate.
+        adc_range: ``(low, high)``, the lowest and highest code of the ADC in raw units
+            (codes ``low + k (high - low) / (2^bits - 1)``), or None for the symmetric range
+            of ``adc_full_scale``.
+        channel_offset: Reading of each channel at zero load, raw units. Shape (n,) (one
+            number is every channel's).
+        quadratic: Quadratic nonlinearity, a fraction of full scale at full load: each axis
+            reads ``W_i + quadratic FS_i (W_i / FS_i)^2`` (0.03: 3 % of full scale at full load).
+        cubic: Cubic nonlinearity, the same with ``(W_i / FS_i)^3``.
+        full_scale: Full scale per axis the nonlinearity is relative to, [N, N, N, N m, N m,
+            N m]. Shape (6,) (the sensor file's ``full_scale``).
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
     """
 
@@ -68,6 +102,11 @@ class SimulationSpec:
     drift_rate: np.ndarray = field(default_factory=lambda: np.zeros(()))
     adc_bits: int = 0
     adc_full_scale: float = 1000.0 / 128.0
+    adc_range: tuple[float, float] | None = None
+    channel_offset: np.ndarray = field(default_factory=lambda: np.zeros(()))
+    quadratic: float = 0.0
+    cubic: float = 0.0
+    full_scale: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_FULL_SCALE))
     layout: ChannelLayout = MALTESE_CROSS_8
 
     def __post_init__(self):
@@ -79,7 +118,7 @@ class SimulationSpec:
             if name.startswith("null_") and np.size(value) == 0:  # empty: no content in the null patterns
                 value = np.zeros(shape)
             object.__setattr__(self, name, frozen(validation.finite_array(name, as_matrix(value, shape, name))))
-        for name in ("noise_std", "drift_rate"):  # one number for every channel, or one per channel
+        for name in ("noise_std", "drift_rate", "channel_offset"):  # one number for every channel, or one per channel
             value = np.asarray(getattr(self, name), dtype=float)
             if value.shape not in ((), (n,)):
                 raise ShapeError(f"{name}.shape={value.shape} but expected () or ({n},), one per channel of the {layout.name} layout")
@@ -91,6 +130,17 @@ class SimulationSpec:
             raise ConfigError("adc_bits", self.adc_bits, "0 (off) or an integer from 8 to 32")
         object.__setattr__(self, "adc_bits", int(bits))
         object.__setattr__(self, "adc_full_scale", validation.positive("adc_full_scale", self.adc_full_scale))
+        if self.adc_range is not None:
+            low, high = (validation.number(f"adc_range[{k}]", v) for k, v in enumerate(as_matrix(self.adc_range, (2,), "adc_range")))
+            if not (math.isfinite(low) and math.isfinite(high) and low < high):
+                raise ConfigError("adc_range", [low, high], "[low, high] with low < high, finite")
+            object.__setattr__(self, "adc_range", (low, high))
+        for name in ("quadratic", "cubic"):
+            object.__setattr__(self, name, validation.number(name, getattr(self, name)))  # either sign: the direction of the bend
+        full_scale = as_matrix(self.full_scale, (6,), "full_scale")
+        if not np.all(np.isfinite(full_scale) & (full_scale > 0)):
+            raise ConfigError("full_scale", full_scale.tolist(), "finite values > 0")
+        object.__setattr__(self, "full_scale", frozen(full_scale))
 
     @property
     def C(self) -> np.ndarray:
@@ -98,9 +148,34 @@ class SimulationSpec:
         return self.layout.c_from_c_bar(self.C_bar)
 
     @property
+    def D_readings(self) -> np.ndarray:
+        """The offsets of the readings, ``D - C channel_offset`` (what a calibration of them finds), shape (6,)."""
+        return self.D - self.C @ self.channel_offset
+
+    @property
     def lsb(self) -> float:
         """Quantization step of the ADC in raw strain units (0 when quantization is off)."""
-        return 2.0 * self.adc_full_scale / 2**self.adc_bits if self.adc_bits else 0.0
+        if not self.adc_bits:
+            return 0.0
+        if self.adc_range is not None:
+            return (self.adc_range[1] - self.adc_range[0]) / (2**self.adc_bits - 1)
+        return 2.0 * self.adc_full_scale / 2**self.adc_bits
+
+    @property
+    def adc_codes(self) -> tuple[float, float]:
+        """The lowest and highest code of the ADC in raw units (its rails); ``(-inf, inf)`` without one."""
+        if not self.adc_bits:
+            return (-math.inf, math.inf)
+        if self.adc_range is not None:
+            return self.adc_range
+        return (-self.adc_full_scale, self.adc_full_scale - self.lsb)
+
+    @property
+    def limits(self) -> ChannelLimits:
+        """What the simulated channels can read: the ADC's step and its rails."""
+        low, high = self.adc_codes
+        n = self.layout.n_channels
+        return ChannelLimits(np.full(n, self.lsb), np.full(n, low), np.full(n, high))
 
 
 @dataclass(frozen=True)
@@ -114,6 +189,9 @@ class SensorSpec:
         rate_hz: Strain sample rate in [Hz].
         simulated: The true model of the simulated sensor, or None; of the same layout.
         layout: The channel layout; the paper's 8 bridges by default.
+        limits: The declared resolution and range of the channels
+            (:mod:`fts_calib.model.channel_limits`), or None when nothing is declared (then
+            detected from the data).
     """
 
     name: str
@@ -122,6 +200,7 @@ class SensorSpec:
     rate_hz: float
     simulated: SimulationSpec | None = None
     layout: ChannelLayout = MALTESE_CROSS_8
+    limits: ChannelLimits | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "layout", channel_layout(self.layout))
@@ -137,6 +216,13 @@ class SensorSpec:
             raise ConfigError("full_scale", full_scale.tolist(), "finite values > 0", owner=f"sensor '{self.name}'")
         object.__setattr__(self, "full_scale", frozen(full_scale))
         object.__setattr__(self, "rate_hz", validation.positive("rate_hz", self.rate_hz, "Hz", f"sensor '{self.name}'"))
+        if self.limits is not None and self.limits.n_channels != self.layout.n_channels:
+            raise ShapeError(f"limits of {self.limits.n_channels} channels but the {self.layout.name} layout has {self.layout.n_channels}")
+
+    @property
+    def channel_limits(self) -> ChannelLimits:
+        """The declared limits, or limits with nothing known (no resolution, no rails)."""
+        return self.limits if self.limits is not None else ChannelLimits.none(self.layout.n_channels)
 
 
 def _per_channel(value, path: Path, field: str, n: int) -> np.ndarray:
@@ -148,7 +234,41 @@ def _per_channel(value, path: Path, field: str, n: int) -> np.ndarray:
     return np.array(read_number(value, path, field))
 
 
-def _read_simulation(raw, path: Path, layout: ChannelLayout) -> SimulationSpec:
+def _read_limits(data: dict, path: Path, n: int) -> ChannelLimits | None:
+    """The declared ``resolution``, ``range`` and ``adc_bits`` of a sensor file, or None when none is."""
+    if not any(key in data for key in ("resolution", "range", "adc_bits")):
+        return None
+    low, high = np.full(n, -np.inf), np.full(n, np.inf)
+    given = data.get("range")
+    if given is not None:
+        pairs = np.asarray(given, dtype=object)
+        if pairs.shape == (2,):
+            low[:], high[:] = read_array(given, (2,), path, "range")
+        else:
+            both = read_array(given, (n, 2), path, "range")
+            low, high = both[:, 0].copy(), both[:, 1].copy()
+        bad = [k for k in range(n) if not low[k] < high[k]]
+        if bad:
+            k = bad[0]
+            raise FileFormatError(path, "range", f"channel {k + 1}: [{low[k]:g}, {high[k]:g}] but expected [low, high] with low < high")
+    resolution = np.zeros(n)
+    if "resolution" in data and "adc_bits" in data:
+        raise FileFormatError(path, "adc_bits", "give either resolution or adc_bits with range, not both")
+    if "resolution" in data:
+        resolution = np.broadcast_to(_per_channel(data["resolution"], path, "resolution", n), (n,)).copy()
+        if np.any(~np.isfinite(resolution) | (resolution < 0)):
+            raise FileFormatError(path, "resolution", f"is {resolution.tolist()} but expected values >= 0 (raw units; 0: not quantized)")
+    if "adc_bits" in data:
+        bits = read_number(data["adc_bits"], path, "adc_bits")
+        if not (bits.is_integer() and 1 <= bits <= 32):
+            raise FileFormatError(path, "adc_bits", f"is {bits:g} but expected an integer number of bits from 1 to 32")
+        if given is None:
+            raise FileFormatError(path, "range", "missing: adc_bits needs the range of the codes, e.g. range: [0, 1023] for 10-bit counts")
+        resolution = (high - low) / (2 ** int(bits) - 1)
+    return ChannelLimits(resolution, low, high)
+
+
+def _read_simulation(raw, path: Path, layout: ChannelLayout, sensor_full_scale: np.ndarray) -> SimulationSpec:
     if not isinstance(raw, dict):
         raise FileFormatError(path, "simulation", "expected a mapping")
     check_keys(raw, SIMULATION_KEYS, path, "simulation")
@@ -162,17 +282,25 @@ def _read_simulation(raw, path: Path, layout: ChannelLayout) -> SimulationSpec:
             raise FileFormatError(path, "simulation.C", str(exc)) from None
     adc = raw.get("adc") or {}
     if not isinstance(adc, dict):
-        raise FileFormatError(path, "simulation.adc", "expected {bits, gain, reference}")
+        raise FileFormatError(path, "simulation.adc", "expected {bits, gain, reference} or {bits, range: [low, high]}")
     check_keys(adc, ADC_KEYS, path, "simulation.adc")
     bits = read_number(adc.get("bits", 0), path, "simulation.adc.bits")
     if not bits.is_integer():  # the type of the field; its range is SimulationSpec's to check
         raise FileFormatError(path, "simulation.adc.bits", f"is {bits} but expected an integer number of bits")
+    if "range" in adc and ("gain" in adc or "reference" in adc):
+        raise FileFormatError(path, "simulation.adc", "give either range or gain and reference, not both")
+    adc_range = tuple(read_array(adc["range"], (2,), path, "simulation.adc.range")) if "range" in adc else None
     # reference and gain are no fields of SimulationSpec (it holds their ratio): checked here
     full_scale = read_positive(adc.get("reference", 1000.0), path, "simulation.adc.reference") / read_positive(
         adc.get("gain", 128.0), path, "simulation.adc.gain"
     )
+    nonlinearity = raw.get("nonlinearity") or {}
+    if not isinstance(nonlinearity, dict):
+        raise FileFormatError(path, "simulation.nonlinearity", "expected {quadratic: fraction, cubic: fraction} of full scale at full load")
+    check_keys(nonlinearity, NONLINEARITY_KEYS, path, "simulation.nonlinearity")
     n, n_null = layout.n_channels, layout.n_channels - 6
-    with fields_of(path, "simulation.", {"adc_bits": "adc.bits", "adc_full_scale": "adc"}):
+    names = {"adc_bits": "adc.bits", "adc_full_scale": "adc", "adc_range": "adc.range"}
+    with fields_of(path, "simulation.", {**names, "quadratic": "nonlinearity.quadratic", "cubic": "nonlinearity.cubic"}):
         return SimulationSpec(
             C_bar=C_bar,
             D=read_array(raw.get("D", [0.0] * 6), (6,), path, "simulation.D"),
@@ -182,6 +310,11 @@ def _read_simulation(raw, path: Path, layout: ChannelLayout) -> SimulationSpec:
             drift_rate=_per_channel(raw.get("drift_rate", 0.0), path, "simulation.drift_rate", n),
             adc_bits=int(bits),
             adc_full_scale=full_scale,
+            adc_range=adc_range,
+            channel_offset=_per_channel(raw.get("channel_offset", 0.0), path, "simulation.channel_offset", n),
+            quadratic=read_number(nonlinearity.get("quadratic", 0.0), path, "simulation.nonlinearity.quadratic"),
+            cubic=read_number(nonlinearity.get("cubic", 0.0), path, "simulation.nonlinearity.cubic"),
+            full_scale=sensor_full_scale,
             layout=layout,
         )
 
@@ -209,15 +342,18 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     moment = read_positive(full.get("moment", DEFAULT_FULL_SCALE[3]), path, "full_scale.moment")
     with fields_of(path, names={"projection": "channels.projection"}):
         layout = channel_layout(data.get("channels"))
-    simulated = _read_simulation(data["simulation"], path, layout) if data.get("simulation") is not None else None
+    full_scale = np.array([force] * 3 + [moment] * 3)
+    simulated = _read_simulation(data["simulation"], path, layout, full_scale) if data.get("simulation") is not None else None
+    limits = _read_limits(data, path, layout.n_channels)
     name = str(require(data, "name", path))
     rate_hz = read_number(data.get("rate_hz", 1000.0), path, "rate_hz", "Hz")
     with fields_of(path):
         return SensorSpec(
             name=name,
             strain_unit=str(data.get("strain_unit", "raw")),
-            full_scale=np.array([force] * 3 + [moment] * 3),
+            full_scale=full_scale,
             rate_hz=rate_hz,
             simulated=simulated,
             layout=layout,
+            limits=limits,
         )

@@ -5,6 +5,11 @@ The recording is read chunk by chunk (:mod:`fts_calib.feeds.recording`) into a
 reader cannot use (malformed lines, unknown tool configurations) and samples the session
 drops (time going backwards, non-finite values, readings outside the joint limits, the
 filter's rules) are counted and reported; the run goes on where it safely can.
+
+Samples with a channel at its rail are refused when the rail is known (declared in the
+sensor file). A rail the sensor file does not declare is detected on the way
+(:class:`fts_calib.model.channel_limits.RailWatch`), after its samples went in: the
+recording is then calibrated again, with the rail, and the result says what was detected.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from ..feeds.batch import SampleBatch
 from ..feeds.source import open_recording, recording_paths
 from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
+from ..model.channel_limits import ChannelLimits
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.prior import Prior
 from ..model.sensor_config import SensorSpec, load_sensor_config
@@ -64,6 +70,9 @@ class CalibrateResult:
         error: Why there is no calibration, or None.
         budget: The measured accuracy budget (also in the calibration's quality), or None.
         latency: The joint stream's latency estimated from the moving samples, or None.
+        detected: What the run detected of the channels' limits that the sensor file does
+            not declare (e.g. 'high rail of strain_7 at 1023'): the recording was calibrated
+            again with them.
     """
 
     calibration: Calibration | None
@@ -74,6 +83,7 @@ class CalibrateResult:
     error: InsufficientExcitation | PoorFit | None = None
     budget: AccuracyBudget | None = None
     latency: LatencyEstimate | None = None
+    detected: tuple[str, ...] = ()
 
 
 def calibrate_recording(
@@ -93,6 +103,7 @@ def calibrate_recording(
     layout: ChannelLayout = MALTESE_CROSS_8,
     prior: Prior | None = None,
     full_scale=None,
+    limits: ChannelLimits | None = None,
 ) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
@@ -118,6 +129,9 @@ def calibrate_recording(
         prior: Shrink C_bar toward a known calibration (ridge, :mod:`fts_calib.model.prior`).
         full_scale: Full scale per wrench axis [N, N m], shape (6,), for the measured budget
             in %; a sensor file's default when None.
+        limits: The channels' declared resolution and rails (the sensor file's), in place of
+            ``settings.checks.limits``; None: those.
+            Rails not declared are detected (see the module docstring).
 
     Raises:
         RecordingError: The file cannot be read at all (missing, no data row, a missing
@@ -129,56 +143,29 @@ def calibrate_recording(
     """
     start = time.perf_counter()
     paths = recording_paths(path)
-    source = " ".join(map(str, paths))
     check_start(checkpoint, resume, restart)
     check_distinct({"--checkpoint": checkpoint}, {("the recording" if k == 0 else f"recording {k + 1}"): p for k, p in enumerate(paths)})
     settings = settings or PipelineConfig()
-    live = settings.live
-    with open_recording(
-        paths, kin.joint_names, tool.names, settings.checks.max_abs_channel, topics, kin.continuous, live.max_gap_s, live.latency_s
-    ) as reader:
-        if progress is not None:
-            progress.total = max(float(reader.size), 1.0)
-        record = None if checkpoint is None else recording_source(paths)
-        if resume and checkpoint is not None and Path(checkpoint).exists():
-            session = CalibrationSession.resume(
-                checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, full_scale=full_scale
-            )
-        else:
-            session = CalibrationSession(
-                kin,
-                tool,
-                settings,
-                checkpoint,
-                use_filter,
-                source,
-                on_kept=on_kept,
-                source_record=record,
-                layout=layout,
-                full_scale=full_scale,
-            )
-        chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if joints_in_degrees else c for c in reader)
-        for chunk in clock_checked(reader.path, chunks, kin, settings.filter if use_filter else None, joints_in_degrees):
-            session.add_samples(chunk)
-            if progress is not None:
-                progress.update(reader.bytes_read, reader.rows_read)
-        for reason, count in reader.skipped.items():
-            session.note_skipped(reason, count)
-        problems, rows = reader.notes(), reader.rows_read
-        lost = reader.unusable_configurations()
-    session.flush()
+    settings = settings if limits is None else settings.with_limits(limits)
+    pending: list[tuple] = []  # the kept samples of a run that may be done again, for on_kept
+    run = _Run(paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, full_scale)
+    session, problems, rows, lost = run.read(resume, settings, on_kept=None if on_kept is None else lambda *a: pending.append(a))
+    found = None if resume or session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
+    if found is not None:  # a rail nobody declared: its samples went in; calibrate again without them
+        session, problems, rows, lost = run.read(False, settings.with_limits(found), on_kept)
+    elif on_kept is not None:
+        for kept in pending:
+            on_kept(*kept)
     if progress is not None:
-        progress.update(progress.total, rows)
         progress.close()
-    session.checkpoint()
     # what is really missing comes first: a configuration all of whose rows were unreadable
     hint = "; ".join([*lost, *(["the joint columns may be in rad already: run without --joints-in-degrees"] if joints_in_degrees else [])])
     try:
         calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
     except (InsufficientExcitation, PoorFit) as exc:
         calibration, error = None, exc
-    seconds = time.perf_counter() - start
-    return CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency)
+    seconds, detected = time.perf_counter() - start, (() if found is None else found.detected)
+    return CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency, detected=detected)
 
 
 def calibrate(
@@ -278,3 +265,57 @@ def calibrate(
         )
     session.flush()
     return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)
+
+
+class _Run:
+    """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice."""
+
+    def __init__(self, paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, full_scale):
+        self.paths, self.kin, self.tool = paths, kin, tool
+        self.use_filter, self.checkpoint, self.topics, self.layout = use_filter, checkpoint, topics, layout
+        self.joints_in_degrees, self.progress, self.full_scale = joints_in_degrees, progress, full_scale
+
+    def read(self, resume: bool, settings: PipelineConfig, on_kept) -> tuple[CalibrationSession, list[str], int, list[str]]:
+        """The session after the whole recording (with these settings), the reader's notes, the rows read and the unusable configurations."""
+        paths, kin, tool, checkpoint, progress = self.paths, self.kin, self.tool, self.checkpoint, self.progress
+        source = " ".join(map(str, paths))
+        live = settings.live
+        with open_recording(
+            paths, kin.joint_names, tool.names, settings.checks.max_abs_channel, self.topics, kin.continuous, live.max_gap_s, live.latency_s
+        ) as reader:
+            if progress is not None:
+                progress.total = max(float(reader.size), 1.0)
+            record = None if checkpoint is None else recording_source(paths)
+            layout = self.layout
+            if resume and checkpoint is not None and Path(checkpoint).exists():
+                session = CalibrationSession.resume(
+                    checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, full_scale=self.full_scale
+                )
+            else:
+                session = CalibrationSession(
+                    kin,
+                    tool,
+                    settings,
+                    checkpoint,
+                    self.use_filter,
+                    source,
+                    on_kept=on_kept,
+                    source_record=record,
+                    layout=layout,
+                    full_scale=self.full_scale,
+                )
+            degrees = self.joints_in_degrees
+            chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if degrees else c for c in reader)
+            for chunk in clock_checked(reader.path, chunks, kin, settings.filter if self.use_filter else None, degrees):
+                session.add_samples(chunk)
+                if progress is not None:
+                    progress.update(reader.bytes_read, reader.rows_read)
+            for reason, count in reader.skipped.items():
+                session.note_skipped(reason, count)
+            problems, rows = reader.notes(), reader.rows_read
+            lost = reader.unusable_configurations()
+        session.flush()
+        if progress is not None:
+            progress.update(progress.total, rows)
+        session.checkpoint()
+        return session, problems, rows, lost

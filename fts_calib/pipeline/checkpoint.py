@@ -19,7 +19,6 @@ import hashlib
 import json
 import math
 import warnings
-from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -198,7 +197,7 @@ def session_state(session) -> dict[str, Any]:
         "estimator": session.estimator.state(),
         "kept": session.kept.tolist(),
         "seen": session.seen,
-        "skipped": dict(session.checks.skipped),
+        **session.checks.state(),  # skipped, by reason, and at the rails
         "directions": session._directions.tolist(),
         "fit_sums": session._fit_sums.tolist(),
         "last_time": None if last == -math.inf else last,
@@ -220,7 +219,7 @@ def restore_state(session, state: dict[str, Any], path: Path) -> None:
         session._fit_sums = np.zeros((len(session.tool.configurations), m, m))
         session.kept = np.array(state["kept"], dtype=np.int64)
         session.seen = int(state["seen"])
-        session.checks.skipped = Counter({str(k): int(v) for k, v in state["skipped"].items()})
+        session.checks.restore(state)
         session._directions = np.array(state["directions"], dtype=float)
         if "fit_sums" in state:
             session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)

@@ -14,7 +14,10 @@ data again:
     + \Theta S_{xx,c} \Theta^T\big)
 
 The expected residual is the strain noise through C, ``sigma_W = sqrt(diag(C Sigma C^T))``
-with ``Sigma`` the filter's noise floor per channel (the scatter of the still windows), or
+with ``Sigma`` the filter's noise floor per channel (the scatter of the still windows, never
+below a quantized channel's step / sqrt(12), :attr:`QuasiStaticFilter.noise_floor`: at a
+still pose the rounding error of a channel with sub-count noise is a constant of that pose,
+a noise across poses), or
 a floor of ``1e-6`` of the tool's weight (and of its moment ``m g |c|``) where the noise
 is below it (noiseless or quantized data). A fit is *consistent* when every ratio
 ``rms_c / sigma_W`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap

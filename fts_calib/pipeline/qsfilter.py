@@ -12,7 +12,8 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
    (centred on the sample) at most ``max_strain_std``, or, with ``auto``,
    ``strain_std_factor`` times the noise floor: the median of that deviation over the first
    200 samples the joint rules keep (vibration after a stop shows here; until those
-   samples have come, nothing is decided); a window holding fewer than three quarters of
+   samples have come, nothing is decided), never below a channel's quantization noise step / sqrt(12)
+   (:class:`fts_calib.model.channel_limits.GridWatch`); a window holding fewer than three quarters of
    half a window's samples (at least 3) shows nothing and fails: a lone sample beside a
    gap or at a stream's end (its deviation and joint rates would be zero by construction);
 4. *dynamic wrench*: the dynamic part of the tool's wrench (Newton-Euler, from the
@@ -46,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..feeds.batch import SampleBatch
+from ..model.channel_limits import ChannelLimits, GridWatch
 from ..robot.tool import Tool
 from ..robot.tool_wrench import ToolLoad
 from .settings import FilterConfig
@@ -220,12 +222,14 @@ class QuasiStaticFilter:
         settings: Thresholds.
         continuous: Which joints are continuous (unwrapped before differentiating), the
             robot's joint order. Shape (n_joints,) bool.
+        limits: The channels' declared resolution (0 or None: learnt from the values, :attr:`grid`).
     """
 
-    def __init__(self, settings: FilterConfig, continuous: np.ndarray):
+    def __init__(self, settings: FilterConfig, continuous: np.ndarray, limits: ChannelLimits | None = None):
         self.settings = settings
         self.rejected = dict.fromkeys(RULES, 0)
-        self.noise_floor: np.ndarray | None = None
+        self.measured_floor: np.ndarray | None = None
+        self.grid = GridWatch(None if limits is None else limits.resolution)
         self._context = 0
         self._buffer: SampleBatch | None = None
         # context kept on each side of a decided sample: its strain window, and the derivative
@@ -234,14 +238,22 @@ class QuasiStaticFilter:
         self._continuous = np.asarray(continuous, dtype=bool)
         self._dt: float | None = None
 
+    @property
+    def noise_floor(self) -> np.ndarray | None:
+        """The strain noise per channel, raw units, shape (n,): :attr:`measured_floor`, at least step / sqrt(12)."""
+        return self.grid.floor(self.measured_floor)
+
     def state(self) -> dict:
-        """What a checkpoint keeps of the filter (the noise floor)."""
-        return {"noise_floor": None if self.noise_floor is None else self.noise_floor.tolist(), "rejected": dict(self.rejected)}
+        """What a checkpoint keeps of the filter (the noise floor measured, and the channels' resolution)."""
+        floor = None if self.measured_floor is None else self.measured_floor.tolist()
+        return {"noise_floor": floor, "resolution": self.grid.state(), "rejected": dict(self.rejected)}
 
     def restore(self, state: dict) -> None:
         """Restore :meth:`state`."""
         if state.get("noise_floor") is not None:
-            self.noise_floor = np.asarray(state["noise_floor"], dtype=float)
+            self.measured_floor = np.asarray(state["noise_floor"], dtype=float)
+        if state.get("resolution") is not None:
+            self.grid.restore(state["resolution"])
         self.rejected.update({k: int(v) for k, v in state.get("rejected", {}).items() if k in self.rejected})
 
     def process(self, batch: SampleBatch, final: bool = False) -> Decided:
@@ -251,6 +263,7 @@ class QuasiStaticFilter:
             batch: New samples, not before the previous ones.
             final: No more samples will come: decide everything.
         """
+        self.grid.update(batch.channels)
         buf = batch if self._buffer is None else SampleBatch.concatenate([self._buffer, batch])
         time = buf.time
         n = len(time)
@@ -342,7 +355,7 @@ class QuasiStaticFilter:
         Returns:
             True while the samples must wait.
         """
-        if self.settings.max_strain_std is not None or self.noise_floor is not None or len(index) == 0:
+        if self.settings.max_strain_std is not None or self.measured_floor is not None or len(index) == 0:
             return False
         speed_ok, accel_ok, _, _, s_left, s_right = self._still(buf, index)
         still = np.nonzero(speed_ok & accel_ok & self._judged(buf.time, s_left, s_right))[0][:_FLOOR_SAMPLES]
@@ -350,7 +363,7 @@ class QuasiStaticFilter:
         if len(still) < _FLOOR_SAMPLES and not give_up:
             return True
         if len(still):
-            self.noise_floor = np.median(windowed_std(buf.channels, s_left[still], s_right[still]), axis=0)
+            self.measured_floor = np.median(windowed_std(buf.channels, s_left[still], s_right[still]), axis=0)
         return False
 
     def _decide(self, buf: SampleBatch, index) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -366,13 +379,13 @@ class QuasiStaticFilter:
         std[joints_ok] = windowed_std(channels, s_left[joints_ok], s_right[joints_ok])
         if settings.max_strain_std is not None:
             threshold = np.full(channels.shape[1], settings.max_strain_std)
-        elif self.noise_floor is None:
+        elif (floor := self.noise_floor) is None:
             threshold = np.full(channels.shape[1], -1.0)  # no still sample at all: nothing is known to be stationary
         else:
             # a tiny absolute floor keeps noiseless (simulated) data from failing on rounding; at the scale
             # of the typical reading (a median: one wild value must not loosen the threshold of all)
             scale = float(np.max(np.median(np.abs(channels), axis=0)))
-            threshold = np.maximum(settings.strain_std_factor * self.noise_floor, 1e-9 * scale)
+            threshold = np.maximum(settings.strain_std_factor * floor, 1e-9 * scale)
         strain_ok = np.all(std <= threshold, axis=1) & self._judged(buf.time, s_left, s_right)
         # a moving sample is counted by the joint rules only: its strain was not looked at
         self.rejected["joint speed"] += int((~speed_ok).sum())

@@ -1,6 +1,6 @@
 """A calibration session: samples in, a calibration out, for recordings, live feeds and controllers.
 
-Data flow, one way, one :class:`SampleBatch` at a time: checks (finite values in range, time
+Data flow, one way, one :class:`SampleBatch` at a time: checks (finite values in range, rails, time
 order, known tool configuration, joint limits; :mod:`fts_calib.pipeline.checks`) -> quasi-static
 filter decisions from joint rates and strain stationarity -> the sensor motion and the
 tool's load (:func:`fts_calib.robot.tool_wrench.tool_load`, the only kinematics) -> the filter's
@@ -123,8 +123,8 @@ class CalibrationSession:
         self.source_record = source_record
         n = len(tool.configurations)
         self.estimator = OnlineEstimator(layout=self.layout, offsets=self.settings.offsets.model, basis=self.settings.offsets.basis(n))
-        self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous) if use_filter else None
-        self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel)
+        self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous, self.settings.checks.limits) if use_filter else None
+        self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
         self._directions = np.zeros((n, 4, 4))  # sum of [u; 1][u; 1]^T per configuration, u = g / |g|
@@ -300,7 +300,7 @@ class CalibrationSession:
             return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
         chosen = self.estimator.model_in_use()[0]
         sums, per_configuration = model_fit_sums(self._fit_sums, chosen.model, chosen.columns, self.estimator.basis.n_configurations)
-        return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)
+        return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)  # noise: floored at step/sqrt(12)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
         """The calibration from everything kept so far, with its fit check, measured budget and latency in the quality.

@@ -39,6 +39,7 @@ from pathlib import Path
 from ..core import validation
 from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number
+from ..model.channel_limits import ChannelLimits
 from ..model.offset_basis import AUTO, OffsetBasis, offset_setting
 
 #: Default of ``checks.max_abs_channel`` [raw units]: larger than any reading of a sensor
@@ -99,9 +100,12 @@ class ChecksConfig:
     """Sample-check settings (see the module docstring)."""
 
     max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL  # [raw units]
+    limits: ChannelLimits | None = None  # the channels' resolution and rails: the sensor file's, not this file's
 
     def __post_init__(self):
         object.__setattr__(self, "max_abs_channel", validation.positive("checks.max_abs_channel", self.max_abs_channel))
+        if self.limits is not None and not isinstance(self.limits, ChannelLimits):  # a pipeline file's 'limits:'
+            raise ConfigError("checks.limits", self.limits, "nothing here: a channel's resolution and range are the sensor file's")
 
 
 @dataclass(frozen=True)
@@ -143,6 +147,10 @@ class PipelineConfig:
     noise_std: float | None = None
     checks: ChecksConfig = field(default_factory=ChecksConfig)
     offsets: OffsetConfig = field(default_factory=OffsetConfig)
+
+    def with_limits(self, limits: ChannelLimits | None) -> PipelineConfig:
+        """These settings with the channels' declared resolution and rails (:attr:`SensorSpec.limits`; None: none)."""
+        return replace(self, checks=replace(self.checks, limits=limits))
 
     def with_offsets(self, model: str | None) -> PipelineConfig:
         """These settings with another offset model ('auto', 'constant', 'per-configuration', 'drift'); unchanged for None."""

@@ -34,6 +34,7 @@ from ..core.exceptions import PayloadError, ShapeError
 from ..feeds.batch import SampleBatch
 from ..feeds.source import open_recording
 from ..model.calibration import Calibration
+from ..model.channel_limits import ChannelLimits, detect_limits
 from ..model.channels import CALIBRATION_HINT, check_channels
 from ..pipeline.checks import SampleChecks
 from ..pipeline.qsfilter import QuasiStaticFilter
@@ -250,10 +251,13 @@ class RecordedPayload:
     Attributes:
         estimate: Mass, centre of mass, offsets and their standard errors.
         rows: Samples read from the recording.
+        rails: One line per channel whose samples were refused at its rail
+            (:meth:`fts_calib.pipeline.checks.RailTally.lines`).
     """
 
     estimate: PayloadEstimate
     rows: int
+    rails: tuple[str, ...] = ()
 
 
 def identify_payload_from_recording(
@@ -263,6 +267,7 @@ def identify_payload_from_recording(
     settings: FilterConfig | None = None,
     mount: bool = False,
     min_separation_deg: float = 15.0,
+    limits: ChannelLimits | None = None,
 ) -> RecordedPayload:
     """Identify an unknown payload from a recording of it held still in several orientations.
 
@@ -278,6 +283,8 @@ def identify_payload_from_recording(
         settings: Filter thresholds; the defaults when None.
         mount: Also estimate a small rotation of the sensor mount.
         min_separation_deg: Smallest angle between orientations, in [deg].
+        limits: The channels' declared resolution and rails; what is not declared is
+            detected in the recording. Samples with a channel at its rail are refused.
 
     Raises:
         RecordingError: The recording cannot be read.
@@ -298,9 +305,13 @@ def identify_payload_from_recording(
             "record each alone (or keep only its rows) and identify them one by one"
         )
     samples = dataclasses.replace(samples, configuration=np.zeros(len(samples), dtype=np.int64))
-    samples = samples.select(SampleChecks(kin).accept(samples))  # a NaN or a row out of order never poisons a window
-    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous), kin, None, samples, final=True)
+    finite = np.all(np.isfinite(samples.channels), axis=1)
+    found = detect_limits(samples.channels[finite], limits)
+    checks = SampleChecks(kin, limits=found)
+    samples = samples.select(checks.accept(samples))  # a NaN, a railed channel or a row out of order never poisons a window
+    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, found), kin, None, samples, final=True)
     estimate = identify_payload(
         calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_separation_deg=min_separation_deg
     )
-    return RecordedPayload(estimate, len(samples))
+    rails = () if checks.rails is None else tuple(checks.rails.lines(held or ["payload"]))
+    return RecordedPayload(estimate, len(samples), rails)

@@ -4,7 +4,9 @@ The frequent use the paper stresses: offsets drift, C does not, so before use th
 held still a moment and D is estimated again (:func:`fts_calib.model.offsets.estimate_offsets`)
 with C_bar kept. With nothing mounted, the known load is zero; with a known tool
 configuration on, it is that configuration's weight at the orientation the kinematics give
-(paper eqs 17-18), and only the quasi-static samples count. The calibration keeps its
+(paper eqs 17-18), and only the quasi-static samples count; samples with a channel at its
+rail (declared, or detected in the recording: :mod:`fts_calib.model.channel_limits`) are
+refused and counted. The calibration keeps its
 previous offsets, and when and why they were replaced, in ``offset_history``; the result
 also says how far the offsets drifted since the calibration run (against the offsets it
 ended with, the first of the history) and over how long (from the calibration's time).
@@ -44,9 +46,11 @@ from ..feeds.source import open_recording
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from ..model.calibration import Calibration
+from ..model.channel_limits import ChannelLimits, detect_limits
 from ..model.channels import CALIBRATION_HINT, check_channels
 from ..model.offsets import OffsetEstimate, estimate_offsets
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..pipeline.checks import RailTally, refuse_railed
 from ..pipeline.fit import MAX_RATIO
 from ..pipeline.qsfilter import RULES, QuasiStaticFilter
 from ..pipeline.settings import PipelineConfig
@@ -68,6 +72,8 @@ class TareResult:
             [N, N, N, N m, N m, N m]. Shape (6,).
         elapsed_s: Time since the calibration run [s] (from its provenance time), or None
             when the file does not say.
+        rails: One line per channel whose samples were refused at its rail
+            (:meth:`fts_calib.pipeline.checks.RailTally.lines`).
     """
 
     calibration: Calibration
@@ -76,6 +82,17 @@ class TareResult:
     samples_seen: int
     since_calibration: np.ndarray = field(default_factory=lambda: np.zeros(6))
     elapsed_s: float | None = None
+    rails: tuple[str, ...] = ()
+
+
+def _within_rails(samples: SampleBatch, limits: ChannelLimits | None, names) -> tuple[SampleBatch, tuple[str, ...]]:
+    """The samples with no channel at its rail (declared, or detected in them), and the tally's lines."""
+    if not len(samples):
+        return samples, ()
+    found = detect_limits(samples.channels, limits)
+    tally = RailTally(found.n_channels)
+    keep = refuse_railed(samples.channels, samples.configuration, samples.time, found, tally)
+    return samples.select(keep), tuple(tally.lines(names))
 
 
 #: Smallest share of a tare window's samples that must pass the quasi-static rules 1-3.
@@ -194,9 +211,12 @@ def _known_load(
 
 
 def _apply(
-    calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int, noise: np.ndarray, what: str
+    calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int, noise: np.ndarray, what: str, rails=()
 ) -> TareResult:
     if not len(strain):
+        if rails:  # holding still would not help: a channel is beyond its range at this load
+            railed = "; ".join(rails)
+            raise InsufficientExcitation(0, 1, f"no sample to re-tare from: a channel is at its rail ({railed}); check the sensor's zero")
         raise InsufficientExcitation(0, 1, "no still sample to re-tare from: hold the arm still while recording")
     check_load(load - strain @ calibration.C.T, noise, what)
     estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout)
@@ -228,6 +248,7 @@ def tare_recording(
     tool: Tool | None = None,
     configuration: str | None = None,
     settings: PipelineConfig | None = None,
+    limits: ChannelLimits | None = None,
 ) -> TareResult:
     """Re-tare from a recording (see the module docstring).
 
@@ -238,6 +259,7 @@ def tare_recording(
         tool: The mounted tool, or None for nothing mounted.
         configuration: The mounted configuration of ``tool``.
         settings: Pipeline settings (filter thresholds).
+        limits: The channels' declared resolution and rails; what is not declared is detected.
 
     Raises:
         RecordingError: The recording cannot be read.
@@ -254,13 +276,14 @@ def tare_recording(
         raise InsufficientExcitation(0, 1, f"{path} has no usable row")
     samples = SampleBatch.concatenate(chunks)
     check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
-    finite = np.all(np.isfinite(samples.channels), axis=1) & np.all(np.isfinite(samples.joints), axis=1)
-    usable = samples.select(finite)
+    finite = np.all(np.isfinite(samples.channels), axis=1) & (np.all(np.isfinite(samples.joints), axis=1) if kin is not None else True)
+    within, rails = _within_rails(samples.select(finite), limits, reader.tool_names or ["(none)"])
     _mounted(kin, tool, configuration)  # a wrong argument is said before the data are judged
-    noise = check_window(calibration, usable, settings, None if kin is None else kin.continuous)
-    strain, load = _known_load(kin, tool, configuration, settings, usable)
+    noise = check_window(calibration, within, settings, None if kin is None else kin.continuous)
+    strain, load = _known_load(kin, tool, configuration, settings, within)
     what = _what(tool, configuration)
-    return _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {what}", seen, noise, what)
+    result = _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {what}", seen, noise, what, rails)
+    return dataclasses.replace(result, rails=rails)
 
 
 def tare_live(
@@ -273,11 +296,13 @@ def tare_live(
     configuration: str | None = None,
     settings: PipelineConfig | None = None,
     on_listening: Callable[[tuple[str, int]], None] | None = None,
+    limits: ChannelLimits | None = None,
 ) -> TareResult:
     """Re-tare from a live window of ``seconds`` [s] (> 0) on the UDP protocol (see :mod:`fts_calib.pipeline.live`).
 
     ``on_listening`` is called with the bound (host, port) once the socket listens (port 0
-    picks a free one), before the window starts.
+    picks a free one), before the window starts. ``limits``: the channels' declared
+    resolution and rails; what is not declared is detected in the window.
     """
     validation.positive("seconds", seconds, "s")
     settings = settings or PipelineConfig()
@@ -305,14 +330,18 @@ def tare_live(
         heard = f"{stats.received:,} datagrams, none of them strain" if stats.received else "no datagram at all"
         raise InsufficientExcitation(0, 1, f"{heard} on udp://{host}:{port} in {seconds:g} s: is the sender running, to this port?")
     what = _what(tool, configuration)
+    names = [configuration or "(none)"]
     if sync is None:
         order = np.argsort(np.array(times), kind="stable")  # datagrams may arrive out of order
         s = np.array(strains, dtype=float).reshape(len(strains), -1)[order]
-        window = SampleBatch(np.array(times)[order], np.zeros((len(s), 0)), s, np.full(len(s), -1))
-        noise = check_window(calibration, window, settings)
-        return _apply(calibration, s, np.zeros((len(s), 6)), reason, len(s), noise, what)
+        window = SampleBatch(np.array(times)[order], np.zeros((len(s), 0)), s, np.zeros(len(s), dtype=np.int64))
+        within, rails = _within_rails(window, limits, names)
+        noise = check_window(calibration, within, settings)
+        result = _apply(calibration, within.channels, np.zeros((len(within), 6)), reason, len(s), noise, what, rails)
+        return dataclasses.replace(result, rails=rails)
     synced = sync.pop(final=True)
     _mounted(kin, tool, configuration)
-    noise = check_window(calibration, synced, settings, kin.continuous if kin is not None else None)
-    strain, load = _known_load(kin, tool, configuration, settings, synced)
-    return _apply(calibration, strain, load, reason, len(strains), noise, what)
+    within, rails = _within_rails(synced, limits, names)
+    noise = check_window(calibration, within, settings, kin.continuous if kin is not None else None)
+    strain, load = _known_load(kin, tool, configuration, settings, within)
+    return dataclasses.replace(_apply(calibration, strain, load, reason, len(strains), noise, what, rails), rails=rails)

@@ -28,8 +28,10 @@ from ..core.exceptions import ConfigError
 from ..feeds.bag_log import BagTopics
 from ..feeds.source import open_recording
 from ..model.calibration import Calibration
+from ..model.channel_limits import ChannelLimits
 from ..model.channels import CALIBRATION_HINT, check_channels
-from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, forward_in_time, valid_values
+from ..model.sensor import WRENCH_AXES
+from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, RAILED, RailTally, forward_in_time, refuse_railed, valid_values
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
 from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
 from ..robot.kinematics import Kinematics
@@ -84,6 +86,8 @@ class ValidationResult:
         measured: Per calibration, the measured wrench at those samples, (M, 6) each.
         problems: The first problems of the recording, with their line and column.
         rows_read: Channel samples read from the recording (compared or skipped).
+        rails: One line per channel whose samples were skipped at its rail
+            (:meth:`fts_calib.pipeline.checks.RailTally.lines`).
     """
 
     samples: int
@@ -101,6 +105,17 @@ class ValidationResult:
     def coverage(self) -> float:
         """The share of the recording's channel samples compared, in [0, 1] (0 for an empty recording)."""
         return self.samples / self.rows_read if self.rows_read else 0.0
+
+    rails: list[str] = field(default_factory=list)
+
+    def as_json(self, index: int = 0) -> dict:
+        """The errors of calibration ``index`` for scripts: ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}``.
+
+        Units: N for the forces, N·m for the moments.
+        """
+        errors = self.errors[index]
+        axes = {axis: {"rms": float(errors.rms[i]), "max": float(errors.max_abs[i])} for i, axis in enumerate(WRENCH_AXES)}
+        return {"axes": axes, "samples": int(self.samples)}
 
 
 class _Errors:
@@ -172,6 +187,7 @@ def validate_recording(
     dynamic: bool = True,
     max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL,
     topics: BagTopics | None = None,
+    limits: ChannelLimits | None = None,
 ) -> ValidationResult:
     """Compare measured and expected wrenches over a recording (see the module docstring).
 
@@ -186,6 +202,8 @@ def validate_recording(
         max_abs_channel: Largest plausible magnitude of a channel, in raw units: a sample
             beyond it is skipped as a bad sample (``checks.max_abs_channel``).
         topics: Topic names of a bag; the defaults when None.
+        limits: The channels' range (the sensor file's): a sample with a channel at its rail
+            is skipped and counted (:func:`fts_calib.pipeline.checks.refuse_railed`); None: none.
 
     Raises:
         RecordingError: The recording cannot be read (missing, empty, a missing column).
@@ -200,6 +218,7 @@ def validate_recording(
     between = _Errors()
     plot = _Thinner(_PLOT_POINTS)
     skipped: Counter[str] = Counter()
+    rails = None if limits is None else RailTally(limits.n_channels)
     samples = 0
     dt, half = 0.0, 0
     last_time = -np.inf
@@ -236,6 +255,10 @@ def validate_recording(
             finite, ok = valid_values(t, q, s, max_abs_channel)
             skip(NON_FINITE, int((~finite).sum()))
             skip(OUT_OF_RANGE, int((finite & ~ok).sum()))
+            within = np.ones(len(t), dtype=bool)
+            within[ok] = refuse_railed(s[ok], k[ok], t[ok], limits, rails)
+            skip(RAILED, int((ok & ~within).sum()))
+            ok &= within
             forward = ok & forward_in_time(t, ok, last_time)
             skip(BACKWARDS, int((ok & ~forward).sum()))
             if not forward.any():
@@ -273,4 +296,5 @@ def validate_recording(
         measured=measured,
         problems=problems,
         rows_read=rows_read,
+        rails=[] if rails is None else rails.lines(tool.names),
     )

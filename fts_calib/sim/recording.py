@@ -6,7 +6,9 @@ velocities and accelerations: :meth:`fts_calib.robot.tool.ToolConfiguration.dyna
 through the simulated sensor (:class:`fts_calib.sim.sensor.SimulatedSensor`: eq 22, null
 content, noise, drift, 24-bit ADC). The recording has exactly the format a real robot
 produces (:mod:`fts_calib.feeds.recording`); configurations follow each other with a pause for the
-tool change, during which nothing is recorded.
+tool change, during which nothing is recorded. With ``poses_only`` only the samples where
+the planned motion holds still are recorded: a static-pose dataset (the arm still at each
+stop for the trajectory's dwell, poses separated by gaps), as a user records by hand.
 """
 
 from __future__ import annotations
@@ -60,6 +62,7 @@ def simulate_batches(
     start_time: float = 0.0,
     dynamic: bool = True,
     drift: OffsetDrift | None = None,
+    poses_only: bool = False,
 ) -> Iterator[SampleBatch]:
     """The samples of the given trajectories, as a feed would deliver them (see the module docstring).
 
@@ -75,6 +78,8 @@ def simulate_batches(
         drift: Offsets that move (:class:`fts_calib.sim.drift.OffsetDrift`: time from
             ``start_time``, one jump per tool change) and the temperature channel; constant
             offsets and no temperature when None.
+        poses_only: Only the samples where the planned joints hold still (zero velocity and
+            acceleration): a static-pose recording.
 
     Yields:
         Batches of at most 32,768 samples, each of one configuration (its index in the tool).
@@ -90,7 +95,13 @@ def simulate_batches(
             raise FtsCalibError(f"trajectory joints {list(traj.joint_names)} differ from the robot's {list(kin.joint_names)}")
         code = tool.names.index(tool.configuration(traj.tool).name)  # a clear error for an unknown configuration
         for start in range(0, len(traj.time), _BLOCK):
-            part = slice(start, start + _BLOCK)
+            part: slice | np.ndarray = slice(start, start + _BLOCK)
+            if poses_only:
+                rows = np.arange(start, min(start + _BLOCK, len(traj.time)))
+                still = rows[np.all(traj.qd[rows] == 0.0, axis=1) & np.all(traj.qdd[rows] == 0.0, axis=1)]
+                if not len(still):
+                    continue
+                part = still
             W = tool_wrenches(kin, tool, traj.tool, traj.q[part], traj.qd[part], traj.qdd[part], dynamic)
             t = traj.time[part] - traj.time[0] + offset
             temperature = None
@@ -113,6 +124,7 @@ def simulate_recording(
     start_time: float = 0.0,
     dynamic: bool = True,
     drift: OffsetDrift | None = None,
+    poses_only: bool = False,
 ) -> Path:
     """Write a recording of the given trajectories (see the module docstring).
 
@@ -128,12 +140,13 @@ def simulate_recording(
         dynamic: Use the moving tool's wrench (True) or the static one.
         drift: Offsets that move, and a ``temperature`` column (:class:`fts_calib.sim.drift.OffsetDrift`);
             constant offsets and no temperature column when None.
+        poses_only: Record only the samples where the planned joints hold still.
 
     Raises:
         FtsCalibError: A trajectory's joints differ from the robot's.
         ConfigError: A negative pause between configurations (time would go backwards).
     """
     with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels, temperature=drift is not None) as writer:
-        for batch in simulate_batches(kin, tool, trajectories, sensor, rng, tool_change_s, start_time, dynamic, drift):
+        for batch in simulate_batches(kin, tool, trajectories, sensor, rng, tool_change_s, start_time, dynamic, drift, poses_only):
             writer.write(batch.time, batch.joints, batch.channels, tool.names[int(batch.configuration[0])], batch.temperature)
     return Path(path)

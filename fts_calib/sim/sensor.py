@@ -5,7 +5,13 @@ The inverse of the sensor model. The projected channels follow eq 22,
 content in the n - 6 patterns P does not see (a load-dependent and a constant part, as a
 real sensor has; none for ``wrench-6``), then optional white noise per channel, a slow
 offset drift, and the quantization of the acquisition chain (the paper's: x128 gain,
-24-bit ADC, saturation).
+24-bit ADC, saturation; a low-cost sensor's: 10-bit integer counts with a reading at zero
+load near mid-range, railed where the load drives a channel past the converter's range).
+
+A smooth nonlinearity bends the wrench the channels see before eq 22: axis ``i`` reads
+``W_i + FS_i (quadratic u_i^2 + cubic u_i^3)`` with ``u_i = W_i / FS_i`` (``FS``: the
+sensor file's full scale), so that ``quadratic: 0.03`` is 3 % of full scale at full load on
+that axis; a polynomial of the same degree in the channels undoes it.
 
 A factory-calibrated sensor (layout ``wrench-6``, ``configs/factory_sensor.yaml``) is the
 same model with P = I: its channels are the wrench its factory calibration reports, and
@@ -49,18 +55,35 @@ class SimulatedSensor(SimulationSpec):
             Raw channels, shape (n,) or (N, n), n = ``layout.n_channels``.
         """
         W, single = as_samples(w_sensor, 6, "w_sensor")
-        bar = np.linalg.solve(self.C_bar, (W - self.D).T).T  # eq 22
+        bar = np.linalg.solve(self.C_bar, (self.bent(W) - self.D).T).T  # eq 22
         strain = bar @ self.layout.pinv.T + (W @ self.null_coupling.T + self.null_offset) @ self.layout.null_basis
+        strain = strain + self.channel_offset
         if time is not None:
             strain = strain + np.asarray(time, dtype=float).reshape(-1, 1) * self.drift_rate
         if rng is not None and np.any(self.noise_std > 0):
             strain = strain + rng.standard_normal(strain.shape) * self.noise_std
         if self.adc_bits:
-            lsb = self.lsb
-            strain = np.clip(np.round(strain / lsb) * lsb, -self.adc_full_scale, self.adc_full_scale - lsb)
+            low, high = self.adc_codes
+            origin = low if self.adc_range is not None else 0.0  # the codes are origin + k lsb
+            strain = np.clip(origin + np.round((strain - origin) / self.lsb) * self.lsb, low, high)
         return strain[0] if single else strain
 
     strains = renamed_method("strains", channels)
+
+    def bent(self, w_sensor) -> np.ndarray:
+        """The wrench the channels respond to: ``w_sensor`` through the nonlinearity (see the module docstring).
+
+        Args:
+            w_sensor: Wrench on the sensor, [N, N, N, N m, N m, N m]. Shape (N, 6).
+
+        Returns:
+            Shape (N, 6), same units (``w_sensor`` itself when the sensor is linear).
+        """
+        W = np.asarray(w_sensor, dtype=float)
+        if not (self.quadratic or self.cubic):
+            return W
+        u = W / self.full_scale
+        return W + self.full_scale * (self.quadratic * u**2 + self.cubic * u**3)
 
 
 def load_simulated_sensor(path: str | Path) -> SimulatedSensor:
