@@ -212,7 +212,17 @@ def lowcost_recording(tmp_path_factory, seed):
     folder = tmp_path_factory.mktemp("lowcost")
     recording = folder / "poses.csv"
     sensor = resolve("lowcost_sensor", "configs")
-    args = ["simulate", "--robot", "ur5", "--tool", "paper_tool", "--trajectory", str(data_dir("trajectories") / "ur5"), "--sensor", str(sensor)]
+    args = [
+        "simulate",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "--trajectory",
+        str(data_dir("trajectories") / "ur5"),
+        "--sensor",
+        str(sensor),
+    ]
     assert main([*args, "--poses-only", "--seed", str(seed), "-o", str(recording)]) == 0
     # the same sensor with nothing declared of its channels: resolution and rails are detected
     undeclared = folder / "undeclared.yaml"
@@ -243,7 +253,20 @@ def test_calibrate_detects_an_undeclared_rail_refuses_its_samples_and_names_it(l
     recording, _, undeclared = lowcost_recording
     out = tmp_path / "cal.yaml"
     code = main(
-        ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(recording), "--sensor", str(undeclared), "-o", str(out), "--quiet", "--accept-poor-fit"]
+        [
+            "calibrate",
+            "--robot",
+            "ur5",
+            "--tool",
+            "paper_tool",
+            str(recording),
+            "--sensor",
+            str(undeclared),
+            "-o",
+            str(out),
+            "--quiet",
+            "--accept-poor-fit",
+        ]
     )
     text = capsys.readouterr().out
     assert code == 0, text

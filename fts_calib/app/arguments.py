@@ -8,38 +8,14 @@ arguments (``tests/test_app.py`` checks it).
 from __future__ import annotations
 
 import argparse
-import textwrap
 
 from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
-from .parser import Parser
+from .parser import Parser, add_address, add_command
 from .sensor_arguments import add_prior, add_sensor
-
-
-def _address(text: str) -> tuple[str, int]:
-    host, _, port = text.rpartition(":")
-    try:
-        number = int(port)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected HOST:PORT, e.g. 127.0.0.1:5005, got {text!r}") from None
-    if not 0 <= number <= 65535:
-        raise argparse.ArgumentTypeError(f"port {number} in {text!r} but expected 0 to 65535 (0: any free port)")
-    return (host or "127.0.0.1"), number
-
-
-def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
-    """A sub-command whose help starts with its purpose in one line and an example, then the details."""
-    first = example.splitlines()[0].split("  #")[0].strip()
-    head = f"{help_text[0].upper()}{help_text[1:]}.\nexample: {first}\n\n{textwrap.fill(description, 110)}"
-    return commands.add_parser(
-        name,
-        help=help_text,
-        description=head,
-        epilog=f"examples:\n  {example}",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+from .service_arguments import add_export, add_payload, add_tare
 
 
 def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool_required: bool = True) -> None:
@@ -55,7 +31,7 @@ def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool
 
 
 def _add_demo(commands) -> None:
-    demo = _add(
+    demo = add_command(
         commands,
         "demo",
         "the whole loop in simulation on the built-in UR5, with plots",
@@ -71,7 +47,7 @@ def _add_demo(commands) -> None:
 
 
 def _add_robots(commands) -> None:
-    robots = _add(
+    robots = add_command(
         commands,
         "robots",
         "list the shipped robots, or show one",
@@ -83,7 +59,7 @@ def _add_robots(commands) -> None:
 
 
 def _add_trajectory(commands) -> None:
-    traj = _add(
+    traj = add_command(
         commands,
         "trajectory",
         "plan and check calibration sweeps for a robot and a tool",
@@ -127,7 +103,7 @@ def _add_trajectory(commands) -> None:
 
 
 def _add_calibrate(commands) -> None:
-    cal = _add(
+    cal = add_command(
         commands,
         "calibrate",
         "calibrate from a recording (CSV or ROS 2 bag)",
@@ -171,7 +147,7 @@ def _accept_poor_fit(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_live(commands) -> None:
-    live = _add(
+    live = add_command(
         commands,
         "live",
         "calibrate from live UDP feeds of joints and strains, or a UR arm (RTDE)",
@@ -191,7 +167,7 @@ def _add_live(commands) -> None:
     )
     live.add_argument(
         "--listen",
-        type=_address,
+        type=add_address,
         default=("127.0.0.1", 5005),
         metavar="HOST:PORT",
         help="address to bind (default 127.0.0.1:5005, loopback); a network address is warned about; 0:PORT needs --listen-any",
@@ -217,7 +193,7 @@ def _add_live(commands) -> None:
 
 
 def _add_replay(commands) -> None:
-    rep = _add(
+    rep = add_command(
         commands,
         "replay",
         "send a recording as the live protocol",
@@ -226,7 +202,7 @@ def _add_replay(commands) -> None:
         "fts-calib replay recording.csv --to 127.0.0.1:5005 --speed 1.0",
     )
     add_recording(rep)
-    rep.add_argument("--to", type=_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address (default 127.0.0.1:5005)")
+    rep.add_argument("--to", type=add_address, default=("127.0.0.1", 5005), metavar="HOST:PORT", help="address (default 127.0.0.1:5005)")
     rep.add_argument("--speed", type=float, default=1.0, help="time scale: 1 real time, 10 ten times faster, 0 no pacing")
     rep.add_argument("--joint-rate", dest="joint_rate_hz", type=float, help="joint messages per second (default: one per row)")
     rep.add_argument("--latency", dest="latency_s", type=float, default=0.0, help="joint stamps late by this many s (default 0)")
@@ -236,7 +212,7 @@ def _add_replay(commands) -> None:
 
 
 def _add_simulate(commands) -> None:
-    sim = _add(
+    sim = add_command(
         commands,
         "simulate",
         "simulate a recording from planned trajectories",
@@ -265,7 +241,7 @@ def _add_simulate(commands) -> None:
 
 
 def _add_validate(commands) -> None:
-    val = _add(
+    val = add_command(
         commands,
         "validate",
         "compare measured and expected wrenches over a recording",
@@ -315,77 +291,6 @@ def _add_validate(commands) -> None:
     )
 
 
-def _add_tare(commands) -> None:
-    tare = _add(
-        commands,
-        "tare",
-        "new offsets D for a calibration file, from a short still window",
-        "Estimate the offsets D again with C_bar kept, from a recording or a live window with the sensor still, "
-        "with nothing mounted or with a known tool configuration (then --robot gives its orientation). The file "
-        "keeps the previous offsets and when they were replaced.",
-        "fts-calib tare --calibration calibration.yaml tare.csv",
-    )
-    tare.add_argument("recording", nargs="?", help="recording with the sensor still")
-    tare.add_argument("--calibration", required=True, help="calibration file to update")
-    tare.add_argument("-o", "--output", help="where to write (default: update the calibration file)")
-    tare.add_argument("--listen", type=_address, metavar="HOST:PORT", help="re-tare from a live window on this address instead")
-    tare.add_argument("--seconds", dest="window_s", type=float, default=2.0, help="length of the live window in s (default 2)")
-    tare.add_argument("--robot", help="robot definition (needed with a mounted configuration)")
-    tare.add_argument("--tool", default="paper_tool", help="tool file of the mounted configuration (default: paper_tool)")
-    tare.add_argument("--configuration", help="the mounted configuration (default: nothing mounted)")
-    tare.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
-
-
-def _add_payload(commands) -> None:
-    pay = _add(
-        commands,
-        "payload",
-        "identify an unknown payload: mass, centre of mass, offsets",
-        "From a recording of the payload held still in at least three well-spread orientations: its mass, centre "
-        "of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for gravity "
-        "compensation. Refuses orientations that are too few or too close, and says which.",
-        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml",
-    )
-    pay.add_argument("recording", help="recording of the payload in several still orientations")
-    pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
-    pay.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
-    pay.add_argument("-o", "--output", required=True, help="tool file to write")
-    pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
-    pay.add_argument("--mount", action="store_true", help="also estimate a small rotation of the sensor mount")
-    pay.add_argument(
-        "--min-separation",
-        dest="min_separation_deg",
-        type=float,
-        default=15.0,
-        help="smallest angle between orientations in deg (default 15)",
-    )
-    pay.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
-
-
-def _add_export(commands) -> None:
-    exp = _add(
-        commands,
-        "export",
-        "export a calibration as a C header, JSON, ROS 2 parameters or an ATI file",
-        "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
-        "provenance; ros2: ros2_controllers' force_torque_sensor_broadcaster parameters (its offset, added to the "
-        "reading, and multiplier) with control_toolbox's GravityCompensationWrench filter for a payload; ati: C as the "
-        "UserAxis rows of an ATI calibration file (N and N-m per channel unit).",
-        "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h\n"
-        "  fts-calib export --format ros2 --calibration calibration.yaml --payload paper_tool --configuration A -o ft.yaml\n"
-        "  fts-calib export --format ati --calibration calibration.yaml --sensor FT12345.cal -o FT12345_insitu.cal",
-    )
-    exp.add_argument("--format", dest="fmt", required=True, choices=["c-header", "json", "ros2", "ati"], help="what to write")
-    exp.add_argument("--calibration", required=True, help="calibration file: fts-calib YAML or an ATI .cal")
-    exp.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: the full scale an ati file states as max")
-    exp.add_argument("-o", "--output", required=True, help="file to write ('-': standard output; a device or FIFO is written in place)")
-    exp.add_argument("--name", default="fts_calib", help="prefix of the C identifiers (default fts_calib)")
-    exp.add_argument("--payload", help="tool file of the payload (ros2); its gravity is the one exported")
-    exp.add_argument("--configuration", help="configuration of the payload's tool file (default: the first)")
-    exp.add_argument("--sensor-frame", default="ft_sensor", help="TF frame of the sensor (ros2, default ft_sensor)")
-    exp.add_argument("--world-frame", default="world", help="TF frame with z up (ros2, default world)")
-
-
 #: The sub-commands, in the order ``fts-calib --help`` lists them; ``NAME`` runs ``fts_calib.app.NAME.run``.
 COMMANDS = {
     "demo": _add_demo,
@@ -396,9 +301,9 @@ COMMANDS = {
     "replay": _add_replay,
     "simulate": _add_simulate,
     "validate": _add_validate,
-    "tare": _add_tare,
-    "payload": _add_payload,
-    "export": _add_export,
+    "tare": add_tare,
+    "payload": add_payload,
+    "export": add_export,
 }
 
 

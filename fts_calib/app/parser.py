@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import textwrap
 
 
 class Parser(argparse.ArgumentParser):
@@ -32,3 +33,28 @@ class Parser(argparse.ArgumentParser):
             formatter.end_section()
         formatter.add_text(self.epilog)
         return formatter.format_help()
+
+
+def add_command(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
+    """A sub-command whose help starts with its purpose in one line and an example, then the details."""
+    first = example.splitlines()[0].split("  #")[0].strip()
+    head = f"{help_text[0].upper()}{help_text[1:]}.\nexample: {first}\n\n{textwrap.fill(description, 110)}"
+    return commands.add_parser(
+        name,
+        help=help_text,
+        description=head,
+        epilog=f"examples:\n  {example}",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+
+
+def add_address(text: str) -> tuple[str, int]:
+    """Argument type of a UDP address ``HOST:PORT`` (an empty host is 127.0.0.1; port 0: any free port)."""
+    host, _, port = text.rpartition(":")
+    try:
+        number = int(port)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, e.g. 127.0.0.1:5005, got {text!r}") from None
+    if not 0 <= number <= 65535:
+        raise argparse.ArgumentTypeError(f"port {number} in {text!r} but expected 0 to 65535 (0: any free port)")
+    return (host or "127.0.0.1"), number

@@ -18,7 +18,7 @@ The two streams must be on one clock. Before reading, the first :data:`PEEK_MESS
 and channel messages are compared with the bag's log time, and a bag is refused with the
 cause and the way out (``joint_stamps='log'``, ``--joint-stamps log``) when the joint stamps
 do not move while the log time does (a log of simulated time, whose header stamps stay 0),
-or when they are more than :data:`MAX_CLOCK_OFFSET_S` from the channels' clock (a driver
+or when they are more than :data:`~fts_calib.feeds.bag_checks.MAX_CLOCK_OFFSET_S` from the channels' clock (a driver
 stamping on another clock): no channel sample could then be placed.
 
 The joint and channel streams go through the live path's synchronizer
@@ -35,7 +35,6 @@ synchronizer (a joint stream never reaches into another bag).
 from __future__ import annotations
 
 import math
-import os
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -43,8 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import BagError, ConfigError, UnknownToolConfiguration
+from .bag_checks import check_clocks, refuse_repeated_parts
 from .bag_log import (
-    BAG_SUFFIXES,
     FLOAT64_ARRAY,
     JOINT_STATE,
     STRING,
@@ -66,32 +65,9 @@ CHUNK_MESSAGES = 20_000
 #: Joint messages looked at, at the start of a bag, for one that holds every robot joint.
 PEEK_MESSAGES = 200
 
-#: Largest offset between the joints' clock and the channels' clock, in [s]: a latency is milliseconds.
-MAX_CLOCK_OFFSET_S = 1.0
-#: Joint stamps spanning less than this share of their log times' span do not move.
-FROZEN_SHARE = 0.01
 
 #: Skip reason counted by the bag reader (channel samples; the synchronizer counts the others).
 MALFORMED = "malformed message"
-
-
-def _refuse_repeated_parts(parts: Sequence[BagPart]) -> None:
-    """Refuse bags given twice (a bag folder and its own storage file, or one path twice): their samples would count twice.
-
-    Raises:
-        BagError: Two of ``parts`` hold the same storage file; the message names both.
-    """
-    owner: dict[str, Path] = {}
-    for part in parts:
-        path = part.path
-        files = [p for p in path.iterdir() if p.suffix in BAG_SUFFIXES] if path.is_dir() else [path]
-        for file in files:
-            key = os.path.realpath(file)
-            if key in owner:
-                first = owner[key]
-                same = "the same bag" if first == path else f"the same bag as {first} (which holds {file.name})"
-                raise BagError(path, None, f"given twice: {same}; its samples would count twice: give each bag once")
-            owner[key] = path
 
 
 class BagReader:
@@ -159,7 +135,7 @@ class BagReader:
         self._joint_index: dict[tuple[str, ...], np.ndarray | None] = {}
         self.joint_names: list[str] = list(joint_names or [])
         self._previous: np.ndarray | None = None  # the last sample placed (time, joints, channels, configuration)
-        _refuse_repeated_parts(self.parts)
+        refuse_repeated_parts(self.parts)
         starts, self._counts = [], []
         for part in self.parts:
             if part.configuration is not None and not self._open_tools and part.configuration not in self.tool_codes:
@@ -261,35 +237,7 @@ class BagReader:
             (stamp_s(m.header.stamp) if wrench else seconds(log_ns), seconds(log_ns))
             for log_ns, m in self._joint_messages(reader, PEEK_MESSAGES, self.topics.channels, log=True)
         ]
-        if len(joints) < 2 or not channels:
-            return
-        stamp, log = np.array(joints).T
-        what = "header stamps" if self.topics.joint_stamps == "header" else "log times"
-        way_out = (
-            "read the joints at the bag's log time: --joint-stamps log"
-            if self.topics.joint_stamps == "header"
-            else "the channels' header stamps are on another clock than the bag's log time: fix the sensor driver's clock"
-        )
-        log_span, stamp_span = float(np.ptp(log)), float(np.ptp(stamp))
-        if log_span > 0 and stamp_span < FROZEN_SHARE * log_span:
-            raise BagError(
-                path,
-                self.topics.joints,
-                f"the joints' {what} do not move: the first {len(stamp):,} messages span {stamp_span:.3g} s of stamps "
-                f"(from {stamp[0]:.3f} s) while their log times span {log_span:.3g} s (a log of simulated time, or a driver "
-                f"that does not stamp?), so no channel sample can be placed between two joint readings: {way_out}",
-            )
-        channel_stamp, channel_log = np.array(channels).T
-        offset = float(np.median(stamp - log) - np.median(channel_stamp - channel_log))
-        if abs(offset) > MAX_CLOCK_OFFSET_S:
-            clock = "their header stamps" if wrench else "the bag's log time"
-            raise BagError(
-                path,
-                self.topics.joints,
-                f"the joints' {what} are {offset:+.3f} s ({offset / 3600:+.2f} h) from the channels' clock ({clock}): "
-                f"two clocks, at most {MAX_CLOCK_OFFSET_S:g} s apart for the streams to be paired, so no channel sample "
-                f"falls between two joint readings: {way_out}",
-            )
+        check_clocks(path, self.topics, joints, channels, wrench)
 
     def _first_joint_names(self, path: Path, reader) -> list[str]:
         for message in self._joint_messages(reader, 1):

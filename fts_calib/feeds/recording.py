@@ -4,12 +4,11 @@ Columns (header required): ``time`` [s, non-decreasing], one column per actuated
 named exactly as in the URDF [rad], ``strain_1`` ... ``strain_n`` [raw units: n channels,
 8 for the paper's sensor, 6 for a factory wrench], ``tool`` (a configuration name of the
 tool file), optional ``temperature`` [°C] (the sensor's, for the drift offset model).
-Extra columns are ignored with a notice; a missing
-one is an error that names it (with a hint when the file is delimited by ';' or tabs). A
-name ending in ``.gz`` is written compressed; a file is read compressed when its content
-is gzip, whatever its name (a mismatch is warned about), and a UTF-8 byte-order mark
-before the header is ignored. A compressed file that ends early (truncated) is refused:
-its last rows cannot be read.
+Extra columns are ignored with a notice; a missing one is an error that names it (with a
+hint when the file is delimited by ';' or tabs). A name ending in ``.gz`` is written
+compressed; a file is read compressed when its content is gzip, whatever its name (a
+mismatch is warned about), and a UTF-8 byte-order mark before the header is ignored. A
+compressed file that ends early (truncated) is refused: its last rows cannot be read.
 
 The reader keeps one block of the file in memory (8 MiB, whole lines) whatever the file's
 length. A block is parsed by pandas' C parser in one call (about five times faster than

@@ -276,7 +276,12 @@ class _Run:
         self.joints_in_degrees, self.progress, self.full_scale = joints_in_degrees, progress, full_scale
 
     def read(self, resume: bool, settings: PipelineConfig, on_kept) -> tuple[CalibrationSession, list[str], int, list[str]]:
-        """The session after the whole recording (with these settings), the reader's notes, the rows read and the unusable configurations."""
+        """The session after the whole recording (with these settings).
+
+        Returns:
+            The session, the reader's notes, the rows read and the configurations none of
+            whose rows could be read.
+        """
         paths, kin, tool, checkpoint, progress = self.paths, self.kin, self.tool, self.checkpoint, self.progress
         source = " ".join(map(str, paths))
         live = settings.live

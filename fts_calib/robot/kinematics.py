@@ -28,9 +28,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..core.bounded import read_bounded
 from ..core.deprecation import renamed, renamed_method
-from ..core.exceptions import FileFormatError, FrameNotFound, JointError, ShapeError
+from ..core.exceptions import FileFormatError, FrameNotFound, ShapeError
 from ._batch import Chain
 from .definition import RobotDefinition, SensorMount
 from .joints import (
@@ -43,6 +42,7 @@ from .joints import (
     resolve_limits,
     warn_problems,
 )
+from .urdf import build_model, require_sweep_joints
 
 
 @dataclass(frozen=True)
@@ -62,27 +62,6 @@ class SensorMotion:
     v: np.ndarray
     a: np.ndarray
     R_world_sensor: np.ndarray
-
-
-def _build_model(robot: RobotDefinition) -> pin.Model:
-    """Pinocchio's model of the robot definition's URDF.
-
-    Raises:
-        FileFormatError: The file is not a URDF Pinocchio can read (the message names it and
-            the robot file's ``urdf`` field).
-    """
-    where = robot.source if robot.source is not None else robot.urdf
-    head = read_bounded(robot.urdf, "URDF")
-    if b"<robot" not in head:  # before Pinocchio, whose XML parser prints to the terminal
-        raise FileFormatError(
-            where, "urdf", f"{robot.urdf} is not a URDF: it holds no <robot> element (expected the robot's URDF XML file)"
-        )
-    try:
-        return pin.buildModelFromUrdf(str(robot.urdf))
-    except (ValueError, RuntimeError) as exc:  # Pinocchio's "does not contain a valid URDF model", a parse error
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        message = f"{robot.urdf} is not a URDF that Pinocchio can read ({reason}): expected a <robot> XML file"
-        raise FileFormatError(where, "urdf", message) from None
 
 
 class Kinematics:
@@ -113,20 +92,14 @@ class Kinematics:
 
     def __init__(self, robot: RobotDefinition, model: pin.Model | None = None):
         self.robot = robot
-        full = _build_model(robot) if model is None else pin.Model(model)
+        full = build_model(robot) if model is None else pin.Model(model)
         self.full_model = full
         lock_ids, q_lock = locked_configuration(full, robot.locked_joints)
         model = pin.buildReducedModel(full, lock_ids, q_lock) if lock_ids else full
         self.model = model
         self.joints = tuple(joint_infos(model))
         self.joint_names = tuple(j.name for j in self.joints)
-        if robot.sweep_joints is None and len(self.joints) < 2:  # the sweeps turn two joints: the last two by default
-            found = ", ".join(f"'{name}'" for name in self.joint_names) or "none"
-            message = (
-                f"{robot.urdf} has {len(self.joints)} actuated joint(s) ({found}) but a calibration sweeps two "
-                "(the last two actuated joints, or the robot file's sweep_joints)"
-            )
-            raise JointError(message, list(self.joint_names), [])
+        require_sweep_joints(robot, self.joint_names)
         self._index = {name: i for i, name in enumerate(self.joint_names)}
         self.sensor_frame_id = self._add_sensor_frame(model, robot)
         self.data = model.createData()

@@ -1,0 +1,79 @@
+"""The command line's service commands: tare, payload and export (what runs after a calibration)."""
+
+from __future__ import annotations
+
+from .parser import add_address, add_command
+
+
+def add_tare(commands) -> None:
+    """``tare``: re-estimate the offsets D from a still window (a recording or a live feed)."""
+    tare = add_command(
+        commands,
+        "tare",
+        "new offsets D for a calibration file, from a short still window",
+        "Estimate the offsets D again with C_bar kept, from a recording or a live window with the sensor still, "
+        "with nothing mounted or with a known tool configuration (then --robot gives its orientation). The file "
+        "keeps the previous offsets and when they were replaced.",
+        "fts-calib tare --calibration calibration.yaml tare.csv",
+    )
+    tare.add_argument("recording", nargs="?", help="recording with the sensor still")
+    tare.add_argument("--calibration", required=True, help="calibration file to update")
+    tare.add_argument("-o", "--output", help="where to write (default: update the calibration file)")
+    tare.add_argument("--listen", type=add_address, metavar="HOST:PORT", help="re-tare from a live window on this address instead")
+    tare.add_argument("--seconds", dest="window_s", type=float, default=2.0, help="length of the live window in s (default 2)")
+    tare.add_argument("--robot", help="robot definition (needed with a mounted configuration)")
+    tare.add_argument("--tool", default="paper_tool", help="tool file of the mounted configuration (default: paper_tool)")
+    tare.add_argument("--configuration", help="the mounted configuration (default: nothing mounted)")
+    tare.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
+
+
+def add_payload(commands) -> None:
+    """``payload``: identify an unknown payload's mass and centre of mass from still poses."""
+    pay = add_command(
+        commands,
+        "payload",
+        "identify an unknown payload: mass, centre of mass, offsets",
+        "From a recording of the payload held still in at least three well-spread orientations: its mass, centre "
+        "of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for gravity "
+        "compensation. Refuses orientations that are too few or too close, and says which.",
+        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml",
+    )
+    pay.add_argument("recording", help="recording of the payload in several still orientations")
+    pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
+    pay.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    pay.add_argument("-o", "--output", required=True, help="tool file to write")
+    pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
+    pay.add_argument("--mount", action="store_true", help="also estimate a small rotation of the sensor mount")
+    pay.add_argument(
+        "--min-separation",
+        dest="min_separation_deg",
+        type=float,
+        default=15.0,
+        help="smallest angle between orientations in deg (default 15)",
+    )
+    pay.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
+
+
+def add_export(commands) -> None:
+    """``export``: a calibration as constants for firmware, ROS 2 or an ATI file."""
+    exp = add_command(
+        commands,
+        "export",
+        "export a calibration as a C header, JSON, ROS 2 parameters or an ATI file",
+        "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
+        "provenance; ros2: ros2_controllers' force_torque_sensor_broadcaster parameters (its offset, added to the "
+        "reading, and multiplier) with control_toolbox's GravityCompensationWrench filter for a payload; ati: C as the "
+        "UserAxis rows of an ATI calibration file (N and N-m per channel unit).",
+        "fts-calib export --format c-header --calibration calibration.yaml -o fts_calib.h\n"
+        "  fts-calib export --format ros2 --calibration calibration.yaml --payload paper_tool --configuration A -o ft.yaml\n"
+        "  fts-calib export --format ati --calibration calibration.yaml --sensor FT12345.cal -o FT12345_insitu.cal",
+    )
+    exp.add_argument("--format", dest="fmt", required=True, choices=["c-header", "json", "ros2", "ati"], help="what to write")
+    exp.add_argument("--calibration", required=True, help="calibration file: fts-calib YAML or an ATI .cal")
+    exp.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: the full scale an ati file states as max")
+    exp.add_argument("-o", "--output", required=True, help="file to write ('-': standard output; a device or FIFO is written in place)")
+    exp.add_argument("--name", default="fts_calib", help="prefix of the C identifiers (default fts_calib)")
+    exp.add_argument("--payload", help="tool file of the payload (ros2); its gravity is the one exported")
+    exp.add_argument("--configuration", help="configuration of the payload's tool file (default: the first)")
+    exp.add_argument("--sensor-frame", default="ft_sensor", help="TF frame of the sensor (ros2, default ft_sensor)")
+    exp.add_argument("--world-frame", default="world", help="TF frame with z up (ros2, default world)")
