@@ -28,7 +28,7 @@ from ..planning.accuracy import KeptSamples, measured_budget
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .exit_codes import ExitCode, writing
-from .report import format_budget, format_offsets
+from .report import format_budget, format_model_selection, format_offsets
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -53,6 +53,7 @@ def run(
     offsets: str | None = None,
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
+    model: str | None = None,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -82,6 +83,8 @@ def run(
         prior: A calibration to shrink C_bar toward (fts-calib YAML or ATI ``.cal``, of the
             sensor's layout) when the excitation is weak; None for none.
         prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
+        model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
+            (default auto: chosen with the offset model by held-out error) when None.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
@@ -121,6 +124,9 @@ def run(
         layout=layout,
         on_kept=kept,
         prior=shrink,
+        model=model or spec.model,
+        full_channels=spec.full_channels,
+        full_scale=spec.full_scale,
     )
     written = None
     if result.calibration is not None:
@@ -169,8 +175,9 @@ def with_budget(
 
     Strain noise as the data show it (the filter's noise floor, else the fit's residual
     through C), the tool's tolerance, the robot's encoders, timing and mount
-    (:func:`fts_calib.planning.accuracy.measured_budget`), and the latency of the joint
-    stream estimated from the moving samples, when there are any.
+    (:func:`fts_calib.planning.accuracy.measured_budget`), the model error (the held-out
+    residual of the chosen model, or the fit's residual, beyond the noise), and the latency of
+    the joint stream estimated from the moving samples, when there are any.
     """
     cal = result.calibration
     if cal is None or cal.quality is None or len(kept) != int(result.session.kept.sum()):
@@ -178,7 +185,11 @@ def with_budget(
     floor = None if result.session.filter is None else result.session.filter.noise_floor
     # without a noise floor the residual stands for the noise (an upper bound: it holds every random error)
     sigma_w = cal.quality.residual_rms if floor is None else wrench_noise(cal.C, floor)
-    budget = measured_budget(kin, tool, kept, cal, sigma_w, full_scale)
+    selection = cal.model_selection
+    chosen = [c for c in selection["candidates"] if c["chosen"]] if selection else []
+    residual = np.asarray(chosen[0]["heldout_rms"]) if chosen else cal.quality.residual_rms  # held out when chosen so
+    prior_weight = None if cal.quality.prior is None else float(cal.quality.prior["weight"])
+    budget = measured_budget(kin, tool, kept, cal, sigma_w, full_scale, residual_rms=residual, prior_weight=prior_weight)
     record = budget.to_dict()
     if latency is not None:
         record["stream_latency_estimate"] = latency.as_dict()
@@ -285,6 +296,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     lines.append(f"rank {q.rank} of {q.full_rank}, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
     if q.prior is not None:
         lines.append(describe_prior(dict(q.prior)))
+    lines += format_model_selection(cal.model_selection, cal.quality)
     lines += format_offsets(cal.offset_model)
     if q.fit is not None and not isinstance(result.error, PoorFit):
         lines += format_fit(result.session.fit_check())

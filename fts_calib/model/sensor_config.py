@@ -2,10 +2,12 @@
 
 Fields: ``name``; ``strain_unit`` (text); optional ``channels``, the channel layout
 (:mod:`fts_calib.model.channels`: ``maltese-cross-8``, the default, the paper's 8 bridges;
-``wrench-6``, a factory-calibrated sensor whose channels are a wrench; or
-``{projection: 6 x n rows}``); ``full_scale`` ``{force [N], moment [N m]}`` (the paper's
-sensor: 50 N and 5 N m), used to express errors in % of full scale; ``rate_hz`` (strain
-sample rate); optional ``simulation``, the true model of the simulated sensor: ``C``
+``wrench-6``, a factory-calibrated sensor whose channels are a wrench;
+``{projection: 6 x n rows}``; or ``full``: the paper's 8 channels without a projection, a
+free 6 x 8 C); optional ``model``, the sensor model (``auto``, the default: chosen by
+held-out error; ``linear``, ``quadratic`` or ``cubic``: :mod:`fts_calib.model.features`);
+``full_scale`` ``{force [N], moment [N m]}`` (the paper's sensor: 50 N and 5 N m), used to
+express errors in % of full scale; ``rate_hz`` (strain sample rate); optional ``simulation``, the true model of the simulated sensor: ``C``
 (6 x n, must be of the form C_bar P) or ``C_bar`` (6x6), ``D`` (6), ``noise_std`` (one
 number or n, raw units), ``null_coupling`` ((n - 6) x 6), ``null_offset`` (n - 6),
 ``drift_rate`` (one number or n, raw units per s) and ``adc`` ``{bits, gain, reference}``
@@ -25,9 +27,10 @@ from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError, ShapeError, StructureError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_array, read_number, read_positive, require
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
+from .features import AUTO_MODEL, model_setting
 
 #: The keys of a sensor file and of its sections (any other is refused).
-SENSOR_FILE_KEYS = ("name", "strain_unit", "channels", "full_scale", "rate_hz", "simulation")
+SENSOR_FILE_KEYS = ("name", "strain_unit", "channels", "model", "full_scale", "rate_hz", "simulation")
 FULL_SCALE_KEYS = ("force", "moment")
 SIMULATION_KEYS = ("C", "C_bar", "D", "noise_std", "null_coupling", "null_offset", "drift_rate", "adc")
 ADC_KEYS = ("bits", "gain", "reference")
@@ -110,6 +113,9 @@ class SensorSpec:
         rate_hz: Strain sample rate in [Hz].
         simulated: The true model of the simulated sensor, or None; of the same layout.
         layout: The channel layout; the paper's 8 bridges by default.
+        model: The sensor model setting: 'auto' (chosen by held-out error), 'linear',
+            'quadratic' or 'cubic' (:mod:`fts_calib.model.features`).
+        full_channels: The model reads the raw channels (a free 6 x n C) instead of ``P Delta``.
     """
 
     name: str
@@ -118,9 +124,13 @@ class SensorSpec:
     rate_hz: float
     simulated: SimulationSpec | None = None
     layout: ChannelLayout = MALTESE_CROSS_8
+    model: str = AUTO_MODEL
+    full_channels: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "layout", channel_layout(self.layout))
+        object.__setattr__(self, "model", model_setting(self.model))
+        object.__setattr__(self, "full_channels", bool(self.full_channels))
         if self.simulated is not None and self.simulated.layout != self.layout:
             raise ConfigError(
                 "channels",
@@ -198,8 +208,9 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     # force and moment fill the six entries of SensorSpec.full_scale: checked here, by their names
     force = read_positive(full.get("force", 50.0), path, "full_scale.force")
     moment = read_positive(full.get("moment", 5.0), path, "full_scale.moment")
+    full_channels = data.get("channels") == "full"
     with fields_of(path, names={"projection": "channels.projection"}):
-        layout = channel_layout(data.get("channels"))
+        layout = channel_layout(None if full_channels else data.get("channels"))
     simulated = _read_simulation(data["simulation"], path, layout) if data.get("simulation") is not None else None
     name = str(require(data, "name", path))
     rate_hz = read_number(data.get("rate_hz", 1000.0), path, "rate_hz", "Hz")
@@ -211,4 +222,6 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
             rate_hz=rate_hz,
             simulated=simulated,
             layout=layout,
+            model=str(data.get("model", AUTO_MODEL)),
+            full_channels=full_channels,
         )

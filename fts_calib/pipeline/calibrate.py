@@ -88,6 +88,9 @@ def calibrate_recording(
     topics: BagTopics | None = None,
     layout: ChannelLayout = MALTESE_CROSS_8,
     prior: Prior | None = None,
+    model: str = "linear",
+    full_channels: bool = False,
+    full_scale=None,
 ) -> CalibrateResult:
     """Calibrate from a recording (see the module docstring).
 
@@ -111,6 +114,10 @@ def calibrate_recording(
         layout: The sensor's channel layout; a recording of another number of channels is
             refused (ShapeError naming both).
         prior: Shrink C_bar toward a known calibration (ridge, :mod:`fts_calib.model.prior`).
+        model: The sensor model setting ('linear', 'quadratic', 'cubic' or 'auto', chosen by
+            held-out error: :mod:`fts_calib.model.model_choice`).
+        full_channels: Regress on the raw channels (a free 6 x n C) instead of ``P Delta``.
+        full_scale: Per-axis full scale [N, N m] (6,) scaling the held-out errors, or None.
 
     Raises:
         RecordingError: The file cannot be read at all (missing, no data row, a missing
@@ -133,11 +140,14 @@ def calibrate_recording(
         if progress is not None:
             progress.total = max(float(reader.size), 1.0)
         record = None if checkpoint is None else recording_source(paths)
+        models = {"model": model, "full_channels": full_channels, "full_scale": full_scale}
         if resume and checkpoint is not None and Path(checkpoint).exists():
-            session = CalibrationSession.resume(checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout)
+            session = CalibrationSession.resume(
+                checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, **models
+            )
         else:
             session = CalibrationSession(
-                kin, tool, settings, checkpoint, use_filter, source, on_kept=on_kept, source_record=record, layout=layout
+                kin, tool, settings, checkpoint, use_filter, source, on_kept=on_kept, source_record=record, layout=layout, **models
             )
         chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if joints_in_degrees else c for c in reader)
         for chunk in clock_checked(reader.path, chunks, kin, settings.filter if use_filter else None, joints_in_degrees):

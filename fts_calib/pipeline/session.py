@@ -43,12 +43,13 @@ from ..robot.tool import Tool
 from .advice import missing_words
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from .fit import MAX_RATIO, FitCheck, check_fit, fit_rows, model_fit_sums
+from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .progress import Progress
 from .provenance import session_provenance
 from .qsfilter import QuasiStaticFilter
 from .settings import PipelineConfig
 from .still import quasi_static
+from .units import HeldOutUnits
 
 __all__ = [
     "BACKWARDS",
@@ -81,6 +82,12 @@ class CalibrationSession:
             (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
             Samples of another number of channels are refused (ShapeError naming both).
+        model: The sensor model setting ('linear', 'quadratic', 'cubic' or 'auto':
+            :mod:`fts_calib.model.features`); with any but 'linear' the kept samples are also
+            grouped into held-out units (:mod:`fts_calib.pipeline.units`) for the choice.
+        full_channels: Regress on the raw channels (a free 6 x n C; ``channels: full``).
+        full_scale: Per-axis full scale [N, N m] (6,) scaling the held-out errors; None: the
+            RMS of the known wrench.
     """
 
     def __init__(
@@ -95,6 +102,9 @@ class CalibrationSession:
         on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
+        model: str = "linear",
+        full_channels: bool = False,
+        full_scale=None,
     ):
         self.kin = kin
         self.layout = channel_layout(layout)
@@ -104,7 +114,15 @@ class CalibrationSession:
         self.source = source
         self.source_record = source_record
         n = len(tool.configurations)
-        self.estimator = OnlineEstimator(layout=self.layout, offsets=self.settings.offsets.model, basis=self.settings.offsets.basis(n))
+        self.estimator = OnlineEstimator(
+            layout=self.layout,
+            offsets=self.settings.offsets.model,
+            basis=self.settings.offsets.basis(n),
+            model=model,
+            full_channels=full_channels,
+            full_scale=full_scale,
+        )
+        self.units = HeldOutUnits()
         self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous) if use_filter else None
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel)
         self.kept = np.zeros(n, dtype=np.int64)
@@ -215,7 +233,8 @@ class CalibrationSession:
         if not len(kept) or W is None:
             return
         codes = kept.configuration
-        self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature)
+        units = None if self.estimator.units is None else self.units.assign(kept.time, codes)
+        self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints)
         self.kept += np.bincount(codes, minlength=len(self.kept))
@@ -276,7 +295,13 @@ class CalibrationSession:
             return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
         chosen = self.estimator.model_in_use()[0]
         sums, per_configuration = model_fit_sums(self._fit_sums, chosen.model, chosen.columns, self.estimator.basis.n_configurations)
-        return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)
+        linear = check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)
+        residuals = self.estimator.model_residuals()
+        if residuals is None:  # the linear model on P Delta: the check above is the model's
+            return linear
+        rms, C_bar = residuals
+        named = {name: rms[k] for k, name in enumerate(self.tool.names) if k in rms}
+        return check_model_fit(self.tool, named, C_bar, noise, self.layout, linear)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
         """The calibration from everything kept so far, with its fit check in the quality.
@@ -346,6 +371,7 @@ class CalibrationSession:
             "fit_sums": self._fit_sums.tolist(),
             "last_time": None if last == -math.inf else last,
             "filter": None if self.filter is None else self.filter.state(),
+            "units": self.units.state(),
         }
         self._last_checkpoint = self._clock()
         return write_checkpoint(self.checkpoint_path, state)
@@ -361,6 +387,9 @@ class CalibrationSession:
         clock: Callable[[], float] = _time.monotonic,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
+        model: str = "linear",
+        full_channels: bool = False,
+        full_scale=None,
     ) -> CalibrationSession:
         """A session continuing from a checkpoint; samples up to its last time are skipped.
 
@@ -375,9 +404,11 @@ class CalibrationSession:
         state = read_checkpoint(path, kin.robot.name, tool, source_record)
         record = source_record if source_record is not None else state.get("source")
         use_filter = state.get("filter") is not None
-        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout)
+        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout, model=model)
+        session.units.restore(state.get("units"))
         try:
             session.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
+            estimator.full_scale = None if full_scale is None else np.asarray(full_scale, dtype=float)
             if "basis" in state["estimator"]:  # a checkpoint of an older version has constant offsets only
                 estimator.offsets = session.settings.offsets.model
             m = 10 + estimator.basis.n_drift
@@ -390,6 +421,9 @@ class CalibrationSession:
                 session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
+        saved = (session.estimator.model, session.estimator.full_channels)
+        if "model" in state["estimator"] and saved != (model, full_channels):  # older checkpoints: the linear model
+            raise FileFormatError(path, "estimator.model", f"is {saved[0]} but the run asks for {model}: resume with the same --model")
         if session.estimator.layout != session.layout:
             found, expected = session.estimator.layout.name, session.layout.name
             raise FileFormatError(path, "estimator.channels", f"is of a {found} sensor but the sensor is {expected}: give its --sensor")

@@ -24,6 +24,7 @@ import numpy as np
 from ..core.arrays import as_matrix, as_samples
 from ..core.exceptions import ConfigError, ShapeError
 from ..model.calibration import Calibration
+from ..model.features import features
 from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 
 #: Frames the external wrench can be expressed in.
@@ -33,6 +34,9 @@ FRAMES = ("sensor", "world")
 class WrenchReader:
     """Wrench from raw strains with a calibration, for a 1 kHz loop.
 
+    A linear calibration is ``C strain + D``; a nonlinear one (:class:`fts_calib.model.features.SensorModel`)
+    is its polynomial ``Theta phi(u) + D``, evaluated into buffers the reader owns.
+
     Args:
         calibration: The sensor's calibration; its layout fixes the number of channels n.
     """
@@ -41,7 +45,11 @@ class WrenchReader:
         self.C = np.ascontiguousarray(calibration.C, dtype=float)
         self.n_channels = calibration.layout.n_channels
         self.D = np.array(calibration.D, dtype=float)  # a copy: set_offsets changes it, the calibration stays
+        self.model = calibration.model
         self._out = np.empty(6)
+        if self.model is not None:
+            self._u = np.empty((1, self.model.inputs))
+            self._phi = np.empty((1, len(self.model.names)))
 
     def wrench(self, strain: np.ndarray) -> np.ndarray:
         """``C strain + D`` for one sample, into an internal buffer.
@@ -54,7 +62,15 @@ class WrenchReader:
         """
         if strain.shape != (self.n_channels,):
             raise ShapeError(f"strain.shape={strain.shape} but expected ({self.n_channels},), the calibration's channels")
-        np.dot(self.C, strain, out=self._out)
+        if self.model is None:
+            np.dot(self.C, strain, out=self._out)
+        else:
+            if self.model.projection is None:
+                self._u[0] = strain
+            else:
+                np.dot(self.model.projection, strain, out=self._u[0])
+            features(self._u, self.model.degree, out=self._phi)
+            np.dot(self.model.coefficients, self._phi[0], out=self._out)
         np.add(self._out, self.D, out=self._out)
         return self._out
 
@@ -68,7 +84,7 @@ class WrenchReader:
             Shape (N, 6), [N, N m] (a new array).
         """
         S, _ = as_samples(strain, self.n_channels, "strain")
-        return S @ self.C.T + self.D
+        return (S @ self.C.T if self.model is None else self.model.wrench(S)) + self.D
 
     def set_offsets(self, D) -> None:
         """Replace the offsets (after a re-tare), [N, N, N, N m, N m, N m], shape (6,)."""

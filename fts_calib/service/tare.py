@@ -86,7 +86,7 @@ def _known_load(
 def _apply(calibration: Calibration, strain: np.ndarray, load: np.ndarray, reason: str, seen: int) -> TareResult:
     if not len(strain):
         raise InsufficientExcitation(0, 1, "no still sample to re-tare from: hold the arm still while recording")
-    estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout)
+    estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout, calibration.model)
     what = f"{reason} ({estimate.samples_used:,} samples)"
     history = calibration.offset_history
     at_calibration = np.asarray(history[0]["D"], dtype=float) if history else calibration.D
