@@ -82,7 +82,8 @@ def pose_data(
         poses: Static poses per configuration.
         samples: Samples per pose (1 kHz).
         noise_counts: White channel noise, ADC counts.
-        com_error: Error of the centres of mass the wrench is computed with [m] (a model misfit).
+        com_error: Error of the second configuration's centre of mass in the tool file [m] (a model misfit:
+            the same error in every configuration only moves the sensor origin, which C absorbs).
         rounding: Round the channels to integer counts.
     """
     rng = np.random.default_rng(seed)
@@ -104,7 +105,7 @@ def pose_data(
             g = 9.81 * direction / np.linalg.norm(direction)
             t = t0 + np.arange(samples) / 1000.0
             true_W.append(np.tile(wrench_matrix(mass, com) @ g, (samples, 1)))
-            wrong = np.asarray(com) + com_error * np.array([0.0, 1.0, 0.0])
+            wrong = np.asarray(com) + (com_error * np.array([0.0, 1.0, 0.0]) if c == 1 else 0.0)  # one configuration's
             W.append(np.tile(wrench_matrix(mass, wrong) @ g, (samples, 1)))
             times.append(t)
             codes.append(np.full(samples, c))
@@ -113,8 +114,9 @@ def pose_data(
     Wt, time = np.vstack(true_W), np.concatenate(times)
     offset = D + np.outer(time, drift)
     u = np.linalg.solve(C_bar, (Wt - offset).T).T
-    for _ in range(60):  # fixed point of the inverse model: the nonlinear part is a few % of the linear one
-        u = np.linalg.solve(C_bar, (Wt - offset - features(u, 3)[:, 6:] @ theta[:, 6:].T).T).T
+    degree = 3 if cubic else 2 if quadratic else 1
+    for _ in range(40 if degree > 1 else 0):  # fixed point of the inverse model: the nonlinear part is a few % of the linear one
+        u = np.linalg.solve(C_bar, (Wt - offset - features(u, degree)[:, 6:] @ theta[:, 6 : len(monomials(6, degree))].T).T).T
     channels = u @ np.linalg.pinv(P).T + np.array([150.0, -100.0]) @ P_NULL
     channels = channels + rng.normal(scale=noise_counts, size=channels.shape)
     channels = np.round(channels) if rounding else channels

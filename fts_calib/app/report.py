@@ -148,7 +148,7 @@ def format_model_selection(selection, quality=None) -> list[str]:
     lines = [
         f"model: {selection['chosen']} (--model {selection['setting']['model']}, --offsets {selection['setting']['offsets']}): "
         f"held-out RMS per axis, leaving out one of {selection['units']} units at a time; * chosen: the fewest parameters "
-        "within one standard error of the best"
+        f"within {selection.get('equal_within_standard_errors', 2):g} standard errors of the best"
     ]
     lines.append(table(["", "model", "offsets", "params", *units, "error"], rows, "  "))
     held = None if quality is None else quality.held_directions

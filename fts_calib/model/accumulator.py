@@ -23,6 +23,7 @@ from ..core.arrays import as_samples
 from ..core.exceptions import ConfigError, ShapeError
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .features import degree_of, model_setting
+from .least_squares import gram
 from .model_choice import UnitSums
 from .offset_basis import OffsetBasis
 from .offset_trace import OffsetTrace
@@ -31,26 +32,6 @@ _CHUNK = 1 << 16  # rows per block in batch updates: bounds temporary memory to 
 _NON_FINITE = "non-finite wrench, strain or weight"
 #: Samples per held-out unit when the caller gives no units: consecutive blocks of this many used samples.
 UNIT_SAMPLES = 1000
-
-
-def _gram(Z: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
-    """``Z^T diag(w) Z`` (shape (m, m)) of rows ``Z`` (N, m), in products of at most 16 columns.
-
-    OpenBLAS (numpy's) runs a product with more than 16 columns on its worker threads, which
-    then spin: with one offset column per configuration (18 columns for three) a live run
-    used two cores instead of half of one and a block of 1,700 rows took 118 us instead of 68.
-    """
-    R = Z if weight is None else Z * weight[:, None]
-    if Z.shape[1] <= 16:
-        return Z.T @ R
-    a, b = np.ascontiguousarray(Z[:, :12]), np.ascontiguousarray(Z[:, 12:])
-    ra, rb = (a, b) if weight is None else (np.ascontiguousarray(R[:, :12]), np.ascontiguousarray(R[:, 12:]))
-    out = np.empty((Z.shape[1], Z.shape[1]))
-    out[:12, :12] = a.T @ ra
-    out[:12, 12:] = a.T @ rb
-    out[12:, :12] = out[:12, 12:].T
-    out[12:, 12:] = b.T @ rb
-    return out
 
 
 class SampleSums:
@@ -280,11 +261,11 @@ class SampleSums:
         origins = (self.time_origin, self.temperature_origin)
         self._set_origins(time, temperature)
         self.basis._fill(Z[:, 12:], time, codes, temperature, self.time_origin or 0.0, self.temperature_origin or 0.0)
-        gram = _gram(Z)
-        if not np.all(np.isfinite(gram)):
+        block = gram(Z)
+        if not np.all(np.isfinite(block)):
             self.time_origin, self.temperature_origin = origins  # the row checks set them from the first good row
             return False
-        self._sums += gram
+        self._sums += block
         self._weight_sum += float(len(Z))
         self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
         return True
@@ -297,7 +278,7 @@ class SampleSums:
             weight = decay if weight is None else weight * decay
             self._sums *= self.forgetting ** len(Z)
             self._weight_sum *= self.forgetting ** len(Z)
-        self._sums += _gram(Z, weight)
+        self._sums += gram(Z, weight)
         self._weight_sum += float(len(Z)) if weight is None else float(weight.sum())
 
     def _flush(self) -> None:
