@@ -130,3 +130,23 @@ def test_the_measured_budget_holds_the_model_error_and_is_finite_with_a_prior(ur
     for name, value in shrunk.terms.items():
         assert np.all(np.isfinite(value)), name
     assert np.all(np.isfinite(shrunk.total_percent))
+
+
+def test_the_fit_check_of_a_nonlinear_model_judges_its_own_residual(paper_tool):
+    """2 % FS quadratic: the quadratic model's residual per configuration is the noise (0.5 counts and the rounding)."""
+    from fts_calib.model.channels import MALTESE_CROSS_8
+    from fts_calib.pipeline.fit import FitCheck, check_model_fit
+
+    est = _estimator(pose_data(6, quadratic=0.02), model="quadratic")
+    residuals = est.model_residuals()
+    assert residuals is not None
+    rms, C_bar = residuals
+    assert sorted(rms) == list(range(len(TOOL)))
+    noise = np.sqrt(0.5**2 + 1 / 12)  # [counts] white noise and rounding
+    named = {f"c{k}": v for k, v in rms.items()}
+    linear = FitCheck("poor", 40.0, {}, np.ones(6), "the linear model's diagnosis")
+    check = check_model_fit(paper_tool, named, C_bar, np.full(8, noise), MALTESE_CROSS_8, linear)
+    # 9,000 samples, 33 parameters per axis: the residual is the noise within a few %
+    assert check.verdict == "consistent" and check.max_ratio < 1.2, check.summary()
+    worse = check_model_fit(paper_tool, {k: 10 * v for k, v in named.items()}, C_bar, np.full(8, noise), MALTESE_CROSS_8, linear)
+    assert worse.verdict == "poor" and worse.diagnosis == "the linear model's diagnosis"

@@ -312,7 +312,12 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     )
     if result.budget is not None:
         lines += format_budget(result.budget, "measured")
-        if q.full_rank != 7:
+        if cal.model is not None:
+            lines.append(
+                f"  note: the budget is propagated through the {cal.family} model linearised at the centre of the data; "
+                "its model error term holds the held-out residual beyond the noise"
+            )
+        elif q.full_rank != 7:
             lines.append(
                 f"  note: the budget is propagated through a least squares with one constant offset; this calibration's "
                 f"offset model has {q.full_rank - 6} offset columns, so the figures above are an approximation"

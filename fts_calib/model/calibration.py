@@ -119,8 +119,9 @@ class Calibration:
             sensor when not given.
         model: The sensor model when it is not the linear ``C Delta`` (a quadratic or cubic
             family, or a free C over the raw channels: :class:`fts_calib.model.features.SensorModel`);
-            None for the linear model. With a model, C and C_bar are its linear part (for
-            ``channels: full`` projected onto the layout), and :meth:`wrench` evaluates the model.
+            None for the linear model. With a model, C_bar and C are the model linearised at the
+            centre of the calibration data (for ``channels: full`` projected onto the layout),
+            for what needs one matrix; :meth:`wrench` evaluates the model.
         model_selection: The held-out choice of the model as plain data (the table of
             candidates, :meth:`fts_calib.model.model_choice.Selection.as_dict`), or None.
         offset_model: How the offsets moved during the calibration run, as plain data

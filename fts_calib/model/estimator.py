@@ -45,9 +45,9 @@ from ..core.exceptions import ConfigError, InsufficientExcitation
 from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
-from .features import SensorModel
-from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, residual_sums, solve_normal
+from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, solve_normal
 from .model_choice import HOLD_RULE, Chooser, Selection
+from .model_fit import model_residuals, solve_model
 from .offset_basis import AUTO, CONSTANT_ONLY, Candidate, OffsetBasis, candidates, choose, describe, model_sums, offset_setting
 from .offset_trace import OffsetTrace
 from .prior import Prior
@@ -141,16 +141,8 @@ class OnlineEstimator(SampleSums):
         out.samples_used = self.samples_used + other.samples_used
         out.samples_seen = self.samples_seen + other.samples_seen
         out.trace = self.trace.merged(other.trace)
-        if self.units is not None and out.units is not None and other.units is not None:
-            H = np.eye(self.units.width)
-            H[-self.basis.size :, -self.basis.size :] = G[12:, 12:]
-            first = max(self.units.sums, default=-1) + 1  # other's units after this one's
-            out.units.sums = {g: s.copy() for g, s in self.units.sums.items()}
-            out.units.weights = dict(self.units.weights)
-            for g, sums in other.units.sums.items():
-                out.units.sums[first + g] = H @ sums @ H.T
-                out.units.weights[first + g] = other.units.weights[g]
-            out.unit_rows = self.unit_rows + other.unit_rows
+        if self.units is not None and other.units is not None:
+            out.units, out.unit_rows = self.units.merged(other.units, G[12:, 12:]), self.unit_rows + other.unit_rows
         for source in (self.skipped, other.skipped):
             for reason, count in source.items():
                 out._skip(reason, count)
@@ -276,7 +268,10 @@ class OnlineEstimator(SampleSums):
             raise InsufficientExcitation(0, 7, "no sample has been added yet.")
         selection = self.selection()
         if selection is not None and (selection.chosen.family != "linear" or self.full_channels) and prior is None:
-            return self._solve_model(selection, configurations, at)
+            excited = excitation_rank(self.model_sums(self._constant()), rcond)
+            if excited < 7:  # the model's linear part needs what the paper's does (eqs 18-20)
+                raise InsufficientExcitation(excited, 7 - excited, RANK_ADVICE, full=7)
+            return solve_model(self, selection, configurations, at)
         chosen, scores = self.model_in_use(rcond)
         sums = self.model_sums(chosen)
         S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
@@ -315,11 +310,7 @@ class OnlineEstimator(SampleSums):
         trace = self.trace.with_end()
         trace += [end] if not trace or trace[-1] != end else []
         offset_model = describe(self.offsets, chosen, self.basis, theta[:, 6:], origins, scores, trace, configurations)
-        provenance = {
-            "method": "online least squares (paper eqs 12-16)",
-            "time": now_iso(),
-            "software_version": __version__,
-        }
+        provenance = {"method": "online least squares (paper eqs 12-16)", "time": now_iso(), "software_version": __version__}
         if prior_report is not None:
             quality = replace(quality, prior=prior_report)
         selected = None
@@ -350,81 +341,18 @@ class OnlineEstimator(SampleSums):
         t_end, c_end, T_end = end
         return self.basis.rows(np.array([t_end]), np.array([c_end]), np.array([T_end]), *origins)[0]
 
-    def _fit_chosen(self, selection: Selection):
-        """``(units, M, sums, (Theta, rank, condition, pseudo-inverse))`` of the chosen candidate on every unit."""
-        units = self.units
-        if units is None:  # selection() is None without unit sums
-            raise ConfigError("model", self.model, "a model with held-out sums")
-        chooser = Chooser(units, self.basis, (self.model, self.offsets), self.full_scale)
-        M = chooser.maps(selection.chosen.family, selection.chosen.offsets)
-        sums = M @ units.total() @ M.T
-        return units, M, sums, chooser.fit(sums, selection.chosen.family)
-
     def model_residuals(self) -> tuple[dict[int, np.ndarray], np.ndarray] | None:
-        """The chosen nonlinear (or full-channel) model's residual RMS per configuration, and its linear C_bar.
+        """The chosen nonlinear (or full-channel) model's residual RMS per configuration, and its slope C_bar.
 
         Returns:
-            ``({configuration index: RMS per axis (6,) in N, N m}, C_bar (6, 6))``, or None when
-            the model in use is the linear one on ``P Delta`` (its fit check is the session's own).
+            ``({configuration index: RMS per axis (6,) in N, N m}, C_bar (6, 6))``, the model
+            linearised at the centre of the data; None when the model in use is the linear
+            one on ``P Delta`` (its fit check is the session's own).
         """
         selection = self.selection()
         if selection is None or (selection.chosen.family == "linear" and not self.full_channels):
             return None
-        units, M, _, (theta, *_) = self._fit_chosen(selection)
-        K, first = self.basis.n_configurations, 6 + units.n_features
-        rss: dict[int, np.ndarray] = {}
-        weight: dict[int, float] = {}
-        for g, sums in units.sums.items():
-            c = int(np.argmax(np.diag(sums)[first : first + K]))  # a unit lies within one configuration
-            mine = M @ sums @ M.T
-            rss[c] = rss.get(c, np.zeros(6)) + residual_sums(mine[:6, :6], mine[:6, 6:], mine[6:, 6:], theta)
-            weight[c] = weight.get(c, 0.0) + units.weights[g]
-        linear = theta[:, : units.inputs]
-        C_bar = linear @ self.layout.pinv if self.full_channels else linear
-        return {c: np.sqrt(rss[c] / max(weight[c], 1e-300)) for c in sorted(rss)}, C_bar
-
-    def _solve_model(self, selection: Selection, configurations, at) -> Calibration:
-        """The calibration of a nonlinear family or of the raw channels, from the per-unit sums (minimum norm)."""
-        score = selection.chosen
-        units, _, sums, (theta, rank, condition, inv) = self._fit_chosen(selection)
-        S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
-        d, k_m = units.inputs, len(score.offsets.A)
-        origins, end = self._end(at)
-        a_end = score.offsets.A @ self._basis_row(end, origins)
-        padded = np.zeros(theta.shape[1] - 6)
-        padded[d - 6 : d - 6 + k_m] = a_end  # where the offsets sit among the regressors after the first six
-        P = self._P if not self.full_channels else np.eye(6, self.layout.n_channels)
-        quality = fit_quality(
-            S_WW, S_WX, S_XX, theta, inv, self._weight_sum, self.samples_used, self.samples_seen, rank, condition, self.skipped, P, padded
-        )
-        coefficients = np.hstack([theta[:, :d], theta[:, d + k_m :]])
-        model = SensorModel(score.family, coefficients, None if self.full_channels else self._P, self.layout.n_channels)
-        if self.full_channels:  # the free C's standard errors are those of its own columns
-            sigma = np.sqrt(np.maximum(quality.residual_rms**2 * self._weight_sum / max(self._weight_sum - theta.shape[1], 1.0), 0.0))
-            stderr_C = sigma[:, None] * np.sqrt(np.maximum(np.diag(inv)[:d], 0.0))[None, :]
-            quality = replace(quality, stderr_C=stderr_C)
-        held = theta.shape[1] - rank
-        quality = replace(quality, held_directions={"count": held, "rule": HOLD_RULE})
-        trace = self.trace.with_end()
-        trace += [end] if not trace or trace[-1] != end else []
-        names = self.basis.column_names(configurations)
-        offset_model = describe(self.offsets, score.offsets, self.basis, theta[:, d : d + k_m], origins, [], trace, configurations)
-        offset_model["criterion"] = "held-out error (see model_selection)"
-        linear = model.linear_part
-        return Calibration(
-            C_bar=linear @ self.layout.pinv,
-            D=theta[:, d : d + k_m] @ a_end,
-            quality=quality,
-            provenance={
-                "method": f"least squares of a {score.family} model (held-out choice)",
-                "time": now_iso(),
-                "software_version": __version__,
-            },
-            layout=self.layout,
-            offset_model=offset_model,
-            model=model if (score.family != "linear" or self.full_channels) else None,
-            model_selection=selection.as_dict(names),
-        )
+        return model_residuals(self, selection)
 
     # -- checkpoints --------------------------------------------------------------------
 

@@ -99,6 +99,16 @@ class UnitSums:
             self.sums[g] += gram(rows, None if weight is None else weight[a:e])
             self.weights[g] += float(e - a) if weight is None else float(weight[a:e].sum())
 
+    def merged(self, other: UnitSums, shift: np.ndarray) -> UnitSums:
+        """A copy holding both: ``other``'s units after this one's, its offset basis moved by ``shift`` (k, k)."""
+        out = UnitSums(self.projection, self.n_channels, self.degree, self.basis_size)
+        H = np.eye(self.width)
+        H[-self.basis_size :, -self.basis_size :] = shift
+        first = max(self.sums, default=-1) + 1
+        out.sums = {g: s.copy() for g, s in self.sums.items()} | {first + g: H @ s @ H.T for g, s in other.sums.items()}
+        out.weights = dict(self.weights) | {first + g: w for g, w in other.weights.items()}
+        return out
+
     def total(self) -> np.ndarray:
         """The sum over units, shape (width, width)."""
         return sum(self.sums.values(), np.zeros((self.width, self.width)))

@@ -200,7 +200,7 @@ def expected_residual(tool: Tool, C_bar: np.ndarray, noise_cov: np.ndarray) -> n
 
     Args:
         tool: The tool file (its weight and moment set the floor, :data:`RELATIVE_FLOOR`).
-        C_bar: Modified calibration matrix (the linear part), shape (6, 6).
+        C_bar: Modified calibration matrix (a nonlinear model's slope), shape (6, 6).
         noise_cov: Covariance of ``P Delta`` of one sample, shape (6, 6).
     """
     sigma = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", C_bar, noise_cov, C_bar), 0.0))
@@ -216,13 +216,13 @@ def check_model_fit(
     """The fit check of a model other than the linear one, from its residual per configuration.
 
     The verdict compares each configuration's residual RMS with the noise through the model's
-    linear part, as :func:`check_fit` does; a poor fit takes the linear check's diagnosis (the
+    slope at the centre of the data, as :func:`check_fit` does; a poor fit takes the linear check's diagnosis (the
     alternatives of the tool file are tried on the linear model).
 
     Args:
         tool: The tool file.
         residual_rms: Per configuration name, the model's residual RMS per axis, [N, N m], shape (6,) each.
-        C_bar: The model's linear part in the layout, shape (6, 6).
+        C_bar: The model linearised at the centre of the data, in the layout, shape (6, 6).
         noise_std: Channel noise measured in the data (raw units, (n,)), or None (unchecked).
         layout: The channel layout.
         linear: The check of the linear model on the same samples.

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
+from ..core.exceptions import FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
 from ..feeds.batch import SampleBatch, configuration_indices
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
@@ -47,6 +47,7 @@ from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, mode
 from .progress import Progress
 from .provenance import session_provenance
 from .qsfilter import QuasiStaticFilter
+from .resume import restore_session, session_state
 from .settings import PipelineConfig
 from .still import quasi_static
 from .units import HeldOutUnits
@@ -357,22 +358,7 @@ class CalibrationSession:
         """Write the checkpoint now (atomically); None without a checkpoint path."""
         if self.checkpoint_path is None:
             return None
-        last = self.checks.last_time
-        state = {
-            "robot": self.kin.robot.name,
-            "tool": self.tool.name,
-            "source": self.source_record,
-            "configurations": self.tool.names,
-            "estimator": self.estimator.state(),
-            "kept": self.kept.tolist(),
-            "seen": self.seen,
-            "skipped": dict(self.checks.skipped),
-            "directions": self._directions.tolist(),
-            "fit_sums": self._fit_sums.tolist(),
-            "last_time": None if last == -math.inf else last,
-            "filter": None if self.filter is None else self.filter.state(),
-            "units": self.units.state(),
-        }
+        state = session_state(self)
         self._last_checkpoint = self._clock()
         return write_checkpoint(self.checkpoint_path, state)
 
@@ -405,30 +391,5 @@ class CalibrationSession:
         record = source_record if source_record is not None else state.get("source")
         use_filter = state.get("filter") is not None
         session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout, model=model)
-        session.units.restore(state.get("units"))
-        try:
-            session.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
-            estimator.full_scale = None if full_scale is None else np.asarray(full_scale, dtype=float)
-            if "basis" in state["estimator"]:  # a checkpoint of an older version has constant offsets only
-                estimator.offsets = session.settings.offsets.model
-            m = 10 + estimator.basis.n_drift
-            session._fit_sums = np.zeros((len(tool.configurations), m, m))
-            session.kept = np.array(state["kept"], dtype=np.int64)
-            session.seen = int(state["seen"])
-            session.checks.skipped = Counter({str(k): int(v) for k, v in state["skipped"].items()})
-            session._directions = np.array(state["directions"], dtype=float)
-            if "fit_sums" in state:
-                session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)
-        except (KeyError, TypeError, ValueError) as exc:
-            raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
-        saved = (session.estimator.model, session.estimator.full_channels)
-        if "model" in state["estimator"] and saved != (model, full_channels):  # older checkpoints: the linear model
-            raise FileFormatError(path, "estimator.model", f"is {saved[0]} but the run asks for {model}: resume with the same --model")
-        if session.estimator.layout != session.layout:
-            found, expected = session.estimator.layout.name, session.layout.name
-            raise FileFormatError(path, "estimator.channels", f"is of a {found} sensor but the sensor is {expected}: give its --sensor")
-        if state.get("last_time") is not None:
-            session.checks.last_time = session.checks.resume_time = float(state["last_time"])
-        if session.filter is not None and state.get("filter"):
-            session.filter.restore(state["filter"])
+        restore_session(session, state, path, (model, full_channels, full_scale))
         return session
