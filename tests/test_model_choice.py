@@ -150,3 +150,24 @@ def test_the_fit_check_of_a_nonlinear_model_judges_its_own_residual(paper_tool):
     assert check.verdict == "consistent" and check.max_ratio < 1.2, check.summary()
     worse = check_model_fit(paper_tool, {k: 10 * v for k, v in named.items()}, C_bar, np.full(8, noise), MALTESE_CROSS_8, linear)
     assert worse.verdict == "poor" and worse.diagnosis == "the linear model's diagnosis"
+
+
+def test_calibrate_prints_the_table_of_candidates_and_the_file_records_it(tmp_path, ur5_recording, capsys):
+    """An ideal simulated sensor: auto keeps the linear model; --model linear keeps the paper's path and BIC."""
+    from fts_calib.app.cli import main
+    from fts_calib.model.calibration import load_calibration
+
+    out = tmp_path / "cal.yaml"
+    assert main(["calibrate", "--robot", "ur5", str(ur5_recording), "-o", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "model: linear + " in printed and "held-out RMS per axis" in printed and "Fx [N]" in printed
+    cal = load_calibration(out)
+    assert cal.model is None and cal.model_selection is not None
+    chosen = [c for c in cal.model_selection["candidates"] if c["chosen"]]
+    assert len(chosen) == 1 and chosen[0]["model"] == "linear"
+    assert {c["model"] for c in cal.model_selection["candidates"]} == {"linear", "quadratic"}
+    assert "model error" in cal.quality.budget["terms_percent_fs"]
+    assert main(["calibrate", "--robot", "ur5", str(ur5_recording), "-o", str(tmp_path / "lin.yaml"), "--quiet", "--model", "linear"]) == 0
+    printed = capsys.readouterr().out
+    assert "held-out RMS" not in printed and "(chosen by BIC" in printed
+    assert load_calibration(tmp_path / "lin.yaml").model_selection is None

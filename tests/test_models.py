@@ -179,3 +179,17 @@ def test_a_model_of_the_wrong_shape_is_refused():
         SensorModel("quadratic", np.zeros((6, 6)), P, 8)
     with pytest.raises(ConfigError, match="family"):
         SensorModel("quartic", np.zeros((6, 6)), P, 8)
+
+
+def test_the_sensor_file_names_the_model_beside_the_layout(tmp_path):
+    from fts_calib.model.sensor_config import load_sensor_config
+
+    path = tmp_path / "sensor.yaml"
+    path.write_text("name: low-cost\nchannels: full\nmodel: quadratic\n")
+    spec = load_sensor_config(path)
+    assert spec.model == "quadratic" and spec.full_channels and spec.layout.n_channels == 8
+    path.write_text("name: default\n")
+    assert load_sensor_config(path).model == "auto" and not load_sensor_config(path).full_channels
+    path.write_text("name: typo\nmodel: quartic\n")
+    with pytest.raises(FileFormatError, match="model.*'auto' or 'linear' or 'quadratic' or 'cubic'"):
+        load_sensor_config(path)

@@ -124,7 +124,7 @@ class SampleSums:
         pattern = (time is None, temperature is None)
         if self._staged and self._staged[-1][-1] != pattern:
             self._flush()  # a block has times (and temperatures) for all its rows or for none
-        self._staged.append((wrench, s, float(weight), time, int(configuration), temperature, int(unit), pattern))
+        self._staged.append((wrench, s, float(weight), time, int(configuration), temperature, unit, pattern))
         self.samples_used += 1
         if len(self._staged) == self._STAGE:
             self._flush()
