@@ -17,8 +17,7 @@ The score of a candidate is its held-out mean square over units and axes, each a
 by its scale (the full scale when given, else the RMS of the known wrench) so that forces and
 moments count alike. Among the candidates whose score is within :data:`EQUAL_WITHIN_SE` standard
 errors (of the per-unit differences to the best, over units) of the best one's, the one of
-fewest parameters wins: an
-ideal sensor keeps the linear model and constant offsets, while a model that is wrong
+fewest parameters wins: an ideal sensor keeps the linear model and constant offsets, while a model that is wrong
 (a nonlinearity, offsets that move) loses by far more than its noise. BIC, which rewards any
 column that lowers the in-sample residual, chose drift terms on a nonlinear sensor's data.
 
@@ -209,11 +208,10 @@ class Chooser:
 
     Args:
         sums: The per-unit sums.
-        basis_present: Whether each offset basis column holds data, shape (k,).
-        basis: The offset basis (for the candidates).
+        basis: The offset basis (for the candidates: :func:`fts_calib.model.offset_basis.candidates`).
         setting: ``(model setting, offset setting)``.
         scale: Per-axis scale of the error [N, N m], shape (6,), or None (the RMS of W).
-        rcond: The minimum-norm threshold.
+        rcond: The minimum-norm threshold of the nonlinear families (:data:`MODEL_RCOND`).
     """
 
     def __init__(self, sums: UnitSums, basis, setting: tuple[str, str], scale=None, rcond: float = MODEL_RCOND):
