@@ -291,7 +291,7 @@ def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_comm
     out = tmp_path / "cal.yaml"
     assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out), "--quiet"]) == 0
     printed = capsys.readouterr().out
-    assert "offsets: drift (chosen by BIC" in printed and "D moved over the run" in printed and "rank 11 of 11" in printed
+    assert "offsets: drift (chosen by held-out error" in printed and "D moved over the run" in printed and "rank 11 of 11" in printed
     calibration = load_calibration(out)
     assert calibration.offset_model["columns"][-1] == "temperature"
     end = calibration.offset_model["end"]

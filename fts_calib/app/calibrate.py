@@ -21,7 +21,7 @@ from ..pipeline.calibrate import CalibrateResult, calibrate_recording
 from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
-from .report import format_budget, format_offsets
+from .report import format_budget, format_model_selection, format_offsets
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -47,6 +47,7 @@ def run(
     offsets: str | None = None,
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
+    model: str | None = None,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -77,6 +78,8 @@ def run(
         prior: A calibration to shrink C_bar toward (fts-calib YAML or ATI ``.cal``, of the
             sensor's layout) when the excitation is weak; None for none.
         prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
+        model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
+            (default auto: chosen with the offset model by held-out error) when None.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
@@ -116,6 +119,8 @@ def run(
         prior=shrink,
         full_scale=spec.full_scale,
         limits=spec.limits,
+        model=model or spec.model,
+        full_channels=spec.full_channels,
     )
     written = None
     if result.calibration is not None:
@@ -237,6 +242,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     lines.append(f"rank {q.rank} of {q.full_rank}, condition number {q.condition_number:.1f} (S_XX scaled to a unit diagonal)")
     if q.prior is not None:
         lines.append(describe_prior(dict(q.prior)))
+    lines += format_model_selection(cal.model_selection, cal.quality)
     lines += format_offsets(cal.offset_model)
     if q.fit is not None and not isinstance(result.error, PoorFit):
         lines += format_fit(result.session.fit_check())
@@ -252,7 +258,12 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     )
     if result.budget is not None:
         lines += format_budget(result.budget, "measured")
-        if q.full_rank != 7:
+        if cal.model is not None:
+            lines.append(
+                f"  note: the budget is propagated through the {cal.family} model linearised at the centre of the data; "
+                "its model error term holds the held-out residual beyond the noise"
+            )
+        elif q.full_rank != 7:
             lines.append(
                 f"  note: the budget is propagated through a least squares with one constant offset; this calibration's "
                 f"offset model has {q.full_rank - 6} offset columns, so the figures above are an approximation"

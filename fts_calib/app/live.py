@@ -6,6 +6,7 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from ..core.exceptions import ConfigError, FeedTimeout, FtsCalibError, InsufficientExcitation, PoorFit, UnknownToolConfiguration
 from ..core.paths import check_outputs
@@ -48,6 +49,7 @@ def run(
     offsets: str | None = None,
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
+    model: str | None = None,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
@@ -87,6 +89,8 @@ def run(
         prior: A calibration to shrink C_bar toward (YAML or ATI ``.cal``, of the sensor's
             layout) when the excitation is weak; None for none.
         prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
+        model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
+            (default auto: chosen with the offset model by held-out error) when None.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
@@ -120,14 +124,20 @@ def run(
             "ur_wrench", True, "", message=f"--ur-wrench reads the built-in sensor's 6-axis wrench: {why} (e.g. --sensor factory_sensor)"
         )
     source, record = f"live udp://{host}:{port}", live_source(host, port)
+    models: dict[str, Any] = {"model": model or spec.model, "full_channels": spec.full_channels, "full_scale": spec.full_scale}
     if resume:
-        session = CalibrationSession.resume(
-            checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout, full_scale=spec.full_scale
-        )
+        session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout, **models)
         print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
     else:
         session = CalibrationSession(
-            kin, loaded, settings, checkpoint=checkpoint, source=source, source_record=record, layout=layout, full_scale=spec.full_scale
+            kin,
+            loaded,
+            settings,
+            checkpoint=checkpoint,
+            source=source,
+            source_record=record,
+            layout=layout,
+            **models,
         )
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s

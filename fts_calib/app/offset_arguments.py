@@ -1,4 +1,4 @@
-"""Command-line arguments of offsets that move: ``--offsets`` (calibrate, live), ``--drift`` (demo), ``--return-pass`` (trajectory).
+"""Command-line arguments of the models: ``--model``, ``--offsets`` (calibrate, live), ``--drift`` (demo), ``--return-pass``.
 
 Used by :mod:`fts_calib.app.arguments`; each destination is a parameter of the command's
 ``run`` (:mod:`fts_calib.model.offset_basis` for the models).
@@ -8,16 +8,25 @@ from __future__ import annotations
 
 import argparse
 
+from ..model.features import MODEL_SETTINGS
 from ..model.offset_basis import OFFSET_SETTINGS
 
 
 def add_offsets(parser: argparse.ArgumentParser) -> None:
-    """--offsets: the estimator's offset model (calibrate, live)."""
+    """--model and --offsets: the sensor model and the estimator's offset model (calibrate, live)."""
+    parser.add_argument(
+        "--model",
+        choices=MODEL_SETTINGS,
+        help="sensor model: auto (default, from the sensor file: the simplest whose held-out error is the best within its "
+        "noise, chosen together with the offset model), linear (the paper's C), quadratic or cubic (products of the "
+        "laid-out channels up to the degree)",
+    )
     parser.add_argument(
         "--offsets",
         choices=OFFSET_SETTINGS,
-        help="offset model: auto (default, from the pipeline file: the simplest the data support, by BIC), constant "
-        "(the paper), per-configuration (one D per tool configuration), drift (per-configuration plus time and temperature)",
+        help="offset model: auto (default, from the pipeline file: the simplest the data support, by held-out error, or by "
+        "BIC with --model linear), constant (the paper), per-configuration (one D per tool configuration), drift "
+        "(per-configuration plus time and temperature)",
     )
 
 

@@ -107,10 +107,14 @@ def format_offsets(offset_model) -> list[str]:
     """
     if not offset_model:
         return ["offsets: constant (the paper's model)"]
-    how = "chosen by BIC" if offset_model.get("setting") == "auto" else "set by --offsets"
-    scores = ", ".join(f"{_terms(c['model'], c['columns'])} +{c['bic_above_best']:.0f}" for c in offset_model.get("candidates", []))
     columns = "" if offset_model["model"] == "constant" else f"; columns {', '.join(offset_model['columns'])}"
-    lines = [f"offsets: {offset_model['model']} ({how}; BIC above the best: {scores or 'none'}){columns}"]
+    if str(offset_model.get("criterion", "")).startswith("held-out"):
+        how = "chosen by held-out error, above" if offset_model.get("setting") == "auto" else "set by --offsets"
+        lines = [f"offsets: {offset_model['model']} ({how}){columns}"]
+    else:
+        how = "chosen by BIC" if offset_model.get("setting") == "auto" else "set by --offsets"
+        scores = ", ".join(f"{_terms(c['model'], c['columns'])} +{c['bic_above_best']:.0f}" for c in offset_model.get("candidates", []))
+        lines = [f"offsets: {offset_model['model']} ({how}; BIC above the best: {scores or 'none'}){columns}"]
     trajectory = offset_model.get("trajectory") or []
     if len(trajectory) >= 2 and offset_model["model"] != "constant":  # constant offsets do not move
         first, last = trajectory[0], trajectory[-1]
@@ -122,4 +126,32 @@ def format_offsets(offset_model) -> list[str]:
             f"  D below is the offset at the end of the run: t = {last['time_s']:.2f} s, configuration {last['configuration']}"
             + (f", {last['temperature_C']:.2f} °C" if "temperature" in offset_model["columns"] else "")
         )
+    return lines
+
+
+def format_model_selection(selection, quality=None) -> list[str]:
+    """The held-out choice of the sensor and offset models: a table of candidates, the chosen one marked, with units.
+
+    Args:
+        selection: A calibration's ``model_selection`` (:meth:`fts_calib.model.model_choice.Selection.as_dict`), or
+            None (the linear model, offsets by BIC: nothing to print).
+        quality: The calibration's quality, for the directions held (or None).
+    """
+    if not selection:
+        return []
+    units = [f"{a} [{u}]" for a, u in zip(WRENCH_AXES, WRENCH_UNITS, strict=True)]
+    rows = []
+    for c in selection["candidates"]:
+        mark = "*" if c["chosen"] else ""
+        rms = [f"{v:.3g}" for v in c["heldout_rms"]]
+        rows.append([mark, c["model"], c["offsets"], str(c["parameters_per_axis"]), *rms, f"{c['heldout_error']:.3g}"])
+    lines = [
+        f"model: {selection['chosen']} (--model {selection['setting']['model']}, --offsets {selection['setting']['offsets']}): "
+        f"held-out RMS per axis, leaving out one of {selection['units']} units at a time; * chosen: the fewest parameters "
+        f"within {selection.get('equal_within_standard_errors', 2):g} standard errors of the best"
+    ]
+    lines.append(table(["", "model", "offsets", "params", *units, "error"], rows, "  "))
+    held = None if quality is None else quality.held_directions
+    if held and held.get("count"):
+        lines.append(f"  {held['count']} directions no load excites held by the rule: {held['rule']}")
     return lines

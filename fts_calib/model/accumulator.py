@@ -23,31 +23,16 @@ from ..core.arrays import as_samples
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, ShapeError
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
+from .features import degree_of, model_setting
+from .least_squares import gram
+from .model_choice import UnitSums
 from .offset_basis import OffsetBasis
 from .offset_trace import OffsetTrace
 
 _CHUNK = 1 << 16  # rows per block in batch updates: bounds temporary memory to ~10 MB
 _NON_FINITE = "non-finite wrench, strain or weight"
-
-
-def _gram(Z: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
-    """``Z^T diag(w) Z`` (shape (m, m)) of rows ``Z`` (N, m), in products of at most 16 columns.
-
-    OpenBLAS (numpy's) runs a product with more than 16 columns on its worker threads, which
-    then spin: with one offset column per configuration (18 columns for three) a live run
-    used two cores instead of half of one and a block of 1,700 rows took 118 us instead of 68.
-    """
-    R = Z if weight is None else Z * weight[:, None]
-    if Z.shape[1] <= 16:
-        return Z.T @ R
-    a, b = np.ascontiguousarray(Z[:, :12]), np.ascontiguousarray(Z[:, 12:])
-    ra, rb = (a, b) if weight is None else (np.ascontiguousarray(R[:, :12]), np.ascontiguousarray(R[:, 12:]))
-    out = np.empty((Z.shape[1], Z.shape[1]))
-    out[:12, :12] = a.T @ ra
-    out[:12, 12:] = a.T @ rb
-    out[12:, :12] = out[:12, 12:].T
-    out[12:, 12:] = b.T @ rb
-    return out
+#: Samples per held-out unit when the caller gives no units: consecutive blocks of this many used samples.
+UNIT_SAMPLES = 1000
 
 
 class SampleSums:
@@ -62,13 +47,28 @@ class SampleSums:
         forgetting: Exponential forgetting factor in (0, 1]; 1 weighs all samples equally.
         layout: The sensor's channel layout (or its sensor-YAML ``channels`` value).
         basis: The full offset basis; :class:`OffsetBasis` ``()`` when None.
+        model: The sensor model setting ('linear', 'quadratic', 'cubic' or 'auto',
+            :mod:`fts_calib.model.features`). Any but 'linear' also keeps the per-unit sums of
+            :mod:`fts_calib.model.model_choice` (the largest family's features).
+        full_channels: The model's inputs are the raw channels (a free 6 x n C) instead of ``P Delta``.
     """
 
     _STAGE = 64  # rows staged by update() before they are added to the sums
 
-    def __init__(self, forgetting: float = 1.0, layout: ChannelLayout | str | None = MALTESE_CROSS_8, basis: OffsetBasis | None = None):
+    def __init__(
+        self,
+        forgetting: float = 1.0,
+        layout: ChannelLayout | str | None = MALTESE_CROSS_8,
+        basis: OffsetBasis | None = None,
+        model: str = "linear",
+        full_channels: bool = False,
+    ):
         if not (0.0 < forgetting <= 1.0):
             raise ConfigError("forgetting", forgetting, "a number in (0, 1]")
+        self.model = model_setting(model)
+        self.full_channels = bool(full_channels)
+        if forgetting != 1.0 and (self.model != "linear" or self.full_channels):
+            raise ConfigError("forgetting", forgetting, "1 with a model other than linear on P Delta (held-out sums cannot forget)")
         self.forgetting = float(forgetting)
         self.layout = channel_layout(layout)
         self.basis = basis if basis is not None else OffsetBasis()
@@ -85,9 +85,14 @@ class SampleSums:
         self.time_origin: float | None = None
         self.temperature_origin: float | None = None
         self.trace = OffsetTrace()  # the offset trajectory's sample points
+        self.units: UnitSums | None = None  # per-unit sums of the model choice: None for the linear model on P Delta
+        self.unit_rows = 0  # rows added to the unit sums (for the default units)
+        if self.model != "linear" or self.full_channels:
+            projection = None if self.full_channels else self._P
+            self.units = UnitSums(projection, self.layout.n_channels, degree_of(self.model), self.basis.size)
 
     @renamed(strain="channels")
-    def update(self, w_sensor, channels, weight: float = 1.0, time=None, configuration: int = 0, temperature=None) -> bool:
+    def update(self, w_sensor, channels, weight: float = 1.0, time=None, configuration: int = 0, temperature=None, unit: int = -1) -> bool:
         """Add one sample (eqs 15-16).
 
         Args:
@@ -97,6 +102,9 @@ class SampleSums:
             time: Sample time [s], or None (at the time origin: no drift term).
             configuration: Index of the tool configuration mounted, in [0, K).
             temperature: Sensor temperature [°C], or None (none measured).
+            unit: The held-out unit of the sample (a static pose, a block of still windows),
+                an integer >= 0; -1: blocks of :data:`UNIT_SAMPLES` samples. Used by models
+                other than linear only.
 
         Returns:
             True when the sample was used; False when it was skipped (a non-finite value)
@@ -118,14 +126,14 @@ class SampleSums:
         pattern = (time is None, temperature is None)
         if self._staged and self._staged[-1][-1] != pattern:
             self._flush()  # a block has times (and temperatures) for all its rows or for none
-        self._staged.append((wrench, s, float(weight), time, int(configuration), temperature, pattern))
+        self._staged.append((wrench, s, float(weight), time, int(configuration), temperature, unit, pattern))
         self.samples_used += 1
         if len(self._staged) == self._STAGE:
             self._flush()
         return True
 
     @renamed(strain="channels")
-    def update_batch(self, w_sensor, channels, weight=None, time=None, configuration=None, temperature=None) -> int:
+    def update_batch(self, w_sensor, channels, weight=None, time=None, configuration=None, temperature=None, unit=None) -> int:
         """Add many samples; the sums equal those of calling :meth:`update` on each in order.
 
         Args:
@@ -136,6 +144,8 @@ class SampleSums:
             configuration: Tool configuration index per sample in [0, K), shape (N,); all 0
                 when None.
             temperature: Sensor temperatures [°C], shape (N,), or None.
+            unit: The held-out unit of each sample (integers >= 0), shape (N,); None: blocks
+                of :data:`UNIT_SAMPLES` samples. Used by models other than linear only.
 
         Returns:
             Number of samples used; rows with a non-finite value are skipped and counted.
@@ -149,11 +159,12 @@ class SampleSums:
             self._column(v, n, name) for v, name in ((weight, "weight"), (time, "time"), (temperature, "temperature"))
         )
         codes = self._codes(configuration, n)
+        units = self._units(unit, n)
         self._flush()
         used = 0
         for start in range(0, n, _CHUNK):
             part = slice(start, min(start + _CHUNK, n))
-            used += self._add_block(W[part], S[part], *(None if v is None else v[part] for v in (weight, time, codes, temperature)))
+            used += self._add_block(W[part], S[part], *(None if v is None else v[part] for v in (weight, time, codes, temperature, units)))
         self.samples_seen += n
         self.samples_used += used
         return used
@@ -180,6 +191,25 @@ class SampleSums:
             raise ConfigError("configuration", bad, f"an index from 0 to {K - 1} (the estimator has {K} offset columns)")
         return codes.astype(np.int64)
 
+    def _units(self, unit, n: int) -> np.ndarray | None:
+        """Unit indices (N,) checked; None when no unit sums are kept or none were given."""
+        if self.units is None or unit is None:
+            return None
+        units = np.asarray(unit).reshape(-1)
+        if units.shape != (n,) or units.dtype.kind not in "iu":
+            raise ShapeError(f"unit: {units.shape} {units.dtype} but expected ({n},) integers")
+        return units.astype(np.int64)
+
+    def _add_units(self, Z: np.ndarray, S: np.ndarray, unit: np.ndarray | None, weight: np.ndarray | None) -> None:
+        """Add finite rows to the per-unit sums (the model choice); nothing for the linear model."""
+        if self.units is None:
+            return
+        if unit is None or np.any(unit < 0):  # blocks of UNIT_SAMPLES samples, by their index among those added
+            blocks = (self.unit_rows + np.arange(len(Z))) // UNIT_SAMPLES
+            unit = blocks if unit is None else np.where(unit < 0, blocks, unit)
+        self.unit_rows += len(Z)
+        self.units.add(Z[:, :6], S, Z[:, 12:], unit, weight)
+
     def drift_rows(self, time, temperature) -> np.ndarray:
         """The drift columns of the offset basis (time powers, temperature) of samples already added.
 
@@ -199,12 +229,13 @@ class SampleSums:
         if self.temperature_origin is None and temperature is not None and len(temperature):
             self.temperature_origin = float(temperature[0])
 
-    def _add_block(self, W, S, weight, time, codes, temperature) -> int:
+    def _add_block(self, W, S, weight, time, codes, temperature, unit=None) -> int:
         Z = np.empty((W.shape[0], self._sums.shape[0]))
         Z[:, :6] = W
         with np.errstate(over="ignore", invalid="ignore"):  # bad rows are found below
             np.matmul(S, self._P.T, out=Z[:, 6:12])
             if weight is None and self.forgetting == 1.0 and self._fast(Z, time, codes, temperature):
+                self._add_units(Z, S, unit, None)
                 return len(Z)
             # the rule of update(): a row is bad when its sum of squares is not finite
             ok = np.isfinite(np.einsum("ij,ij->i", S, S) + np.einsum("ij,ij->i", W, W))
@@ -216,10 +247,11 @@ class SampleSums:
         rejected = int(len(ok) - np.count_nonzero(ok))
         if rejected:
             self._skip(_NON_FINITE, rejected)
-            Z = Z[ok]
-            weight, time, codes, temperature = (None if v is None else v[ok] for v in (weight, time, codes, temperature))
+            Z, S = Z[ok], S[ok]
+            weight, time, codes, temperature, unit = (None if v is None else v[ok] for v in (weight, time, codes, temperature, unit))
         self._set_origins(time, temperature)
         self.basis._fill(Z[:, 12:], time, codes, temperature, self.time_origin or 0.0, self.temperature_origin or 0.0)
+        self._add_units(Z, S, unit, weight)
         self._accumulate(Z, weight)
         self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
         return len(Z)
@@ -232,11 +264,11 @@ class SampleSums:
         origins = (self.time_origin, self.temperature_origin)
         self._set_origins(time, temperature)
         self.basis._fill(Z[:, 12:], time, codes, temperature, self.time_origin or 0.0, self.temperature_origin or 0.0)
-        gram = _gram(Z)
-        if not np.all(np.isfinite(gram)):
+        block = gram(Z)
+        if not np.all(np.isfinite(block)):
             self.time_origin, self.temperature_origin = origins  # the row checks set them from the first good row
             return False
-        self._sums += gram
+        self._sums += block
         self._weight_sum += float(len(Z))
         self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
         return True
@@ -249,12 +281,12 @@ class SampleSums:
             weight = decay if weight is None else weight * decay
             self._sums *= self.forgetting ** len(Z)
             self._weight_sum *= self.forgetting ** len(Z)
-        self._sums += _gram(Z, weight)
+        self._sums += gram(Z, weight)
         self._weight_sum += float(len(Z)) if weight is None else float(weight.sum())
 
     def _flush(self) -> None:
         if self._staged:
-            W, S, weight, time, codes, temperature, pattern = zip(*self._staged, strict=True)
+            W, S, weight, time, codes, temperature, unit, pattern = zip(*self._staged, strict=True)
             self._staged = []
             weights = np.array(weight)
             self._add_block(
@@ -264,6 +296,7 @@ class SampleSums:
                 None if pattern[0][0] else np.array(time, dtype=float),
                 self._codes(np.array(codes), len(codes)),
                 None if pattern[0][1] else np.array(temperature, dtype=float),
+                None if self.units is None else np.array(unit, dtype=np.int64),
             )
 
     def _skip(self, reason: str, count: int) -> None:

@@ -22,6 +22,12 @@ full-scale box ``|W_k| <= FS_k``:
     \sigma_j^2 = E_W\,\mathrm{Var}\, e_j(W) = \sum_g \mathrm{tr}(U\, G_{gj} M G_{gj}^T),
     \qquad M = E_W[x(W) x(W)^T] \quad (7 \times 7).
 
+A measured budget also holds the *model error*: what the calibration's residual on samples it
+was not fitted to (the held-out RMS of :mod:`fts_calib.model.model_choice`, or the fit's own
+residual) holds beyond the strain noise, ``sqrt(max(r_j^2 - sigma_noise,j^2, 0))``. It is an
+error of the model at every load, not a random one that averages out, so it enters as is: a
+run whose residuals are 10 % of full scale cannot print a total below 10 %.
+
 Independent sources add in quadrature; the budget's total is the expanded uncertainty
 ``k sqrt(sum sigma^2)`` with coverage factor k = 2 (about 95 %). Units: N for Fx, Fy, Fz
 and N m for Mx, My, Mz, and % of each axis's full scale. Nothing here knows the channel
@@ -42,6 +48,9 @@ from .sensor import WRENCH_AXES
 
 #: Coverage factor of the budget's total (k = 2: about 95 % of the errors fall within it).
 COVERAGE = 2.0
+
+#: Name of the budget's model-error term (:func:`model_error`).
+MODEL_ERROR = "model error"
 
 #: Default accuracy target of a sized plan: every axis's budget total within this, [% of full scale].
 DEFAULT_TARGET_PERCENT = 0.05
@@ -77,6 +86,17 @@ def wrench_noise(C: np.ndarray, noise_std) -> np.ndarray:
     return np.sqrt(np.einsum("jk,k,jk->j", C, noise**2, C))
 
 
+def model_error(residual_rms, sigma_noise) -> np.ndarray:
+    """The model-error term: the residual beyond the strain noise, per axis, [N, N m]. Shape (6,).
+
+    Args:
+        residual_rms: RMS of the residual per axis on held-out (or fitted) samples, [N, N m]. Shape (6,).
+        sigma_noise: The strain noise through C per axis, [N, N m]. Shape (6,).
+    """
+    r, s = np.asarray(residual_rms, dtype=float), np.asarray(sigma_noise, dtype=float)
+    return np.sqrt(np.maximum(r**2 - s**2, 0.0))
+
+
 def range_moments(C_bar, D, full_scale) -> np.ndarray:
     """``M = E[x x^T]`` over loads uniform in the full-scale box, ``x = [C_bar^-1 (W - D); 1]``.
 
@@ -97,7 +117,9 @@ def range_moments(C_bar, D, full_scale) -> np.ndarray:
     return M
 
 
-def propagate(x: np.ndarray, sources: Sequence[ErrorSource], moments: np.ndarray, weight: float = 1.0) -> dict[str, np.ndarray]:
+def propagate(
+    x: np.ndarray, sources: Sequence[ErrorSource], moments: np.ndarray, weight: float = 1.0, ridge: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
     """Standard deviation of the wrench error over the range, per axis, of each named term.
 
     Args:
@@ -106,14 +128,16 @@ def propagate(x: np.ndarray, sources: Sequence[ErrorSource], moments: np.ndarray
         moments: ``M`` of :func:`range_moments`. Shape (7, 7).
         weight: Samples each row stands for (e.g. channel samples per planned sample): the
             white sources average over them, the shared ones do not.
+        ridge: The prior's term added to ``x^T x`` (a ridge on C_bar, :mod:`fts_calib.model.prior`),
+            shape (7, 7), in the units of ``x^T x`` of these rows; None for plain least squares.
 
     Returns:
         Term name -> sigma per axis, [N, N, N, N m, N m, N m]. Shape (6,) each.
     """
     x = np.asarray(x, dtype=float)
-    S = x.T @ x
+    S = x.T @ x if ridge is None else x.T @ x + ridge
     scale = 1.0 / np.sqrt(np.diag(S))
-    S_inv = np.linalg.inv(S * scale[:, None] * scale[None, :]) * scale[:, None] * scale[None, :]
+    S_inv = np.linalg.pinv(S * scale[:, None] * scale[None, :], hermitian=True) * scale[:, None] * scale[None, :]
     A = x @ S_inv  # (N, 7): the least-squares weight of each sample
     variance: dict[str, np.ndarray] = {}
     for source in sources:

@@ -21,10 +21,11 @@ import numpy as np
 from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.deprecation import renamed
-from ..core.exceptions import FileFormatError, ShapeError
+from ..core.exceptions import ConfigError, FileFormatError, ShapeError
 from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, require
 from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
+from .features import SensorModel
 from .sensor import WRENCH_AXES, WRENCH_UNITS, wrench_from_strain
 
 #: Value of the ``format`` field of a calibration file.
@@ -67,6 +68,9 @@ class Quality:
             columns (7 for the paper's constant offsets, 6 for a jig).
         prior: The prior C_bar was shrunk toward, as plain data (source, weight, effective
             parameters, shrinkage: :mod:`fts_calib.model.prior`), or None for none.
+        held_directions: How many directions of the model no load excited, and the rule
+            that held them (``{count, rule}``, :mod:`fts_calib.model.model_choice`), or None
+            when the model was not chosen by held-out error.
         extra: Fields of the file's ``quality`` that this version does not know (written by
             a newer one), kept as read and written back unchanged.
     """
@@ -84,6 +88,7 @@ class Quality:
     budget: Mapping[str, Any] | None = None
     full_rank: int = 7
     prior: Mapping[str, Any] | None = None
+    held_directions: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
@@ -118,6 +123,13 @@ class Calibration:
             "reason": text}``.
         layout: The sensor's channel layout (its projection P, 6 x n); the paper's 8-bridge
             sensor when not given.
+        model: The sensor model when it is not the linear ``C Delta`` (a quadratic or cubic
+            family, or a free C over the raw channels: :class:`fts_calib.model.features.SensorModel`);
+            None for the linear model. With a model, C_bar and C are the model linearised at the
+            centre of the calibration data (for ``channels: full`` projected onto the layout),
+            for what needs one matrix; :meth:`wrench` evaluates the model.
+        model_selection: The held-out choice of the model as plain data (the table of
+            candidates, :meth:`fts_calib.model.model_choice.Selection.as_dict`), or None.
         offset_model: How the offsets moved during the calibration run, as plain data
             (:func:`fts_calib.model.offset_basis.describe`: the model chosen and why, its
             basis and coefficients, the offset trajectory); None for constant offsets of
@@ -135,6 +147,8 @@ class Calibration:
     offset_history: tuple[Mapping[str, Any], ...] = ()
     layout: ChannelLayout = MALTESE_CROSS_8
     offset_model: Mapping[str, Any] | None = None
+    model: SensorModel | None = None
+    model_selection: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
     C: np.ndarray = field(init=False, repr=False)
 
@@ -152,10 +166,26 @@ class Calibration:
         object.__setattr__(self, "extra", dict(self.extra))
         if self.offset_model is not None:
             object.__setattr__(self, "offset_model", dict(self.offset_model))
+        if self.model is not None and self.model.n_channels != layout.n_channels:
+            raise ShapeError(f"model.n_channels={self.model.n_channels} but expected {layout.n_channels}, the layout's")
+        if self.model_selection is not None:
+            object.__setattr__(self, "model_selection", dict(self.model_selection))
+
+    @property
+    def family(self) -> str:
+        """The sensor model's family: 'linear', 'quadratic' or 'cubic'."""
+        return "linear" if self.model is None else self.model.family
+
+    @property
+    def nonlinear(self) -> bool:
+        """Whether the wrench is not ``C Delta + D`` (a nonlinear family or a free C over the raw channels)."""
+        return self.model is not None
 
     @renamed(strain="channels")
     def wrench(self, channels) -> np.ndarray:
-        """Wrench on the sensor from raw strains, ``C Delta + D``.
+        """Wrench on the sensor from raw channels: ``C Delta + D``, or the model's ``Theta phi(u) + D``.
+
+        The one evaluator of a calibration (reader, validate, tare, payload, live, the budget).
 
         Args:
             channels: Raw channel readings. Shape (n,) or (N, n), n = ``layout.n_channels``.
@@ -163,7 +193,9 @@ class Calibration:
         Returns:
             ``[Fx, Fy, Fz, Mx, My, Mz]`` in S, in [N] and [N m]. Shape (6,) or (N, 6).
         """
-        return wrench_from_strain(self.C, channels, self.D)
+        if self.model is None:
+            return wrench_from_strain(self.C, channels, self.D)
+        return self.model.wrench(channels) + self.D
 
     def save(self, path: str | Path) -> Path:
         """Write this calibration to a YAML file of format ``fts-calib/1``, atomically (:func:`save_calibration`).
@@ -175,6 +207,23 @@ class Calibration:
             The path written.
         """
         return save_calibration(self, path)
+
+    def require_linear(self, what: str) -> None:
+        """Refuse a model other than ``C Delta + D`` for a format that holds one matrix.
+
+        Args:
+            what: The format, for the message (e.g. 'the ros2 export').
+
+        Raises:
+            ConfigError: The calibration's model is nonlinear or a free C over the raw channels.
+        """
+        if self.model is not None:
+            kind = f"a {self.model.family} model" + (" of the raw channels" if self.model.full else "")
+            message = (
+                f"{what} holds one matrix C (wrench = C strain + D) but this calibration is {kind} "
+                f"({len(self.model.names)} features per axis): use the c-header or json export, or calibrate with --model linear"
+            )
+            raise ConfigError("model", self.model.family, "linear", message=message)
 
     def with_offsets(self, D, reason: str, time: str | None = None) -> Calibration:
         """Copy with new offsets; the current ones go to ``offset_history`` with the time.
@@ -203,6 +252,7 @@ def _quality_to_dict(quality: Quality) -> dict[str, Any]:
         **({"accuracy_budget": dict(quality.budget)} if quality.budget is not None else {}),
         "full_rank": quality.full_rank,
         **({"prior": dict(quality.prior)} if quality.prior is not None else {}),
+        **({"held_directions": dict(quality.held_directions)} if quality.held_directions is not None else {}),
         **{key: value for key, value in quality.extra.items() if key not in _QUALITY_FIELDS},
     }
 
@@ -222,9 +272,23 @@ _QUALITY_FIELDS = (
     "accuracy_budget",
     "full_rank",
     "prior",
+    "held_directions",
 )
 #: The top-level fields of a calibration file this version reads; others are kept in ``Calibration.extra``.
-FIELDS = ("format", "units", "channels", "C", "C_bar", "D", "quality", "provenance", "offset_history", "offset_model")
+FIELDS = (
+    "format",
+    "units",
+    "channels",
+    "C",
+    "C_bar",
+    "D",
+    "quality",
+    "provenance",
+    "offset_history",
+    "offset_model",
+    "model",
+    "model_selection",
+)
 
 
 def save_calibration(calibration: Calibration, path: str | Path) -> Path:
@@ -251,6 +315,9 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
     data["offset_history"] = list(calibration.offset_history)
     if calibration.offset_model is not None:
         data["offset_model"] = dict(calibration.offset_model)
+    data["model"] = "linear" if calibration.model is None else calibration.model.to_config()
+    if calibration.model_selection is not None:
+        data["model_selection"] = dict(calibration.model_selection)
     data.update({key: value for key, value in calibration.extra.items() if key not in FIELDS})  # a newer version's fields, kept
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
     return atomic_write_text(path, header + dump_yaml(data))
@@ -280,6 +347,7 @@ def _quality_from_dict(raw: Any, path: Path, n: int) -> Quality:
             budget=dict(raw["accuracy_budget"]) if isinstance(raw.get("accuracy_budget"), Mapping) else None,
             full_rank=int(raw.get("full_rank", 7)),
             prior=dict(raw["prior"]) if isinstance(raw.get("prior"), Mapping) else None,
+            held_directions=dict(raw["held_directions"]) if isinstance(raw.get("held_directions"), Mapping) else None,
             extra={key: value for key, value in raw.items() if key not in _QUALITY_FIELDS},
         )
     except (TypeError, ValueError) as exc:
@@ -327,6 +395,10 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     offset_model = data.get("offset_model")
     if offset_model is not None and not isinstance(offset_model, Mapping):
         raise FileFormatError(path, "offset_model", "expected a mapping")
+    model = _model_from(data.get("model"), path, layout)
+    selection = data.get("model_selection")
+    if selection is not None and not isinstance(selection, Mapping):
+        raise FileFormatError(path, "model_selection", "expected a mapping")
     with fields_of(path):
         return Calibration(
             C_bar=C_bar,
@@ -336,5 +408,21 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             offset_history=tuple(history),
             layout=layout,
             offset_model=offset_model,
+            model=model,
+            model_selection=selection,
             extra={key: value for key, value in data.items() if key not in FIELDS},
         )
+
+
+def _model_from(raw: Any, path: Path, layout: ChannelLayout) -> SensorModel | None:
+    """The ``model`` field: absent or 'linear' (files of older versions: linear), or a model's mapping."""
+    if raw is None or raw == "linear":
+        return None
+    if not isinstance(raw, Mapping):
+        raise FileFormatError(path, "model", f"is {raw!r} but expected 'linear' or a mapping {{family, coefficients, ...}}")
+    n = len(raw.get("features") or [])
+    with fields_of(path, "model."):
+        model = SensorModel.from_config(raw, layout.projection)
+    if n and n != len(model.names):
+        raise FileFormatError(path, "model.features", f"has {n} names but the {model.family} family has {len(model.names)}")
+    return model

@@ -46,6 +46,8 @@ from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, solve_normal, undetermined_columns
+from .model_choice import HOLD_RULE, Chooser, Selection
+from .model_fit import model_residuals, solve_model
 from .offset_basis import (
     AUTO,
     CONSTANT_ONLY,
@@ -91,6 +93,12 @@ class OnlineEstimator(SampleSums):
         basis: The full offset basis accumulated (configurations, drift degree, time
             scale, temperature); one configuration, time up to degree 2 and temperature
             when None.
+        model: The sensor model (:mod:`fts_calib.model.features`): 'linear' (the paper's,
+            offsets chosen by BIC), 'quadratic', 'cubic', or 'auto' (the family and the
+            offset model chosen together by held-out error, :mod:`fts_calib.model.model_choice`).
+        full_channels: Regress on the raw channels (a free 6 x n C) instead of ``P Delta``.
+        full_scale: Per-axis scale of the held-out error [N, N m], shape (6,); the RMS of
+            the known wrench when None.
     """
 
     def __init__(
@@ -99,9 +107,14 @@ class OnlineEstimator(SampleSums):
         layout: ChannelLayout | str | None = MALTESE_CROSS_8,
         offsets: str = AUTO,
         basis: OffsetBasis | None = None,
+        model: str = "linear",
+        full_channels: bool = False,
+        full_scale=None,
     ):
-        super().__init__(forgetting, layout, basis)
+        super().__init__(forgetting, layout, basis, model, full_channels)
         self.offsets = offset_setting(offsets)
+        self.full_scale = None if full_scale is None else np.asarray(full_scale, dtype=float)
+        self._selection: tuple[int, Selection | None] | None = None  # (rows it was made from, selection)
 
     def merge(self, other: OnlineEstimator) -> OnlineEstimator:
         """A new estimator holding the data of both (as one pass over both would).
@@ -115,6 +128,7 @@ class OnlineEstimator(SampleSums):
             ("channels", self.layout, other.layout),
             ("offsets", self.offsets, other.offsets),
             ("offset basis", self.basis, other.basis),
+            ("model", (self.model, self.full_channels), (other.model, other.full_channels)),
         ):
             if mine != theirs:
                 label = (
@@ -124,7 +138,7 @@ class OnlineEstimator(SampleSums):
                 raise ConfigError(name, theirs, f"{mine}, the same as this estimator's", message=message)
         self._flush()
         other._flush()
-        out = OnlineEstimator(self.forgetting, self.layout, self.offsets, self.basis)
+        out = OnlineEstimator(self.forgetting, self.layout, self.offsets, self.basis, self.model, self.full_channels, self.full_scale)
         out.time_origin = self.time_origin if self.time_origin is not None else other.time_origin
         out.temperature_origin = self.temperature_origin if self.temperature_origin is not None else other.temperature_origin
         shift = [
@@ -139,6 +153,8 @@ class OnlineEstimator(SampleSums):
         out.samples_used = self.samples_used + other.samples_used
         out.samples_seen = self.samples_seen + other.samples_seen
         out.trace = self.trace.merged(other.trace)
+        if self.units is not None and other.units is not None:
+            out.units, out.unit_rows = self.units.merged(other.units, G[12:, 12:]), self.unit_rows + other.unit_rows
         for source in (self.skipped, other.skipped):
             for reason, count in source.items():
                 out._skip(reason, count)
@@ -191,22 +207,44 @@ class OnlineEstimator(SampleSums):
         """
         if self.samples_used == 0:
             return 0, math.inf
-        sums = self.model_sums(self.model_in_use(rcond)[0])
+        sums = self.model_sums(self._by_bic(rcond)[0])
         rank, condition = information_rank(sums[6:, 6:], rcond)
         excited = excitation_rank(sums, rcond)
         return (rank, condition) if excited >= rank else (excited, math.inf)
 
     def full_rank(self, rcond: float = RCOND) -> int:
         """The rank that determines every coefficient of the model in use (6 + its offset columns)."""
-        return 6 + len(self.model_in_use(rcond)[0].A)
+        return 6 + len(self._by_bic(rcond)[0].A)
 
     def model_in_use(self, rcond: float = RCOND) -> tuple[Candidate, list[tuple[Candidate, float]]]:
         """The offset model :meth:`solve` fits now, and the BIC of every full-rank candidate.
 
-        With 'auto' the candidate of least BIC among those of full rank (the constant model
-        while none is); with a model setting, that model.
+        With a model other than 'linear' and at least two held-out units, the offset model of
+        :meth:`selection` (and no BIC); otherwise, with offsets 'auto', the candidate of least
+        BIC among those of full rank (the constant model while none is); with an offset model
+        setting, that model.
         """
+        selection = self.selection()
+        if selection is not None:
+            return selection.chosen.offsets, []
+        return self._by_bic(rcond)
+
+    def _by_bic(self, rcond: float = RCOND) -> tuple[Candidate, list[tuple[Candidate, float]]]:
         return choose(self._current(), self.basis, self.offsets, self._weight_sum, rcond)
+
+    def selection(self) -> Selection | None:
+        """The choice of the sensor model and offset model by held-out error, or None.
+
+        None for the linear model on ``P Delta`` (no per-unit sums), or while fewer than two
+        units hold samples. Computed once per state of the sums.
+        """
+        self._flush()
+        if self.units is None or len(self.units.sums) < 2:
+            return None
+        if self._selection is None or self._selection[0] != self.unit_rows:
+            chooser = Chooser(self.units, self.basis, (self.model, self.offsets), self.full_scale)
+            self._selection = (self.unit_rows, chooser.select())
+        return self._selection[1]
 
     # -- solution -----------------------------------------------------------------------
 
@@ -240,6 +278,12 @@ class OnlineEstimator(SampleSums):
         """
         if self.samples_used == 0:
             raise InsufficientExcitation(0, 7, "no sample has been added yet.")
+        selection = self.selection()
+        if selection is not None and (selection.chosen.family != "linear" or self.full_channels) and prior is None:
+            excited = excitation_rank(self.model_sums(self._constant()), rcond)
+            if excited < 7:  # the model's linear part needs what the paper's does (eqs 18-20)
+                raise InsufficientExcitation(excited, 7 - excited, RANK_ADVICE, full=7)
+            return solve_model(self, selection, configurations, at)
         chosen, scores = self.model_in_use(rcond)
         sums = self.model_sums(chosen)
         S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
@@ -258,14 +302,8 @@ class OnlineEstimator(SampleSums):
             raise InsufficientExcitation(rank, full - rank, RANK_ADVICE, full=full)
         if prior is None and excited < rank:
             rank, condition = excited, math.inf
-        origins = (self.time_origin or 0.0, self.temperature_origin or 0.0)
-        end = self.trace.end if self.trace.end is not None else (origins[0], 0, origins[1])
-        if at is not None:
-            seen = np.diag(self._current())[12 + at[1]] > 0 if at[1] < self.basis.n_configurations else False
-            end = (float(at[0]), int(at[1]) if seen else end[1], origins[1] if at[2] is None else float(at[2]))
-        t_end, c_end, T_end = end
-        b_end = self.basis.rows(np.array([t_end]), np.array([c_end]), np.array([T_end]), *origins)[0]
-        a_end = chosen.A @ b_end
+        origins, end = self._end(at)
+        a_end = chosen.A @ self._basis_row(end, origins)
         quality = fit_quality(
             S_WW,
             S_WX,
@@ -284,13 +322,14 @@ class OnlineEstimator(SampleSums):
         trace = self.trace.with_end()
         trace += [end] if not trace or trace[-1] != end else []
         offset_model = describe(self.offsets, chosen, self.basis, theta[:, 6:], origins, scores, trace, configurations)
-        provenance = {
-            "method": "online least squares (paper eqs 12-16)",
-            "time": now_iso(),
-            "software_version": __version__,
-        }
+        provenance = {"method": "online least squares (paper eqs 12-16)", "time": now_iso(), "software_version": __version__}
         if prior_report is not None:
             quality = replace(quality, prior=prior_report)
+        selected = None
+        if selection is not None and prior is None:
+            selected = selection.as_dict(self.basis.column_names(configurations))
+            offset_model["criterion"] = "held-out error (see model_selection)"
+            quality = replace(quality, held_directions={"count": 0, "rule": HOLD_RULE})
         return Calibration(
             C_bar=theta[:, :6],
             D=theta[:, 6:] @ a_end,
@@ -298,6 +337,7 @@ class OnlineEstimator(SampleSums):
             provenance=provenance,
             layout=self.layout,
             offset_model=offset_model,
+            model_selection=selected,
         )
 
     def undetermined(self, configurations: Sequence[str] | None = None, rcond: float = RCOND) -> list[list[str]]:
@@ -320,6 +360,32 @@ class OnlineEstimator(SampleSums):
         groups = undetermined_columns(sums[np.ix_(known, known)], names, rcond)
         return [g for g in groups if not any(name in WRENCH_AXES for name in g)]
 
+    def _end(self, at) -> tuple[tuple[float, float], tuple[float, int, float]]:
+        """The basis origins and the end of the run ``(time, configuration, temperature)`` (see :meth:`solve`)."""
+        origins = (self.time_origin or 0.0, self.temperature_origin or 0.0)
+        end = self.trace.end if self.trace.end is not None else (origins[0], 0, origins[1])
+        if at is not None:
+            seen = np.diag(self._current())[12 + at[1]] > 0 if at[1] < self.basis.n_configurations else False
+            end = (float(at[0]), int(at[1]) if seen else end[1], origins[1] if at[2] is None else float(at[2]))
+        return origins, end
+
+    def _basis_row(self, end: tuple[float, int, float], origins: tuple[float, float]) -> np.ndarray:
+        t_end, c_end, T_end = end
+        return self.basis.rows(np.array([t_end]), np.array([c_end]), np.array([T_end]), *origins)[0]
+
+    def model_residuals(self) -> tuple[dict[int, np.ndarray], np.ndarray] | None:
+        """The chosen nonlinear (or full-channel) model's residual RMS per configuration, and its slope C_bar.
+
+        Returns:
+            ``({configuration index: RMS per axis (6,) in N, N m}, C_bar (6, 6))``, the model
+            linearised at the centre of the data; None when the model in use is the linear
+            one on ``P Delta`` (its fit check is the session's own).
+        """
+        selection = self.selection()
+        if selection is None or (selection.chosen.family == "linear" and not self.full_channels):
+            return None
+        return model_residuals(self, selection)
+
     # -- checkpoints --------------------------------------------------------------------
 
     def state(self) -> dict:
@@ -328,6 +394,9 @@ class OnlineEstimator(SampleSums):
             "forgetting": self.forgetting,
             "channels": self.layout.to_config(),
             "offsets": self.offsets,
+            "model": self.model,
+            "full_channels": self.full_channels,
+            **({"units": self.units.state(), "unit_rows": self.unit_rows} if self.units is not None else {}),
             "basis": self.basis.to_config(),
             "time_origin": self.time_origin,
             "temperature_origin": self.temperature_origin,
@@ -344,7 +413,11 @@ class OnlineEstimator(SampleSums):
         """Rebuild an estimator from :meth:`state` (a state of an older version, without offset models, too)."""
         basis = OffsetBasis.from_config(state["basis"]) if "basis" in state else CONSTANT_ONLY
         offsets = str(state.get("offsets", "constant"))
-        out = cls(float(state["forgetting"]), channel_layout(state.get("channels")), offsets, basis)
+        model, full = str(state.get("model", "linear")), bool(state.get("full_channels", False))
+        out = cls(float(state["forgetting"]), channel_layout(state.get("channels")), offsets, basis, model, full)
+        if out.units is not None and "units" in state:
+            out.units.restore(state["units"])
+            out.unit_rows = int(state.get("unit_rows", 0))
         width = 12 + basis.size
         out._sums = as_matrix(state["S"], (width, width), "state['S']").copy()
         out._weight_sum = float(state["weight_sum"])

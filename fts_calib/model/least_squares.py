@@ -31,6 +31,40 @@ from .calibration import Quality
 RCOND = 1e-7
 
 
+#: Columns of the widest block of a product in :func:`gram`.
+_GRAM_BLOCK = 16
+
+
+def gram(Z: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
+    """``Z^T diag(w) Z`` (shape (m, m)) of rows ``Z`` (N, m), in products of at most 16 columns.
+
+    OpenBLAS (numpy's) runs a product with more than 16 columns on its worker threads, which
+    then spin: with one offset column per configuration (18 columns for three) a live run
+    used two cores instead of half of one and a block of 1,700 rows took 118 us instead of 68.
+    The estimator's 12 + k columns are one block of 12 and one of k; wider rows (the features of
+    a nonlinear model) are cut in blocks of 16.
+
+    Args:
+        Z: Rows, shape (N, m).
+        weight: Weight of each row, shape (N,), or None (all 1).
+    """
+    R = Z if weight is None else Z * weight[:, None]
+    m = Z.shape[1]
+    if m <= _GRAM_BLOCK:
+        return Z.T @ R
+    edges = [0, 12, *range(12 + _GRAM_BLOCK, m, _GRAM_BLOCK), m]
+    blocks = [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    left = [np.ascontiguousarray(Z[:, b]) for b in blocks]
+    right = left if weight is None else [np.ascontiguousarray(R[:, b]) for b in blocks]
+    out = np.empty((m, m))
+    for i, bi in enumerate(blocks):
+        for j in range(i, len(blocks)):
+            out[bi, blocks[j]] = left[i].T @ right[j]
+            if j > i:
+                out[blocks[j], bi] = out[bi, blocks[j]].T
+    return out
+
+
 def information_rank(S_XX, rcond: float = RCOND) -> tuple[int, float]:
     """Numerical rank and condition number of an information matrix, after diagonal scaling.
 

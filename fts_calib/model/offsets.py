@@ -16,6 +16,7 @@ from ..core.arrays import as_samples, frozen
 from ..core.deprecation import renamed
 from ..core.exceptions import InsufficientExcitation, ShapeError
 from .channels import MALTESE_CROSS_8, ChannelLayout
+from .features import SensorModel
 
 
 @dataclass(frozen=True)
@@ -40,7 +41,9 @@ class OffsetEstimate:
 
 
 @renamed(strain="channels")
-def estimate_offsets(C_bar, channels, w_sensor=None, layout: ChannelLayout = MALTESE_CROSS_8) -> OffsetEstimate:
+def estimate_offsets(
+    C_bar, channels, w_sensor=None, layout: ChannelLayout = MALTESE_CROSS_8, model: SensorModel | None = None
+) -> OffsetEstimate:
     """Re-tare: the offsets D alone, with C_bar known, from a few samples of a known load.
 
     ``D = mean(W_known - C Delta)``: the frequent use the paper stresses (offset removal
@@ -52,6 +55,8 @@ def estimate_offsets(C_bar, channels, w_sensor=None, layout: ChannelLayout = MAL
         w_sensor: The known load in [N, N, N, N m, N m, N m], shape (N, 6) or (6,);
             zero (nothing mounted) when None.
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
+        model: A nonlinear sensor model (the calibration's ``model``): ``D = mean(W_known -
+            Theta phi(u))``, C_bar unused; None for the linear ``C Delta``.
 
     Raises:
         InsufficientExcitation: No finite sample.
@@ -63,7 +68,7 @@ def estimate_offsets(C_bar, channels, w_sensor=None, layout: ChannelLayout = MAL
         W = np.repeat(W, len(S), axis=0)
     if len(W) != len(S):
         raise ShapeError(f"w_sensor has {len(W)} rows but channels has {len(S)}: expected the same N")
-    residual = W - S @ C.T
+    residual = W - (S @ C.T if model is None else model.wrench(S))
     ok = np.all(np.isfinite(residual), axis=1)
     n = int(ok.sum())
     if n == 0:

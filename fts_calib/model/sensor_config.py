@@ -2,10 +2,12 @@
 
 Fields: ``name``; ``strain_unit`` (text); optional ``channels``, the channel layout
 (:mod:`fts_calib.model.channels`: ``maltese-cross-8``, the default, the paper's 8 bridges;
-``wrench-6``, a factory-calibrated sensor whose channels are a wrench; or
-``{projection: 6 x n rows}``); ``full_scale`` ``{force [N], moment [N m]}`` (the paper's
-sensor: 50 N and 5 N m), used to express errors in % of full scale; ``rate_hz`` (strain
-sample rate); optional ``simulation``, the true model of the simulated sensor: ``C``
+``wrench-6``, a factory-calibrated sensor whose channels are a wrench;
+``{projection: 6 x n rows}``; or ``full``: the paper's 8 channels without a projection, a
+free 6 x 8 C); optional ``model``, the sensor model (``auto``, the default: chosen by
+held-out error; ``linear``, ``quadratic`` or ``cubic``: :mod:`fts_calib.model.features`);
+``full_scale`` ``{force [N], moment [N m]}`` (the paper's sensor: 50 N and 5 N m), used to
+express errors in % of full scale; ``rate_hz`` (strain sample rate); optional ``simulation``, the true model of the simulated sensor: ``C``
 (6 x n, must be of the form C_bar P) or ``C_bar`` (6x6), ``D`` (6), ``noise_std`` (one
 number or n, raw units), ``null_coupling`` ((n - 6) x 6), ``null_offset`` (n - 6),
 ``drift_rate`` (one number or n, raw units per s), ``adc`` ``{bits, gain, reference}``
@@ -39,9 +41,21 @@ from ..core.fileio import check_keys, fields_of, load_yaml, read_array, read_num
 from ..core.resources import locate
 from .channel_limits import ChannelLimits
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
+from .features import AUTO_MODEL, model_setting
 
 #: The keys of a sensor file and of its sections (any other is refused).
-SENSOR_FILE_KEYS = ("name", "strain_unit", "channels", "full_scale", "rate_hz", "resolution", "range", "adc_bits", "simulation")
+SENSOR_FILE_KEYS = (
+    "name",
+    "strain_unit",
+    "channels",
+    "model",
+    "full_scale",
+    "rate_hz",
+    "resolution",
+    "range",
+    "adc_bits",
+    "simulation",
+)
 FULL_SCALE_KEYS = ("force", "moment")
 SIMULATION_KEYS = (
     "C",
@@ -192,6 +206,9 @@ class SensorSpec:
         limits: The declared resolution and range of the channels
             (:mod:`fts_calib.model.channel_limits`), or None when nothing is declared (then
             detected from the data).
+        model: The sensor model setting: 'auto' (chosen by held-out error), 'linear',
+            'quadratic' or 'cubic' (:mod:`fts_calib.model.features`).
+        full_channels: The model reads the raw channels (a free 6 x n C) instead of ``P Delta``.
     """
 
     name: str
@@ -201,9 +218,13 @@ class SensorSpec:
     simulated: SimulationSpec | None = None
     layout: ChannelLayout = MALTESE_CROSS_8
     limits: ChannelLimits | None = None
+    model: str = AUTO_MODEL
+    full_channels: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "layout", channel_layout(self.layout))
+        object.__setattr__(self, "model", model_setting(self.model))
+        object.__setattr__(self, "full_channels", bool(self.full_channels))
         if self.simulated is not None and self.simulated.layout != self.layout:
             raise ConfigError(
                 "channels",
@@ -340,8 +361,9 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     # force and moment fill the six entries of SensorSpec.full_scale: checked here, by their names
     force = read_positive(full.get("force", DEFAULT_FULL_SCALE[0]), path, "full_scale.force")
     moment = read_positive(full.get("moment", DEFAULT_FULL_SCALE[3]), path, "full_scale.moment")
+    full_channels = data.get("channels") == "full"
     with fields_of(path, names={"projection": "channels.projection"}):
-        layout = channel_layout(data.get("channels"))
+        layout = channel_layout(None if full_channels else data.get("channels"))
     full_scale = np.array([force] * 3 + [moment] * 3)
     simulated = _read_simulation(data["simulation"], path, layout, full_scale) if data.get("simulation") is not None else None
     limits = _read_limits(data, path, layout.n_channels)
@@ -356,4 +378,6 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
             simulated=simulated,
             layout=layout,
             limits=limits,
+            model=str(data.get("model", AUTO_MODEL)),
+            full_channels=full_channels,
         )

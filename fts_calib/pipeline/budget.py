@@ -26,7 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..model.budget import AccuracyBudget, ErrorSource, propagate, range_moments, wrench_noise
+from ..model.budget import MODEL_ERROR, AccuracyBudget, ErrorSource, model_error, propagate, range_moments, wrench_noise
 from ..model.calibration import Calibration
 from ..model.least_squares import information_rank
 from ..robot.definition import RobotAccuracy
@@ -54,6 +54,7 @@ def sample_budget(
     kind: str = "predicted",
     weight: float = 1.0,
     accuracy: RobotAccuracy | None = None,
+    prior_weight: float | None = None,
 ) -> AccuracyBudget:
     """The budget of a calibration from its samples (every term inf when they do not determine C, rank < 7).
 
@@ -72,15 +73,21 @@ def sample_budget(
         kind: 'predicted' or 'measured'.
         weight: Channel samples each row stands for (white terms average over them).
         accuracy: Encoder resolution, timing and mount tolerance; the robot definition's when None.
+        prior_weight: The weight lambda of a prior C_bar was shrunk toward (:mod:`fts_calib.model.prior`): the
+            errors propagate through the shrunk least squares, so every term is finite; None for none.
     """
     accuracy = kin.robot.accuracy if accuracy is None else accuracy
     n = len(joints)
-    if n == 0 or information_rank(x.T @ x)[0] < 7:
+    ridge = None
+    if prior_weight is not None and n:
+        ridge = np.zeros((7, 7))
+        ridge[:6, :6] = prior_weight * np.diag(np.einsum("ni,ni->i", x[:, :6], x[:, :6]))
+    if n == 0 or (ridge is None and information_rank(x.T @ x)[0] < 7):
         names = [name for name in ("strain noise", *SOURCE_NAMES) if tool.tolerance is not None or not name.startswith("tool")]
         return AccuracyBudget({name: np.full(6, np.inf) for name in names}, full_scale, kind=kind)
     sources = load_error_sources(kin, tool, joints, configuration, joint_velocity, stop, accuracy)
     noise = ErrorSource("strain noise", np.broadcast_to(np.eye(6), (n, 6, 6)), np.diag(np.asarray(sigma_w, dtype=float) ** 2))
-    terms = propagate(x, [noise, *sources], range_moments(C_bar, D, full_scale), weight)
+    terms = propagate(x, [noise, *sources], range_moments(C_bar, D, full_scale), weight, ridge)
     return AccuracyBudget(terms, full_scale, kind=kind)
 
 
@@ -116,8 +123,10 @@ def measured_budget(
     sigma_w,
     full_scale,
     gap_s: float = _STOP_GAP_S,
+    residual_rms=None,
+    prior_weight: float | None = None,
 ) -> AccuracyBudget:
-    """The budget of a calibration from the samples it was solved from.
+    """The budget of a calibration from the samples it was solved from, with its model error.
 
     Args:
         kin: Kinematics.
@@ -128,6 +137,10 @@ def measured_budget(
             filter's noise floor), per axis [N, N m]. Shape (6,).
         full_scale: Full scale per axis [N, N m]. Shape (6,).
         gap_s: A gap between kept samples longer than this [s] starts a new stop.
+        residual_rms: The calibration's residual RMS per axis on held-out samples (or its fit's), [N, N m], shape
+            (6,): what exceeds ``sigma_w`` is the budget's "model error" term
+            (:func:`fts_calib.model.budget.model_error`); None for no such term.
+        prior_weight: The weight of the prior C_bar was shrunk toward, or None (see :func:`sample_budget`).
     """
     time, _, channels, codes, joints = kept.arrays()
     stride = max(1, int(math.ceil(len(time) / _MAX_BUDGET_SAMPLES)))  # bounded memory: white terms weigh the rest
@@ -140,9 +153,26 @@ def measured_budget(
         velocity[1:][same] = slope[same]
     x_bar = np.linalg.solve(calibration.C_bar, (calibration.wrench(channels) - calibration.D).T).T
     x = np.hstack([x_bar, np.ones((len(x_bar), 1))])
-    return sample_budget(
-        kin, tool, joints, codes, velocity, stop, x, sigma_w, calibration.C_bar, calibration.D, full_scale, "measured", weight=stride
+    budget = sample_budget(
+        kin,
+        tool,
+        joints,
+        codes,
+        velocity,
+        stop,
+        x,
+        sigma_w,
+        calibration.C_bar,
+        calibration.D,
+        full_scale,
+        "measured",
+        weight=stride,
+        prior_weight=prior_weight,
     )
+    if residual_rms is None:
+        return budget
+    terms = {**budget.terms, MODEL_ERROR: model_error(residual_rms, sigma_w)}
+    return AccuracyBudget(terms, budget.full_scale, budget.coverage, budget.kind)
 
 
 #: Valid samples kept for the stream-latency estimate, at most: 100 s at 1 kHz (a whole sized run of three
@@ -195,7 +225,8 @@ def with_measured_budget(
 
     Channel noise as the data show it (the filter's noise floor through C, else the fit's
     residual: an upper bound, it holds every random error), the tool's tolerance, the
-    robot's encoders, timing and mount (:func:`measured_budget`), and the latency of the
+    robot's encoders, timing and mount (:func:`measured_budget`), the model error (the held-out
+    residual of the chosen model, or the fit's residual, beyond the noise), and the latency of the
     joint stream from the moving samples (:func:`fts_calib.pipeline.latency.estimate_latency`)
     under ``quality.accuracy_budget.stream_latency_estimate`` when there are any.
 
@@ -219,7 +250,11 @@ def with_measured_budget(
     full_scale = np.asarray(full_scale, dtype=float)
     quality = calibration.quality
     sigma_w = quality.residual_rms if noise_floor is None else wrench_noise(calibration.C, noise_floor)
-    budget = measured_budget(kin, tool, kept, calibration, sigma_w, full_scale)
+    selection = calibration.model_selection
+    chosen = [c for c in selection["candidates"] if c["chosen"]] if selection else []
+    residual = np.asarray(chosen[0]["heldout_rms"]) if chosen else quality.residual_rms  # held out when chosen so
+    prior_weight = None if quality.prior is None else float(quality.prior["weight"])
+    budget = measured_budget(kin, tool, kept, calibration, sigma_w, full_scale, residual_rms=residual, prior_weight=prior_weight)
     record = budget.to_dict()
     latency = None
     if len(moving):

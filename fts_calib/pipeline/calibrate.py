@@ -102,6 +102,8 @@ def calibrate_recording(
     topics: BagTopics | None = None,
     layout: ChannelLayout = MALTESE_CROSS_8,
     prior: Prior | None = None,
+    model: str = "linear",
+    full_channels: bool = False,
     full_scale=None,
     limits: ChannelLimits | None = None,
 ) -> CalibrateResult:
@@ -127,8 +129,11 @@ def calibrate_recording(
         layout: The sensor's channel layout; a recording of another number of channels is
             refused (ShapeError naming both).
         prior: Shrink C_bar toward a known calibration (ridge, :mod:`fts_calib.model.prior`).
-        full_scale: Full scale per wrench axis [N, N m], shape (6,), for the measured budget
-            in %; a sensor file's default when None.
+        model: The sensor model setting ('linear', 'quadratic', 'cubic' or 'auto', chosen by
+            held-out error: :mod:`fts_calib.model.model_choice`).
+        full_channels: Regress on the raw channels (a free 6 x n C) instead of ``P Delta``.
+        full_scale: Full scale per wrench axis [N, N m], shape (6,), scaling the held-out errors and
+            the measured budget in %; a sensor file's default when None.
         limits: The channels' declared resolution and rails (the sensor file's), in place of
             ``settings.checks.limits``; None: those.
             Rails not declared are detected (see the module docstring).
@@ -148,7 +153,8 @@ def calibrate_recording(
     settings = settings or PipelineConfig()
     settings = settings if limits is None else settings.with_limits(limits)
     pending: list[tuple] = []  # the kept samples of a run that may be done again, for on_kept
-    run = _Run(paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, full_scale)
+    models = {"model": model, "full_channels": full_channels, "full_scale": full_scale}
+    run = _Run(paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models)
     session, problems, rows, lost = run.read(resume, settings, on_kept=None if on_kept is None else lambda *a: pending.append(a))
     found = None if resume or session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
     if found is not None:  # a rail nobody declared: its samples went in; calibrate again without them
@@ -241,12 +247,23 @@ def calibrate(
             layout=spec.layout,
             prior=prior,
             full_scale=spec.full_scale,
+            limits=spec.limits,
+            model=spec.model,
+            full_channels=spec.full_channels,
         )
         if result.calibration is None:
             raise result.error if result.error is not None else InsufficientExcitation(0, 7)
         return result.calibration
     session = CalibrationSession(
-        kin, tool, settings, use_filter=use_filter, source="arrays in memory", layout=spec.layout, full_scale=spec.full_scale
+        kin,
+        tool,
+        settings.with_limits(spec.limits),
+        use_filter=use_filter,
+        source="arrays in memory",
+        layout=spec.layout,
+        full_scale=spec.full_scale,
+        model=spec.model,
+        full_channels=spec.full_channels,
     )
     if isinstance(recording_or_arrays, SampleBatch):
         batch = recording_or_arrays
@@ -270,10 +287,10 @@ def calibrate(
 class _Run:
     """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice."""
 
-    def __init__(self, paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, full_scale):
+    def __init__(self, paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models):
         self.paths, self.kin, self.tool = paths, kin, tool
         self.use_filter, self.checkpoint, self.topics, self.layout = use_filter, checkpoint, topics, layout
-        self.joints_in_degrees, self.progress, self.full_scale = joints_in_degrees, progress, full_scale
+        self.joints_in_degrees, self.progress, self.models = joints_in_degrees, progress, models
 
     def read(self, resume: bool, settings: PipelineConfig, on_kept) -> tuple[CalibrationSession, list[str], int, list[str]]:
         """The session after the whole recording (with these settings).
@@ -294,7 +311,7 @@ class _Run:
             layout = self.layout
             if resume and checkpoint is not None and Path(checkpoint).exists():
                 session = CalibrationSession.resume(
-                    checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, full_scale=self.full_scale
+                    checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, **self.models
                 )
             else:
                 session = CalibrationSession(
@@ -307,7 +324,7 @@ class _Run:
                     on_kept=on_kept,
                     source_record=record,
                     layout=layout,
-                    full_scale=self.full_scale,
+                    **self.models,
                 )
             degrees = self.joints_in_degrees
             chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if degrees else c for c in reader)

@@ -17,13 +17,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from .._version import __version__
 from ..core.bounded import load_json_file
@@ -31,7 +28,6 @@ from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning
 from ..core.fileio import atomic_write_text
 from ..feeds.bag_log import parse_bag_argument
 from ..model.calibration import now_iso
-from ..model.estimator import OnlineEstimator
 from ..robot.tool import Tool
 
 CHECKPOINT_FORMAT = "fts-calib-checkpoint/1"
@@ -184,51 +180,3 @@ def _same_recording(recorded: Any, current: dict[str, Any]) -> bool:
         except (OSError, KeyError):
             return False
     return current.get("sha256") == recorded.get("sha256") and current.get("hashed_bytes") == hashed and current.get("size", -1) >= size
-
-
-def session_state(session) -> dict[str, Any]:
-    """What a checkpoint holds of a :class:`~fts_calib.pipeline.session.CalibrationSession`: its sums, counts and filter state."""
-    last = session.checks.last_time
-    return {
-        "robot": session.kin.robot.name,
-        "tool": session.tool.name,
-        "source": session.source_record,
-        "configurations": session.tool.names,
-        "estimator": session.estimator.state(),
-        "kept": session.kept.tolist(),
-        "seen": session.seen,
-        **session.checks.state(),  # skipped, by reason, and at the rails
-        "directions": session._directions.tolist(),
-        "fit_sums": session._fit_sums.tolist(),
-        "last_time": None if last == -math.inf else last,
-        "filter": None if session.filter is None else session.filter.state(),
-    }
-
-
-def restore_state(session, state: dict[str, Any], path: Path) -> None:
-    """Put a checkpoint's sums, counts and filter state back into a fresh session (:meth:`CalibrationSession.resume`).
-
-    Raises:
-        FileFormatError: A damaged checkpoint, or one of another channel layout.
-    """
-    try:
-        session.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
-        if "basis" in state["estimator"]:  # a checkpoint of an older version has constant offsets only
-            estimator.offsets = session.settings.offsets.model
-        m = 10 + estimator.basis.n_drift
-        session._fit_sums = np.zeros((len(session.tool.configurations), m, m))
-        session.kept = np.array(state["kept"], dtype=np.int64)
-        session.seen = int(state["seen"])
-        session.checks.restore(state)
-        session._directions = np.array(state["directions"], dtype=float)
-        if "fit_sums" in state:
-            session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
-    if session.estimator.layout != session.layout:
-        found, expected = session.estimator.layout.name, session.layout.name
-        raise FileFormatError(path, "estimator.channels", f"is of a {found} sensor but the sensor is {expected}: give its --sensor")
-    if state.get("last_time") is not None:
-        session.checks.last_time = session.checks.resume_time = float(state["last_time"])
-    if session.filter is not None and state.get("filter"):
-        session.filter.restore(state["filter"])

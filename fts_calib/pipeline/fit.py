@@ -193,14 +193,58 @@ def _ratios(tool: Tool, matrices, sums, counts, noise_cov, per_configuration=Fal
     theta, rss = solved
     seen = counts > 0
     rms = np.sqrt(rss / np.maximum(counts, 1)[:, None])
-    C_bar = theta[:, :6]
+    expected = expected_residual(tool, theta[:, :6], noise_cov)
+    ratio = np.where(seen[:, None], rms / expected[None, :], 0.0)
+    return ratio, rms, expected
+
+
+def expected_residual(tool: Tool, C_bar: np.ndarray, noise_cov: np.ndarray) -> np.ndarray:
+    """The residual the noise explains per axis: ``sqrt(diag(C_bar Sigma_P C_bar^T))``, floored; shape (6,), [N, N m].
+
+    Args:
+        tool: The tool file (its weight and moment set the floor, :data:`RELATIVE_FLOOR`).
+        C_bar: Modified calibration matrix (a nonlinear model's slope), shape (6, 6).
+        noise_cov: Covariance of ``P Delta`` of one sample, shape (6, 6).
+    """
     sigma = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", C_bar, noise_cov, C_bar), 0.0))
     weight = max(c.mass for c in tool.configurations) * tool.gravity
     moment = max(c.mass * float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations) * tool.gravity
     floor = RELATIVE_FLOOR * np.array([weight] * 3 + [max(moment, 1e-3 * weight)] * 3)
-    expected = np.maximum(sigma, floor)
-    ratio = np.where(seen[:, None], rms / expected[None, :], 0.0)
-    return ratio, rms, expected
+    return np.maximum(sigma, floor)
+
+
+def check_model_fit(
+    tool: Tool, residual_rms: dict[str, np.ndarray], C_bar: np.ndarray, noise_std, layout: ChannelLayout, linear: FitCheck
+) -> FitCheck:
+    """The fit check of a model other than the linear one, from its residual per configuration.
+
+    The verdict compares each configuration's residual RMS with the noise through the model's
+    slope at the centre of the data, as :func:`check_fit` does; a poor fit takes the linear check's diagnosis (the
+    alternatives of the tool file are tried on the linear model).
+
+    Args:
+        tool: The tool file.
+        residual_rms: Per configuration name, the model's residual RMS per axis, [N, N m], shape (6,) each.
+        C_bar: The model linearised at the centre of the data, in the layout, shape (6, 6).
+        noise_std: Channel noise measured in the data (raw units, (n,)), or None (unchecked).
+        layout: The channel layout.
+        linear: The check of the linear model on the same samples.
+    """
+    if not residual_rms:
+        return linear
+    expected = expected_residual(tool, C_bar, layout.projected_noise(0.0 if noise_std is None else noise_std))
+    names = list(residual_rms)
+    ratio = np.array([residual_rms[k] / expected for k in names])
+    k, axis = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    worst = f"configuration {names[k]}, {WRENCH_AXES[axis]}"
+    implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
+    if implausible:
+        return FitCheck("poor", float(ratio.max()), residual_rms, expected, implausible, worst)
+    if noise_std is None:
+        return FitCheck("unchecked", float(ratio.max()), residual_rms, expected, "", worst)
+    if ratio.max() <= MAX_RATIO:
+        return FitCheck("consistent", float(ratio.max()), residual_rms, expected, "", worst)
+    return FitCheck("poor", float(ratio.max()), residual_rms, expected, linear.diagnosis, worst)
 
 
 def _golden(f, low: float, high: float, iterations: int = 60) -> tuple[float, float]:

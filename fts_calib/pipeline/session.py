@@ -46,15 +46,17 @@ from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
 from .advice import missing_words
 from .budget import KeptSamples, MovingSamples, with_measured_budget
-from .checkpoint import read_checkpoint, restore_state, session_state, write_checkpoint
+from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from .fit import MAX_RATIO, FitCheck, check_fit, fit_rows, model_fit_sums
+from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .latency import LatencyEstimate
 from .progress import Progress
 from .provenance import session_provenance
 from .qsfilter import QuasiStaticFilter
+from .resume import restore_session, session_state
 from .settings import PipelineConfig
 from .still import quasi_static
+from .units import HeldOutUnits
 
 __all__ = [
     "BACKWARDS",
@@ -87,9 +89,13 @@ class CalibrationSession:
             (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
             Samples of another number of channels are refused (ShapeError naming both).
-        full_scale: Full scale per wrench axis [N, N, N, N m, N m, N m], shape (6,), for the
-            measured accuracy budget in % (:mod:`fts_calib.pipeline.budget`); a sensor file's
-            default (50 N, 5 N m) when None.
+        model: The sensor model setting ('linear', 'quadratic', 'cubic' or 'auto':
+            :mod:`fts_calib.model.features`); with any but 'linear' the kept samples are also
+            grouped into held-out units (:mod:`fts_calib.pipeline.units`) for the choice.
+        full_channels: Regress on the raw channels (a free 6 x n C; ``channels: full``).
+        full_scale: Full scale per wrench axis [N, N, N, N m, N m, N m], shape (6,), scaling the
+            held-out errors and the measured accuracy budget in % (:mod:`fts_calib.pipeline.budget`);
+            a sensor file's default (50 N, 5 N m) when None.
 
     Attributes:
         budget: The measured accuracy budget of the last :meth:`solve`, or None.
@@ -108,6 +114,8 @@ class CalibrationSession:
         on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
+        model: str = "linear",
+        full_channels: bool = False,
         full_scale=None,
     ):
         self.kin = kin
@@ -122,7 +130,15 @@ class CalibrationSession:
         self.source = source
         self.source_record = source_record
         n = len(tool.configurations)
-        self.estimator = OnlineEstimator(layout=self.layout, offsets=self.settings.offsets.model, basis=self.settings.offsets.basis(n))
+        self.estimator = OnlineEstimator(
+            layout=self.layout,
+            offsets=self.settings.offsets.model,
+            basis=self.settings.offsets.basis(n),
+            model=model,
+            full_channels=full_channels,
+            full_scale=full_scale,
+        )
+        self.units = HeldOutUnits()
         self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous, self.settings.checks.limits) if use_filter else None
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
@@ -238,7 +254,8 @@ class CalibrationSession:
         if not len(kept) or W is None:
             return
         codes = kept.configuration
-        self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature)
+        units = None if self.estimator.units is None else self.units.assign(kept.time, codes)
+        self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints)
@@ -300,7 +317,13 @@ class CalibrationSession:
             return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
         chosen = self.estimator.model_in_use()[0]
         sums, per_configuration = model_fit_sums(self._fit_sums, chosen.model, chosen.columns, self.estimator.basis.n_configurations)
-        return check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)  # noise: floored at step/sqrt(12)
+        linear = check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)  # noise: floored at step/sqrt(12)
+        residuals = self.estimator.model_residuals()
+        if residuals is None:  # the linear model on P Delta: the check above is the model's
+            return linear
+        rms, C_bar = residuals
+        named = {name: rms[k] for k, name in enumerate(self.tool.names) if k in rms}
+        return check_model_fit(self.tool, named, C_bar, noise, self.layout, linear)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
         """The calibration from everything kept so far, with its fit check, measured budget and latency in the quality.
@@ -379,6 +402,8 @@ class CalibrationSession:
         clock: Callable[[], float] = _time.monotonic,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
+        model: str = "linear",
+        full_channels: bool = False,
         full_scale=None,
     ) -> CalibrationSession:
         """A session continuing from a checkpoint; samples up to its last time are skipped.
@@ -394,6 +419,19 @@ class CalibrationSession:
         state = read_checkpoint(path, kin.robot.name, tool, source_record)
         record = source_record if source_record is not None else state.get("source")
         use_filter = state.get("filter") is not None
-        session = cls(kin, tool, settings, path, use_filter, source, clock, source_record=record, layout=layout, full_scale=full_scale)
-        restore_state(session, state, path)
+        session = cls(
+            kin,
+            tool,
+            settings,
+            path,
+            use_filter,
+            source,
+            clock,
+            source_record=record,
+            layout=layout,
+            model=model,
+            full_channels=full_channels,
+            full_scale=full_scale,
+        )
+        restore_session(session, state, path, (model, full_channels, full_scale))
         return session

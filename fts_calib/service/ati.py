@@ -224,6 +224,7 @@ def ati_text(calibration: Calibration, full_scale, serial: str = "", body_style:
         serial: ``FTSensor Serial``.
         body_style: ``FTSensor BodyStyle``.
     """
+    calibration.require_linear("the ATI export (its UserAxis rows)")
     full_scale = np.asarray(full_scale, dtype=float).reshape(6)
     n = calibration.layout.n_channels
     offsets = ", ".join(f"{a} {float(d)!r}" for a, d in zip(WRENCH_AXES, calibration.D, strict=True))

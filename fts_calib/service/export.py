@@ -1,7 +1,10 @@
 """Export a calibration for firmware and other software: a C header, JSON, ROS 2 parameters.
 
 - ``c-header``: C (6 x n, n channels of the calibration's layout) and D (6) as arrays, and an inline function computing
-  ``wrench = C strain + D``, as the paper's STM32 does. ``float`` by default (a Cortex-M4
+  ``wrench = C strain + D``, as the paper's STM32 does. A nonlinear model (quadratic, cubic, or
+  a free C over the raw channels) gets its polynomial instead: ``u = P strain`` (or the
+  channels), the features ``phi`` built as Python builds them (each a product of a lower one and
+  one entry of u, :mod:`fts_calib.model.features`), and ``wrench = Theta phi + D``. ``float`` by default (a Cortex-M4
   has a single-precision FPU); define ``FTS_CALIB_DOUBLE`` before including it for double.
   Values are printed as Python repr (shortest, round-trips a double; in float mode
   the compiler rounds them).
@@ -22,6 +25,7 @@ import re
 from ..core.exceptions import ConfigError
 from ..core.fileio import to_plain
 from ..model.calibration import FORMAT, Calibration
+from ..model.features import SensorModel, monomials
 from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 from .ati import ati_text
 from .ros2 import ros2_parameters
@@ -44,7 +48,9 @@ def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
     """
     prefix = _identifier(name)
     lower = prefix.lower()
-    C_rows = ",\n".join("    {" + ", ".join(f"{prefix}_R({float(v)!r})" for v in row) + "}" for row in calibration.C)
+    if calibration.model is not None:
+        return _polynomial_header(calibration, calibration.model, prefix)
+    C_rows = _rows(calibration.C, prefix)
     D_values = ", ".join(f"{prefix}_R({float(v)!r})" for v in calibration.D)
     prov = calibration.provenance
     n = calibration.layout.n_channels
@@ -88,6 +94,91 @@ def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
     return "\n".join(lines)
 
 
+def _rows(matrix, prefix: str) -> str:
+    """A C initializer of a matrix's rows, each value as ``PREFIX_R(repr)``."""
+    return ",\n".join("    {" + ", ".join(f"{prefix}_R({float(v)!r})" for v in row) + "}" for row in matrix)
+
+
+def _polynomial_header(calibration: Calibration, model: SensorModel, prefix: str) -> str:
+    """The C header of a nonlinear model: its inputs, features and coefficients, and the evaluator."""
+    lower = prefix.lower()
+    n, d, p = model.n_channels, model.inputs, len(model.names)
+    first, last = _factors(d, model.degree)
+    prov = calibration.provenance
+    inputs = f"u = P * strain, the {calibration.layout.name} layout's 6 combinations" if not model.full else "u = strain (no projection)"
+    lines = [
+        f"/* {lower}.h: force/torque sensor calibration written by fts-calib {prov.get('software_version', '')}".rstrip() + ".",
+        f" * A {model.family} model: wrench = THETA * phi(u) + D, {inputs};",
+        f" * phi = the {p} monomials of u up to degree {model.degree} ({', '.join(model.names[: min(p, d + 2)])}, ...), each",
+        " * the product of an earlier feature and one entry of u. wrench = [Fx Fy Fz] in N and [Mx My Mz] in N*m,",
+        f" * in the sensor frame; strain = the {n} raw channels, in the unit used during calibration.",
+        f" * method: {prov.get('method', 'unknown')}; time: {prov.get('time', 'unknown')}. */",
+        f"#ifndef {prefix}_H",
+        f"#define {prefix}_H",
+        "",
+        "#ifdef FTS_CALIB_DOUBLE",
+        f"typedef double {lower}_real;",
+        f"#define {prefix}_R(x) x",
+        "#else",
+        f"typedef float {lower}_real;",
+        f"#define {prefix}_R(x) x##f",
+        "#endif",
+        "",
+    ]
+    if not model.full:
+        lines += ["/* P: the layout's projection, u = P * strain */", f"static const {lower}_real {prefix}_P[6][{n}] = {{"]
+        lines += [_rows(model.projection, prefix), "};", ""]
+    lines += [
+        f"/* feature f >= {d} is phi[{prefix}_FIRST[f - {d}]] * u[{prefix}_LAST[f - {d}]] */",
+        f"static const unsigned short {prefix}_FIRST[{p - d}] = {{{', '.join(map(str, first))}}};",
+        f"static const unsigned char {prefix}_LAST[{p - d}] = {{{', '.join(map(str, last))}}};",
+        "",
+        f"/* THETA: rows Fx Fy Fz (N per feature unit), Mx My Mz (N*m per feature unit); columns the {p} features */",
+        f"static const {lower}_real {prefix}_THETA[6][{p}] = {{",
+        _rows(model.coefficients, prefix),
+        "};",
+        "",
+        "/* D: offsets [Fx Fy Fz Mx My Mz] in N and N*m */",
+        f"static const {lower}_real {prefix}_D[6] = {{{', '.join(f'{prefix}_R({float(v)!r})' for v in calibration.D)}}};",
+        "",
+        f"/* wrench[6] = THETA * phi(u(strain[{n}])) + D */",
+        f"static inline void {lower}_wrench(const {lower}_real strain[{n}], {lower}_real wrench[6])",
+        "{",
+        f"    {lower}_real phi[{p}];",
+        f"    for (int i = 0; i < {d}; ++i) {{",
+    ]
+    if model.full:
+        lines.append("        phi[i] = strain[i];")
+    else:
+        lines += [
+            f"        {lower}_real sum = {prefix}_R(0.0);",
+            f"        for (int k = 0; k < {n}; ++k) sum += {prefix}_P[i][k] * strain[k];",
+            "        phi[i] = sum;",
+        ]
+    lines += [
+        "    }",
+        f"    for (int f = {d}; f < {p}; ++f) phi[f] = phi[{prefix}_FIRST[f - {d}]] * phi[{prefix}_LAST[f - {d}]];",
+        "    for (int i = 0; i < 6; ++i) {",
+        f"        {lower}_real sum = {prefix}_D[i];",
+        f"        for (int f = 0; f < {p}; ++f) sum += {prefix}_THETA[i][f] * phi[f];",
+        "        wrench[i] = sum;",
+        "    }",
+        "}",
+        "",
+        f"#endif /* {prefix}_H */",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _factors(d: int, degree: int) -> tuple[list[int], list[int]]:
+    """For each feature above degree 1: the index of the lower feature and of the entry of u it is multiplied by."""
+    terms = monomials(d, degree)
+    where = {m: i for i, m in enumerate(terms)}
+    higher = [m for m in terms if len(m) > 1]
+    return [where[m[:-1]] for m in higher], [m[-1] for m in higher]
+
+
 def json_text(calibration: Calibration) -> str:
     """The calibration as JSON (format, units, C, C_bar, D, quality, provenance)."""
     q = calibration.quality
@@ -98,6 +189,8 @@ def json_text(calibration: Calibration) -> str:
         "C": calibration.C,
         "C_bar": calibration.C_bar,
         "D": calibration.D,
+        "model": "linear" if calibration.model is None else calibration.model.to_config(),
+        **({"model_selection": dict(calibration.model_selection)} if calibration.model_selection is not None else {}),
         "quality": None
         if q is None
         else {

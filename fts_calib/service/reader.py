@@ -28,6 +28,7 @@ from ..core.arrays import as_matrix, as_samples
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, NotARotation, ShapeError
 from ..model.calibration import Calibration
+from ..model.features import features
 from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 
 #: Frames the external wrench can be expressed in.
@@ -95,6 +96,9 @@ def rotations(value, n: int, name: str = "R_world_sensor") -> np.ndarray:
 class WrenchReader:
     """Wrench from raw channels with a calibration, for a 1 kHz loop.
 
+    A linear calibration is ``C strain + D``; a nonlinear one (:class:`fts_calib.model.features.SensorModel`)
+    is its polynomial ``Theta phi(u) + D``, evaluated into buffers the reader owns.
+
     Args:
         calibration: The sensor's calibration; its layout fixes the number of channels n.
 
@@ -108,8 +112,12 @@ class WrenchReader:
         self.C = np.ascontiguousarray(calibration.C, dtype=float)
         self.n_channels = calibration.layout.n_channels
         self.D = np.array(calibration.D, dtype=float)  # a copy: set_offsets changes it, the calibration stays
+        self.model = calibration.model
         self._out = np.empty(6)
         self._shape = (self.n_channels,)
+        if self.model is not None:
+            self._u = np.empty((1, self.model.inputs))
+            self._phi = np.empty((1, len(self.model.names)))
 
     @renamed(strain="channels")
     def wrench(self, channels) -> np.ndarray:
@@ -127,7 +135,15 @@ class WrenchReader:
         """
         if not (type(channels) is np.ndarray and channels.dtype == np.float64 and channels.shape == self._shape):
             channels = as_matrix(channels, self._shape, "channels")  # a list, float32: converted; else ShapeError
-        np.dot(self.C, channels, out=self._out)
+        if self.model is None:
+            np.dot(self.C, channels, out=self._out)
+        else:
+            if self.model.projection is None:
+                self._u[0] = channels
+            else:
+                np.dot(self.model.projection, channels, out=self._u[0])
+            features(self._u, self.model.degree, out=self._phi)
+            np.dot(self.model.coefficients, self._phi[0], out=self._out)
         np.add(self._out, self.D, out=self._out)
         return self._out
 
@@ -142,7 +158,7 @@ class WrenchReader:
             Shape (N, 6), [N, N m] (a new array).
         """
         S, _ = as_samples(channels, self.n_channels, "channels")
-        return S @ self.C.T + self.D
+        return (S @ self.C.T if self.model is None else self.model.wrench(S)) + self.D
 
     def set_offsets(self, D) -> None:
         """Replace the offsets (after a re-tare), [N, N, N, N m, N m, N m], shape (6,)."""

@@ -136,6 +136,7 @@ def ros2_parameters(
         FtsCalibWarning: A ``wrench-6`` calibration with cross terms above
             :data:`MAX_COUPLING` that the broadcaster cannot apply.
     """
+    calibration.require_linear("the ros2 export (the broadcaster's offset and multiplier)")
     correction = broadcaster_correction(calibration)
     params = {
         node: {

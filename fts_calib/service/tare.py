@@ -218,8 +218,8 @@ def _apply(
             railed = "; ".join(rails)
             raise InsufficientExcitation(0, 1, f"no sample to re-tare from: a channel is at its rail ({railed}); check the sensor's zero")
         raise InsufficientExcitation(0, 1, "no still sample to re-tare from: hold the arm still while recording")
-    check_load(load - strain @ calibration.C.T, noise, what)
-    estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout)
+    check_load(load - (strain @ calibration.C.T if calibration.model is None else calibration.model.wrench(strain)), noise, what)
+    estimate = estimate_offsets(calibration.C_bar, strain, load, calibration.layout, calibration.model)
     what = f"{reason} ({estimate.samples_used:,} samples)"
     history = calibration.offset_history
     at_calibration = np.asarray(history[0]["D"], dtype=float) if history else calibration.D

@@ -1,0 +1,311 @@
+r"""The choice of the sensor model and the offset model by held-out error (leave one unit out).
+
+The estimator keeps, beside its sums, one sum of ``z z^T`` per *unit* with
+``z = [W; phi(u); b]``: W the known wrench (6,), ``phi`` the features of the largest family
+asked for (:mod:`fts_calib.model.features`) and ``b`` the full offset basis
+(:mod:`fts_calib.model.offset_basis`). A unit is what may be held out as a whole: a static
+pose, or a block of still windows of one configuration in time. Every candidate (a family
+and an offset model) is a block of these sums, so leave-one-unit-out residuals are exact
+from the sums alone:
+
+.. math::
+
+    \Theta_{-g} = \text{solve}(S - S_g), \qquad
+    \mathrm{RSS}_g = \mathrm{diag}(S_{WW,g} - 2\,\Theta_{-g} S_{XW,g} + \Theta_{-g} S_{XX,g} \Theta_{-g}^T)
+
+The score of a candidate is its held-out mean square over units and axes, each axis divided
+by its scale (the full scale when given, else the RMS of the known wrench) so that forces and
+moments count alike. Among the candidates whose score is within :data:`EQUAL_WITHIN_SE` standard
+errors (of the per-unit differences to the best, over units) of the best one's, the one of
+fewest parameters wins: an ideal sensor keeps the linear model and constant offsets, while a model that is wrong
+(a nonlinearity, offsets that move) loses by far more than its noise. BIC, which rewards any
+column that lowers the in-sample residual, chose drift terms on a nonlinear sensor's data.
+
+Directions of a candidate that the loads do not excite (quadratic forms of ``u`` that are
+constant on the gravity sphere alias with the offsets; ``channels: full`` has n - 6 load-free
+channel patterns) are held at minimum norm: the truncated eigen-decomposition of the normal
+matrix scaled to a unit diagonal, eigenvalues below :data:`MODEL_RCOND` times the largest
+dropped (:func:`fts_calib.model.least_squares.solve_normal`). Their number is reported.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .features import FAMILIES, degree_of, features, monomials
+from .least_squares import RCOND, gram, residual_sums, solve_normal
+from .offset_basis import Candidate, candidates
+
+#: Relative eigenvalue threshold of the minimum-norm rule for the directions of a nonlinear
+#: family that no load excites: those at the data's round-off. Directions that strain noise
+#: fills a little, or that the nonlinearity itself excites weakly (a few 1e-8 to 1e-6 of the
+#: largest eigenvalue on the gravity sphere), are fitted: dropping them loses the part of the
+#: model the held-out poses need, and a candidate that fits noise loses the held-out choice.
+MODEL_RCOND = 1e-9
+#: The rule, in words, for reports.
+HOLD_RULE = (
+    f"minimum norm: directions of the normal matrix (scaled to a unit diagonal) whose eigenvalue is below {MODEL_RCOND:g} "
+    f"of the largest (nonlinear families; {RCOND:g} for the linear one) are set to zero"
+)
+#: Standard errors within which a simpler candidate counts as equal to the best. On a linear sensor
+#: (static poses of five configurations, 100 seeds) the quadratic model's advantage over the linear
+#: one reads -7 to +1.1 standard errors, while a 2 % FS quadratic nonlinearity reads +4.8 and more:
+#: two leaves a margin both ways (one picked a quadratic model on 1 linear sensor in 20).
+EQUAL_WITHIN_SE = 2.0
+
+
+class UnitSums:
+    """Per-unit sums of ``z z^T`` with ``z = [W; phi(u); b]`` (see the module docstring).
+
+    Args:
+        projection: P (6, n) of the layout (``u = P Delta``), or None for ``u = Delta``.
+        n_channels: n.
+        degree: The largest family's degree (1 to 3).
+        basis_size: k, the columns of the offset basis.
+    """
+
+    def __init__(self, projection: np.ndarray | None, n_channels: int, degree: int, basis_size: int):
+        self.projection = None if projection is None else np.asarray(projection, dtype=float)
+        self.n_channels = int(n_channels)
+        self.degree = int(degree)
+        self.inputs = 6 if self.projection is not None else self.n_channels
+        self.n_features = len(monomials(self.inputs, self.degree))
+        self.basis_size = int(basis_size)
+        self.width = 6 + self.n_features + self.basis_size
+        self.sums: dict[int, np.ndarray] = {}
+        self.weights: dict[int, float] = {}
+
+    def add(self, W: np.ndarray, channels: np.ndarray, b: np.ndarray, unit: np.ndarray, weight: np.ndarray | None = None) -> None:
+        """Add finite rows: wrenches (N, 6), raw channels (N, n), offset basis rows (N, k), units (N,) int, weights (N,)."""
+        if not len(W):
+            return
+        Z = np.empty((len(W), self.width))
+        Z[:, :6] = W
+        u = channels if self.projection is None else channels @ self.projection.T
+        features(u, self.degree, out=Z[:, 6 : 6 + self.n_features])
+        Z[:, 6 + self.n_features :] = b
+        unit = np.asarray(unit, dtype=np.int64)
+        starts = np.r_[0, np.flatnonzero(np.diff(unit)) + 1, len(unit)]
+        for a, e in zip(starts[:-1], starts[1:], strict=True):  # units come in runs: one product per run
+            rows = Z[a:e]
+            g = int(unit[a])
+            if g not in self.sums:
+                self.sums[g], self.weights[g] = np.zeros((self.width, self.width)), 0.0
+            self.sums[g] += gram(rows, None if weight is None else weight[a:e])
+            self.weights[g] += float(e - a) if weight is None else float(weight[a:e].sum())
+
+    def merged(self, other: UnitSums, shift: np.ndarray) -> UnitSums:
+        """A copy holding both: ``other``'s units after this one's, its offset basis moved by ``shift`` (k, k)."""
+        out = UnitSums(self.projection, self.n_channels, self.degree, self.basis_size)
+        H = np.eye(self.width)
+        H[-self.basis_size :, -self.basis_size :] = shift
+        first = max(self.sums, default=-1) + 1
+        out.sums = {g: s.copy() for g, s in self.sums.items()} | {first + g: H @ s @ H.T for g, s in other.sums.items()}
+        out.weights = dict(self.weights) | {first + g: w for g, w in other.weights.items()}
+        return out
+
+    def total(self) -> np.ndarray:
+        """The sum over units, shape (width, width)."""
+        return sum(self.sums.values(), np.zeros((self.width, self.width)))
+
+    def state(self) -> dict:
+        """Plain data for checkpoints."""
+        return {
+            "degree": self.degree,
+            "full_channels": self.projection is None,
+            "units": {str(g): s.tolist() for g, s in self.sums.items()},
+            "weights": {str(g): w for g, w in self.weights.items()},
+        }
+
+    def restore(self, state: dict) -> None:
+        """Load :meth:`state` (of the same shape)."""
+        self.sums = {int(g): np.asarray(s, dtype=float).reshape(self.width, self.width) for g, s in state["units"].items()}
+        self.weights = {int(g): float(w) for g, w in state["weights"].items()}
+
+
+@dataclass(frozen=True)
+class Score:
+    """One candidate's held-out error.
+
+    Attributes:
+        family: One of :data:`fts_calib.model.features.FAMILIES`.
+        offsets: The offset model (its columns in the basis).
+        parameters: Coefficients per axis (features + offset columns).
+        heldout_rms: Held-out RMS per axis, [N, N, N, N m, N m, N m]. Shape (6,).
+        error: Held-out mean square, each axis over its scale squared, averaged over axes and units.
+        per_unit: Each unit's normalised mean square, shape (G,).
+        held: Directions held at minimum norm in the fit on all units.
+    """
+
+    family: str
+    offsets: Candidate
+    parameters: int
+    heldout_rms: np.ndarray
+    error: float
+    per_unit: np.ndarray
+    held: int
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The outcome of the choice: every candidate's score, the best and the one chosen."""
+
+    scores: list[Score]
+    chosen: Score
+    best: Score
+    setting: tuple[str, str]
+    units: int
+    scale: np.ndarray
+
+    def as_dict(self, column_names: Sequence[str]) -> dict:
+        """The calibration file's ``model_selection``: the rule, and the table of candidates."""
+
+        def label(score: Score) -> str:
+            return _label(score, column_names)
+
+        return {
+            "setting": {"model": self.setting[0], "offsets": self.setting[1]},
+            "criterion": (
+                f"leave one unit out (a static pose, or a block of still windows); among candidates within {EQUAL_WITHIN_SE:g} "
+                "standard errors of the best held-out error, the fewest parameters"
+            ),
+            "units": self.units,
+            "equal_within_standard_errors": EQUAL_WITHIN_SE,
+            "scale": self.scale.tolist(),
+            "chosen": label(self.chosen),
+            "candidates": [
+                {
+                    "model": s.family,
+                    "offsets": label(s).split(" + ", 1)[1],
+                    "parameters_per_axis": s.parameters,
+                    "heldout_rms": s.heldout_rms.tolist(),
+                    "heldout_error": s.error,
+                    "standard_error_vs_best": _paired_se(s, self.best)[1],
+                    "held_directions": s.held,
+                    "chosen": s is self.chosen,
+                }
+                for s in self.scores
+            ],
+            "held_directions": {"count": self.chosen.held, "rule": HOLD_RULE},
+        }
+
+
+def _label(score: Score, names: Sequence[str]) -> str:
+    if score.offsets.model == "constant":
+        return f"{score.family} + constant"
+    if score.offsets.model == "per-configuration":
+        return f"{score.family} + per-configuration"
+    drift = [names[i] for i in score.offsets.columns if not names[i].startswith("offset")]
+    return f"{score.family} + drift ({', '.join(drift)})"
+
+
+class Chooser:
+    """Scores the candidates of a setting from :class:`UnitSums` (see the module docstring).
+
+    Args:
+        sums: The per-unit sums.
+        basis: The offset basis (for the candidates: :func:`fts_calib.model.offset_basis.candidates`).
+        setting: ``(model setting, offset setting)``.
+        scale: Per-axis scale of the error [N, N m], shape (6,), or None (the RMS of W).
+        rcond: The minimum-norm threshold of the nonlinear families (:data:`MODEL_RCOND`).
+    """
+
+    def __init__(self, sums: UnitSums, basis, setting: tuple[str, str], scale=None, rcond: float = MODEL_RCOND):
+        self.sums = sums
+        self.basis = basis
+        self.setting = setting
+        self.rcond = rcond
+        self.total = sums.total()
+        n_eff = sum(sums.weights.values())
+        rms_w = np.sqrt(np.maximum(np.diag(self.total)[:6], 0.0) / max(n_eff, 1e-300))
+        self.scale = np.asarray(scale, dtype=float) if scale is not None else np.maximum(rms_w, 1e-12 * max(float(rms_w.max()), 1e-300))
+
+    def families(self) -> list[str]:
+        """The families the model setting allows, simplest first."""
+        return list(FAMILIES[: self.sums.degree]) if self.setting[0] == "auto" else [self.setting[0]]
+
+    def maps(self, family: str, candidate: Candidate) -> np.ndarray:
+        """The rows selecting ``[W; u; A b; higher features]`` of a candidate from z.
+
+        The offsets come right after the degree-1 features, as in the estimator's own
+        regressor, so the least-squares helpers find the linear part first and the offsets after it.
+        """
+        d = len(monomials(self.sums.inputs, degree_of(family)))
+        first = self.sums.inputs
+        k_m = len(candidate.A)
+        M = np.zeros((6 + d + k_m, self.sums.width))
+        M[:6, :6] = np.eye(6)
+        M[6 : 6 + first, 6 : 6 + first] = np.eye(first)
+        M[6 + first : 6 + first + k_m, 6 + self.sums.n_features :] = candidate.A
+        M[6 + first + k_m :, 6 + first : 6 + d] = np.eye(d - first)
+        return M
+
+    def fit(self, S: np.ndarray, family: str):
+        """``(Theta (6, p), rank, condition, pseudo-inverse (p, p))`` of a candidate's sums, minimum norm."""
+        return solve_normal(S[6:, 6:], S[:6, 6:], RCOND if family == "linear" else self.rcond, True)
+
+    def score(self, family: str, candidate: Candidate) -> Score:
+        """The held-out error of one candidate.
+
+        The directions held are those of the fit on every unit (one eigen-decomposition per
+        candidate); each fold solves in the others, by one linear solve (LAPACK's eigenvector
+        solver runs on every core and is 15x slower than a solve on a busy machine).
+        """
+        M = self.maps(family, candidate)
+        total = M @ self.total @ M.T
+        scale, kept = self._range(total, family)
+        units = sorted(self.sums.sums)
+        rss = np.zeros((len(units), 6))
+        counts = np.array([self.sums.weights[g] for g in units])
+        for i, g in enumerate(units):
+            mine = M @ self.sums.sums[g] @ M.T
+            theta = self._fold(total - mine, scale, kept)
+            rss[i] = residual_sums(mine[:6, :6], mine[:6, 6:], mine[6:, 6:], theta)
+        p = M.shape[0] - 6
+        per_unit = (rss / self.scale**2).sum(axis=1) / np.maximum(counts, 1e-300) / 6.0
+        n = max(float(counts.sum()), 1e-300)
+        heldout = np.sqrt(rss.sum(axis=0) / n)
+        return Score(family, candidate, p, heldout, float(per_unit.mean()), per_unit, p - kept.shape[1])
+
+    def _range(self, S: np.ndarray, family: str) -> tuple[np.ndarray, np.ndarray]:
+        """(diagonal scaling (p,), orthonormal basis (p, r) of the directions kept) of a candidate's normal matrix."""
+        X = S[6:, 6:]
+        d = np.diag(X)
+        scale = np.where(d > 0, 1.0 / np.sqrt(np.where(d > 0, d, 1.0)), 0.0)
+        eig, vec = np.linalg.eigh(X * scale[:, None] * scale[None, :])
+        top = eig[-1] if eig.size and eig[-1] > 0 else 0.0
+        return scale, vec[:, eig > (RCOND if family == "linear" else self.rcond) * top] if top > 0 else vec[:, :0]
+
+    @staticmethod
+    def _fold(S: np.ndarray, scale: np.ndarray, kept: np.ndarray) -> np.ndarray:
+        """Theta (6, p) of a fold's sums, in the kept directions (minimum norm in the scaled coordinates)."""
+        A = kept.T @ (S[6:, 6:] * scale[:, None] * scale[None, :]) @ kept
+        B = (S[:6, 6:] * scale[None, :]) @ kept
+        try:
+            y = np.linalg.solve(A, B.T)
+        except np.linalg.LinAlgError:  # the fold lost a direction the other units held: least squares
+            y = np.linalg.lstsq(A, B.T, rcond=None)[0]
+        return (kept @ y).T * scale[None, :]
+
+    def select(self) -> Selection:
+        """Score every candidate and choose (see the module docstring)."""
+        options = candidates(self.basis, np.diag(self.total)[6 + self.sums.n_features :] > 0, self.setting[1])
+        scores = [self.score(f, c) for f in self.families() for c in options]
+        finite = [s for s in scores if math.isfinite(s.error)] or scores
+        best = min(finite, key=lambda s: s.error)
+        equal = [s for s in finite if s is best or _paired_se(s, best)[0] <= EQUAL_WITHIN_SE * _paired_se(s, best)[1]]
+        chosen = min(equal, key=lambda s: (s.parameters, s.error))
+        return Selection(scores, chosen, best, self.setting, len(self.sums.sums), self.scale)
+
+
+def _paired_se(score: Score, best: Score) -> tuple[float, float]:
+    """(mean excess error over the best, its standard error over units), per-unit differences."""
+    diff = score.per_unit - best.per_unit
+    G = len(diff)
+    if G < 2:
+        return float(diff.mean()) if G else 0.0, math.inf
+    return float(diff.mean()), float(diff.std(ddof=1) / math.sqrt(G))

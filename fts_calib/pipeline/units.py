@@ -1,0 +1,70 @@
+"""Held-out units of the kept samples: what the model choice leaves out as a whole.
+
+The choice of the sensor model by held-out error (:mod:`fts_calib.model.model_choice`) leaves
+one *unit* out at a time. Samples of one unit share their errors (one orientation, one
+stretch of time), so a unit must be a whole static pose, or a block of still windows:
+
+- a new unit starts when the tool configuration changes;
+- or after a gap of more than :data:`UNIT_GAP_S` between kept samples (the arm moved: the
+  next pose of a static-pose dataset, or the next still stretch of a sweep);
+- or when a unit has lasted :data:`UNIT_SPAN_S` (a long slow sweep is cut into blocks in time).
+
+Times in [s].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: A gap between kept samples longer than this starts a new unit, [s].
+UNIT_GAP_S = 0.5
+#: A unit lasts at most this long, [s]: a sweep's still stretches are cut into blocks.
+UNIT_SPAN_S = 10.0
+
+
+class HeldOutUnits:
+    """Assigns each kept sample its unit, online, in time order (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self.count = 0  # units started so far
+        self._open: tuple[float, int, float, int] | None = None  # the open stretch: start [s], its first unit, last time [s], configuration
+
+    def assign(self, time: np.ndarray, configuration: np.ndarray) -> np.ndarray:
+        """Unit indices of kept samples (in time order), continuing the open stretch.
+
+        Args:
+            time: Times [s], shape (N,).
+            configuration: Tool configuration index per sample, shape (N,).
+
+        Returns:
+            Shape (N,), integers >= 0.
+        """
+        time = np.asarray(time, dtype=float)
+        codes = np.asarray(configuration, dtype=np.int64)
+        n = len(time)
+        out = np.empty(n, dtype=np.int64)
+        if not n:
+            return out
+        last_time, last_code = (self._open[2], self._open[3]) if self._open else (-np.inf, -1)
+        new = (codes != np.r_[last_code, codes[:-1]]) | (time - np.r_[last_time, time[:-1]] > UNIT_GAP_S)
+        firsts = np.flatnonzero(new).tolist()
+        ends = [*firsts, n]
+        stretches = [] if firsts and firsts[0] == 0 else [(0, ends[0], self._open)]
+        stretches += [(a, ends[j + 1], None) for j, a in enumerate(firsts)]
+        for a, e, opened in stretches:
+            start, first = (opened[0], opened[1]) if opened else (float(time[a]), self.count)
+            out[a:e] = first + np.floor((time[a:e] - start) / UNIT_SPAN_S).astype(np.int64)
+            self.count = max(self.count, int(out[e - 1]) + 1)
+            self._open = (start, first, float(time[e - 1]), int(codes[e - 1]))
+        return out
+
+    def state(self) -> dict:
+        """Plain data for checkpoints."""
+        return {"count": self.count, "open": None if self._open is None else list(self._open)}
+
+    def restore(self, state: dict | None) -> None:
+        """Load :meth:`state` (None: nothing saved)."""
+        if state:
+            self.count = int(state["count"])
+            o = state.get("open")
+            self._open = None if o is None else (float(o[0]), int(o[1]), float(o[2]), int(o[3]))
