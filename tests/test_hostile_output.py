@@ -129,7 +129,20 @@ def test_a_second_live_run_on_the_same_output_is_refused_naming_the_first(tmp_pa
         assert code == ExitCode.OUTPUT_IN_USE
         assert line.startswith(f"fts-calib live: error: {output} is being written by another fts-calib run (process {first.pid})")
         # its checkpoint too, when given on its own
-        code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", "x.csv", "-o", str(tmp_path / "other.yaml"), "--checkpoint", str(output)])
+        code = main(
+            [
+                "calibrate",
+                "--robot",
+                "ur5",
+                "--tool",
+                "paper_tool",
+                "x.csv",
+                "-o",
+                str(tmp_path / "other.yaml"),
+                "--checkpoint",
+                str(output),
+            ]
+        )
         assert code == ExitCode.OUTPUT_IN_USE and f"process {first.pid}" in _error_line(capsys)
     finally:
         first.kill()  # a crash: no chance to release anything
@@ -359,7 +372,21 @@ def drifting_csv(tmp_path_factory):
 
 def test_drift_offsets_name_the_columns_the_data_cannot_separate(tmp_path, drifting_csv, capsys):
     """Before: 'rank 11 of 12 ... more quasi-static samples'."""
-    code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet", "--offsets", "drift"])
+    code = main(
+        [
+            "calibrate",
+            "--robot",
+            "ur5",
+            "--tool",
+            "paper_tool",
+            str(drifting_csv),
+            "-o",
+            str(tmp_path / "c.yaml"),
+            "--quiet",
+            "--offsets",
+            "drift",
+        ]
+    )
     assert code == ExitCode.CHECK_FAILED
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last.startswith("NO CALIBRATION: insufficient excitation: the information matrix has rank 11 of 12"), last
@@ -367,7 +394,10 @@ def test_drift_offsets_name_the_columns_the_data_cannot_separate(tmp_path, drift
         "the offset columns 'temperature' and 'time^1' cannot be told apart: the temperature followed time" in last
     ), last
     assert "more quasi-static samples" not in last
-    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.OK
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(drifting_csv), "-o", str(tmp_path / "c.yaml"), "--quiet"])
+        == ExitCode.OK
+    )
 
 
 def test_undetermined_columns_of_an_exact_collinearity():
@@ -429,7 +459,10 @@ def test_fields_of_a_newer_version_survive_a_load_and_save_inside_quality_too(tm
 def test_streams_that_do_not_overlap_say_so_and_refer_to_no_unprinted_notes(tmp_path, ur5_recording, capsys):
     """Joint stamps 0.9 s late (under the clock check's 1 s) on a 0.5 s bag: every channel sample before the first joint."""
     bag = _bag(tmp_path / "short", ur5_recording, lambda k, t: t + 0.9, rows=50)
-    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == ExitCode.CHECK_FAILED
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"])
+        == ExitCode.CHECK_FAILED
+    )
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last == (
         "NO CALIBRATION: no usable sample: every row was skipped before the filter (strain before the first joint sample: 50): "
