@@ -385,7 +385,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``fts-calib`` with all its sub-commands."""
     from .._version import __version__
 
-    codes = "\n".join(f"  {int(entry.code):>3}  {entry.meaning}" for entry in EXIT_CODES)
+    # by number for the reader (EXIT_CODES is in the order errors are looked up)
+    codes = "\n".join(f"  {int(entry.code):>3}  {entry.meaning}" for entry in sorted(EXIT_CODES, key=lambda entry: entry.code))
     parser = Parser(
         prog="fts-calib",
         description="In-situ calibration of six-axis strain-gauge force/torque sensors.",
