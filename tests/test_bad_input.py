@@ -340,3 +340,22 @@ def test_a_file_of_another_kind_given_to_an_option_is_named_as_such(tmp_path, ur
     line = _one_error_line(capsys)
     assert expected in line, line
     assert not (tmp_path / "cal.yaml").exists()
+
+
+def test_a_urdf_a_folder_or_a_mistyped_tool_name_is_named_as_such(tmp_path, ur5, ur5_recording, capsys):
+    """Before: 'not valid YAML at line 310', 'no file' for a folder, and a tool list holding sensors and calibrations."""
+    cases = [
+        (["--robot", str(ur5.robot.urdf)], "ur5_robot.urdf: is a URDF, not a robot file: write a robot YAML that names it"),
+        (["--robot", str(tmp_path)], f"{tmp_path}: is a folder, not a robot YAML file"),
+        (
+            ["--robot", "ur5", "--tool", "papertool"],
+            "no file 'papertool' and no shipped tool of that name; shipped: paper_tool, validation_tool\n",
+        ),
+        (["--robot", "ur5", "--tool", str(tmp_path / "my_tool.yaml")], "my_tool.yaml: file not found"),
+    ]
+    for options, expected in cases:
+        command = ["calibrate", *options, *(["--tool", "paper_tool"] if "--tool" not in options else [])]
+        assert main([*command, str(ur5_recording), "-o", str(tmp_path / "cal.yaml")]) == ExitCode.FILE, options
+        line = _one_error_line(capsys) + "\n"  # the end of the line: nothing listed after the tools
+        assert line.startswith("fts-calib calibrate: error: ") and expected in line, line
+    assert not (tmp_path / "cal.yaml").exists()

@@ -13,7 +13,7 @@ class Parser(argparse.ArgumentParser):
         if "required" in message and "--tool" in message:
             from ..core.resources import shipped
 
-            tools = [name for name in shipped("configs") if name.endswith("_tool")]
+            tools = shipped("configs", "tool")
             message += (
                 f"; name the calibration tool mounted: a shipped one ({', '.join(f'--tool {t}' for t in tools)}) "
                 "or your tool YAML (--tool my_tool.yaml): a wrong tool gives a wrong calibration"

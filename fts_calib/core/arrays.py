@@ -8,7 +8,7 @@ import numpy.typing as npt
 from .exceptions import ShapeError
 
 
-def _floats(value, name: str) -> np.ndarray:
+def as_floats(value, name: str) -> np.ndarray:
     """``value`` as a float array; ShapeError naming ``name`` when it holds something else than numbers."""
     try:
         return np.asarray(value, dtype=float)
@@ -27,7 +27,7 @@ def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
     Raises:
         ShapeError: The shape is neither (width,) nor (N, width).
     """
-    array = _floats(value, name)
+    array = as_floats(value, name)
     if array.ndim == 1 and array.shape[0] == width:
         return array[None, :], True
     if array.ndim == 2 and array.shape[1] == width:
@@ -37,7 +37,7 @@ def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
 
 def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a float array of exactly ``shape``, or raise ShapeError."""
-    array = _floats(value, name)
+    array = as_floats(value, name)
     if array.shape != shape:
         raise ShapeError(f"{name}.shape={array.shape} but expected {shape}")
     return array

@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.arrays import as_matrix
+from ..core.arrays import as_floats, as_matrix, as_samples
 from ..core.deprecation import renamed
 from ..core.exceptions import FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
-from ..feeds.batch import SampleBatch, configuration_indices
+from ..feeds.batch import SampleBatch, configuration_codes
 from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
@@ -44,7 +44,7 @@ from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
-from .advice import missing_words
+from .advice import missing_words, refused_words
 from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, restore_state, session_state, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
@@ -158,7 +158,7 @@ class CalibrationSession:
         channels = np.array(channels, dtype=float)  # a copy: a controller may refill its buffer for the next tick
         if channels.shape != (self.layout.n_channels,):
             raise ShapeError(f"channels.shape={channels.shape} but expected ({self.layout.n_channels},), the {self.layout.name} layout")
-        code = int(configuration_indices([configuration], self.tool.names)[0])
+        code = int(configuration_codes(configuration, 1, self.tool.names)[0])
         self._staged.append((float(t), readings[0].copy(), channels, code, math.nan if temperature is None else float(temperature)))
         if len(self._staged) >= _STAGE:
             self._flush_staged()
@@ -176,23 +176,17 @@ class CalibrationSession:
             temperature: Sensor temperatures [°C], shape (n,), or None.
 
         Raises:
-            ShapeError: The arrays do not have one row per time.
+            ShapeError: The arrays do not have one row per time, or not ``n_channels`` channels.
+            UnknownToolConfiguration: A configuration that is not in the tool file.
         """
         readings, _ = self.kin.joint_array(joints)
-        t = np.asarray(t, dtype=float).reshape(-1)
-        if isinstance(configuration, str):
-            codes = np.repeat(configuration_indices([configuration], self.tool.names), len(t))
-        else:
-            given = np.asarray(configuration)
-            if given.dtype.kind in "iu":
-                codes = given.astype(np.int64)
-            else:
-                codes = configuration_indices([str(x) for x in given], self.tool.names)
-        channels = np.asarray(channels, dtype=float)
+        t = as_floats(t, "t").reshape(-1)
+        codes = configuration_codes(configuration, len(t), self.tool.names)
+        channels = as_samples(channels, self.layout.n_channels, "channels")[0]  # (n, n_channels), also for one sample
         if not (len(readings) == len(t) == len(channels) == len(codes)):
             counts = f"{len(t)} times, {len(readings)} joint readings, {len(channels)} rows of channels and {len(codes)} configurations"
             raise ShapeError(f"add_batch: {counts}: expected one of each per sample")
-        self.add_samples(SampleBatch(t, readings, channels.reshape(len(t), -1), codes, temperature))
+        self.add_samples(SampleBatch(t, readings, channels, codes, temperature))
 
     def add_samples(self, batch: SampleBatch) -> None:
         """Add a batch from a feed (configuration indices in the tool's order), in time order."""
@@ -328,7 +322,8 @@ class CalibrationSession:
             check = self.fit_check(hint) if not accept_poor_fit and self._strains_unexplained() else None
             if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
                 raise PoorFit(check, None) from None
-            words = missing_words(self.tool, self.kept, self._directions, self.estimator.undetermined(self.tool.names), hint)
+            refused = refused_words(self.checks.skipped, self.seen, int(self.kept.sum()))
+            words = missing_words(self.tool, self.kept, self._directions, self.estimator.undetermined(self.tool.names), hint, refused)
             raise InsufficientExcitation(exc.rank, exc.missing, words, exc.full) from None
         if calibration.quality is None:  # the estimator always measures the fit
             raise FtsCalibError("the estimator returned a calibration without its quality")

@@ -41,6 +41,12 @@ from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir, locate
 
+#: What a URDF given as the robot file is told.
+URDF_GIVEN = (
+    "is a URDF, not a robot file: write a robot YAML that names it (urdf: PATH) and says where the sensor is mounted "
+    "(sensor: parent_frame, xyz, rpy; docs/formats.md), or from Python use Kinematics.from_urdf(PATH, parent_frame=...)"
+)
+
 #: Prefix of URDF paths inside the example-robot-data package.
 ROBOT_DATA_PREFIX = "example-robot-data:"
 
@@ -316,10 +322,13 @@ def load_robot(path: str | Path) -> RobotDefinition:
     Raises:
         ResourceNotFound: A bare name that is neither a file nor a shipped robot (lists them).
         FileFormatError: A missing, unknown or malformed field (a sensor ``rpy`` in degrees),
-            or a URDF that does not exist; the message names the file and the field.
+            or a URDF that does not exist; the message names the file and the field. A URDF
+            given in place of the robot file.
         RobotDataNotFound: The URDF is in example-robot-data, which is not installed.
     """
     path = locate(path, "robots")
+    if path.suffix.lower() in (".urdf", ".xacro"):  # not "not valid YAML at line 310": say what the robot file is
+        raise FileFormatError(path, None, URDF_GIVEN)
     data = load_yaml(path)
     check_keys(data, ROBOT_KEYS, path)
     base = path.resolve().parent
