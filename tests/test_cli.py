@@ -95,3 +95,19 @@ def test_trajectory_command_fails_a_check_and_writes_no_trajectory(tmp_path, cap
 def test_trajectory_command_rejects_a_rate_of_zero(tmp_path, capsys):
     assert main(["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path), "--rate", "0"]) == ExitCode.TRAJECTORY
     assert "rate=0.0 Hz but expected a finite rate > 0" in capsys.readouterr().err
+
+
+def test_a_plot_that_is_not_an_image_is_refused_before_the_job(capsys):
+    """Before: 'validate --plot errors.csv' ran the validation, then died in matplotlib with a traceback."""
+    import matplotlib.pyplot as plt
+
+    from fts_calib.app.arguments import PLOT_SUFFIXES
+
+    figure = plt.figure()
+    supported = figure.canvas.get_supported_filetypes()
+    plt.close(figure)
+    assert {suffix.lstrip(".") for suffix in PLOT_SUFFIXES} <= set(supported), "a suffix the plots cannot be written in"
+    with pytest.raises(SystemExit) as info:
+        main(["validate", "--calibration", "c.yaml", "--robot", "ur5", "--tool", "paper_tool", "r.csv", "--plot", "errors.csv"])
+    assert info.value.code == ExitCode.USAGE
+    assert "argument --plot: 'errors.csv' is not an image file: expected a name ending in .png, .pdf" in capsys.readouterr().err
