@@ -202,6 +202,8 @@ def test_kinematics_from_a_urdf_path_or_a_pin_model_equals_the_robot_file(ur5, r
         Kinematics.from_model(model, "no_such_frame")
     with pytest.raises(FileFormatError, match="URDF file not found"):
         Kinematics.from_urdf("no_such.urdf", "tool0")
+    with pytest.raises(ConfigError, match=r"model='ur5' but expected a pin.Model \(a URDF: Kinematics.from_urdf"):
+        Kinematics.from_model("ur5", "tool0")
 
 
 # --- fts_calib.calibrate: arrays in memory or a recording; the same file as the command line -------------

@@ -101,7 +101,7 @@ def test_a_plot_that_is_not_an_image_is_refused_before_the_job(capsys):
     """Before: 'validate --plot errors.csv' ran the validation, then died in matplotlib with a traceback."""
     import matplotlib.pyplot as plt
 
-    from fts_calib.app.arguments import PLOT_SUFFIXES
+    from fts_calib.app.parser import PLOT_SUFFIXES
 
     figure = plt.figure()
     supported = figure.canvas.get_supported_filetypes()

@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import argparse
 import textwrap
-from pathlib import Path
 
 from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
-from .parser import Parser
+from .parser import Parser, plot_path
 from .sensor_arguments import add_prior, add_sensor
 
 
@@ -28,18 +27,6 @@ def _address(text: str) -> tuple[str, int]:
     if not 0 <= number <= 65535:
         raise argparse.ArgumentTypeError(f"port {number} in {text!r} but expected 0 to 65535 (0: any free port)")
     return (host or "127.0.0.1"), number
-
-
-#: Image formats a plot may be written in (matplotlib's Agg backend; no suffix: PNG).
-PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
-
-
-def _plot_path(text: str) -> str:
-    """A plot file: its suffix must name an image format (checked before the job, not by matplotlib after it)."""
-    suffix = Path(text).suffix.lower()
-    if suffix and suffix not in PLOT_SUFFIXES:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an image file: expected a name ending in {', '.join(PLOT_SUFFIXES)}")
-    return text
 
 
 def _add(commands, name: str, help_text: str, description: str, example: str) -> argparse.ArgumentParser:
@@ -294,7 +281,7 @@ def _add_validate(commands) -> None:
     val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
     val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")
     val.add_argument("--static", dest="dynamic", action="store_false", help="expect the tool's weight alone (no dynamics)")
-    val.add_argument("--plot", dest="plot_path", type=_plot_path, metavar="PNG", help="PNG (or .pdf, .svg) of Fx and its error")
+    val.add_argument("--plot", dest="plot_path", type=plot_path, metavar="PNG", help="PNG (or .pdf, .svg) of Fx and its error")
     val.add_argument(
         "--max-error", dest="max_error_percent", type=float, metavar="PERCENT", help="exit 1 when an error exceeds this %% of full scale"
     )

@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.deprecation import renamed, renamed_method
-from ..core.exceptions import FileFormatError, FrameNotFound, ShapeError
+from ..core.exceptions import ConfigError, FileFormatError, FrameNotFound, ShapeError
 from ._batch import Chain
 from .definition import RobotDefinition, SensorMount
 from .joints import (
@@ -159,8 +159,11 @@ class Kinematics:
             **fields: Other :class:`~fts_calib.robot.definition.RobotDefinition` fields.
 
         Raises:
+            ConfigError: ``model`` is not a ``pin.Model`` (a path or a name: say which entry point takes it).
             FrameNotFound: ``parent_frame`` is not in the model (lists the frames).
         """
+        if not isinstance(model, pin.Model):
+            raise ConfigError("model", model, "a pin.Model (a URDF: Kinematics.from_urdf; a robot file: Kinematics(load_robot(path)))")
         mount = SensorMount(parent_frame=parent_frame, xyz=np.asarray(xyz, dtype=float), rpy=np.asarray(rpy, dtype=float))
         robot = RobotDefinition(name=name or model.name or "robot", urdf=Path(), sensor=mount, urdf_spec="(a pin.Model)", **fields)
         return cls(robot, model=model)
