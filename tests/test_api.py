@@ -249,8 +249,10 @@ def test_calibrate_names_each_wrong_argument_with_what_was_expected(ur5, paper_t
     refused(ConfigError, r"tool=None but expected a shipped tool name or the path of a tool YAML file", tool=None)
     refused(ConfigError, r"robot=42 but expected a shipped robot name", robot=42)
     refused(ResourceNotFound, r"no shipped tool of that name; shipped: paper_tool, validation_tool$", tool="papertool")
-    refused(ShapeError, rf"channels.shape=\({n}, 6\) but expected \(8,\) or \(N, 8\)", channels=arrays["channels"][:, :6])
-    refused(ShapeError, rf"channels.shape=\({n},\) but expected", channels=arrays["channels"][:, 0])
+    refused(
+        ShapeError, r"arrays in memory has 6 channels but the sensor's layout maltese-cross-8 has 8", channels=arrays["channels"][:, :6]
+    )
+    refused(ShapeError, rf"channels.shape=\({n},\) but expected \({n}, k\): one row per sample", channels=arrays["channels"][:, 0])
     refused(ShapeError, "t must be numbers", time=["a"] * n)
     refused(UnknownToolConfiguration, r"'Z' is not in the tool file; configurations: A, B, C", configuration="Z")
     refused(UnknownToolConfiguration, r"'3' is not in the tool file", configuration=np.full(n, 3))

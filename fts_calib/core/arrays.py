@@ -35,6 +35,22 @@ def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
     raise ShapeError(f"{name}.shape={array.shape} but expected ({width},) or (N, {width})")
 
 
+def as_rows(value, rows: int, name: str) -> np.ndarray:
+    """Return ``value`` as a float array of ``rows`` rows, one per sample: shape (rows, k); one sample may be (k,).
+
+    The width k is left to the caller, who knows what it should be and why (a sensor's channels).
+
+    Raises:
+        ShapeError: Not numbers, or not a 2-D array (nor one row for one sample).
+    """
+    array = as_floats(value, name)
+    if array.ndim == 1 and rows == 1:
+        return array[None, :]
+    if array.ndim != 2:
+        raise ShapeError(f"{name}.shape={array.shape} but expected ({rows}, k): one row per sample")
+    return array
+
+
 def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a float array of exactly ``shape``, or raise ShapeError."""
     array = as_floats(value, name)

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.arrays import as_floats, as_matrix, as_samples
+from ..core.arrays import as_floats, as_matrix, as_rows
 from ..core.deprecation import renamed
 from ..core.exceptions import FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
 from ..feeds.batch import SampleBatch, configuration_codes
@@ -55,6 +55,7 @@ from .provenance import session_provenance
 from .qsfilter import QuasiStaticFilter
 from .settings import PipelineConfig
 from .still import quasi_static
+from .tool_load import check_tool_load
 
 __all__ = [
     "BACKWARDS",
@@ -91,6 +92,9 @@ class CalibrationSession:
             measured accuracy budget in % (:mod:`fts_calib.pipeline.budget`); a sensor file's
             default (50 N, 5 N m) when None.
 
+    Raises:
+        ConfigError: A tool far heavier than the sensor's full scale (grams: :mod:`fts_calib.pipeline.tool_load`).
+
     Attributes:
         budget: The measured accuracy budget of the last :meth:`solve`, or None.
         latency: The stream-latency estimate of the last :meth:`solve`, or None.
@@ -112,6 +116,7 @@ class CalibrationSession:
     ):
         self.kin = kin
         self.full_scale = as_matrix(DEFAULT_FULL_SCALE if full_scale is None else full_scale, (6,), "full_scale")
+        check_tool_load(tool, self.full_scale)  # a mass in grams fits the data exactly: only the sensor's range tells
         self.budget: AccuracyBudget | None = None
         self.latency: LatencyEstimate | None = None
         self._kept_samples, self._moving = KeptSamples(), MovingSamples()  # for the measured budget and the latency
@@ -182,7 +187,7 @@ class CalibrationSession:
         readings, _ = self.kin.joint_array(joints)
         t = as_floats(t, "t").reshape(-1)
         codes = configuration_codes(configuration, len(t), self.tool.names)
-        channels = as_samples(channels, self.layout.n_channels, "channels")[0]  # (n, n_channels), also for one sample
+        channels = as_rows(channels, len(t), "channels")  # its width is check_channels' to name, with the sensor
         if not (len(readings) == len(t) == len(channels) == len(codes)):
             counts = f"{len(t)} times, {len(readings)} joint readings, {len(channels)} rows of channels and {len(codes)} configurations"
             raise ShapeError(f"add_batch: {counts}: expected one of each per sample")
