@@ -119,7 +119,7 @@ def _add_trajectory(commands) -> None:
         "--noise",
         dest="noise_std",
         type=float,
-        help="noise per channel for the excitation report (default: the sensor file's, else the pipeline's)",
+        help="noise per channel for the excitation report, in the channels' raw unit (default: the sensor file's, else the pipeline's)",
     )
     add_return_pass(traj)
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
@@ -240,7 +240,7 @@ def _add_simulate(commands) -> None:
     sim.add_argument("--trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
     sim.add_argument("-o", "--output", required=True, help="recording to write (.csv or .csv.gz)")
     sim.add_argument("--sensor", default="sensor", help="sensor configuration with a 'simulation' section (default: sensor)")
-    sim.add_argument("--noise", dest="noise_std", type=float, help="strain noise per bridge, raw units (default: the sensor file's)")
+    sim.add_argument("--noise", dest="noise_std", type=float, help="noise per channel, raw units (default: the sensor file's)")
     sim.add_argument("--noiseless", action="store_true", help="no noise at all")
     sim.add_argument(
         "--drift", dest="drift_rate", type=float, help="offset drift of every bridge, raw units per s (default: the sensor file's)"
