@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
-from fts_calib import FileFormatError, FtsCalibWarning, RecordingError
+from fts_calib import ConfigError, FileFormatError, FtsCalibWarning, Kinematics, RecordingError
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
@@ -278,6 +278,22 @@ def test_a_sensor_rpy_in_degrees_and_an_unknown_robot_key_are_refused(tmp_path):
         load_robot(_robot_file(tmp_path, "  rpz: [0, 0, 0]\n"))
     with pytest.raises(FileFormatError, match=r"unknown keys \['home_pose'\].*known keys: name, urdf, sensor"):
         load_robot(_robot_file(tmp_path, extra="home_pose: {}\n"))
+
+
+def test_a_sensor_mount_in_mm_is_refused_from_the_file_and_from_python(tmp_path, ur5):
+    """Before: xyz [0, 0, 20] (mm for 2 cm) put the sensor 20 m from the flange and the calibration exited 0."""
+    ur5_file = resolve("ur5", "robots").read_text()
+    assert "  xyz: [0.0, 0.0, 0.02]" in ur5_file
+    path = tmp_path / "robot.yaml"
+    path.write_text(ur5_file.replace("  xyz: [0.0, 0.0, 0.02]", "  xyz: [0.0, 0.0, 20]"))
+    with pytest.raises(
+        FileFormatError, match=r"field 'sensor.xyz': is \[0.0, 0.0, 20.0\] m from the frame: it looks like mm; .*\[0.0, 0.0, 0.02\]"
+    ):
+        load_robot(path)
+    with pytest.raises(ConfigError, match=r"xyz is \[0.0, 0.0, 20.0\] m from the frame: it looks like mm"):
+        Kinematics.from_urdf(ur5.robot.urdf, "tool0", xyz=(0.0, 0.0, 20.0))
+    path.write_text(ur5_file)
+    assert load_robot(path).sensor.xyz[2] == 0.02  # [m] the file as shipped loads
 
 
 def test_unknown_keys_of_sensor_and_pipeline_files_are_refused(tmp_path):

@@ -41,6 +41,10 @@ from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir, locate
 
+#: How far the sensor frame may be from its parent frame, in [m]: an adapter plate or a tool changer
+#: puts it centimetres away; a metre is none of them, and a mount written in mm (35 for 0.035) is 35 m.
+MAX_MOUNT_OFFSET = 1.0
+
 #: What a URDF given as the robot file is told.
 URDF_GIVEN = (
     "is a URDF, not a robot file: write a robot YAML that names it (urdf: PATH) and says where the sensor is mounted "
@@ -107,6 +111,9 @@ class SensorMount:
     def __post_init__(self):
         owner = f"sensor mount on '{self.parent_frame}'"
         object.__setattr__(self, "xyz", frozen(validation.finite_array("xyz", as_matrix(self.xyz, (3,), "xyz"), owner)))
+        if np.linalg.norm(self.xyz) > MAX_MOUNT_OFFSET:  # a sensor sits on its frame, centimetres away: these are mm
+            reason = f"is {self.xyz.tolist()} m from the frame: it looks like mm; write metres, e.g. {(self.xyz / 1000).tolist()}"
+            raise ConfigError("xyz", self.xyz.tolist(), f"an offset within {MAX_MOUNT_OFFSET:g} m", "m", owner, reason=reason)
         rpy = validation.finite_array("rpy", as_matrix(self.rpy, (3,), "rpy"), owner)
         if np.any(np.abs(rpy) > 2 * math.pi + 1e-9):  # no mount needs more than a turn: these are degrees
             reason = (
