@@ -375,3 +375,15 @@ def test_a_urdf_a_folder_or_a_mistyped_tool_name_is_named_as_such(tmp_path, ur5,
         line = _one_error_line(capsys) + "\n"  # the end of the line: nothing listed after the tools
         assert line.startswith("fts-calib calibrate: error: ") and expected in line, line
     assert not (tmp_path / "cal.yaml").exists()
+
+
+def test_a_mistyped_parent_frame_names_the_robot_file_its_field_and_the_closest_frame(tmp_path, ur5_recording, capsys):
+    path = tmp_path / "robot.yaml"
+    path.write_text(resolve("ur5", "robots").read_text().replace("parent_frame: tool0", "parent_frame: tool_0"))
+    assert (
+        main(["calibrate", "--robot", str(path), "--tool", "paper_tool", str(ur5_recording), "-o", str(tmp_path / "c.yaml")])
+        == ExitCode.ROBOT
+    )
+    line = _one_error_line(capsys)
+    assert line.startswith(f"fts-calib calibrate: error: {path}: field 'sensor.parent_frame': frame 'tool_0' is not in the model "), line
+    assert "(did you mean 'tool0'?); frames that exist: universe, world" in line, line

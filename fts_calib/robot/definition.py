@@ -217,6 +217,10 @@ class RobotDefinition:
     source: Path | None = None
     accuracy: RobotAccuracy = field(default_factory=RobotAccuracy)
 
+    def where(self, field_name: str) -> str:
+        """Where a field was written, for a message: ``FILE: field 'NAME'`` ('' for a definition built in Python)."""
+        return f"{self.source}: field '{field_name}'" if self.source is not None else ""
+
     def __post_init__(self):
         owner = f"robot '{self.name}'"
         sweep = self.sweep_joints

@@ -172,7 +172,7 @@ class Kinematics:
     def _add_sensor_frame(model: pin.Model, robot: RobotDefinition) -> int:
         mount = robot.sensor
         if not model.existFrame(mount.parent_frame):
-            raise FrameNotFound(mount.parent_frame, [f.name for f in model.frames])
+            raise FrameNotFound(mount.parent_frame, [f.name for f in model.frames], robot.where("sensor.parent_frame"))
         parent_id = model.getFrameId(mount.parent_frame)
         parent = model.frames[parent_id]
         T_parent_sensor = pin.SE3(pin.rpy.rpyToMatrix(*mount.rpy), np.asarray(mount.xyz, dtype=float))
