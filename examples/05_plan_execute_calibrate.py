@@ -39,14 +39,15 @@ def main():
             t = plan.trajectory(name)
             write_trajectory(out / f"{name}.csv", t.joint_names, t.time, t.q, t.qd, t.qdd, name)
             trajectories.append(t)
-        print(f"wrote {', '.join(f'{n}.csv' for n in tool.names)}: time, then per joint position [rad], _vel, _acc, and tool")
+        print(f"wrote {', '.join(f'{n}.csv' for n in tool.names)} (a temporary folder): time, per joint position [rad], _vel, _acc, tool")
         # the "robot": the executed motion through the simulated sensor, logged as a robot would
         kin = fts_calib.Kinematics(fts_calib.load_robot("ur5"))
         sensor = fts_calib.load_simulated_sensor("sensor")
         recording = simulate_recording(out / "recording.csv", kin, tool, trajectories, sensor, np.random.default_rng(0))
         calibration = fts_calib.calibrate(recording, robot="ur5", tool="paper_tool", sensor="sensor")
         saved = calibration.save(out / "calibration.yaml")
-        print(f"calibrated from {recording.name}, saved {saved.name} ({len(saved.read_text().splitlines())} lines)")
+        lines = len(saved.read_text().splitlines())
+        print(f"calibrated from {recording.name}, saved {saved.name} ({lines} lines; the folder goes at the end)")
     q = calibration.quality
     error = np.abs(calibration.C - sensor.C) / q.stderr_C
     print(f"rank {q.rank} of {q.full_rank}, fit {q.fit['verdict']}, {q.samples_used:,} samples kept of {q.samples_seen:,}")

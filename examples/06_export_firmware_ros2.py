@@ -30,7 +30,8 @@ def main():
         params = Path(folder) / "ft_sensor.yaml"
         params.write_text(fts_calib.export(calibration, "ros2", payload=gripper))
         text = header.read_text()
-        print(f"wrote {header.name} ({len(text.splitlines())} lines) and {params.name} ({len(params.read_text().splitlines())} lines)")
+        lines = len(params.read_text().splitlines())
+        print(f"wrote {header.name} ({len(text.splitlines())} lines) and {params.name} ({lines} lines), in a temporary folder")
         ros2 = params.read_text()
     # the header's numbers, read back as a C compiler would (FTS_CALIB_R(x) is x)
     C = np.array([float(v) for v in re.findall(rf"FTS_CALIB_R\(({NUMBER})\)", text.split("FTS_CALIB_D[6]")[0])]).reshape(6, 8)

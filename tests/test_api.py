@@ -15,7 +15,16 @@ import pytest
 import fts_calib
 from fts_calib import Calibration, GravityCompensator, Kinematics, ShapeError, WrenchReader, calibrate, load_robot, load_tool
 from fts_calib.app.cli import main
-from fts_calib.core.exceptions import FileFormatError, FrameNotFound, NotARotation, ResourceNotFound
+from fts_calib.core.exceptions import (
+    ConfigError,
+    FileFormatError,
+    FrameNotFound,
+    FtsCalibWarning,
+    InsufficientExcitation,
+    NotARotation,
+    ResourceNotFound,
+    UnknownToolConfiguration,
+)
 from fts_calib.core.fileio import load_yaml
 from fts_calib.core.resources import resolve
 from fts_calib.sim.recording import simulate_batches
@@ -193,20 +202,26 @@ def test_kinematics_from_a_urdf_path_or_a_pin_model_equals_the_robot_file(ur5, r
         Kinematics.from_model(model, "no_such_frame")
     with pytest.raises(FileFormatError, match="URDF file not found"):
         Kinematics.from_urdf("no_such.urdf", "tool0")
+    with pytest.raises(ConfigError, match=r"model='ur5' but expected a pin.Model \(a URDF: Kinematics.from_urdf"):
+        Kinematics.from_model("ur5", "tool0")
 
 
 # --- fts_calib.calibrate: arrays in memory or a recording; the same file as the command line -------------
 
 
-def test_calibrate_from_arrays_in_memory_recovers_the_sensor(ur5, paper_tool, short_plan, truth, seed):
-    trajectories = [short_plan.trajectory(name) for name in paper_tool.names]
-    batches = list(simulate_batches(ur5, paper_tool, trajectories, truth, np.random.default_rng(seed)))
-    arrays = {
+def _arrays(kin, tool, plan, sensor, seed) -> dict:
+    """The short plan played through the simulated sensor, as the arrays ``fts_calib.calibrate`` takes."""
+    batches = list(simulate_batches(kin, tool, [plan.trajectory(name) for name in tool.names], sensor, np.random.default_rng(seed)))
+    return {
         "time": np.concatenate([b.time for b in batches]),  # [s]
         "joints": np.concatenate([b.joints for b in batches]),  # [rad]
         "channels": np.concatenate([b.channels for b in batches]),  # [mV/V]
-        "configuration": [paper_tool.names[c] for b in batches for c in b.configuration],
+        "configuration": [tool.names[c] for b in batches for c in b.configuration],
     }
+
+
+def test_calibrate_from_arrays_in_memory_recovers_the_sensor(ur5, paper_tool, short_plan, truth, seed):
+    arrays = _arrays(ur5, paper_tool, short_plan, truth, seed)
     cal = calibrate(arrays, robot=ur5, tool=paper_tool)
     # the same data as the recording of test_calibrate: 48 coefficients within 5 standard errors
     # (P(any outside) < 48 x 6e-7 for a seed)
@@ -220,6 +235,51 @@ def test_calibrate_from_arrays_in_memory_recovers_the_sensor(ur5, paper_tool, sh
         calibrate(short, robot=ur5, tool=paper_tool)
     with pytest.raises(TypeError, match="tool"):
         calibrate(arrays, robot=ur5)  # no default tool
+
+
+def test_calibrate_names_each_wrong_argument_with_what_was_expected(ur5, paper_tool, short_plan, truth, seed):
+    """A newcomer's mistakes: each an FtsCalibError naming the argument, none a numpy or pathlib error."""
+    arrays = _arrays(ur5, paper_tool, short_plan, truth, seed)
+    n = len(arrays["time"])
+
+    def refused(error, match, tool=paper_tool, robot=ur5, **changed):
+        with pytest.raises(error, match=match):
+            calibrate({**arrays, **changed}, robot=robot, tool=tool)
+
+    refused(ConfigError, r"tool=None but expected a shipped tool name or the path of a tool YAML file", tool=None)
+    refused(ConfigError, r"robot=42 but expected a shipped robot name", robot=42)
+    refused(ResourceNotFound, r"no shipped tool of that name; shipped: paper_tool, validation_tool$", tool="papertool")
+    refused(
+        ShapeError, r"arrays in memory has 6 channels but the sensor's layout maltese-cross-8 has 8", channels=arrays["channels"][:, :6]
+    )
+    refused(ShapeError, rf"channels.shape=\({n},\) but expected \({n}, k\): one row per sample", channels=arrays["channels"][:, 0])
+    refused(ShapeError, "t must be numbers", time=["a"] * n)
+    refused(UnknownToolConfiguration, r"'Z' is not in the tool file; configurations: A, B, C", configuration="Z")
+    refused(UnknownToolConfiguration, r"'3' is not in the tool file", configuration=np.full(n, 3))
+    with pytest.warns(FtsCalibWarning, match="look like degrees"):
+        refused(
+            InsufficientExcitation,
+            rf"none of the {n:,} samples passed the checks: outside joint limits {n:,} \(joint readings in degrees.*joints_in_degrees=True",
+            joints=np.degrees(arrays["joints"]),
+        )
+    refused(InsufficientExcitation, rf"none of the {n:,} samples passed the checks: non-finite value", channels=arrays["channels"] * np.nan)
+    empty = {"time": np.zeros(0), "joints": np.zeros((0, 6)), "channels": np.zeros((0, 8)), "configuration": []}
+    refused(InsufficientExcitation, "no sample was given", **empty)
+    with pytest.raises(ShapeError, match=r"has no \['channels'\].*\(given: time, joints, configuration, chanels\)"):
+        calibrate({**{k: v for k, v in arrays.items() if k != "channels"}, "chanels": arrays["channels"]}, robot=ur5, tool=paper_tool)
+
+
+def test_loaders_name_a_wrong_kind_of_argument(tmp_path, ur5, calibration):
+    with pytest.raises(ConfigError, match="robot=None but expected a shipped robot name"):
+        load_robot(None)
+    with pytest.raises(FileFormatError, match=r"ur5_robot.urdf: is a URDF, not a robot file: .*Kinematics.from_urdf"):
+        load_robot(ur5.robot.urdf)
+    with pytest.raises(FileFormatError, match=f"{tmp_path}: is a folder, not a robot YAML file"):
+        resolve(tmp_path, "robots")
+    with pytest.raises(FileFormatError, match="my_robot.yaml: file not found"):  # a path: no list of shipped names
+        resolve(tmp_path / "my_robot.yaml", "robots")
+    with pytest.raises(ConfigError, match=r"calibration='calibration.yaml' but expected a Calibration \(load_calibration"):
+        WrenchReader("calibration.yaml")
 
 
 def _keys(value, prefix=""):

@@ -173,7 +173,7 @@ def _errors(tmp_path, ur5_joints):
     ros2 = ["export", "--format", "ros2", "--calibration", cal, "-o", out]
     unwritable = str(tmp_path / "a_file" / "c.json")  # its folder is a file
     return [
-        (["robots", str(tmp_path / "missing.yaml")], ExitCode.FILE, "no file"),
+        (["robots", str(tmp_path / "missing.yaml")], ExitCode.FILE, "missing.yaml: file not found"),
         ([*ros2, "--payload", str(tmp_path / "bad_tool.yaml")], ExitCode.FILE, "mass"),
         ([*ros2, "--payload", "paper_tool", "--configuration", "Z"], ExitCode.TOOL_CONFIGURATION, "'Z'"),
         (ros2, ExitCode.CONFIG, "--payload"),

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
-from fts_calib import FileFormatError, FtsCalibWarning, RecordingError
+from fts_calib import ConfigError, FileFormatError, FtsCalibWarning, Kinematics, RecordingError
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
@@ -280,6 +280,22 @@ def test_a_sensor_rpy_in_degrees_and_an_unknown_robot_key_are_refused(tmp_path):
         load_robot(_robot_file(tmp_path, extra="home_pose: {}\n"))
 
 
+def test_a_sensor_mount_in_mm_is_refused_from_the_file_and_from_python(tmp_path, ur5):
+    """Before: xyz [0, 0, 20] (mm for 2 cm) put the sensor 20 m from the flange and the calibration exited 0."""
+    ur5_file = resolve("ur5", "robots").read_text()
+    assert "  xyz: [0.0, 0.0, 0.02]" in ur5_file
+    path = tmp_path / "robot.yaml"
+    path.write_text(ur5_file.replace("  xyz: [0.0, 0.0, 0.02]", "  xyz: [0.0, 0.0, 20]"))
+    with pytest.raises(
+        FileFormatError, match=r"field 'sensor.xyz': is \[0.0, 0.0, 20.0\] m from the frame: it looks like mm; .*\[0.0, 0.0, 0.02\]"
+    ):
+        load_robot(path)
+    with pytest.raises(ConfigError, match=r"xyz is \[0.0, 0.0, 20.0\] m from the frame: it looks like mm"):
+        Kinematics.from_urdf(ur5.robot.urdf, "tool0", xyz=(0.0, 0.0, 20.0))
+    path.write_text(ur5_file)
+    assert load_robot(path).sensor.xyz[2] == 0.02  # [m] the file as shipped loads
+
+
 def test_unknown_keys_of_sensor_and_pipeline_files_are_refused(tmp_path):
     sensor = tmp_path / "sensor.yaml"
     sensor.write_text(resolve("sensor", "configs").read_text().replace("  noise_std:", "  noise_sdt:"))
@@ -340,3 +356,34 @@ def test_a_file_of_another_kind_given_to_an_option_is_named_as_such(tmp_path, ur
     line = _one_error_line(capsys)
     assert expected in line, line
     assert not (tmp_path / "cal.yaml").exists()
+
+
+def test_a_urdf_a_folder_or_a_mistyped_tool_name_is_named_as_such(tmp_path, ur5, ur5_recording, capsys):
+    """Before: 'not valid YAML at line 310', 'no file' for a folder, and a tool list holding sensors and calibrations."""
+    cases = [
+        (["--robot", str(ur5.robot.urdf)], "ur5_robot.urdf: is a URDF, not a robot file: write a robot YAML that names it"),
+        (["--robot", str(tmp_path)], f"{tmp_path}: is a folder, not a robot YAML file"),
+        (
+            ["--robot", "ur5", "--tool", "papertool"],
+            "no file 'papertool' and no shipped tool of that name; shipped: paper_tool, validation_tool\n",
+        ),
+        (["--robot", "ur5", "--tool", str(tmp_path / "my_tool.yaml")], "my_tool.yaml: file not found"),
+    ]
+    for options, expected in cases:
+        command = ["calibrate", *options, *(["--tool", "paper_tool"] if "--tool" not in options else [])]
+        assert main([*command, str(ur5_recording), "-o", str(tmp_path / "cal.yaml")]) == ExitCode.FILE, options
+        line = _one_error_line(capsys) + "\n"  # the end of the line: nothing listed after the tools
+        assert line.startswith("fts-calib calibrate: error: ") and expected in line, line
+    assert not (tmp_path / "cal.yaml").exists()
+
+
+def test_a_mistyped_parent_frame_names_the_robot_file_its_field_and_the_closest_frame(tmp_path, ur5_recording, capsys):
+    path = tmp_path / "robot.yaml"
+    path.write_text(resolve("ur5", "robots").read_text().replace("parent_frame: tool0", "parent_frame: tool_0"))
+    assert (
+        main(["calibrate", "--robot", str(path), "--tool", "paper_tool", str(ur5_recording), "-o", str(tmp_path / "c.yaml")])
+        == ExitCode.ROBOT
+    )
+    line = _one_error_line(capsys)
+    assert line.startswith(f"fts-calib calibrate: error: {path}: field 'sensor.parent_frame': frame 'tool_0' is not in the model "), line
+    assert "(did you mean 'tool0'?); frames that exist: universe, world" in line, line

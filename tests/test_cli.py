@@ -1,5 +1,10 @@
 """The command line: every command has --help with an example; the demo runs."""
 
+import json
+import re
+import subprocess
+import sys
+
 import pytest
 
 from fts_calib import load_calibration
@@ -29,6 +34,35 @@ def test_demo_command_runs_quick(tmp_path, capsys, seed):
     assert "[5/5] validating" in out and "largest validation error" in out
     cal = load_calibration(tmp_path / "calibration.yaml")
     assert cal.quality.rank == 7
+
+
+def test_the_script_starts_light_and_its_parser_loads_no_pandas():
+    """The script's module loads no numpy; its parser no pandas (a usage error or --help answers at once)."""
+    code = (
+        "import json, sys; import fts_calib.app.cli as cli; light = sorted(sys.modules); cli.build_parser(); "
+        "print(json.dumps([light, sorted(sys.modules)]))"
+    )
+    light, parsed = json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
+    assert "numpy" not in light, "the fts-calib script imports numpy before main() runs (a Ctrl-C there is a traceback)"
+    heavy = {"pandas", "pinocchio", "ruckig", "matplotlib", "rosbags"} & set(parsed)
+    assert not heavy, f"building the parser loads {sorted(heavy)}"
+
+
+def test_ctrl_c_while_the_command_line_is_read_is_one_line_and_exit_130(monkeypatch, capsys):
+    import fts_calib.app.arguments as arguments
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(arguments, "build_parser", interrupted)
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", "run.csv"]) == ExitCode.INTERRUPTED == 130
+    assert capsys.readouterr().err == "fts-calib: interrupted\n"
+
+
+def test_the_exit_codes_of_the_help_go_by_number(capsys):
+    assert main([]) == 2
+    codes = [int(code) for code in re.findall(r"^ +(\d+)  ", capsys.readouterr().out.split("exit codes:")[1], flags=re.M)]
+    assert codes == sorted(codes) and {0, 2, 15, 130} <= set(codes), codes
 
 
 def test_no_command_prints_help(capsys):
@@ -61,3 +95,19 @@ def test_trajectory_command_fails_a_check_and_writes_no_trajectory(tmp_path, cap
 def test_trajectory_command_rejects_a_rate_of_zero(tmp_path, capsys):
     assert main(["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path), "--rate", "0"]) == ExitCode.TRAJECTORY
     assert "rate=0.0 Hz but expected a finite rate > 0" in capsys.readouterr().err
+
+
+def test_a_plot_that_is_not_an_image_is_refused_before_the_job(capsys):
+    """Before: 'validate --plot errors.csv' ran the validation, then died in matplotlib with a traceback."""
+    import matplotlib.pyplot as plt
+
+    from fts_calib.app.parser import PLOT_SUFFIXES
+
+    figure = plt.figure()
+    supported = figure.canvas.get_supported_filetypes()
+    plt.close(figure)
+    assert {suffix.lstrip(".") for suffix in PLOT_SUFFIXES} <= set(supported), "a suffix the plots cannot be written in"
+    with pytest.raises(SystemExit) as info:
+        main(["validate", "--calibration", "c.yaml", "--robot", "ur5", "--tool", "paper_tool", "r.csv", "--plot", "errors.csv"])
+    assert info.value.code == ExitCode.USAGE
+    assert "argument --plot: 'errors.csv' is not an image file: expected a name ending in .png, .pdf" in capsys.readouterr().err

@@ -246,3 +246,17 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
 def test_bad_replay_options_are_refused(changes, match):
     with pytest.raises(ConfigError, match=match):
         ReplayOptions(**changes)
+
+
+def test_a_live_run_that_received_nothing_leaves_no_checkpoint_in_the_way_of_the_next(tmp_path, capsys):
+    """Before: a run on the wrong port kept an empty checkpoint, and the next run was refused (exit 3) until --restart."""
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+
+    output = tmp_path / "cal.yaml"
+    run = ["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--idle-timeout", "0.2"]
+    for _ in range(2):  # the second run starts as the first did
+        assert main([*run, "--quiet"]) == ExitCode.CHECK_FAILED
+        out = capsys.readouterr().out
+        assert "NO CALIBRATION: insufficient data: no sample was given; no checkpoint kept (it would hold nothing)" in out, out
+        assert not list(tmp_path.iterdir()), "a calibration, a checkpoint or a lock was left"

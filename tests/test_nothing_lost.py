@@ -231,7 +231,7 @@ def test_simulate_refuses_to_write_over_a_trajectory(tmp_path, capsys):
 def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, ur5_recording, capsys):
     (tmp_path / "a_file").write_text("")
     checkpoint = tmp_path / "cp.json"
-    for output, reason in [(tmp_path, "it is a folder"), (tmp_path / "a_file" / "cal.yaml", "is not a folder")]:
+    for output, reason in [(tmp_path, "it is a folder"), (tmp_path / "a_file" / "cal.yaml", "a_file is a file, not a folder")]:
         assert _calibrate(ur5_recording, output, "--checkpoint", str(checkpoint)) == ExitCode.FILE_ACCESS
         line, out = _one_error_line(capsys, "calibrate")
         assert f"cannot write {output}: " in line and reason in line, line
@@ -276,6 +276,33 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, u
     )
     line, out = _one_error_line(capsys, "live")
     assert "it is a folder" in line and "listening" not in out
+
+
+def test_export_payload_and_tare_refuse_an_input_or_a_folder_as_output_before_any_work(tmp_path, ur5_recording, capsys):
+    """Before: ``export -o calibration.yaml`` replaced the calibration with a C header and exited 0."""
+    calibration = tmp_path / "calibration.yaml"
+    shutil.copy(data_dir("configs") / "paper_table1_calibration.yaml", calibration)
+    kept = {path: path.read_bytes() for path in (calibration, ur5_recording)}
+    cases = [
+        (["export", "--format", "c-header", "--calibration", str(calibration), "-o", str(calibration)], "is the calibration"),
+        (
+            ["payload", "--calibration", str(calibration), "--robot", "ur5", str(ur5_recording), "-o", str(ur5_recording)],
+            "is the recording",
+        ),
+        (["tare", "--calibration", str(calibration), str(ur5_recording), "-o", str(ur5_recording)], "is the recording"),
+    ]
+    for argv, what in cases:
+        assert main(argv) == ExitCode.CONFIG, argv
+        line, out = _one_error_line(capsys, argv[0])
+        assert f"{what}: writing it would destroy it; choose another file" in line and out == "", line
+    for argv in (
+        ["export", "--format", "json", "--calibration", str(calibration), "-o", str(tmp_path)],
+        ["payload", "--calibration", str(calibration), "--robot", "ur5", str(ur5_recording), "-o", str(tmp_path)],
+    ):
+        assert main(argv) == ExitCode.FILE_ACCESS, argv
+        line, out = _one_error_line(capsys, argv[0])
+        assert f"cannot write {tmp_path}: it is a folder" in line and out == "", line
+    assert all(path.read_bytes() == before for path, before in kept.items()), "an input was changed"
 
 
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes into a read-only folder")

@@ -18,11 +18,14 @@ import subprocess
 import sys
 import tempfile
 import time
+import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 UV = Path(sys.executable).parent / "uv"
 SHIPPED_ROBOTS = ("kinova", "panda", "ur10", "ur5", "xarm7")
+#: The data folders the package ships (pyproject.toml maps them into fts_calib/): every file must be in the wheel.
+DATA = ("robots", "configs", "trajectories")
 
 
 def run(cmd: list[str | Path], cwd: Path, env: dict[str, str]) -> str:
@@ -57,6 +60,10 @@ def main() -> int:
         run([UV, "build", "--wheel", "--out-dir", dist, ROOT], ROOT, env)
         wheels = sorted(dist.glob("fts_calib-*.whl"))
         expect(len(wheels) == 1, f"expected one wheel in {dist}, found {[w.name for w in wheels]}")
+        inside = set(zipfile.ZipFile(wheels[0]).namelist())
+        shipped = {f"fts_calib/{p.relative_to(ROOT).as_posix()}" for kind in DATA for p in (ROOT / kind).rglob("*") if p.is_file()}
+        missing = sorted(shipped - inside) + ([] if "fts_calib/py.typed" in inside else ["fts_calib/py.typed"])
+        expect(not missing, f"the wheel lacks {missing}")
         pins = work / "pins.txt"
         pins.write_text(run([UV, "export", "--frozen", "--no-dev", "--no-emit-project", "--no-hashes"], ROOT, env))
         base_python = getattr(sys, "_base_executable", sys.executable)
@@ -74,9 +81,14 @@ def main() -> int:
             expect((outside / "traj" / f"{name}.csv").is_file(), f"trajectory wrote no {name}.csv:\n{planned}")
         demo = run([cli, "demo", "--quick", "--out", "demo"], outside, env)
         expect((outside / "demo" / "calibration.yaml").is_file(), f"demo wrote no calibration.yaml:\n{demo}")
+        example = run([venv / "bin" / "python", ROOT / "examples" / "01_wrench_loop.py"], outside, env)  # against the wheel
+        expect("wrench error RMS" in example, f"examples/01_wrench_loop.py printed no result:\n{example}")
         imported = run([venv / "bin" / "python", "-c", "import fts_calib; print(fts_calib.__file__)"], outside, env)
         expect(str(ROOT) not in imported, f"fts_calib was imported from the checkout: {imported}")
-        print(f"wheel check passed: {wheels[0].name} installed outside the checkout; robots, trajectory and demo --quick ran")
+        print(
+            f"wheel check passed: {wheels[0].name} holds py.typed and the {len(shipped)} files of {', '.join(DATA)}; installed "
+            "outside the checkout, robots, trajectory, demo --quick and examples/01 ran"
+        )
         return 0
     finally:
         if args.keep:

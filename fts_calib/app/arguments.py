@@ -13,7 +13,7 @@ from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
-from .parser import Parser, add_address, add_command
+from .parser import Parser, add_address, add_command, plot_path
 from .sensor_arguments import add_prior, add_sensor
 from .service_arguments import add_export, add_payload, add_tare
 
@@ -95,7 +95,7 @@ def _add_trajectory(commands) -> None:
         "--noise",
         dest="noise_std",
         type=float,
-        help="noise per channel for the excitation report (default: the sensor file's, else the pipeline's)",
+        help="noise per channel for the excitation report, in the channels' raw unit (default: the sensor file's, else the pipeline's)",
     )
     add_return_pass(traj)
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
@@ -225,7 +225,7 @@ def _add_simulate(commands) -> None:
     sim.add_argument("--trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
     sim.add_argument("-o", "--output", required=True, help="recording to write (.csv or .csv.gz)")
     sim.add_argument("--sensor", default="sensor", help="sensor configuration with a 'simulation' section (default: sensor)")
-    sim.add_argument("--noise", dest="noise_std", type=float, help="strain noise per bridge, raw units (default: the sensor file's)")
+    sim.add_argument("--noise", dest="noise_std", type=float, help="noise per channel, raw units (default: the sensor file's)")
     sim.add_argument("--noiseless", action="store_true", help="no noise at all")
     sim.add_argument(
         "--drift", dest="drift_rate", type=float, help="offset drift of every bridge, raw units per s (default: the sensor file's)"
@@ -271,7 +271,7 @@ def _add_validate(commands) -> None:
     val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
     val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")
     val.add_argument("--static", dest="dynamic", action="store_false", help="expect the tool's weight alone (no dynamics)")
-    val.add_argument("--plot", dest="plot_path", metavar="PNG", help="PNG of Fx and its error")
+    val.add_argument("--plot", dest="plot_path", type=plot_path, metavar="PNG", help="PNG (or .pdf, .svg) of Fx and its error")
     val.add_argument(
         "--json",
         dest="json_path",
@@ -311,7 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``fts-calib`` with all its sub-commands."""
     from .._version import __version__
 
-    codes = "\n".join(f"  {int(entry.code):>3}  {entry.meaning}" for entry in EXIT_CODES)
+    # by number for the reader (EXIT_CODES is in the order errors are looked up)
+    codes = "\n".join(f"  {int(entry.code):>3}  {entry.meaning}" for entry in sorted(EXIT_CODES, key=lambda entry: entry.code))
     parser = Parser(
         prog="fts-calib",
         description="In-situ calibration of six-axis strain-gauge force/torque sensors.",

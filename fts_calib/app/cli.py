@@ -12,14 +12,26 @@ import importlib
 import io
 import sys
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..core.exceptions import FtsCalibError
 from ..core.outputs import holding_outputs
-from .arguments import build_parser
 from .exit_codes import ExitCode, error_line, exit_code
 
+if TYPE_CHECKING:
+    import argparse
+
 __all__ = ["build_parser", "main", "run_command"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of ``fts-calib`` (:mod:`fts_calib.app.arguments`), imported on first use.
+
+    Numpy and the stages then load inside :func:`main`, where a Ctrl-C is caught, not while the script starts.
+    """
+    from .arguments import build_parser as build
+
+    return build()
 
 
 def run_command(command: str, options: dict[str, Any]) -> int:
@@ -47,6 +59,14 @@ def _printable_output() -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fts-calib`` command; returns the exit status (:mod:`fts_calib.app.exit_codes`)."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # while the modules load or the options are read: one line, as during a command
+        print("fts-calib: interrupted", file=sys.stderr)
+        return int(ExitCode.INTERRUPTED)
+
+
+def _main(argv: list[str] | None) -> int:
     _printable_output()
     parser = build_parser()
     args = parser.parse_args(argv)  # a usage error exits with 2 (argparse)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..core.exceptions import ConfigError
 from ..core.fileio import STDOUT, atomic_write_text
+from ..core.paths import check_outputs
 from ..core.resources import resolve
 from ..robot.tool import STANDARD_GRAVITY, load_tool
 from ..service.ati import read_calibration
@@ -48,9 +49,11 @@ def run(
         0.
 
     Raises:
-        ConfigError: An unknown format, ros2 without a payload, or ati with a sensor of
-            another number of channels than the calibration's.
+        ConfigError: An unknown format, ros2 without a payload, ati with a sensor of
+            another number of channels than the calibration's, or ``output`` one of the inputs.
+        OSError: ``output`` cannot be written (a folder); checked before anything is read.
     """
+    check_outputs({"-o": output}, {"the calibration": calibration, "the payload file": payload, "the sensor file": sensor})
     loaded = read_calibration(calibration)
     configuration_of_payload, gravity = None, STANDARD_GRAVITY
     if payload is not None:

@@ -23,7 +23,7 @@ def add_recording(parser: argparse.ArgumentParser) -> None:
     """The recording argument (a CSV, or ROS 2 bags) and the topic names of a bag."""
     parser.add_argument("recording", nargs="+", metavar="RECORDING", help=RECORDING_HELP)
     default = BagTopics()
-    bag = parser.add_argument_group("ROS 2 bags (topic names; DESIGN.md 'Robot log')")
+    bag = parser.add_argument_group("ROS 2 bags (topic names; docs/formats.md, ROS 2 bags)")
     bag.add_argument("--joints-topic", default=default.joints, help=f"sensor_msgs/msg/JointState topic (default {default.joints})")
     bag.add_argument(
         "--channels-topic",

@@ -182,6 +182,10 @@ def run(
     try:
         calibration = session.solve(accept_poor_fit=accept_poor_fit, prior=shrink)
     except InsufficientExcitation as exc:
+        if session.seen == 0 and not resume:  # a checkpoint of nothing would only stand in the way of the next run
+            checkpoint.unlink(missing_ok=True)
+            print(f"NO CALIBRATION: {exc}; no checkpoint kept (it would hold nothing): check the address the feeds send to")
+            return ExitCode.CHECK_FAILED
         print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
         return ExitCode.CHECK_FAILED
     except PoorFit as exc:

@@ -1,9 +1,21 @@
-"""The command line's parser class: help opens with the purpose and an example; a missing ``--tool`` names the shipped tools."""
+"""The parser class of the command line (help opens with purpose and example; a missing ``--tool`` names the tools) and option types."""
 
 from __future__ import annotations
 
 import argparse
 import textwrap
+from pathlib import Path
+
+#: Image formats a plot may be written in (matplotlib's Agg backend; no suffix: PNG).
+PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
+
+
+def plot_path(text: str) -> str:
+    """The type of a plot option: its suffix must name an image format (checked before the job, not by matplotlib after it)."""
+    suffix = Path(text).suffix.lower()
+    if suffix and suffix not in PLOT_SUFFIXES:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an image file: expected a name ending in {', '.join(PLOT_SUFFIXES)}")
+    return text
 
 
 class Parser(argparse.ArgumentParser):
@@ -14,7 +26,7 @@ class Parser(argparse.ArgumentParser):
         if "required" in message and "--tool" in message:
             from ..core.resources import shipped
 
-            tools = [name for name in shipped("configs") if name.endswith("_tool")]
+            tools = shipped("configs", "tool")
             message += (
                 f"; name the calibration tool mounted: a shipped one ({', '.join(f'--tool {t}' for t in tools)}) "
                 "or your tool YAML (--tool my_tool.yaml): a wrong tool gives a wrong calibration"

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.paths import check_outputs
 from ..model.calibration import load_calibration
 from ..robot.tool import save_tool
 from ..service.payload import PayloadEstimate, identify_payload_from_recording
@@ -63,7 +64,13 @@ def run(
 
     Returns:
         0.
+
+    Raises:
+        ConfigError: ``output`` is one of the inputs (the recording, the calibration).
+        OSError: ``output`` cannot be written (a folder); checked before any work.
     """
+    inputs = {"the recording": recording, "the calibration": calibration, "the robot file": robot, "the pipeline file": pipeline}
+    check_outputs({"-o": output}, inputs)
     kin = load_kinematics(robot)
     settings = load_settings(pipeline)
     found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_separation_deg)

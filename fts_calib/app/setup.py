@@ -38,7 +38,7 @@ class Setup(NamedTuple):
 
 def load_settings(pipeline: str | Path = "pipeline") -> PipelineConfig:
     """The pipeline settings: a shipped name (``configs/NAME.yaml``) or a YAML path."""
-    return load_pipeline_config(resolve(pipeline, "configs"))
+    return load_pipeline_config(resolve(pipeline, "configs", "pipeline"))
 
 
 def load_sensor(sensor: str | Path = "sensor") -> SensorSpec:
@@ -51,7 +51,7 @@ def load_sensor(sensor: str | Path = "sensor") -> SensorSpec:
     """
     if Path(sensor).suffix.lower() == ATI_SUFFIX:
         return load_ati_calibration(sensor).sensor_spec()
-    return load_sensor_config(resolve(sensor, "configs"))
+    return load_sensor_config(resolve(sensor, "configs", "sensor"))
 
 
 def load_prior(prior: str | Path | None, weight: float, layout: ChannelLayout) -> Prior | None:
@@ -102,4 +102,4 @@ def load_setup(robot: str | Path, tool: str | Path = "paper_tool", pipeline: str
         ResourceNotFound: A name that is neither a file nor shipped.
         FileFormatError: A file with a missing or wrong field.
     """
-    return Setup(load_kinematics(robot), load_tool(resolve(tool, "configs")), load_settings(pipeline))
+    return Setup(load_kinematics(robot), load_tool(resolve(tool, "configs", "tool")), load_settings(pipeline))

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import ConfigError, FtsCalibWarning
+from ..core.paths import check_outputs
 from ..core.resources import resolve
 from ..core.text import table
 from ..model.calibration import load_calibration, save_calibration
@@ -72,8 +73,13 @@ def run(
         0.
 
     Raises:
-        ConfigError: A configuration without a robot, or neither a recording nor ``listen``.
+        ConfigError: A configuration without a robot, neither a recording nor ``listen``, or
+            ``output`` one of the inputs (the recording: ``-o`` is the calibration to write).
     """
+    if output is not None:  # without -o the calibration is updated in place: that is the job
+        check_outputs(
+            {"-o": output}, {"the recording": recording, "the robot file": robot, "the tool file": tool, "the pipeline file": pipeline}
+        )
     current = load_calibration(calibration)
     kin: Kinematics | None = None
     mounted: Tool | None = None

@@ -80,14 +80,14 @@ def run(
     Returns:
         0 when every check passed, 1 when one failed (the trajectory files are then not written).
     """
-    robot_path, tool_path = resolve(robot, "robots"), resolve(tool, "configs")
+    robot_path, tool_path = resolve(robot, "robots"), resolve(tool, "configs", "tool")
     loaded = load_tool(tool_path)
     if tool_radius is not None or tool_length is not None:
         if loaded.shape is None:  # never: Tool.__post_init__ fills in the default envelope
             raise FtsCalibError(f"tool '{loaded.name}' has no shape for the collision checks")
         shape = ToolShape(tool_radius or loaded.shape.radius, tool_length or loaded.shape.length)
         loaded = dataclasses.replace(loaded, shape=shape)
-    sensor_path = resolve(sensor, "configs")
+    sensor_path = resolve(sensor, "configs", "sensor")
     spec = load_sensor_config(sensor_path)
     if spec.simulated is None:  # before anything is planned: the report needs the nominal model
         message = (

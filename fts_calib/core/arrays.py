@@ -8,7 +8,7 @@ import numpy.typing as npt
 from .exceptions import ShapeError
 
 
-def _floats(value, name: str) -> np.ndarray:
+def as_floats(value, name: str) -> np.ndarray:
     """``value`` as a float array; ShapeError naming ``name`` when it holds something else than numbers."""
     try:
         return np.asarray(value, dtype=float)
@@ -27,7 +27,7 @@ def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
     Raises:
         ShapeError: The shape is neither (width,) nor (N, width).
     """
-    array = _floats(value, name)
+    array = as_floats(value, name)
     if array.ndim == 1 and array.shape[0] == width:
         return array[None, :], True
     if array.ndim == 2 and array.shape[1] == width:
@@ -35,9 +35,25 @@ def as_samples(value, width: int, name: str) -> tuple[np.ndarray, bool]:
     raise ShapeError(f"{name}.shape={array.shape} but expected ({width},) or (N, {width})")
 
 
+def as_rows(value, rows: int, name: str) -> np.ndarray:
+    """Return ``value`` as a float array of ``rows`` rows, one per sample: shape (rows, k); one sample may be (k,).
+
+    The width k is left to the caller, who knows what it should be and why (a sensor's channels).
+
+    Raises:
+        ShapeError: Not numbers, or not a 2-D array (nor one row for one sample).
+    """
+    array = as_floats(value, name)
+    if array.ndim == 1 and rows == 1:
+        return array[None, :]
+    if array.ndim != 2:
+        raise ShapeError(f"{name}.shape={array.shape} but expected ({rows}, k): one row per sample")
+    return array
+
+
 def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a float array of exactly ``shape``, or raise ShapeError."""
-    array = _floats(value, name)
+    array = as_floats(value, name)
     if array.shape != shape:
         raise ShapeError(f"{name}.shape={array.shape} but expected {shape}")
     return array

@@ -14,6 +14,7 @@ stages.
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -148,15 +149,20 @@ class FrameNotFound(FtsCalibError, KeyError):
     Attributes:
         name: The frame asked for.
         available: The frames that exist.
+        where: Where the name was written (a robot file and its field), or ''.
     """
 
-    def __init__(self, name: str, available: Sequence[str]):
+    def __init__(self, name: str, available: Sequence[str], where: str = ""):
         self.name = name
         self.available = list(available)
+        self.where = where
         super().__init__(name)
 
     def __str__(self) -> str:  # KeyError would print only repr(name)
-        return f"frame '{self.name}' is not in the model; frames that exist: {', '.join(self.available)}"
+        close = difflib.get_close_matches(self.name, self.available, 1)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        head = f"{self.where}: " if self.where else ""
+        return f"{head}frame '{self.name}' is not in the model{hint}; frames that exist: {', '.join(self.available)}"
 
 
 class JointError(FtsCalibError, KeyError):

@@ -82,12 +82,12 @@ def check_writable(path: PathLike) -> Path:
         return Path(path)
     path = Path(path)
     if path.is_dir():
-        raise OSError(errno.EISDIR, f"cannot write {path}: it is a folder; give a file name (e.g. {path / 'calibration.yaml'})")
+        raise OSError(errno.EISDIR, f"cannot write {path}: it is a folder; give the name of a file (in it, or elsewhere)")
     folder = path.parent
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent
     if not folder.is_dir():
-        raise OSError(errno.ENOTDIR, f"cannot write {path}: {folder} is not a folder")
+        raise OSError(errno.ENOTDIR, f"cannot write {path}: {folder} is a file, not a folder")
     try:
         fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
     except OSError as exc:

@@ -12,13 +12,19 @@ package, so there they are read from the source checkout beside it.
 
 from __future__ import annotations
 
+import os
+import reprlib
 from importlib.resources import files
 from pathlib import Path
 
-from .exceptions import ResourceNotFound, RobotDataNotFound
+from .exceptions import ConfigError, FileFormatError, ResourceNotFound, RobotDataNotFound
 
 #: The kinds of shipped data, one folder each.
 KINDS = ("robots", "configs", "trajectories")
+
+#: The roles of the files in ``configs/``, by the end of their names (``paper_tool``,
+#: ``factory_sensor``, ``paper_table1_calibration``): what a "no such tool" lists.
+ROLES = {"tool": "_tool", "sensor": "sensor", "calibration": "_calibration", "pipeline": "pipeline"}
 
 
 def data_dir(kind: str) -> Path:
@@ -42,40 +48,54 @@ def data_dir(kind: str) -> Path:
     return Path(__file__).resolve().parents[2] / kind
 
 
-def shipped(kind: str) -> list[str]:
+def shipped(kind: str, role: str | None = None) -> list[str]:
     """Names of the shipped entries of a kind, sorted.
 
     For 'robots' and 'configs' the stems of the YAML files (``ur5``); for 'trajectories'
     the robot folders that hold a planned run.
+
+    Args:
+        kind: One of :data:`KINDS`.
+        role: For 'configs', only the files of this role (a key of :data:`ROLES`: 'tool',
+            'sensor', 'calibration', 'pipeline'); None for all.
     """
     folder = data_dir(kind)
     if not folder.is_dir():
         return []
     if kind == "trajectories":
         return sorted(p.name for p in folder.iterdir() if (p / "plan.yaml").is_file())
-    return sorted(p.stem for p in folder.glob("*.yaml"))
+    return sorted(p.stem for p in folder.glob("*.yaml") if role is None or p.stem.endswith(ROLES[role]))
 
 
-def resolve(name_or_path: str | Path, kind: str) -> Path:
+def resolve(name_or_path: str | Path, kind: str, role: str | None = None) -> Path:
     """A path to an existing file: ``name_or_path`` itself, or the shipped ``<kind>/<name>.yaml``.
 
     Args:
         name_or_path: A file path, or the stem of a shipped file (e.g. 'ur5').
         kind: 'robots' or 'configs'.
+        role: What the file is for ('tool', 'sensor'...: :data:`ROLES`), named in the errors
+            and choosing the shipped names they list; None: the kind's.
 
     Raises:
-        ResourceNotFound: Neither exists; lists the shipped names.
+        ConfigError: ``name_or_path`` is neither a string nor a path (None, a number).
+        FileFormatError: A path (with a folder or a suffix) that does not exist, or a folder.
+        ResourceNotFound: A bare name that is neither a file nor shipped; lists the shipped
+            names of the role.
     """
-    path = Path(name_or_path)
+    path = _as_path(name_or_path, role or kind.rstrip("s"))
     if path.is_file():
         return path
+    if path.is_dir():
+        raise FileFormatError(path, None, f"is a folder, not a {role or kind.rstrip('s')} YAML file")
     candidate = data_dir(kind) / f"{path.name}.yaml"
-    if path.suffix == "" and candidate.is_file():
+    if path.suffix == "" and len(path.parts) == 1 and candidate.is_file():
         return candidate
-    raise ResourceNotFound(str(name_or_path), kind.rstrip("s"), shipped(kind))
+    if path.suffix or len(path.parts) != 1:  # a path, not a name: the shipped names are beside the point
+        raise FileFormatError(path, None, "file not found")
+    raise ResourceNotFound(str(name_or_path), role or kind.rstrip("s"), shipped(kind, role))
 
 
-def locate(name_or_path: str | Path, kind: str) -> Path:
+def locate(name_or_path: str | Path, kind: str, role: str | None = None) -> Path:
     """A file a loader reads: a shipped name (no folder, no suffix, no such file: ``ur5``) or a path as given.
 
     Unlike :func:`resolve`, a path that does not exist is returned as it is, so that its
@@ -84,14 +104,24 @@ def locate(name_or_path: str | Path, kind: str) -> Path:
     Args:
         name_or_path: A file path, or the stem of a shipped file (e.g. 'ur5').
         kind: 'robots' or 'configs'.
+        role: See :func:`resolve`.
 
     Raises:
+        ConfigError: ``name_or_path`` is neither a string nor a path (None, a number).
         ResourceNotFound: A bare name that is neither a file nor shipped; lists the shipped names.
     """
-    path = Path(name_or_path)
+    path = _as_path(name_or_path, role or kind.rstrip("s"))
     if path.exists() or path.suffix or len(path.parts) != 1:
         return path
-    return resolve(path, kind)
+    return resolve(path, kind, role)
+
+
+def _as_path(name_or_path: object, what: str) -> Path:
+    """``name_or_path`` as a Path; ConfigError naming ``what`` when it is neither a string nor a path."""
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        expected = f"a shipped {what} name or the path of a {what} YAML file"
+        raise ConfigError(what, name_or_path, expected, message=f"{what}={reprlib.repr(name_or_path)} but expected {expected}")
+    return Path(name_or_path)
 
 
 #: Environment variable naming the example-robot-data folder (the one holding ``robots/``).

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.exceptions import ShapeError
+from ..core.exceptions import ShapeError, UnknownToolConfiguration
 
 #: Configuration index of a sample whose tool configuration is not in the tool file.
 UNKNOWN_CONFIGURATION = -1
@@ -153,3 +153,37 @@ def configuration_indices(names: Sequence[str | None], known: Sequence[str]) -> 
     return np.array(
         [lookup.get(name, UNKNOWN_CONFIGURATION) if name is not None else UNKNOWN_CONFIGURATION for name in names], dtype=np.int64
     )
+
+
+def configuration_codes(configuration, n: int, known: Sequence[str]) -> np.ndarray:
+    """The configuration index of each of ``n`` samples a caller gives: one name, a name per sample, or indices.
+
+    Unlike a feed's unknown names (counted and skipped: :func:`configuration_indices`), a
+    caller's are a mistake in the code that calls and are refused.
+
+    Args:
+        configuration: One configuration name, a name per sample (length n), or indices in
+            the tool's order (-1: unknown, skipped and counted).
+        n: Number of samples.
+        known: The tool's configuration names, in order.
+
+    Returns:
+        Shape (n,), int64 (indices given per sample keep their own length, for the caller's
+        length check).
+
+    Raises:
+        UnknownToolConfiguration: A name that is not in ``known``, or an index outside
+            -1 .. len(known) - 1.
+    """
+    given = np.asarray(configuration)
+    if given.dtype.kind in "iu":
+        codes = np.full(n, int(given), dtype=np.int64) if given.ndim == 0 else given.astype(np.int64).reshape(-1)
+        wrong = codes[(codes < UNKNOWN_CONFIGURATION) | (codes >= len(known))]
+        if len(wrong):
+            raise UnknownToolConfiguration(str(int(wrong[0])), known)
+        return codes
+    names = [str(configuration)] * n if given.ndim == 0 else [str(name) for name in given.reshape(-1)]
+    codes = configuration_indices(names, known)
+    if (codes == UNKNOWN_CONFIGURATION).any():
+        raise UnknownToolConfiguration(names[int(np.argmax(codes == UNKNOWN_CONFIGURATION))], known)
+    return codes

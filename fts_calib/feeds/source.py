@@ -14,13 +14,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.exceptions import RecordingError
 from .bag import BagReader
 from .bag_log import BagTopics, is_bag, parse_bag_argument
-from .recording import RecordingReader
+
+if TYPE_CHECKING:
+    from .recording import RecordingReader
 
 #: The smallest share of a recording's channel samples a job must use for its result to stand
 #: (validate compares them, replay sends them): below it the result describes a sliver of the
@@ -84,4 +87,6 @@ def open_recording(
         raise RecordingError(first, None, None, f"a folder without a metadata.yaml is not a ROS 2 bag: expected {ACCEPTED}")
     if first.suffix not in CSV_SUFFIXES:
         raise RecordingError(first, None, None, f"unknown kind of recording '{first.suffix or first.name}': expected {ACCEPTED}")
+    from .recording import RecordingReader  # lazily: pandas is for reading CSVs, not for the parser of the command line
+
     return RecordingReader(first, joint_names, tool_names, max_abs_channel=max_abs_channel)

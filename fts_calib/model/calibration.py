@@ -370,7 +370,7 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     Fields this version does not know (a newer version's) are kept in ``extra`` (top level)
     and ``quality.extra``, and :func:`save_calibration` writes them back.
     """
-    path = locate(path, "configs")
+    path = locate(path, "configs", "calibration")
     data = load_yaml(path)
     fmt = data.get("format")
     if fmt != FORMAT:

@@ -185,7 +185,7 @@ def channel_layout(value: Any = None) -> ChannelLayout:
 
 
 #: What to do about data of another width, when the layout is the sensor file's (calibrate, live).
-SENSOR_HINT = ("the sensor's layout", "select the sensor with --sensor FILE (its 'channels' key)")
+SENSOR_HINT = ("the sensor's layout", "select the sensor with --sensor FILE, from Python sensor=FILE (its 'channels' key)")
 #: What to do about data of another width, when the layout is a calibration's (validate, tare, payload).
 CALIBRATION_HINT = ("the calibration's layout", "give the calibration of this sensor (--calibration FILE)")
 

@@ -351,7 +351,7 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
         ResourceNotFound: A bare name that is neither a file nor shipped (lists them).
         FileFormatError: A missing, unknown or malformed field; the message names file and field.
     """
-    path = locate(path, "configs")
+    path = locate(path, "configs", "sensor")
     data = load_yaml(path)
     check_keys(data, SENSOR_FILE_KEYS, path)
     full = data.get("full_scale") or {}

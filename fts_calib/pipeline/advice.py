@@ -7,16 +7,25 @@ that span 3-D.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..feeds.batch import UNKNOWN_TOOL
 from ..robot.tool import Tool
+from .checks import BACKWARDS, NON_FINITE, OUTSIDE_LIMITS
 
 #: Kept samples of a configuration before it counts in the advice.
 MIN_SAMPLES = 10
 #: The advice when nothing specific is missing.
 GENERIC = "more quasi-static samples"
+#: What to look at when the checks refused every sample, by the reason they counted.
+REFUSED = {
+    OUTSIDE_LIMITS: "joint readings in degrees? they must be in rad: joints_in_degrees=True, --joints-in-degrees",
+    NON_FINITE: "NaN or infinite joints or channels",
+    BACKWARDS: "the times must not decrease",
+    UNKNOWN_TOOL: "the configuration names must be those of the tool file",
+}
 
 
 def missing_words(
@@ -25,6 +34,7 @@ def missing_words(
     directions: np.ndarray,
     undetermined: Sequence[Sequence[str]] = (),
     cause: str = "",
+    refused: str = "",
 ) -> str:
     """What is missing for full rank, in words, the real cause first ('more quasi-static samples' when nothing specific).
 
@@ -37,7 +47,11 @@ def missing_words(
             (:func:`undetermined_words`); named before the tool's advice, which replaces
             the generic words.
         cause: A known cause, said first (e.g. a configuration none of whose rows could be read).
+        refused: Why no sample reached the filter (:func:`refused_words`); when given, it
+            replaces the rest, which would describe samples that were never kept.
     """
+    if refused:
+        return "; ".join(w for w in (cause, refused) if w)
     apart, words = undetermined_words(undetermined), _tool_words(tool, kept, directions)
     return "; ".join(w for w in (cause, apart, "" if apart and words == GENERIC else words) if w)
 
@@ -69,6 +83,25 @@ def _tool_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.nda
                     "needs a configuration off that line (paper eqs 19-20)"
                 )
     return "; ".join(words) or GENERIC
+
+
+def refused_words(skipped: Mapping[str, int], seen: int, kept: int) -> str:
+    """Why nothing was kept when the checks refused most samples, in words: their largest counts ('' otherwise).
+
+    Args:
+        skipped: Samples the checks refused, by reason (:attr:`SampleChecks.skipped`).
+        seen: Samples given.
+        kept: Samples kept.
+    """
+    refused = sum(skipped.values())
+    if kept or 2 * refused < seen:  # nothing kept for lack of stillness or excitation: the tool's advice says what
+        return ""
+    if not seen:
+        return "no sample was given"
+    top = sorted(((n, reason) for reason, n in skipped.items() if n), reverse=True)[:2]
+    parts = [f"{reason} {n:,}" + (f" ({REFUSED[reason]})" if reason in REFUSED else "") for n, reason in top]
+    share = "none" if refused >= seen else f"{seen - refused:,}"
+    return f"{share} of the {seen:,} samples passed the checks: " + ", ".join(parts)
 
 
 def undetermined_words(groups: Sequence[Sequence[str]]) -> str:

@@ -272,7 +272,8 @@ def calibrate(
         arrays = recording_or_arrays
         missing = [key for key in ("time", "joints", "channels", "configuration") if key not in arrays]
         if missing:
-            raise ShapeError(f"recording_or_arrays has no {missing}: expected time, joints, channels and configuration")
+            given = ", ".join(map(str, arrays)) or "none"
+            raise ShapeError(f"recording_or_arrays has no {missing}: expected time, joints, channels and configuration (given: {given})")
         joints = np.radians(np.asarray(arrays["joints"], dtype=float)) if joints_in_degrees else arrays["joints"]
         session.add_batch(arrays["time"], joints, arrays["channels"], arrays["configuration"], arrays.get("temperature"))
     else:

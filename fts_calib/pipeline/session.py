@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.arrays import as_matrix
+from ..core.arrays import as_floats, as_matrix, as_rows
 from ..core.deprecation import renamed
 from ..core.exceptions import FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
-from ..feeds.batch import SampleBatch, configuration_indices
+from ..feeds.batch import SampleBatch, configuration_codes
 from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
@@ -44,7 +44,7 @@ from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
-from .advice import missing_words
+from .advice import missing_words, refused_words
 from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
@@ -56,6 +56,7 @@ from .qsfilter import QuasiStaticFilter
 from .resume import restore_session, session_state
 from .settings import PipelineConfig
 from .still import quasi_static
+from .tool_load import check_tool_load
 from .units import HeldOutUnits
 
 __all__ = [
@@ -97,6 +98,9 @@ class CalibrationSession:
             held-out errors and the measured accuracy budget in % (:mod:`fts_calib.pipeline.budget`);
             a sensor file's default (50 N, 5 N m) when None.
 
+    Raises:
+        ConfigError: A tool far heavier than the sensor's full scale (grams: :mod:`fts_calib.pipeline.tool_load`).
+
     Attributes:
         budget: The measured accuracy budget of the last :meth:`solve`, or None.
         latency: The stream-latency estimate of the last :meth:`solve`, or None.
@@ -120,6 +124,7 @@ class CalibrationSession:
     ):
         self.kin = kin
         self.full_scale = as_matrix(DEFAULT_FULL_SCALE if full_scale is None else full_scale, (6,), "full_scale")
+        check_tool_load(tool, self.full_scale)  # a mass in grams fits the data exactly: only the sensor's range tells
         self.budget: AccuracyBudget | None = None
         self.latency: LatencyEstimate | None = None
         self._kept_samples, self._moving = KeptSamples(), MovingSamples()  # for the measured budget and the latency
@@ -174,7 +179,7 @@ class CalibrationSession:
         channels = np.array(channels, dtype=float)  # a copy: a controller may refill its buffer for the next tick
         if channels.shape != (self.layout.n_channels,):
             raise ShapeError(f"channels.shape={channels.shape} but expected ({self.layout.n_channels},), the {self.layout.name} layout")
-        code = int(configuration_indices([configuration], self.tool.names)[0])
+        code = int(configuration_codes(configuration, 1, self.tool.names)[0])
         self._staged.append((float(t), readings[0].copy(), channels, code, math.nan if temperature is None else float(temperature)))
         if len(self._staged) >= _STAGE:
             self._flush_staged()
@@ -192,23 +197,17 @@ class CalibrationSession:
             temperature: Sensor temperatures [°C], shape (n,), or None.
 
         Raises:
-            ShapeError: The arrays do not have one row per time.
+            ShapeError: The arrays do not have one row per time, or not ``n_channels`` channels.
+            UnknownToolConfiguration: A configuration that is not in the tool file.
         """
         readings, _ = self.kin.joint_array(joints)
-        t = np.asarray(t, dtype=float).reshape(-1)
-        if isinstance(configuration, str):
-            codes = np.repeat(configuration_indices([configuration], self.tool.names), len(t))
-        else:
-            given = np.asarray(configuration)
-            if given.dtype.kind in "iu":
-                codes = given.astype(np.int64)
-            else:
-                codes = configuration_indices([str(x) for x in given], self.tool.names)
-        channels = np.asarray(channels, dtype=float)
+        t = as_floats(t, "t").reshape(-1)
+        codes = configuration_codes(configuration, len(t), self.tool.names)
+        channels = as_rows(channels, len(t), "channels")  # its width is check_channels' to name, with the sensor
         if not (len(readings) == len(t) == len(channels) == len(codes)):
             counts = f"{len(t)} times, {len(readings)} joint readings, {len(channels)} rows of channels and {len(codes)} configurations"
             raise ShapeError(f"add_batch: {counts}: expected one of each per sample")
-        self.add_samples(SampleBatch(t, readings, channels.reshape(len(t), -1), codes, temperature))
+        self.add_samples(SampleBatch(t, readings, channels, codes, temperature))
 
     def add_samples(self, batch: SampleBatch) -> None:
         """Add a batch from a feed (configuration indices in the tool's order), in time order."""
@@ -351,7 +350,8 @@ class CalibrationSession:
             check = self.fit_check(hint) if not accept_poor_fit and self._strains_unexplained() else None
             if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
                 raise PoorFit(check, None) from None
-            words = missing_words(self.tool, self.kept, self._directions, self.estimator.undetermined(self.tool.names), hint)
+            refused = refused_words(self.checks.skipped, self.seen, int(self.kept.sum()))
+            words = missing_words(self.tool, self.kept, self._directions, self.estimator.undetermined(self.tool.names), hint, refused)
             raise InsufficientExcitation(exc.rank, exc.missing, words, exc.full) from None
         if calibration.quality is None:  # the estimator always measures the fit
             raise FtsCalibError("the estimator returned a calibration without its quality")

@@ -41,6 +41,16 @@ from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir, locate
 
+#: How far the sensor frame may be from its parent frame, in [m]: an adapter plate or a tool changer
+#: puts it centimetres away; a metre is none of them, and a mount written in mm (35 for 0.035) is 35 m.
+MAX_MOUNT_OFFSET = 1.0
+
+#: What a URDF given as the robot file is told.
+URDF_GIVEN = (
+    "is a URDF, not a robot file: write a robot YAML that names it (urdf: PATH) and says where the sensor is mounted "
+    "(sensor: parent_frame, xyz, rpy; docs/formats.md), or from Python use Kinematics.from_urdf(PATH, parent_frame=...)"
+)
+
 #: Prefix of URDF paths inside the example-robot-data package.
 ROBOT_DATA_PREFIX = "example-robot-data:"
 
@@ -101,6 +111,9 @@ class SensorMount:
     def __post_init__(self):
         owner = f"sensor mount on '{self.parent_frame}'"
         object.__setattr__(self, "xyz", frozen(validation.finite_array("xyz", as_matrix(self.xyz, (3,), "xyz"), owner)))
+        if np.linalg.norm(self.xyz) > MAX_MOUNT_OFFSET:  # a sensor sits on its frame, centimetres away: these are mm
+            reason = f"is {self.xyz.tolist()} m from the frame: it looks like mm; write metres, e.g. {(self.xyz / 1000).tolist()}"
+            raise ConfigError("xyz", self.xyz.tolist(), f"an offset within {MAX_MOUNT_OFFSET:g} m", "m", owner, reason=reason)
         rpy = validation.finite_array("rpy", as_matrix(self.rpy, (3,), "rpy"), owner)
         if np.any(np.abs(rpy) > 2 * math.pi + 1e-9):  # no mount needs more than a turn: these are degrees
             reason = (
@@ -203,6 +216,10 @@ class RobotDefinition:
     package_dirs: tuple[Path, ...] = ()
     source: Path | None = None
     accuracy: RobotAccuracy = field(default_factory=RobotAccuracy)
+
+    def where(self, field_name: str) -> str:
+        """Where a field was written, for a message: ``FILE: field 'NAME'`` ('' for a definition built in Python)."""
+        return f"{self.source}: field '{field_name}'" if self.source is not None else ""
 
     def __post_init__(self):
         owner = f"robot '{self.name}'"
@@ -316,10 +333,13 @@ def load_robot(path: str | Path) -> RobotDefinition:
     Raises:
         ResourceNotFound: A bare name that is neither a file nor a shipped robot (lists them).
         FileFormatError: A missing, unknown or malformed field (a sensor ``rpy`` in degrees),
-            or a URDF that does not exist; the message names the file and the field.
+            or a URDF that does not exist; the message names the file and the field. A URDF
+            given in place of the robot file.
         RobotDataNotFound: The URDF is in example-robot-data, which is not installed.
     """
     path = locate(path, "robots")
+    if path.suffix.lower() in (".urdf", ".xacro"):  # not "not valid YAML at line 310": say what the robot file is
+        raise FileFormatError(path, None, URDF_GIVEN)
     data = load_yaml(path)
     check_keys(data, ROBOT_KEYS, path)
     base = path.resolve().parent

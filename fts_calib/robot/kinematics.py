@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.deprecation import renamed, renamed_method
-from ..core.exceptions import FileFormatError, FrameNotFound, ShapeError
+from ..core.exceptions import ConfigError, FileFormatError, FrameNotFound, ShapeError
 from ._batch import Chain
 from .definition import RobotDefinition, SensorMount
 from .joints import (
@@ -161,8 +161,11 @@ class Kinematics:
             **fields: Other :class:`~fts_calib.robot.definition.RobotDefinition` fields.
 
         Raises:
+            ConfigError: ``model`` is not a ``pin.Model`` (a path or a name: say which entry point takes it).
             FrameNotFound: ``parent_frame`` is not in the model (lists the frames).
         """
+        if not isinstance(model, pin.Model):
+            raise ConfigError("model", model, "a pin.Model (a URDF: Kinematics.from_urdf; a robot file: Kinematics(load_robot(path)))")
         mount = SensorMount(parent_frame=parent_frame, xyz=np.asarray(xyz, dtype=float), rpy=np.asarray(rpy, dtype=float))
         robot = RobotDefinition(name=name or model.name or "robot", urdf=Path(), sensor=mount, urdf_spec="(a pin.Model)", **fields)
         return cls(robot, model=model)
@@ -171,7 +174,7 @@ class Kinematics:
     def _add_sensor_frame(model: pin.Model, robot: RobotDefinition) -> int:
         mount = robot.sensor
         if not model.existFrame(mount.parent_frame):
-            raise FrameNotFound(mount.parent_frame, [f.name for f in model.frames])
+            raise FrameNotFound(mount.parent_frame, [f.name for f in model.frames], robot.where("sensor.parent_frame"))
         parent_id = model.getFrameId(mount.parent_frame)
         parent = model.frames[parent_id]
         T_parent_sensor = pin.SE3(pin.rpy.rpyToMatrix(*mount.rpy), np.asarray(mount.xyz, dtype=float))

@@ -274,7 +274,7 @@ def load_tool(path: str | Path) -> Tool:
             listed), a non-positive mass, a wrong shape, a duplicate configuration name; the
             message names the file and the field.
     """
-    path = locate(path, "configs")
+    path = locate(path, "configs", "tool")
     data = load_yaml(path)
     check_keys(data, TOOL_KEYS, path)
     name = str(require(data, "name", path))

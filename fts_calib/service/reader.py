@@ -22,6 +22,8 @@ the argument, and an orientation that is not a rotation (Frobenius norm of ``R^T
 
 from __future__ import annotations
 
+import reprlib
+
 import numpy as np
 
 from ..core.arrays import as_matrix, as_samples
@@ -102,6 +104,9 @@ class WrenchReader:
     Args:
         calibration: The sensor's calibration; its layout fixes the number of channels n.
 
+    Raises:
+        ConfigError: ``calibration`` is not a :class:`Calibration` (a path: load it first).
+
     Example::
 
         reader = WrenchReader(load_calibration("calibration.yaml"))
@@ -109,6 +114,11 @@ class WrenchReader:
     """
 
     def __init__(self, calibration: Calibration):
+        if not isinstance(calibration, Calibration):  # a path, None: say what to pass (not an AttributeError)
+            expected = "a Calibration (load_calibration(path) reads a file)"
+            raise ConfigError(
+                "calibration", calibration, expected, message=f"calibration={reprlib.repr(calibration)} but expected {expected}"
+            )
         self.C = np.ascontiguousarray(calibration.C, dtype=float)
         self.n_channels = calibration.layout.n_channels
         self.D = np.array(calibration.D, dtype=float)  # a copy: set_offsets changes it, the calibration stays
