@@ -25,6 +25,7 @@ from ..core.exceptions import FileFormatError, ShapeError
 from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, require
 from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
+from .health import ParityModel
 from .sensor import WRENCH_AXES, WRENCH_UNITS, wrench_from_strain
 
 #: Value of the ``format`` field of a calibration file.
@@ -123,6 +124,9 @@ class Calibration:
             basis and coefficients, the offset trajectory); None for constant offsets of
             a file written before offset models existed. ``D`` is the offset at the end of
             the run.
+        health: The parity model of the channels (the ``health`` section,
+            :class:`fts_calib.model.health.ParityModel` as plain data), or None (a layout
+            with no more channels than axes, or a file written before it existed).
         extra: Top-level fields of the file that this version does not know (written by a
             newer one), kept as read: a rewrite (``tare``) writes them back unchanged.
         C: Calibration matrix ``C_bar @ P``, shape (6, n) (derived, not an argument).
@@ -136,6 +140,7 @@ class Calibration:
     layout: ChannelLayout = MALTESE_CROSS_8
     offset_model: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
+    health: Mapping[str, Any] | None = None
     C: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -152,6 +157,8 @@ class Calibration:
         object.__setattr__(self, "extra", dict(self.extra))
         if self.offset_model is not None:
             object.__setattr__(self, "offset_model", dict(self.offset_model))
+        if self.health is not None:
+            object.__setattr__(self, "health", dict(self.health))
 
     @renamed(strain="channels")
     def wrench(self, channels) -> np.ndarray:
@@ -224,7 +231,7 @@ _QUALITY_FIELDS = (
     "prior",
 )
 #: The top-level fields of a calibration file this version reads; others are kept in ``Calibration.extra``.
-FIELDS = ("format", "units", "channels", "C", "C_bar", "D", "quality", "provenance", "offset_history", "offset_model")
+FIELDS = ("format", "units", "channels", "C", "C_bar", "D", "quality", "provenance", "offset_history", "offset_model", "health")
 
 
 def save_calibration(calibration: Calibration, path: str | Path) -> Path:
@@ -251,6 +258,8 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
     data["offset_history"] = list(calibration.offset_history)
     if calibration.offset_model is not None:
         data["offset_model"] = dict(calibration.offset_model)
+    if calibration.health is not None:
+        data["health"] = dict(calibration.health)
     data.update({key: value for key, value in calibration.extra.items() if key not in FIELDS})  # a newer version's fields, kept
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
     return atomic_write_text(path, header + dump_yaml(data))
@@ -327,6 +336,12 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     offset_model = data.get("offset_model")
     if offset_model is not None and not isinstance(offset_model, Mapping):
         raise FileFormatError(path, "offset_model", "expected a mapping")
+    health = data.get("health")
+    if health is not None and not isinstance(health, Mapping):
+        raise FileFormatError(path, "health", "expected a mapping (the parity model)")
+    with fields_of(path):
+        if health is not None:
+            ParityModel.from_dict(health)  # refused here, naming the field, rather than in service
     with fields_of(path):
         return Calibration(
             C_bar=C_bar,
@@ -336,5 +351,6 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             offset_history=tuple(history),
             layout=layout,
             offset_model=offset_model,
+            health=health,
             extra={key: value for key, value in data.items() if key not in FIELDS},
         )

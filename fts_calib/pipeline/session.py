@@ -38,6 +38,7 @@ from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
+from ..model.health import fit_parity
 from ..model.least_squares import unexplained_strain
 from ..model.prior import Prior
 from ..model.sensor_config import DEFAULT_FULL_SCALE
@@ -341,7 +342,25 @@ class CalibrationSession:
         calibration, self.budget, self.latency = with_measured_budget(
             calibration, self.kin, self.tool, self._kept_samples, int(self.kept.sum()), noise_floor, self._moving, self.full_scale
         )
-        return calibration
+        return self._with_health(calibration, noise_floor)
+
+    def _with_health(self, calibration: Calibration, noise_floor: np.ndarray | None) -> Calibration:
+        """The calibration with its parity model (:mod:`fts_calib.model.health`) from the kept samples, when the layout has one."""
+        channels = self._kept_samples.arrays()[2]
+        resolution = None if self.filter is None else self.filter.grid.resolution
+        limits = self.checks.detected_limits(resolution) or self.settings.checks.limits
+        parity = fit_parity(
+            self.layout,
+            calibration.C,
+            calibration.D,
+            channels,
+            self.full_scale,
+            noise_floor,
+            resolution,
+            None if limits is None else limits.low,
+            None if limits is None else limits.high,
+        )
+        return calibration if parity is None else replace(calibration, health=parity.to_dict())
 
     def _strains_unexplained(self) -> bool:
         """Whether the strains carry a signal the tool file's loads cannot produce (:func:`unexplained_strain`)."""

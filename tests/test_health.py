@@ -1,0 +1,139 @@
+"""The parity model learnt at calibration (the ``health`` section) and the health monitor's faults."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fts_calib.core.exceptions import FileFormatError
+from fts_calib.model.calibration import load_calibration
+from fts_calib.model.channels import channel_layout
+from fts_calib.model.health import ParityModel, fit_parity
+from fts_calib.pipeline.calibrate import calibrate_recording
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
+from fts_calib.service.health import HealthMonitor, chi2_isf, chi2_sf
+from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sim.service import inject_fault, service_wrenches
+
+FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N m]
+NOISE = 1e-5  # [mV/V] per bridge, the simulated sensor's
+
+
+@pytest.fixture(scope="module")
+def sensor():
+    return load_simulated_sensor("sensor")
+
+
+@pytest.fixture(scope="module")
+def calibrated(ur5_recording):
+    """The calibration of the simulated UR5 recording (the paper's sensor and tool)."""
+    return calibrate_recording(ur5_recording, Kinematics(load_robot("ur5")), load_tool("paper_tool")).calibration
+
+
+@pytest.fixture(scope="module")
+def parity(sensor):
+    """The parity model of 20 s of simulated service with the true C, with the ADC's rails."""
+    rng = np.random.default_rng(11)
+    t, w = service_wrenches(20.0, 1000.0, rng)
+    low, high = sensor.adc_codes
+    C = sensor.C_bar @ sensor.layout.projection
+    n = sensor.layout.n_channels
+    resolution = np.full(n, sensor.lsb)
+    return fit_parity(
+        sensor.layout, C, sensor.D, sensor.channels(w, t, rng), FULL_SCALE, None, resolution, np.full(n, low), np.full(n, high)
+    )
+
+
+def test_the_calibration_learns_the_parity_of_the_eight_bridges(calibrated, sensor):
+    model = ParityModel.from_dict(calibrated.health)
+    assert model.n_parity == 2 and model.groups() == [[0, 2, 4, 6], [1, 3, 5, 7]]
+    assert calibrated.health["groups"] == [[1, 3, 5, 7], [2, 4, 6, 8]]
+    # each parity row has norm ~1 over bridges of noise 1e-5 mV/V: its noise is 1e-5; from about 1,100
+    # kept samples the standard deviation is known to 1/sqrt(2 x 1100) = 2 %: 0.85 to 1.2 is > 7 sigma
+    noise = np.array(calibrated.health["noise"]) / np.linalg.norm(model.N, axis=1)
+    assert np.all((noise > 0.85 * NOISE) & (noise < 1.2 * NOISE)), noise
+    # load-free: noiseless channels under loads across the full scale give the same residual to far
+    # below the noise (A is fitted from the kept samples; the null content follows the wrench linearly)
+    rng = np.random.default_rng(3)
+    loads = rng.uniform(-1, 1, (500, 6)) * FULL_SCALE * 0.5
+    r = model.residual(sensor.channels(loads))
+    assert np.abs(r).max() < 3 * NOISE, np.abs(r).max()
+    # the signatures: bridges 1, 3, 5, 7 on one line, 2, 4, 6, 8 on another, nearly orthogonal
+    u = model.signatures / np.linalg.norm(model.signatures, axis=1, keepdims=True)
+    assert abs(u[0] @ u[1]) < 0.1 and np.all(np.abs(u[[0, 2, 4, 6]] @ u[0]) > 0.99)
+
+
+def test_the_health_section_round_trips_and_old_files_still_load(calibrated, tmp_path):
+    path = calibrated.save(tmp_path / "cal.yaml")
+    again = load_calibration(path)
+    a, b = ParityModel.from_dict(calibrated.health), ParityModel.from_dict(again.health)
+    for name in ("N", "c", "A", "covariance", "channel_noise", "zero", "gain", "span_low", "span_high", "low", "high"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    assert load_calibration("paper_table1_calibration").health is None  # a file without the section
+    text = path.read_text().replace("  covariance:", "  covariance_gone:")
+    (tmp_path / "bad.yaml").write_text(text)
+    with pytest.raises(FileFormatError, match=r"health\.covariance"):
+        load_calibration(tmp_path / "bad.yaml")
+
+
+def test_a_layout_without_spare_channels_has_no_parity(sensor):
+    rng = np.random.default_rng(2)
+    wrench6 = channel_layout("wrench-6")
+    assert fit_parity(wrench6, np.eye(6), np.zeros(6), rng.standard_normal((200, 6)), FULL_SCALE) is None
+
+
+def test_chi_square_tail_matches_the_tables():
+    # tabulated 5 % points of chi-square with 1, 2, 3 degrees of freedom
+    for x, dof in ((3.841458820694124, 1), (5.991464547107979, 2), (7.814727903251178, 3)):
+        assert chi2_sf(x, dof) == pytest.approx(0.05, rel=1e-9)
+        assert chi2_isf(0.05, dof) == pytest.approx(x, rel=1e-9)
+
+
+# faults: each kind on each channel, 6 s of service, the fault at 3 s; named within 2 s
+FAULTS = [("gain", -0.01, "gain"), ("jump", 2e-4, "jump"), ("frozen", 0.0, "frozen"), ("open", 0.0, "rail")]
+
+
+@pytest.mark.parametrize(("fault", "size", "kind"), FAULTS)
+def test_each_fault_is_found_and_named_on_every_channel(parity, sensor, fault, size, kind):
+    high = sensor.adc_codes[1]
+    for channel in range(1, 9):
+        rng = np.random.default_rng(100 * channel + len(fault))
+        t, w = service_wrenches(6.0, 1000.0, rng)
+        broken = inject_fault(sensor.channels(w, t, rng), t, fault, channel, 3.0, size, rail=high)
+        monitor = HealthMonitor(parity)
+        monitor.update_batch(t, broken)
+        assert monitor.events, f"{fault} on channel {channel} not found"
+        first = monitor.events[0]
+        assert (first.kind, first.channel) == (kind, channel), (fault, channel, monitor.events)
+        assert 3.0 <= first.detected_s <= 5.0 and abs(first.time_s - 3.0) <= 1.0, first
+
+
+def test_a_shorted_bridge_without_declared_rails_is_out_of_range(parity, sensor):
+    """A bridge driven beyond what any load within the full scale gives it (no rails known) is open or shorted."""
+    free = ParityModel(**{**parity.__dict__, "low": np.full(8, -np.inf), "high": np.full(8, np.inf)})
+    rng = np.random.default_rng(7)
+    t, w = service_wrenches(5.0, 1000.0, rng)
+    for channel in (2, 7):
+        broken = inject_fault(sensor.channels(w, t, rng), t, "shorted", channel, 2.5, rail=5.0)
+        monitor = HealthMonitor(free)
+        monitor.update_batch(t, broken)
+        assert [(e.kind, e.channel) for e in monitor.events[:1]] == [("open-or-shorted", channel)]
+        assert monitor.events[0].time_s == pytest.approx(2.5, abs=1e-9)
+
+
+def test_clean_service_with_drifting_offsets_raises_nothing(parity, sensor):
+    """60 s of clean service with the channels drifting (an offset, no fault): the budget is 1e-3 false alarms per hour."""
+    rng = np.random.default_rng(5)
+    t, w = service_wrenches(60.0, 1000.0, rng)
+    drift = 2e-6 * t[:, None] * np.linspace(-1, 1, 8)  # [mV/V]: 2e-6 per s, 12 noise sigmas per minute
+    monitor = HealthMonitor(parity)
+    channels = sensor.channels(w, t, rng) + drift
+    half = len(t) // 2
+    for i in range(1000):  # sample by sample too: the same code as batches
+        monitor.update(t[i], channels[i])
+    monitor.update_batch(t[1000:half], channels[1000:half])
+    monitor.update_batch(t[half:], channels[half:])
+    assert monitor.events == [] and monitor.state == "ok"
+    assert monitor.samples == len(t)
