@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
+from fts_calib.app.cli import main
 from fts_calib.core.exceptions import FileFormatError
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.channels import channel_layout
@@ -137,3 +140,35 @@ def test_clean_service_with_drifting_offsets_raises_nothing(parity, sensor):
     monitor.update_batch(t[half:], channels[half:])
     assert monitor.events == [] and monitor.state == "ok"
     assert monitor.samples == len(t)
+
+
+def _service_csv(path, time, channels) -> None:
+    """A service recording: time, the channels, the tool configuration (no joints: the monitor needs none)."""
+    header = "time," + ",".join(f"strain_{k + 1}" for k in range(channels.shape[1])) + ",tool"
+    rows = "\n".join(f"{float(t)!r}," + ",".join(repr(float(v)) for v in row) + ",A" for t, row in zip(time, channels, strict=True))
+    path.write_text(header + "\n" + rows + "\n")
+
+
+def test_cli_monitor_names_the_fault_and_writes_json(parity, sensor, calibrated, tmp_path, capsys):
+    from dataclasses import replace
+
+    cal = replace(calibrated, health=parity.to_dict()).save(tmp_path / "cal.yaml")  # the true sensor's parity, rails
+    rng = np.random.default_rng(21)
+    t, w = service_wrenches(6.0, 1000.0, rng)
+    broken = inject_fault(sensor.channels(w, t, rng), t, "frozen", 6, 2.0)
+    _service_csv(tmp_path / "service.csv", t, broken)
+    code = main(["monitor", "--calibration", str(cal), str(tmp_path / "service.csv"), "--json", str(tmp_path / "health.json")])
+    out = capsys.readouterr().out
+    assert code == 1 and "strain_6" in out and "health: 1 fault(s)" in out, out
+    data = json.loads((tmp_path / "health.json").read_text())
+    assert [(e["kind"], e["channel"]) for e in data["events"]] == [("frozen", 6)]
+    assert abs(data["events"][0]["time_s"] - 2.0) < 1e-6 and data["samples"] == len(t) and data["health"] == "fault"
+    _service_csv(tmp_path / "clean.csv", t, sensor.channels(w, t, rng))
+    assert main(["monitor", "--calibration", str(cal), str(tmp_path / "clean.csv")]) == 0
+    assert "health: ok, no fault found" in capsys.readouterr().out
+
+
+def test_cli_monitor_refuses_a_calibration_without_health(tmp_path, capsys):
+    _service_csv(tmp_path / "s.csv", np.arange(3) / 1000.0, np.zeros((3, 8)))
+    assert main(["monitor", "--calibration", "paper_table1_calibration", str(tmp_path / "s.csv")]) == 3
+    assert "has no health section" in capsys.readouterr().err

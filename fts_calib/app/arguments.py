@@ -386,6 +386,30 @@ def _add_export(commands) -> None:
     exp.add_argument("--world-frame", default="world", help="TF frame with z up (ros2, default world)")
 
 
+def _add_monitor(commands) -> None:
+    mon = _add(
+        commands,
+        "monitor",
+        "watch the sensor's health over a recording: faulty bridges, named",
+        "With the parity model the calibration learnt (the channels' combinations that carry no load, docs/health.md): "
+        "a bridge whose gain changed, a jump, a frozen channel, a channel at its rail or beyond any load's reading; "
+        "each with its time and the channel it points to. Exits 1 when a fault is found.",
+        "fts-calib monitor --calibration calibration.yaml service.csv --json health.json",
+    )
+    add_recording(mon)
+    mon.add_argument("--calibration", required=True, help="calibration file with its health section (fts-calib YAML)")
+    mon.add_argument(
+        "--json", dest="json_path", metavar="FILE", help='write the events as JSON: {"events": [{"time_s", "kind", "channel", "detail"}]}'
+    )
+    mon.add_argument(
+        "--false-alarms",
+        dest="false_alarms_per_hour",
+        type=float,
+        default=1e-3,
+        help="false-alarm budget per hour of service (default 1e-3)",
+    )
+
+
 #: The sub-commands, in the order ``fts-calib --help`` lists them; ``NAME`` runs ``fts_calib.app.NAME.run``.
 COMMANDS = {
     "demo": _add_demo,
@@ -399,6 +423,7 @@ COMMANDS = {
     "tare": _add_tare,
     "payload": _add_payload,
     "export": _add_export,
+    "monitor": _add_monitor,
 }
 
 

@@ -358,7 +358,7 @@ class HealthMonitor:
         last_change = len(x) - 1 - np.argmax(changed[::-1], axis=0)
         self._run[:] = np.where(moved, len(x) - 1 - last_change, self._run + len(x))
         for k in np.flatnonzero(self._run >= self.freeze_samples):
-            start = float(t[-1]) - (int(self._run[k]) - 1) * (float(t[-1] - t[0]) / max(len(t) - 1, 1))
+            start = float(t[-1]) - int(self._run[k]) * (float(t[-1] - t[0]) / max(len(t) - 1, 1))  # its last change
             self._report(
                 start,
                 "frozen",
