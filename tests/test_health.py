@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -11,12 +13,12 @@ from fts_calib.app.cli import main
 from fts_calib.core.exceptions import FileFormatError
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.channels import channel_layout
-from fts_calib.model.health import ParityModel, fit_parity
+from fts_calib.model.health import ParityModel, chi2_isf, chi2_sf, fit_parity
 from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.health import HealthMonitor, chi2_isf, chi2_sf
+from fts_calib.service.health import HealthMonitor
 from fts_calib.sim.sensor import load_simulated_sensor
 from fts_calib.sim.service import inject_fault, service_wrenches
 
@@ -172,3 +174,47 @@ def test_cli_monitor_refuses_a_calibration_without_health(tmp_path, capsys):
     _service_csv(tmp_path / "s.csv", np.arange(3) / 1000.0, np.zeros((3, 8)))
     assert main(["monitor", "--calibration", "paper_table1_calibration", str(tmp_path / "s.csv")]) == 3
     assert "has no health section" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
+@pytest.mark.parametrize("double", [True, False])
+def test_the_exported_c_parity_check_matches_python(parity, sensor, calibrated, tmp_path, double):
+    from dataclasses import replace
+
+    from fts_calib.service.export import c_header
+
+    cal = replace(calibrated, health=parity.to_dict())
+    (tmp_path / "fts_calib.h").write_text(c_header(cal))
+    rng = np.random.default_rng(4)
+    t, w = service_wrenches(0.05, 1000.0, rng)
+    channels = inject_fault(sensor.channels(w, t, rng), t, "jump", 3, 0.025, 1e-3)  # half the samples flagged
+    baseline = np.array([0.5, -0.25])
+    rows = ",\n".join("{" + ", ".join(f"{v!r}" for v in row) + "}" for row in channels.tolist())
+    main_c = f"""#include <stdio.h>
+#include "fts_calib.h"
+static const fts_calib_real samples[{len(channels)}][8] = {{{rows}}};
+int main(void) {{
+    const fts_calib_real baseline[2] = {{{float(baseline[0])!r}, {float(baseline[1])!r}}};
+    fts_calib_real e[2];
+    for (int i = 0; i < {len(channels)}; ++i) {{
+        int flag = fts_calib_parity(samples[i], baseline, e);
+        printf("%.17g %.17g %d\\n", (double)e[0], (double)e[1], flag);
+    }}
+    return 0;
+}}
+"""
+    (tmp_path / "main.c").write_text(main_c)
+    flags = ["-DFTS_CALIB_DOUBLE"] if double else []
+    build = ["cc", "-std=c99", "-Wall", "-Werror", *flags, "-o", str(tmp_path / "main"), str(tmp_path / "main.c"), "-lm"]
+    subprocess.run(build, check=True, capture_output=True)
+    out = subprocess.run([str(tmp_path / "main")], check=True, capture_output=True, text=True).stdout.split("\n")
+    got = np.array([[float(v) for v in line.split()] for line in out if line])
+    expected = [parity.check(row, baseline) for row in channels]
+    e = np.array([x[0] for x in expected])
+    # double: rounding of the printed constants only. float: entries of L N ~5e4 times readings ~0.05
+    # summed over 8 channels, ~3e3 with a float epsilon of 6e-8: a few 1e-4 of a noise sigma
+    atol = 1e-7 if double else 5e-3
+    np.testing.assert_allclose(got[:, :2], e, atol=atol)
+    flags_python = np.array([x[1] for x in expected])
+    assert 0 < flags_python.sum() < len(flags_python)
+    assert np.array_equal(got[:, 2].astype(bool), flags_python)

@@ -42,41 +42,10 @@ import numpy as np
 
 from ..core.exceptions import ConfigError, ShapeError
 from ..model.channel_limits import ChannelLimits, railed
-from ..model.health import GROUP_COSINE, ParityModel
+from ..model.health import GROUP_COSINE, ParityModel, chi2_isf
 
 #: The kinds of fault the monitor reports.
 KINDS = ("gain", "jump", "frozen", "rail", "open-or-shorted")
-
-
-def chi2_sf(x: float, dof: int) -> float:
-    """Survival function of the chi-square distribution with an integer number of degrees of freedom."""
-    if x <= 0.0:
-        return 1.0
-    half = x / 2.0
-    if dof % 2 == 0:
-        term, total = 1.0, 1.0
-        for i in range(1, dof // 2):
-            term *= half / i
-            total += term
-        return math.exp(-half) * total
-    total, term = 0.0, math.sqrt(x) * math.sqrt(2.0 / math.pi) * math.exp(-half)
-    for i in range(1, (dof - 1) // 2 + 1):
-        total += term
-        term *= x / (2 * i + 1)
-    return math.erfc(math.sqrt(half)) + total
-
-
-def chi2_isf(p: float, dof: int) -> float:
-    """The x with ``chi2_sf(x, dof) = p`` (bisection; p in (0, 1))."""
-    if not 0.0 < p < 1.0:
-        raise ConfigError("probability", p, "a number in (0, 1)")
-    low, high = 0.0, 1.0
-    while chi2_sf(high, dof) > p:
-        high *= 2.0
-    for _ in range(200):
-        mid = 0.5 * (low + high)
-        low, high = (mid, high) if chi2_sf(mid, dof) > p else (low, mid)
-    return 0.5 * (low + high)
 
 
 @dataclass(frozen=True)
