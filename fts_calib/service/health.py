@@ -84,6 +84,11 @@ class HealthMonitor:
         naming_margin: How much the named channel's z^2 must exceed that of every other channel
             whose signature lies on the same line before it is named (25: five standard deviations).
         decide_blocks: Blocks a jump waits for the gain test before it is reported as a jump.
+        min_gain: Smallest relative gain change reported (0.2 %): the parity's dependence on the
+            wrench is known from a finite calibration, to about 0.002 % of a bridge's gain on the
+            paper's sensor, which a long window of large loads shows as significant.
+        min_jump: Smallest jump reported, in noise standard deviations of one sample of the parity
+            residual (the same finite calibration moves its block means by up to ~0.6 of them).
 
     Attributes:
         events: The faults found so far, in order.
@@ -101,6 +106,8 @@ class HealthMonitor:
         false_alarms_per_hour: float = 1e-3,
         naming_margin: float = 25.0,
         decide_blocks: int = 18,
+        min_gain: float = 0.002,
+        min_jump: float = 1.0,
     ):
         if not (rate_hz > 0 and block >= 10 and window_blocks >= 3 and jump_blocks >= 1 and false_alarms_per_hour > 0):
             raise ConfigError("monitor", [rate_hz, block, window_blocks, jump_blocks], "rate > 0, block >= 10, window >= 3, jump >= 1")
@@ -108,6 +115,7 @@ class HealthMonitor:
         n, m = parity.n_channels, parity.n_parity
         self.block, self.window_blocks, self.jump_blocks = block, window_blocks, jump_blocks
         self.naming_margin, self.decide_blocks = naming_margin, decide_blocks
+        self.min_gain, self.min_jump = min_gain, min_jump
         unit = self._unit_signatures = parity.signatures / np.linalg.norm(parity.signatures, axis=1, keepdims=True)
         self._same_line = np.abs(unit @ unit.T) >= GROUP_COSINE  # (n, n): channels parity alone cannot tell apart
         self.limits = ChannelLimits(parity.resolution, parity.low, parity.high)
@@ -194,9 +202,11 @@ class HealthMonitor:
         if self._since_reset > self.jump_blocks:
             J = self.jump_blocks
             d = self._Q @ (self._e_means[-1] - self._e_means[-1 - J : -1].mean(axis=0))
-            jump = float(d @ d) / (1.0 / self.block + 1.0 / (J * self.block))
+            jump = float(d @ d) / (1.0 / self.block + 1.0 / (J * self.block)) if float(d @ d) >= self.min_jump**2 else 0.0
         blocks = min(self.window_blocks, self._since_reset)
         gain, k_gain, margin = self._gain_test(blocks) if blocks >= 3 else (0.0, -1, 0.0)
+        if gain > self.gain_threshold and abs(self._gain_change(k_gain, blocks)) < self.min_gain:
+            gain = 0.0  # significant, but below what the calibration's own uncertainty can produce
         self.last_statistics = (gain, jump)
         named = gain > self.gain_threshold and margin > self.naming_margin
         if self._pending is not None:
