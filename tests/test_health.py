@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+import time as time_module
 
 import numpy as np
 import pytest
@@ -218,3 +219,40 @@ int main(void) {{
     flags_python = np.array([x[1] for x in expected])
     assert 0 < flags_python.sum() < len(flags_python)
     assert np.array_equal(got[:, 2].astype(bool), flags_python)
+
+
+def test_cli_monitor_listens_to_the_live_feed(parity, sensor, calibrated, tmp_path):
+    """The same faults from strain datagrams (with a malformed one, skipped): frozen bridge 4 named, then 'end'."""
+    import re
+    import socket
+    import sys
+    from dataclasses import replace
+
+    from fts_calib.feeds.protocol import End as EndMessage
+    from fts_calib.feeds.protocol import Strain, encode
+
+    cal = replace(calibrated, health=parity.to_dict()).save(tmp_path / "cal.yaml")
+    rng = np.random.default_rng(31)
+    t, w = service_wrenches(3.0, 1000.0, rng)
+    broken = inject_fault(sensor.channels(w, t, rng), t, "frozen", 4, 1.5)
+    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(cal), "--listen", "127.0.0.1:0", "--quiet"]
+    command += ["--json", str(tmp_path / "live.json"), "--idle-timeout", "20"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None
+        first = process.stdout.readline()
+        port = int(re.search(r"udp://127\.0\.0\.1:(\d+)", first).group(1))
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.sendto(b"{not json", ("127.0.0.1", port))
+            for i in range(len(t)):
+                sock.sendto(encode(Strain(float(t[i]), tuple(float(v) for v in broken[i]))), ("127.0.0.1", port))
+                if i % 200 == 0:
+                    time_module.sleep(0.001)  # let the receiver keep up with a burst on a busy machine
+            sock.sendto(encode(EndMessage()), ("127.0.0.1", port))
+        out, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 1, (first + out, err)
+    data = json.loads((tmp_path / "live.json").read_text())
+    assert [(e["kind"], e["channel"]) for e in data["events"]] == [("frozen", 4)], data
+    assert data["skipped"] >= 1  # the malformed datagram

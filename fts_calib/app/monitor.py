@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -11,25 +13,27 @@ import numpy as np
 from ..core.exceptions import ConfigError
 from ..core.outputs import atomic_write_text
 from ..core.paths import check_outputs
-from ..feeds.bag_log import BagTopics
+from ..feeds.protocol import Strain
 from ..feeds.source import open_recording, recording_paths
+from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from ..model.calibration import load_calibration
 from ..model.channels import check_channels
 from ..model.health import ParityModel
 from ..service.health import HealthMonitor
-from .exit_codes import ExitCode, writing
+from .exit_codes import ExitCode, using_udp, writing
 
 
 def run(
     *,
-    recording: str | Path | Sequence[str | Path],
+    recording: str | Path | Sequence[str | Path] = (),
     calibration: str | Path,
     json_path: str | Path | None = None,
     false_alarms_per_hour: float = 1e-3,
-    joints_topic: str = BagTopics.joints,
-    channels_topic: str = BagTopics.channels,
-    configuration_topic: str = BagTopics.configuration,
-    joint_stamps: str = BagTopics.joint_stamps,
+    listen: tuple[str, int] | None = None,
+    listen_any: bool = False,
+    rate_hz: float = 1000.0,
+    idle_timeout_s: float | None = None,
+    quiet: bool = False,
 ) -> int:
     """Watch a recording's channels with the calibration's parity model (``fts-calib monitor``).
 
@@ -37,12 +41,15 @@ def run(
         recording: Recording (CSV or CSV.gz) of the sensor in service, or ROS 2 bags.
         calibration: Calibration file with a ``health`` section.
         json_path: Where to write ``{"events": [{"time_s", "kind", "channel", "detail"}, ...],
-            "samples": N, "skipped": {...}, "health": "ok" | "fault"}``, atomically; None for none.
+            "samples": N, "skipped": N, "health": "ok" | "fault"}``, atomically; None for none.
         false_alarms_per_hour: False-alarm budget of the tests, per hour of service.
-        joints_topic: A bag's sensor_msgs/msg/JointState topic.
-        channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
-        configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
-        joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
+        listen: ``(host, port)`` of the live UDP feed to watch instead of a recording (its
+            strain datagrams, :mod:`fts_calib.feeds.protocol`), until an 'end' datagram, Ctrl-C
+            or ``idle_timeout_s``; None: a recording.
+        listen_any: Bind every interface (see :func:`fts_calib.feeds.udp.listen_host`).
+        rate_hz: Sample rate of the live feed [Hz] (a recording's is measured).
+        idle_timeout_s: Stop listening after this many seconds without a datagram; None: never.
+        quiet: No status line (live).
 
     Returns:
         0 when no fault was found, 1 when one was.
@@ -51,7 +58,11 @@ def run(
         ConfigError: The calibration has no health section (a layout with no more channels
             than axes, or a file written before it existed).
     """
-    paths = recording_paths(recording)
+    if (listen is None) == (not recording):
+        raise ConfigError(
+            "recording", [str(p) for p in recording_paths(recording)] if recording else [], "a recording, or --listen (one of them)"
+        )
+    paths = recording_paths(recording) if recording else []
     check_outputs({"--json": json_path}, {"the calibration": calibration, **{f"recording {k + 1}": p for k, p in enumerate(paths)}})
     cal = load_calibration(calibration)
     if cal.health is None:
@@ -62,11 +73,13 @@ def run(
         )
         raise ConfigError("health", None, "the calibration's parity model", message=f"{calibration} has no health section: {why}")
     parity = ParityModel.from_dict(cal.health)
+    if listen is not None:
+        live, span, skipped = _listen(parity, listen, listen_any, rate_hz, false_alarms_per_hour, idle_timeout_s, quiet)
+        return _report(live, parity, f"udp://{listen[0]}:{listen[1]}", calibration, span, skipped, false_alarms_per_hour, json_path)
     monitor: HealthMonitor | None = None
     skipped = 0
     first_time = last_time = None
-    topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps)
-    with open_recording(paths, None, None, topics=topics) as reader:
+    with open_recording(paths, None, None) as reader:
         for chunk in reader:
             check_channels(cal.layout, chunk.channels.shape[1], str(reader.path))
             finite = np.isfinite(chunk.time) & np.all(np.isfinite(chunk.channels), axis=1)
@@ -82,15 +95,29 @@ def run(
                 first_time = float(time[0])
             monitor.update_batch(time, channels)
             last_time = float(time[-1])
+    span = 0.0 if first_time is None or last_time is None else last_time - first_time
+    return _report(monitor, parity, " ".join(map(str, paths)), calibration, span, skipped, false_alarms_per_hour, json_path)
+
+
+def _report(
+    monitor: HealthMonitor | None,
+    parity: ParityModel,
+    source: str,
+    calibration: str | Path,
+    span: float,
+    skipped: int,
+    false_alarms_per_hour: float,
+    json_path: str | Path | None,
+) -> int:
+    """Print what the monitor found, write the JSON; the exit status (1 on a fault)."""
     samples = 0 if monitor is None else monitor.samples
     events = [] if monitor is None else monitor.events
     noise = ", ".join(f"{v:.3g}" for v in np.sqrt(np.diag(parity.covariance)))
     groups = " and ".join("(" + ", ".join(str(k + 1) for k in g) + ")" for g in parity.groups())
-    span = 0.0 if first_time is None or last_time is None else last_time - first_time
-    print(f"monitor of {' '.join(map(str, paths))}: {samples:,} samples over {span:.1f} s with {calibration}")
+    print(f"monitor of {source}: {samples:,} samples over {span:.1f} s with {calibration}")
     print(f"parity: {parity.n_parity} load-free combinations, noise {noise} (raw units); channels that share a parity line: {groups}")
     if skipped:
-        print(f"skipped: {skipped:,} rows with a non-finite value")
+        print(f"skipped: {skipped:,} samples (non-finite, of another number of channels, or back in time)")
     if monitor is not None:
         thresholds = f"gain z^2 > {monitor.gain_threshold:.1f}, jump chi^2 > {monitor.jump_threshold:.1f}"
         print(f"thresholds: {thresholds} ({false_alarms_per_hour:g} false alarms per hour)")
@@ -101,10 +128,76 @@ def run(
         data = {
             "events": [event.as_dict() for event in events],
             "samples": samples,
-            "skipped": {"non-finite": skipped},
+            "skipped": skipped,
             "health": "fault" if events else "ok",
         }
         with writing(json_path):
             written = atomic_write_text(json_path, json.dumps(data, indent=2) + "\n")
         print(f"wrote {written}")
     return ExitCode.CHECK_FAILED if events else ExitCode.OK
+
+
+def _listen(
+    parity: ParityModel,
+    address: tuple[str, int],
+    listen_any: bool,
+    rate_hz: float,
+    false_alarms_per_hour: float,
+    idle_timeout_s: float | None,
+    quiet: bool,
+) -> tuple[HealthMonitor, float, int]:
+    """Watch the live feed's strain datagrams; returns the monitor, the time span [s] and the samples skipped.
+
+    Datagrams are decoded by the bounded protocol parser (a malformed one is counted, never
+    fatal); a strain sample of another number of channels, or not after the last one, is skipped.
+    The status line (standard error, once a second) shows the samples, the health and the
+    largest statistics of the last block.
+    """
+    host, port = address
+    monitor = HealthMonitor(parity, rate_hz, false_alarms_per_hour=false_alarms_per_hour)
+    stats = LiveStats()
+    with using_udp(host, port):
+        receiver = UdpReceiver(host, port, listen_any)
+    print(f"listening on udp://{receiver.address[0]}:{receiver.address[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
+    n, skipped = parity.n_channels, 0
+    first = last = None
+    quiet_since = status_at = time.monotonic()
+    try:
+        while not stats.ended:
+            datagrams = receiver.drain_from()
+            now = time.monotonic()
+            if not datagrams:
+                if idle_timeout_s is not None and now - quiet_since > idle_timeout_s:
+                    break
+                time.sleep(0.002)  # the receiver's thread queues what arrives meanwhile
+                continue
+            quiet_since = now
+            for data, sender in datagrams:
+                message = feed_datagram(data, None, stats, sender)
+                if not isinstance(message, Strain):
+                    continue
+                if len(message.strain) != n or (last is not None and message.t <= last):
+                    skipped += 1
+                    continue
+                monitor.update(message.t, message.strain)
+                first = message.t if first is None else first
+                last = message.t
+            if not quiet and now - status_at >= 1.0:
+                status_at = now
+                gain, jump = monitor.last_statistics
+                faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
+                print(
+                    f"\r{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f}); "
+                    f"malformed {stats.malformed:,}",
+                    end="",
+                    file=sys.stderr,
+                    flush=True,
+                )
+    except KeyboardInterrupt:
+        pass
+    finally:
+        receiver.close()
+    if not quiet:
+        print(file=sys.stderr)
+    skipped += stats.malformed + stats.oversized
+    return monitor, 0.0 if first is None or last is None else last - first, skipped
