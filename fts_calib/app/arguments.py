@@ -13,6 +13,7 @@ import textwrap
 from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
+from .monitor_arguments import add_monitor
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
 from .parser import Parser
 from .sensor_arguments import add_prior, add_sensor
@@ -386,42 +387,6 @@ def _add_export(commands) -> None:
     exp.add_argument("--world-frame", default="world", help="TF frame with z up (ros2, default world)")
 
 
-def _add_monitor(commands) -> None:
-    mon = _add(
-        commands,
-        "monitor",
-        "watch the sensor's health over a recording: faulty bridges, named",
-        "With the parity model the calibration learnt (the channels' combinations that carry no load, docs/health.md): "
-        "a bridge whose gain changed, a jump, a frozen channel, a channel at its rail or beyond any load's reading; "
-        "each with its time and the channel it points to. Exits 1 when a fault is found.",
-        "fts-calib monitor --calibration calibration.yaml service.csv --json health.json",
-    )
-    mon.add_argument("recording", nargs="*", metavar="RECORDING", help="recording (CSV or CSV.gz) or ROS 2 bags of the sensor in service")
-    mon.add_argument("--calibration", required=True, help="calibration file with its health section (fts-calib YAML)")
-    mon.add_argument(
-        "--json", dest="json_path", metavar="FILE", help='write the events as JSON: {"events": [{"time_s", "kind", "channel", "detail"}]}'
-    )
-    mon.add_argument(
-        "--false-alarms",
-        dest="false_alarms_per_hour",
-        type=float,
-        default=1e-3,
-        help="false-alarm budget per hour of service (default 1e-3)",
-    )
-    mon.add_argument(
-        "--listen",
-        type=_address,
-        nargs="?",
-        const=("127.0.0.1", 5005),
-        metavar="HOST:PORT",
-        help="watch the live UDP feed instead of a recording (default 127.0.0.1:5005, loopback)",
-    )
-    mon.add_argument("--listen-any", action="store_true", help="bind every network interface on the --listen port (warned about)")
-    mon.add_argument("--rate", dest="rate_hz", type=float, default=1000.0, help="sample rate of the live feed in Hz (default 1000)")
-    mon.add_argument("--idle-timeout", dest="idle_timeout_s", type=float, help="stop listening after this many seconds without data")
-    mon.add_argument("--quiet", action="store_true", help="no status line while listening")
-
-
 #: The sub-commands, in the order ``fts-calib --help`` lists them; ``NAME`` runs ``fts_calib.app.NAME.run``.
 COMMANDS = {
     "demo": _add_demo,
@@ -435,7 +400,7 @@ COMMANDS = {
     "tare": _add_tare,
     "payload": _add_payload,
     "export": _add_export,
-    "monitor": _add_monitor,
+    "monitor": lambda commands: add_monitor(commands, _add, _address),
 }
 
 

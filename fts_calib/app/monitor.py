@@ -25,7 +25,7 @@ from .exit_codes import ExitCode, using_udp, writing
 
 def run(
     *,
-    recording: str | Path | Sequence[str | Path] = (),
+    recording: str | Path | Sequence[str | Path],
     calibration: str | Path,
     json_path: str | Path | None = None,
     false_alarms_per_hour: float = 1e-3,

@@ -38,7 +38,6 @@ from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
-from ..model.health import fit_parity
 from ..model.least_squares import unexplained_strain
 from ..model.prior import Prior
 from ..model.sensor_config import DEFAULT_FULL_SCALE
@@ -50,6 +49,7 @@ from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, restore_state, session_state, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
 from .fit import MAX_RATIO, FitCheck, check_fit, fit_rows, model_fit_sums
+from .health import with_health
 from .latency import LatencyEstimate
 from .progress import Progress
 from .provenance import session_provenance
@@ -342,25 +342,7 @@ class CalibrationSession:
         calibration, self.budget, self.latency = with_measured_budget(
             calibration, self.kin, self.tool, self._kept_samples, int(self.kept.sum()), noise_floor, self._moving, self.full_scale
         )
-        return self._with_health(calibration, noise_floor)
-
-    def _with_health(self, calibration: Calibration, noise_floor: np.ndarray | None) -> Calibration:
-        """The calibration with its parity model (:mod:`fts_calib.model.health`) from the kept samples, when the layout has one."""
-        channels = self._kept_samples.arrays()[2]
-        resolution = None if self.filter is None else self.filter.grid.resolution
-        limits = self.checks.detected_limits(resolution) or self.settings.checks.limits
-        parity = fit_parity(
-            self.layout,
-            calibration.C,
-            calibration.D,
-            channels,
-            self.full_scale,
-            noise_floor,
-            resolution,
-            None if limits is None else limits.low,
-            None if limits is None else limits.high,
-        )
-        return calibration if parity is None else replace(calibration, health=parity.to_dict())
+        return with_health(self, calibration, noise_floor)
 
     def _strains_unexplained(self) -> bool:
         """Whether the strains carry a signal the tool file's loads cannot produce (:func:`unexplained_strain`)."""
