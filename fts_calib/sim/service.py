@@ -119,3 +119,69 @@ def inject_fault(channels, time, kind: str, channel: int, start_s: float, size: 
             raise ConfigError("rail", None, "the reading of a bridge driven to its supply, raw units")
         out[after, k] = rail if kind == "open" else -rail
     return out
+
+
+def contacts_and_drift(
+    time, rng: np.random.Generator, drift_per_s, n_contacts: int, push: float = 15.0, duration_s: float = 2.0, ramp_s: float = 0.1
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An offset drift and random pushes on the payload, to add to the wrench the sensor sees.
+
+    Args:
+        time: Sample times [s], shape (N,).
+        rng: Random generator (the contacts' times and directions).
+        drift_per_s: Drift of the offsets per second, [N, N, N, N m, N m, N m], shape (6,).
+        n_contacts: Pushes, at random times, each of ``push`` newtons in a random direction for
+            ``duration_s``, rising and falling in ``ramp_s``.
+        push: Force of a push [N].
+        duration_s: Length of a push [s].
+        ramp_s: Rise and fall time of a push [s].
+
+    Returns:
+        ``(drift (N, 6), contact (N, 6), in_contact (N,) bool)``.
+    """
+    time = np.asarray(time, dtype=float)
+    drift = np.outer(time - time[0], np.asarray(drift_per_s, dtype=float))
+    contact = np.zeros((len(time), 6))
+    in_contact = np.zeros(len(time), dtype=bool)
+    for start in np.sort(rng.uniform(time[0] + 5.0, time[-1] - duration_s, n_contacts)):
+        during = (time >= start) & (time < start + duration_s)
+        direction = rng.standard_normal(3)
+        ramp = np.clip((time[during] - start) / ramp_s, 0, 1) * np.clip((start + duration_s - time[during]) / ramp_s, 0, 1)
+        contact[during, :3] += ramp[:, None] * push * direction / np.linalg.norm(direction)
+        in_contact |= during
+    return drift, contact, in_contact
+
+
+def offset_watch_trial(seconds: float, contacts: int, rng: np.random.Generator, noise, drift_per_s, full_scale, settle_s: float = 10.0):
+    """A simulated service with drifting offsets and pushes, fed window by window to an :class:`OffsetWatch`.
+
+    Args:
+        seconds: Length of the service [s] (1 kHz).
+        contacts: Number of 15 N pushes of 2 s.
+        rng: Random generator.
+        noise: Wrench noise per sample, [N, N m], shape (6,).
+        drift_per_s: Offset drift per second, shape (6,).
+        full_scale: Full scale per axis, shape (6,), for the error in %.
+        settle_s: Time the tracker has to learn the rate before errors count [s].
+
+    Returns:
+        ``(watch, worst (6,), updated_in_contact)``: the watch, the largest error of the predicted
+        offset outside contacts in % of full scale, and the windows touched by a push that updated it.
+    """
+    from ..service.offset_watch import OffsetWatch
+
+    t, w_payload = service_wrenches(seconds, 1000.0, rng)
+    drift, contact, in_contact = contacts_and_drift(t, rng, drift_per_s, contacts)
+    noise = np.asarray(noise, dtype=float)
+    measured = w_payload + drift + contact + rng.standard_normal(w_payload.shape) * noise
+    watch = OffsetWatch(noise)
+    worst, updated_in_contact = np.zeros(6), 0
+    for i in range(0, len(t) - 99, 100):
+        before = watch.updates
+        watch.update_batch(t[i : i + 100], measured[i : i + 100], w_payload[i : i + 100])
+        touched = bool(in_contact[i : i + 100].any())
+        updated_in_contact += int(touched and watch.updates > before)
+        if not touched and t[i] > settle_s:
+            error = watch.predicted(t[i + 99]) - drift[i + 99]
+            worst = np.maximum(worst, np.abs(error) / np.asarray(full_scale, dtype=float) * 100)
+    return watch, worst, updated_in_contact
