@@ -256,3 +256,30 @@ def test_cli_monitor_listens_to_the_live_feed(parity, sensor, calibrated, tmp_pa
     data = json.loads((tmp_path / "live.json").read_text())
     assert [(e["kind"], e["channel"]) for e in data["events"]] == [("frozen", 4)], data
     assert data["skipped"] >= 1  # the malformed datagram
+
+
+def test_cli_monitor_tracks_the_offset_and_retares(calibrated, ur5_recording, tmp_path, capsys):
+    """The calibration's own recording with every wrench shifted by 0.5 N on Fx (1 % FS): --auto-tare writes D - 0.5 N."""
+    import csv
+
+    shift = np.array([0.5, 0.0, 0.0, 0.0, 0.0, 0.0])  # [N]
+    shift_channels = np.linalg.pinv(calibrated.C) @ shift  # channels that read the shift as a wrench
+    with open(ur5_recording, newline="") as source, open(tmp_path / "shifted.csv", "w", newline="") as target:
+        reader, writer = csv.reader(source), csv.writer(target)
+        header = next(reader)
+        writer.writerow(header)
+        columns = [header.index(f"strain_{k + 1}") for k in range(8)]
+        for row in reader:
+            for k, column in enumerate(columns):
+                row[column] = repr(float(row[column]) + float(shift_channels[k]))
+            writer.writerow(row)
+    cal = calibrated.save(tmp_path / "cal.yaml")
+    command = ["monitor", "--calibration", str(cal), "--robot", "ur5", "--tool", "paper_tool", str(tmp_path / "shifted.csv")]
+    assert main([*command, "--auto-tare", "--json", str(tmp_path / "m.json")]) == 0
+    out = capsys.readouterr().out
+    assert "re-tared 1 time(s)" in out and "windows without contact" in out, out
+    tared = load_calibration(cal)
+    assert tared.offset_history[-1]["D"] == calibrated.D.tolist() and "re-tared by monitor" in tared.offset_history[-1]["reason"]
+    # the still windows' means: noise 2 mN / sqrt(10) per window, the calibration's own fit error ~ 1 mN: 0.02 N is > 5 sigma
+    np.testing.assert_allclose(tared.D, calibrated.D - shift, atol=0.02)
+    assert json.loads((tmp_path / "m.json").read_text())["offset"]["tares_s"]

@@ -21,6 +21,8 @@ from ..model.channels import check_channels
 from ..model.health import ParityModel
 from ..service.health import HealthMonitor
 from .exit_codes import ExitCode, using_udp, writing
+from .monitor_offsets import OffsetFeed
+from .setup import load_sensor, load_setup
 
 
 def run(
@@ -34,6 +36,12 @@ def run(
     rate_hz: float = 1000.0,
     idle_timeout_s: float | None = None,
     quiet: bool = False,
+    robot: str | Path | None = None,
+    tool: str | Path = "paper_tool",
+    configuration: str | None = None,
+    sensor: str | Path = "sensor",
+    auto_tare: bool = False,
+    tare_threshold_percent: float = 0.05,
 ) -> int:
     """Watch a recording's channels with the calibration's parity model (``fts-calib monitor``).
 
@@ -50,6 +58,14 @@ def run(
         rate_hz: Sample rate of the live feed [Hz] (a recording's is measured).
         idle_timeout_s: Stop listening after this many seconds without a datagram; None: never.
         quiet: No status line (live).
+        robot: Robot definition: with it, the payload's wrench from the joints, and the offset
+            tracked where nothing touches the payload (:mod:`fts_calib.service.offset_watch`).
+        tool: The payload's tool file (with ``robot``).
+        configuration: The payload's configuration; None: each sample's (the recording's tool column).
+        sensor: Sensor configuration: its full scale (with ``robot``).
+        auto_tare: Re-tare when the offset error exceeds ``tare_threshold_percent`` (written
+            into the calibration file, the old offsets in its tare history).
+        tare_threshold_percent: Offset error tolerated, in % of full scale.
 
     Returns:
         0 when no fault was found, 1 when one was.
@@ -79,12 +95,22 @@ def run(
     monitor: HealthMonitor | None = None
     skipped = 0
     first_time = last_time = None
-    with open_recording(paths, None, None) as reader:
+    offsets = None
+    if robot is not None:
+        kin, payload, _ = load_setup(robot, tool)
+        full_scale = load_sensor(sensor).full_scale
+        offsets = OffsetFeed(cal, calibration, parity, kin, payload, configuration, full_scale, auto_tare, tare_threshold_percent)
+    elif auto_tare:
+        raise ConfigError("auto_tare", True, "--robot and --tool: the payload's wrench needs the joints")
+    names = (kin.joint_names, payload.names) if offsets is not None else (None, None)
+    with open_recording(paths, *names) as reader:
         for chunk in reader:
             check_channels(cal.layout, chunk.channels.shape[1], str(reader.path))
             finite = np.isfinite(chunk.time) & np.all(np.isfinite(chunk.channels), axis=1)
             skipped += int((~finite).sum())
             time, channels = chunk.time[finite], chunk.channels[finite]
+            if offsets is not None and len(time):
+                offsets.add(time, chunk.joints[finite], channels, chunk.configuration[finite])
             if not len(time):
                 continue
             if monitor is None:
@@ -96,7 +122,7 @@ def run(
             monitor.update_batch(time, channels)
             last_time = float(time[-1])
     span = 0.0 if first_time is None or last_time is None else last_time - first_time
-    return _report(monitor, parity, " ".join(map(str, paths)), calibration, span, skipped, false_alarms_per_hour, json_path)
+    return _report(monitor, parity, " ".join(map(str, paths)), calibration, span, skipped, false_alarms_per_hour, json_path, offsets)
 
 
 def _report(
@@ -108,6 +134,7 @@ def _report(
     skipped: int,
     false_alarms_per_hour: float,
     json_path: str | Path | None,
+    offsets: OffsetFeed | None = None,
 ) -> int:
     """Print what the monitor found, write the JSON; the exit status (1 on a fault)."""
     samples = 0 if monitor is None else monitor.samples
@@ -124,12 +151,15 @@ def _report(
     for event in events:
         print(f"  {event.time_s:10.3f} s  {event.kind:<15} strain_{event.channel}: {event.detail} (reported at {event.detected_s:.3f} s)")
     print(f"health: {'ok, no fault found' if not events else f'{len(events)} fault(s)'}")
+    for line in [] if offsets is None else offsets.lines():
+        print(line)
     if json_path is not None:
         data = {
             "events": [event.as_dict() for event in events],
             "samples": samples,
             "skipped": skipped,
             "health": "fault" if events else "ok",
+            **({} if offsets is None else {"offset": offsets.as_dict()}),
         }
         with writing(json_path):
             written = atomic_write_text(json_path, json.dumps(data, indent=2) + "\n")

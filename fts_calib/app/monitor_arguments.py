@@ -41,3 +41,19 @@ def add_monitor(commands, add: Callable[..., argparse.ArgumentParser], address: 
     mon.add_argument("--rate", dest="rate_hz", type=float, default=1000.0, help="sample rate of the live feed in Hz (default 1000)")
     mon.add_argument("--idle-timeout", dest="idle_timeout_s", type=float, help="stop listening after this many seconds without data")
     mon.add_argument("--quiet", action="store_true", help="no status line while listening")
+    offsets = mon.add_argument_group("offsets that stay right (a known payload and the joints)")
+    offsets.add_argument("--robot", help="robot definition: the payload's wrench from the joints; the offset tracked without contact")
+    offsets.add_argument("--tool", default="paper_tool", help="the payload's tool file (default paper_tool)")
+    offsets.add_argument("--configuration", help="the payload's configuration (default: each sample's, the recording's tool column)")
+    offsets.add_argument("--sensor", default="sensor", help="sensor configuration: its full scale (default: sensor)")
+    offsets.add_argument(
+        "--auto-tare", action="store_true", help="re-tare into the calibration file when the offset error exceeds the threshold"
+    )
+    offsets.add_argument(
+        "--tare-threshold",
+        dest="tare_threshold_percent",
+        type=float,
+        default=0.05,
+        metavar="PERCENT",
+        help="offset error tolerated, in %% of full scale (default 0.05)",
+    )

@@ -38,7 +38,7 @@ class OffsetWatch:
     Args:
         noise: Wrench noise per sample, [N, N, N, N m, N m, N m], shape (6,).
         allowance: What the payload's model may be off by, same units, shape (6,) (0: exact).
-        block: Samples per window (B).
+        block: Samples per window (B >= 10).
         k: Noise sigmas of a window's mean that a window without contact stays within.
         time_constant_s: Time constant of the tracker [s] (alpha-beta gains for it).
         max_rate: Fastest offset drift believed, per second, shape (6,); 5 N/min and 0.5 N m/min
@@ -57,7 +57,7 @@ class OffsetWatch:
         if self.noise.shape != (6,) or np.any(~np.isfinite(self.noise) | (self.noise <= 0)):
             raise ConfigError("noise", self.noise.tolist(), "six positive wrench noises per sample [N, N m]")
         self.allowance = np.zeros(6) if allowance is None else np.asarray(allowance, dtype=float).reshape(6)
-        if block < 2 or not (k > 0 and time_constant_s > 0):
+        if block < 10 or not (k > 0 and time_constant_s > 0):
             raise ConfigError("offset watch", [block, k, time_constant_s], "block >= 2, k > 0, time constant > 0")
         self.block, self.k, self.time_constant_s = block, k, time_constant_s
         self.max_rate = np.array([5 / 60] * 3 + [0.5 / 60] * 3) if max_rate is None else np.asarray(max_rate, dtype=float).reshape(6)
@@ -78,15 +78,20 @@ class OffsetWatch:
             self._window(float(time[start : start + self.block].mean()), window.mean(axis=0), window.std(axis=0))
 
     def _window(self, t: float, mean: np.ndarray, spread: np.ndarray) -> None:
-        if not self._started:  # the first window sets the offset error (nothing to compare it with)
+        varying = np.any(spread > 2.0 * self.noise + self.allowance)
+        if not self._started:  # the first still window sets the offset error (nothing to compare it with)
+            if varying:
+                self.contacts += 1
+                return
             self.offset[:], self._time, self._started = mean, t, True
+            self.updates += 1
             return
         dt = t - (self._time or t)
         predicted = self.offset + self.rate * dt
         limit = self.k * self.noise / math.sqrt(self.block) + self.allowance + self.max_rate * dt  # a drift unlearnt yet
-        # a contact that starts, ends or varies within the window spreads its samples: twice the noise is
-        # beyond any window of B >= 100 healthy samples (their scatter is known to 1/sqrt(2B) = 7 %)
-        varying = np.any(spread > 2.0 * self.noise + self.allowance)
+        # a contact that starts, ends or varies within the window spreads its samples (as motion does: the
+        # payload's static wrench leaves out its dynamics): twice the noise is beyond any window of B >= 10
+        # healthy samples (P(chi2_9 > 36) = 4e-5)
         self.in_contact = bool(varying or np.any(np.abs(mean - predicted) > limit))
         if self.in_contact:
             self.contacts += 1
