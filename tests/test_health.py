@@ -283,3 +283,46 @@ def test_cli_monitor_tracks_the_offset_and_retares(calibrated, ur5_recording, tm
     # the still windows' means: noise 2 mN / sqrt(10) per window, the calibration's own fit error ~ 1 mN: 0.02 N is > 5 sigma
     np.testing.assert_allclose(tared.D, calibrated.D - shift, atol=0.02)
     assert json.loads((tmp_path / "m.json").read_text())["offset"]["tares_s"]
+
+
+def test_cli_monitor_listens_with_joints_and_tracks_the_offset(calibrated, ur5_recording, tmp_path):
+    """Joint, tool and strain datagrams of the calibration's own recording: paired, no fault, the offset error near 0."""
+    import csv
+    import re
+    import socket
+    import sys
+
+    from fts_calib.feeds.protocol import End, Joints, Strain, ToolChange, encode
+
+    cal = calibrated.save(tmp_path / "cal.yaml")
+    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(cal), "--listen", "127.0.0.1:0"]
+    command += ["--robot", "ur5", "--tool", "paper_tool", "--quiet", "--json", str(tmp_path / "m.json"), "--idle-timeout", "20"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None
+        port = int(re.search(r"udp://127\.0\.0\.1:(\d+)", process.stdout.readline()).group(1))
+        with open(ur5_recording, newline="") as source, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            reader = csv.reader(source)
+            header = next(reader)
+            joints = [name for name in header if name not in ("time", "tool") and not name.startswith("strain_")]
+            tool = None
+            for i, row in enumerate(reader):
+                values = dict(zip(header, row, strict=True))
+                t = float(values["time"])
+                if values["tool"] != tool:
+                    tool = values["tool"]
+                    sock.sendto(encode(ToolChange(t - 1e-3, tool)), ("127.0.0.1", port))
+                sock.sendto(encode(Joints(t, {name: float(values[name]) for name in joints})), ("127.0.0.1", port))
+                sock.sendto(encode(Strain(t, tuple(float(values[f"strain_{k + 1}"]) for k in range(8)))), ("127.0.0.1", port))
+                if i % 100 == 0:
+                    time_module.sleep(0.001)  # let the receiver keep up with a burst on a busy machine
+            sock.sendto(encode(End()), ("127.0.0.1", port))
+        out, err = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    assert process.returncode == 0, (out, err)
+    data = json.loads((tmp_path / "m.json").read_text())
+    assert data["events"] == [] and data["samples"] > 8000, data["samples"]
+    # the recording the calibration came from: its still windows read the payload to the calibration's own error
+    assert data["offset"]["windows_without_contact"] > 20
+    assert np.all(np.abs(data["offset"]["error"][:3]) < 0.02) and np.all(np.abs(data["offset"]["error"][3:]) < 0.002), data["offset"]

@@ -15,6 +15,7 @@ from ..core.outputs import atomic_write_text
 from ..core.paths import check_outputs
 from ..feeds.protocol import Strain
 from ..feeds.source import open_recording, recording_paths
+from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
 from ..model.calibration import load_calibration
 from ..model.channels import check_channels
@@ -89,12 +90,6 @@ def run(
         )
         raise ConfigError("health", None, "the calibration's parity model", message=f"{calibration} has no health section: {why}")
     parity = ParityModel.from_dict(cal.health)
-    if listen is not None:
-        live, span, skipped = _listen(parity, listen, listen_any, rate_hz, false_alarms_per_hour, idle_timeout_s, quiet)
-        return _report(live, parity, f"udp://{listen[0]}:{listen[1]}", calibration, span, skipped, false_alarms_per_hour, json_path)
-    monitor: HealthMonitor | None = None
-    skipped = 0
-    first_time = last_time = None
     offsets = None
     if robot is not None:
         kin, payload, _ = load_setup(robot, tool)
@@ -102,6 +97,13 @@ def run(
         offsets = OffsetFeed(cal, calibration, parity, kin, payload, configuration, full_scale, auto_tare, tare_threshold_percent)
     elif auto_tare:
         raise ConfigError("auto_tare", True, "--robot and --tool: the payload's wrench needs the joints")
+    if listen is not None:
+        live, span, skipped = _listen(parity, listen, listen_any, rate_hz, false_alarms_per_hour, idle_timeout_s, quiet, offsets)
+        source = f"udp://{listen[0]}:{listen[1]}"
+        return _report(live, parity, source, calibration, span, skipped, false_alarms_per_hour, json_path, offsets)
+    monitor: HealthMonitor | None = None
+    skipped = 0
+    first_time = last_time = None
     names = (kin.joint_names, payload.names) if offsets is not None else (None, None)
     with open_recording(paths, *names) as reader:
         for chunk in reader:
@@ -175,13 +177,16 @@ def _listen(
     false_alarms_per_hour: float,
     idle_timeout_s: float | None,
     quiet: bool,
+    offsets: OffsetFeed | None = None,
 ) -> tuple[HealthMonitor, float, int]:
     """Watch the live feed's strain datagrams; returns the monitor, the time span [s] and the samples skipped.
 
     Datagrams are decoded by the bounded protocol parser (a malformed one is counted, never
     fatal); a strain sample of another number of channels, or not after the last one, is skipped.
     The status line (standard error, once a second) shows the samples, the health and the
-    largest statistics of the last block.
+    largest statistics of the last block. With ``offsets`` (a payload and its robot), the
+    strains are paired with the joint datagrams by the synchronizer first, and the offset
+    state shows too.
     """
     host, port = address
     monitor = HealthMonitor(parity, rate_hz, false_alarms_per_hour=false_alarms_per_hour)
@@ -191,6 +196,9 @@ def _listen(
     print(f"listening on udp://{receiver.address[0]}:{receiver.address[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
     n, skipped = parity.n_channels, 0
     first = last = None
+    sync = None
+    if offsets is not None:
+        sync = Synchronizer(offsets.kin.joint_names, offsets.kin.continuous, configurations=offsets.tool.names, n_channels=n)
     quiet_since = status_at = time.monotonic()
     try:
         while not stats.ended:
@@ -202,6 +210,11 @@ def _listen(
                 time.sleep(0.002)  # the receiver's thread queues what arrives meanwhile
                 continue
             quiet_since = now
+            if sync is not None:
+                for data, sender in datagrams:
+                    feed_datagram(data, sync, stats, sender)
+                first, last = _paired(sync.pop(final=stats.ended), monitor, offsets, first, last)
+                datagrams = []
             for data, sender in datagrams:
                 message = feed_datagram(data, None, stats, sender)
                 if not isinstance(message, Strain):
@@ -216,9 +229,10 @@ def _listen(
                 status_at = now
                 gain, jump = monitor.last_statistics
                 faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
+                offset = "" if offsets is None else f"; {offsets.status()}"
                 print(
                     f"\r{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f}); "
-                    f"malformed {stats.malformed:,}",
+                    f"malformed {stats.malformed:,}{offset}",
                     end="",
                     file=sys.stderr,
                     flush=True,
@@ -227,7 +241,20 @@ def _listen(
         pass
     finally:
         receiver.close()
+    if sync is not None:
+        first, last = _paired(sync.pop(final=True), monitor, offsets, first, last)
+        skipped += sum(sync.dropped.values())
     if not quiet:
         print(file=sys.stderr)
     skipped += stats.malformed + stats.oversized
     return monitor, 0.0 if first is None or last is None else last - first, skipped
+
+
+def _paired(batch, monitor: HealthMonitor, offsets: OffsetFeed | None, first, last) -> tuple[float | None, float | None]:
+    """Feed the synchronizer's paired samples to the monitor and the offsets; the first and last times so far."""
+    if not len(batch):
+        return first, last
+    monitor.update_batch(batch.time, batch.channels)
+    if offsets is not None:
+        offsets.add(batch.time, batch.joints, batch.channels, batch.configuration)
+    return (float(batch.time[0]) if first is None else first), float(batch.time[-1])

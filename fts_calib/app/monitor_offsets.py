@@ -107,6 +107,12 @@ class OffsetFeed:
             out.append(f"re-tared {len(self.tares)} time(s) (at {', '.join(f'{t:.1f}' for t in self.tares)} s); wrote {self.path}")
         return out
 
+    def status(self) -> str:
+        """The offset state for a status line: the largest error in % FS, contact or not, the re-tares."""
+        worst = float(np.max(np.abs(self.watch.offset) / self.full_scale)) * 100
+        state = "contact" if self.watch.in_contact else "free"
+        return f"offset error {worst:.4f} % FS ({state}, {self.watch.updates:,} windows), {len(self.tares)} re-tare(s)"
+
     def as_dict(self) -> dict:
         """The offset state for ``--json``."""
         return {
