@@ -12,7 +12,8 @@ block mean ``m`` and the tracked offset error predicted to the block ``delta^``:
 
 and a scatter of its samples within twice the noise, is a window without contact (``sigma``:
 the wrench noise per sample; ``a``: the payload's allowance, what the payload known to a
-tolerance adds, plus the fastest drift believed times the time since the last update). Only
+tolerance adds, plus the fastest drift believed times the time since the last update, at most
+10 s of it). Only
 such windows update the tracker, an alpha-beta filter of the offset error and its rate (a drift of 1 N/min is followed without
 lag); a contact window (a 15 N push) never moves it, and the tracker predicts through the
 contact with the rate it learnt. When ``|delta^|`` exceeds the re-tare threshold, ``retare``
@@ -30,6 +31,11 @@ import numpy as np
 
 from ..core.exceptions import ConfigError, ShapeError
 from ..model.calibration import Calibration
+
+#: Longest time since the last update over which the fastest believed drift widens the window test [s].
+MAX_GAP_S = 10.0
+#: Largest share of a window's error the tracker takes (however long since the last update).
+MAX_ALPHA = 0.5
 
 
 class OffsetWatch:
@@ -63,19 +69,27 @@ class OffsetWatch:
         self.max_rate = np.array([5 / 60] * 3 + [0.5 / 60] * 3) if max_rate is None else np.asarray(max_rate, dtype=float).reshape(6)
         self.offset, self.rate = np.zeros(6), np.zeros(6)
         self._time: float | None = None
+        self._left_time, self._left_rho = np.zeros(0), np.zeros((0, 6))  # samples waiting for a full block
         self._started = False
         self.updates = self.contacts = 0
         self.in_contact = False
 
     def update_batch(self, time, w_measured, w_payload) -> None:
-        """Add samples: times [s] (N,), the measured wrench (N, 6) and the payload's own (N, 6); judged per block."""
+        """Add samples: times [s] (N,), the measured wrench (N, 6) and the payload's own (N, 6); judged per block.
+
+        Samples that do not fill a block wait for the next call (a live feed's batches are small).
+        """
         time = np.asarray(time, dtype=float).reshape(-1)
         rho = np.asarray(w_measured, dtype=float) - np.asarray(w_payload, dtype=float)
         if rho.shape != (len(time), 6):
             raise ShapeError(f"wrenches of shape {rho.shape} but expected ({len(time)}, 6)")
-        for start in range(0, len(time) - self.block + 1, self.block):
+        if len(self._left_time):
+            time, rho = np.concatenate([self._left_time, time]), np.vstack([self._left_rho, rho])
+        full = len(time) - len(time) % self.block
+        for start in range(0, full, self.block):
             window = rho[start : start + self.block]
             self._window(float(time[start : start + self.block].mean()), window.mean(axis=0), window.std(axis=0))
+        self._left_time, self._left_rho = time[full:].copy(), rho[full:].copy()
 
     def _window(self, t: float, mean: np.ndarray, spread: np.ndarray) -> None:
         varying = np.any(spread > 2.0 * self.noise + self.allowance)
@@ -88,7 +102,8 @@ class OffsetWatch:
             return
         dt = t - (self._time or t)
         predicted = self.offset + self.rate * dt
-        limit = self.k * self.noise / math.sqrt(self.block) + self.allowance + self.max_rate * dt  # a drift unlearnt yet
+        # a drift not learnt yet, over at most MAX_GAP_S: a push held longer is never taken for drift
+        limit = self.k * self.noise / math.sqrt(self.block) + self.allowance + self.max_rate * min(dt, MAX_GAP_S)
         # a contact that starts, ends or varies within the window spreads its samples (as motion does: the
         # payload's static wrench leaves out its dynamics): twice the noise is beyond any window of B >= 10
         # healthy samples (P(chi2_9 > 36) = 4e-5)
@@ -96,11 +111,14 @@ class OffsetWatch:
         if self.in_contact:
             self.contacts += 1
             return  # a contact never moves the offset; the prediction carries on from the last update
-        alpha = min(1.0, 2.0 * dt / self.time_constant_s)
+        # gains of the time constant for windows dt apart; after a long gap (motion, a contact) the offset
+        # is corrected but its rate is not: one window's noise over a short dt must not set a rate
+        alpha = min(MAX_ALPHA, 2.0 * dt / self.time_constant_s)
         beta = alpha * alpha / (2.0 - alpha)
         error = mean - predicted
         self.offset = predicted + alpha * error
-        self.rate = self.rate + beta * error / max(dt, 1e-9)
+        if dt <= 2.0 * self.time_constant_s:
+            self.rate = self.rate + beta * error / max(dt, 1e-9)
         self._time = t
         self.updates += 1
 
