@@ -12,6 +12,7 @@ import argparse
 from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
+from .monitor_arguments import add_monitor
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
 from .parser import Parser, add_address, add_command, plot_path
 from .sensor_arguments import add_prior, add_sensor
@@ -304,6 +305,7 @@ COMMANDS = {
     "tare": add_tare,
     "payload": add_payload,
     "export": add_export,
+    "monitor": lambda commands: add_monitor(commands, add_command, add_address),
 }
 
 

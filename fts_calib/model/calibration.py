@@ -26,6 +26,7 @@ from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, re
 from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .features import SensorModel
+from .health import ParityModel
 from .sensor import WRENCH_AXES, WRENCH_UNITS, wrench_from_strain
 
 #: Value of the ``format`` field of a calibration file.
@@ -135,6 +136,9 @@ class Calibration:
             basis and coefficients, the offset trajectory); None for constant offsets of
             a file written before offset models existed. ``D`` is the offset at the end of
             the run.
+        health: The parity model of the channels (the ``health`` section,
+            :class:`fts_calib.model.health.ParityModel` as plain data), or None (a layout
+            with no more channels than axes, or a file written before it existed).
         extra: Top-level fields of the file that this version does not know (written by a
             newer one), kept as read: a rewrite (``tare``) writes them back unchanged.
         C: Calibration matrix ``C_bar @ P``, shape (6, n) (derived, not an argument).
@@ -150,6 +154,7 @@ class Calibration:
     model: SensorModel | None = None
     model_selection: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
+    health: Mapping[str, Any] | None = None
     C: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -166,6 +171,8 @@ class Calibration:
         object.__setattr__(self, "extra", dict(self.extra))
         if self.offset_model is not None:
             object.__setattr__(self, "offset_model", dict(self.offset_model))
+        if self.health is not None:
+            object.__setattr__(self, "health", dict(self.health))
         if self.model is not None and self.model.n_channels != layout.n_channels:
             raise ShapeError(f"model.n_channels={self.model.n_channels} but expected {layout.n_channels}, the layout's")
         if self.model_selection is not None:
@@ -288,6 +295,7 @@ FIELDS = (
     "offset_model",
     "model",
     "model_selection",
+    "health",
 )
 
 
@@ -318,6 +326,8 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
     data["model"] = "linear" if calibration.model is None else calibration.model.to_config()
     if calibration.model_selection is not None:
         data["model_selection"] = dict(calibration.model_selection)
+    if calibration.health is not None:
+        data["health"] = dict(calibration.health)
     data.update({key: value for key, value in calibration.extra.items() if key not in FIELDS})  # a newer version's fields, kept
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
     return atomic_write_text(path, header + dump_yaml(data))
@@ -399,6 +409,12 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     selection = data.get("model_selection")
     if selection is not None and not isinstance(selection, Mapping):
         raise FileFormatError(path, "model_selection", "expected a mapping")
+    health = data.get("health")
+    if health is not None and not isinstance(health, Mapping):
+        raise FileFormatError(path, "health", "expected a mapping (the parity model)")
+    with fields_of(path):
+        if health is not None:
+            ParityModel.from_dict(health)  # refused here, naming the field, rather than in service
     with fields_of(path):
         return Calibration(
             C_bar=C_bar,
@@ -410,6 +426,7 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             offset_model=offset_model,
             model=model,
             model_selection=selection,
+            health=health,
             extra={key: value for key, value in data.items() if key not in FIELDS},
         )
 

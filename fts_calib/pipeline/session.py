@@ -49,6 +49,7 @@ from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
 from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
+from .health import with_health
 from .latency import LatencyEstimate
 from .progress import Progress
 from .provenance import session_provenance
@@ -364,7 +365,7 @@ class CalibrationSession:
         calibration, self.budget, self.latency = with_measured_budget(
             calibration, self.kin, self.tool, self._kept_samples, int(self.kept.sum()), noise_floor, self._moving, self.full_scale
         )
-        return calibration
+        return with_health(self, calibration, noise_floor)
 
     def _strains_unexplained(self) -> bool:
         """Whether the strains carry a signal the tool file's loads cannot produce (:func:`unexplained_strain`)."""

@@ -6,6 +6,7 @@
   channels), the features ``phi`` built as Python builds them (each a product of a lower one and
   one entry of u, :mod:`fts_calib.model.features`), and ``wrench = Theta phi + D``. ``float`` by default (a Cortex-M4
   has a single-precision FPU); define ``FTS_CALIB_DOUBLE`` before including it for double.
+  With a ``health`` section, a separate section adds the parity check (:func:`parity_section`).
   Values are printed as Python repr (shortest, round-trips a double; in float mode
   the compiler rounds them).
 - ``json``: C, C_bar, D, units, quality and provenance.
@@ -26,6 +27,7 @@ from ..core.exceptions import ConfigError
 from ..core.fileio import to_plain
 from ..model.calibration import FORMAT, Calibration
 from ..model.features import SensorModel, monomials
+from ..model.health import ParityModel
 from ..robot.tool import STANDARD_GRAVITY, ToolConfiguration
 from .ati import ati_text
 from .ros2 import ros2_parameters
@@ -88,6 +90,7 @@ def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
         "    }",
         "}",
         "",
+        *parity_section(calibration, prefix),
         f"#endif /* {prefix}_H */",
         "",
     ]
@@ -165,6 +168,7 @@ def _polynomial_header(calibration: Calibration, model: SensorModel, prefix: str
         "    }",
         "}",
         "",
+        *parity_section(calibration, prefix),
         f"#endif /* {prefix}_H */",
         "",
     ]
@@ -177,6 +181,52 @@ def _factors(d: int, degree: int) -> tuple[list[int], list[int]]:
     where = {m: i for i, m in enumerate(terms)}
     higher = [m for m in terms if len(m) > 1]
     return [where[m[:-1]] for m in higher], [m[-1] for m in higher]
+
+
+def parity_section(calibration: Calibration, prefix: str) -> list[str]:
+    """The parity check of the C header (:meth:`fts_calib.model.health.ParityModel.check`); none without a health section.
+
+    ``PREFIX_parity(strain, baseline, residual)`` writes the whitened parity residual
+    ``e = L (N strain - c) - baseline`` (m values of unit variance per healthy sample) and
+    returns 1 when ``e . e`` exceeds ``PREFIX_PARITY_THRESHOLD`` (the chi-square(m) point of
+    probability 1e-9 per sample). Allocation-free; ``baseline`` may be NULL (zeros).
+
+    Args:
+        calibration: The calibration (its ``health`` section).
+        prefix: The identifiers' prefix (upper case).
+    """
+    if calibration.health is None:
+        return []
+    parity = ParityModel.from_dict(calibration.health)
+    lower, m, n = prefix.lower(), parity.n_parity, parity.n_channels
+    L = parity.whitening
+    rows = ",\n".join("    {" + ", ".join(f"{prefix}_R({float(v)!r})" for v in row) + "}" for row in L @ parity.N)
+    offset = ", ".join(f"{prefix}_R({float(v)!r})" for v in L @ parity.c)
+    return [
+        "/* health: the parity check (docs/health.md). e = L (N strain - c) - baseline has unit variance per",
+        " * healthy sample; its offset moves like the wrench offsets (track it as baseline, slowly, while no fault). */",
+        f"#define {prefix}_N_PARITY {m}",
+        f"#define {prefix}_PARITY_THRESHOLD {prefix}_R({parity.sample_threshold!r})",
+        f"static const {lower}_real {prefix}_PARITY_N[{m}][{n}] = {{",
+        rows,
+        "};",
+        f"static const {lower}_real {prefix}_PARITY_C[{m}] = {{{offset}}};",
+        "",
+        f"/* residual[{m}] = L (N strain[{n}] - c) - baseline[{m}] (baseline may be NULL); returns 1 on a fault */",
+        f"static inline int {lower}_parity(const {lower}_real strain[{n}], const {lower}_real *baseline, {lower}_real residual[{m}])",
+        "{",
+        f"    {lower}_real sum2 = 0;",
+        f"    for (int i = 0; i < {m}; ++i) {{",
+        f"        {lower}_real e = -{prefix}_PARITY_C[i];",
+        f"        for (int k = 0; k < {n}; ++k) e += {prefix}_PARITY_N[i][k] * strain[k];",
+        "        if (baseline) e -= baseline[i];",
+        "        residual[i] = e;",
+        "        sum2 += e * e;",
+        "    }",
+        f"    return sum2 > {prefix}_PARITY_THRESHOLD;",
+        "}",
+        "",
+    ]
 
 
 def json_text(calibration: Calibration) -> str:

@@ -1,0 +1,154 @@
+r"""Offsets that stay right in service: the wrench offset tracked where nothing touches the payload.
+
+With a known payload (its tool file, or an identified payload) and the joints, the wrench the
+payload exerts on the sensor is known at every sample; the residual ``rho = W_measured -
+W_payload`` is then the offset error ``delta`` (how far the sensor's offsets have moved since
+the calibration or the last tare) plus any contact. Per block of ``block`` samples, with the
+block mean ``m`` and the tracked offset error predicted to the block ``delta^``:
+
+.. math::
+
+    |m_i - \hat\delta_i| \le k\,\sigma_i / \sqrt{B} + a_i \quad\text{for every axis } i
+
+and a scatter of its samples within twice the noise, is a window without contact (``sigma``:
+the wrench noise per sample; ``a``: the payload's allowance, what the payload known to a
+tolerance adds, plus the fastest drift believed times the time since the last update, at most
+10 s of it). Only
+such windows update the tracker, an alpha-beta filter of the offset error and its rate (a drift of 1 N/min is followed without
+lag); a contact window (a 15 N push) never moves it, and the tracker predicts through the
+contact with the rate it learnt. When ``|delta^|`` exceeds the re-tare threshold, ``retare``
+returns the calibration with the corrected offsets (``D - delta^``), the old ones kept in its
+tare history. :meth:`OffsetWatch.forecast_s` says when the offset error will exceed a threshold.
+
+Units: time [s]; wrenches [N, N, N, N m, N m, N m].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..core.exceptions import ConfigError, ShapeError
+from ..model.calibration import Calibration
+
+#: Longest time since the last update over which the fastest believed drift widens the window test [s].
+MAX_GAP_S = 10.0
+#: Largest share of a window's error the tracker takes (however long since the last update).
+MAX_ALPHA = 0.5
+
+
+class OffsetWatch:
+    """Tracks the offset error of the wrench in windows without contact (see the module docstring).
+
+    Args:
+        noise: Wrench noise per sample, [N, N, N, N m, N m, N m], shape (6,).
+        allowance: What the payload's model may be off by, same units, shape (6,) (0: exact).
+        block: Samples per window (B >= 10).
+        k: Noise sigmas of a window's mean that a window without contact stays within.
+        time_constant_s: Time constant of the tracker [s] (alpha-beta gains for it).
+        max_rate: Fastest offset drift believed, per second, shape (6,); 5 N/min and 0.5 N m/min
+            when None (a drift faster than this is taken for a contact).
+
+    Attributes:
+        offset: The tracked offset error, shape (6,).
+        rate: Its rate, per second, shape (6,).
+        updates: Windows that updated the tracker.
+        contacts: Windows refused as contact.
+        in_contact: Whether the last window was a contact.
+    """
+
+    def __init__(self, noise, allowance=None, block: int = 100, k: float = 6.0, time_constant_s: float = 1.0, max_rate=None):
+        self.noise = np.asarray(noise, dtype=float).reshape(-1)
+        if self.noise.shape != (6,) or np.any(~np.isfinite(self.noise) | (self.noise <= 0)):
+            raise ConfigError("noise", self.noise.tolist(), "six positive wrench noises per sample [N, N m]")
+        self.allowance = np.zeros(6) if allowance is None else np.asarray(allowance, dtype=float).reshape(6)
+        if block < 10 or not (k > 0 and time_constant_s > 0):
+            raise ConfigError("offset watch", [block, k, time_constant_s], "block >= 2, k > 0, time constant > 0")
+        self.block, self.k, self.time_constant_s = block, k, time_constant_s
+        self.max_rate = np.array([5 / 60] * 3 + [0.5 / 60] * 3) if max_rate is None else np.asarray(max_rate, dtype=float).reshape(6)
+        self.offset, self.rate = np.zeros(6), np.zeros(6)
+        self._time: float | None = None
+        self._left_time, self._left_rho = np.zeros(0), np.zeros((0, 6))  # samples waiting for a full block
+        self._started = False
+        self.updates = self.contacts = 0
+        self.in_contact = False
+
+    def update_batch(self, time, w_measured, w_payload) -> None:
+        """Add samples: times [s] (N,), the measured wrench (N, 6) and the payload's own (N, 6); judged per block.
+
+        Samples that do not fill a block wait for the next call (a live feed's batches are small).
+        """
+        time = np.asarray(time, dtype=float).reshape(-1)
+        rho = np.asarray(w_measured, dtype=float) - np.asarray(w_payload, dtype=float)
+        if rho.shape != (len(time), 6):
+            raise ShapeError(f"wrenches of shape {rho.shape} but expected ({len(time)}, 6)")
+        if len(self._left_time):
+            time, rho = np.concatenate([self._left_time, time]), np.vstack([self._left_rho, rho])
+        full = len(time) - len(time) % self.block
+        for start in range(0, full, self.block):
+            window = rho[start : start + self.block]
+            self._window(float(time[start : start + self.block].mean()), window.mean(axis=0), window.std(axis=0))
+        self._left_time, self._left_rho = time[full:].copy(), rho[full:].copy()
+
+    def _window(self, t: float, mean: np.ndarray, spread: np.ndarray) -> None:
+        varying = np.any(spread > 2.0 * self.noise + self.allowance)
+        if not self._started:  # the first still window sets the offset error (nothing to compare it with)
+            if varying:
+                self.contacts += 1
+                return
+            self.offset[:], self._time, self._started = mean, t, True
+            self.updates += 1
+            return
+        dt = t - (self._time or t)
+        predicted = self.offset + self.rate * dt
+        # a drift not learnt yet, over at most MAX_GAP_S: a push held longer is never taken for drift
+        limit = self.k * self.noise / math.sqrt(self.block) + self.allowance + self.max_rate * min(dt, MAX_GAP_S)
+        # a contact that starts, ends or varies within the window spreads its samples (as motion does: the
+        # payload's static wrench leaves out its dynamics): twice the noise is beyond any window of B >= 10
+        # healthy samples (P(chi2_9 > 36) = 4e-5)
+        self.in_contact = bool(varying or np.any(np.abs(mean - predicted) > limit))
+        if self.in_contact:
+            self.contacts += 1
+            return  # a contact never moves the offset; the prediction carries on from the last update
+        # gains of the time constant for windows dt apart; after a long gap (motion, a contact) the offset
+        # is corrected but its rate is not: one window's noise over a short dt must not set a rate
+        alpha = min(MAX_ALPHA, 2.0 * dt / self.time_constant_s)
+        beta = alpha * alpha / (2.0 - alpha)
+        error = mean - predicted
+        self.offset = predicted + alpha * error
+        if dt <= 2.0 * self.time_constant_s:
+            self.rate = self.rate + beta * error / max(dt, 1e-9)
+        self._time = t
+        self.updates += 1
+
+    @property
+    def last_time(self) -> float:
+        """Time of the last update [s] (nan before the first window)."""
+        return math.nan if self._time is None else self._time
+
+    def predicted(self, time: float) -> np.ndarray:
+        """The offset error predicted at ``time`` [s] from the last update and the rate, shape (6,)."""
+        return self.offset + self.rate * (time - (self._time if self._time is not None else time))
+
+    def forecast_s(self, threshold) -> float:
+        """Seconds from the last update until the offset error exceeds ``threshold`` on some axis (inf: never at this rate).
+
+        Args:
+            threshold: Largest offset error tolerated per axis, [N, N, N, N m, N m, N m], shape (6,).
+        """
+        threshold = np.asarray(threshold, dtype=float).reshape(6)
+        times = []
+        for i in range(6):
+            if abs(self.offset[i]) >= threshold[i]:
+                return 0.0
+            if self.rate[i] != 0.0:
+                bound = math.copysign(threshold[i], self.rate[i])
+                times.append((bound - self.offset[i]) / self.rate[i])
+        return min(times) if times else math.inf
+
+    def retare(self, calibration: Calibration, reason: str = "re-tared in service: offset drift tracked without contact") -> Calibration:
+        """The calibration with its offsets corrected by the tracked error (the old ones in its history); the error restarts at 0."""
+        corrected = calibration.with_offsets(calibration.D - self.offset, reason)
+        self.offset = np.zeros(6)
+        return corrected
