@@ -22,6 +22,7 @@ from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
 from .report import format_budget, format_offsets
+from .report_html import KeptCollector, calibrate_content, render_report, write_report
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -47,6 +48,7 @@ def run(
     offsets: str | None = None,
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
+    report: str | Path | None = None,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -77,6 +79,8 @@ def run(
         prior: A calibration to shrink C_bar toward (fts-calib YAML or ATI ``.cal``, of the
             sensor's layout) when the excitation is weak; None for none.
         prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
+        report: HTML report to write (:mod:`fts_calib.app.report_html`), also when the
+            calibration is refused (its diagnosis first); None for none.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
@@ -92,13 +96,14 @@ def run(
         **({"the prior": prior} if prior is not None else {}),
     }
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
-    check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
+    check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)
     bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
+    collector = None if report is None else KeptCollector()
     result = calibrate_recording(
         paths,
         kin,
@@ -116,12 +121,18 @@ def run(
         prior=shrink,
         full_scale=spec.full_scale,
         limits=spec.limits,
+        on_kept=collector,
     )
     written = None
     if result.calibration is not None:
         with writing(output):
             written = save_calibration(result.calibration, output)
     print(format_summary(result, " ".join(map(str, paths)), written))
+    if report is not None:
+        diagnosis = "" if result.calibration is not None else refusal(result)
+        content = calibrate_content(result, collector, {**inputs, "the calibration (-o)": written}, diagnosis)
+        with writing(report):
+            print(f"wrote {write_report(report, render_report(content))}")
     if result.calibration is not None:
         return ExitCode.OK
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
@@ -214,6 +225,14 @@ def _unusable(session: CalibrationSession, problems: list[str]) -> str | None:
     return f"{text}; the notes above name the first" if problems else text
 
 
+def refusal(result: CalibrateResult) -> str:
+    """Why a run wrote no calibration, in one sentence (its fit diagnosis, or what the data cannot determine)."""
+    if isinstance(result.error, PoorFit):
+        check = result.error.check
+        return f"the fit is poor: {check.summary()}"
+    return f"{_unusable(result.session, result.problems) or result.error}"
+
+
 def format_summary(result: CalibrateResult, recording: str | Path, output: Path | None) -> str:
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
@@ -229,7 +248,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
         if isinstance(result.error, PoorFit):
             lines.append("NO CALIBRATION written: the fit is poor (above); fix the cause, or accept it knowingly with --accept-poor-fit")
         else:
-            lines.append(f"NO CALIBRATION: {_unusable(result.session, result.problems) or result.error}")
+            lines.append(f"NO CALIBRATION: {refusal(result)}")
         return "\n".join(lines)
     cal, q = result.calibration, result.calibration.quality
     if q is None:  # CalibrationSession.solve always measures the fit
