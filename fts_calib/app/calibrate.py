@@ -228,8 +228,7 @@ def _unusable(session: CalibrationSession, problems: list[str]) -> str | None:
 def refusal(result: CalibrateResult) -> str:
     """Why a run wrote no calibration, in one sentence (its fit diagnosis, or what the data cannot determine)."""
     if isinstance(result.error, PoorFit):
-        check = result.error.check
-        return f"the fit is poor: {check.summary()}"
+        return result.error.check.summary()
     return f"{_unusable(result.session, result.problems) or result.error}"
 
 

@@ -191,7 +191,7 @@ def run(
         _report(report, session, collector, None, exc, f"{exc}", inputs)
         return ExitCode.CHECK_FAILED
     except PoorFit as exc:
-        _report(report, session, collector, None, exc, f"the fit is poor: {exc.check.summary()}", inputs)
+        _report(report, session, collector, None, exc, exc.check.summary(), inputs)
         print("\n".join(format_fit(exc.check)))
         print(f"NO CALIBRATION written: the fit is poor (above); checkpoint kept in {checkpoint}")
         print("fix the cause, or run again with --resume --accept-poor-fit to write it with the verdict")
