@@ -25,7 +25,8 @@ from fts_calib.app.report_html import (
     sphere_gap,
 )
 from fts_calib.core.resources import resolve
-from fts_calib.model.calibration import load_calibration
+from fts_calib.model.calibration import Calibration, load_calibration
+from fts_calib.model.channels import channel_layout
 from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.pipeline.settings import load_pipeline_config
 from fts_calib.robot.definition import load_robot
@@ -83,6 +84,19 @@ def test_report_of_a_calibration(calibrated, tmp_path):
     # the budget total shown is the file's, to its printed digits
     total = cal.quality.budget["largest_percent_fs"]
     assert f"{total:.4f} % FS" in verdict
+
+
+def test_residuals_through_a_drift_model(ur5_recording, paper_tool):
+    # the offsets forced to drift with time: the residuals through the file's offset model D(t, configuration) match the
+    # estimator's residual RMS as the constant model's do (a wrong D(t) would leave the drift in them)
+    collector = KeptCollector()
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    settings = load_pipeline_config(resolve("pipeline", "configs")).with_offsets("drift")
+    result = calibrate_recording(ur5_recording, kin, paper_tool, settings, on_kept=collector)
+    cal = result.calibration
+    assert cal is not None and cal.offset_model["model"] == "drift", cal.offset_model and cal.offset_model["model"]
+    rms = np.sqrt(np.mean(collector.samples(cal).residual ** 2, axis=0))
+    np.testing.assert_allclose(rms, cal.quality.residual_rms, rtol=1e-3, err_msg="residual RMS through D(t) vs the estimator's")
 
 
 def test_model_selection_shows_what_the_file_holds(calibrated):
@@ -200,3 +214,22 @@ def test_validate_writes_a_report(calibrated, ur5_recording, tmp_path):
     page = report.read_text()
     check_page(page)
     assert "RMS" in page and "% FS (largest axis; validation with" in page
+
+
+def test_report_command_refuses_bad_input(calibrated, ur5_recording, tmp_path, capsys):
+    cal_path = tmp_path / "cal.yaml"
+    cal = calibrated[0].calibration
+    cal.save(cal_path)
+    out = str(tmp_path / "r.html")
+    assert cli.main(["report", str(cal_path), "-o", out, "--target", "0"]) == ExitCode.CONFIG
+    assert "--target" in capsys.readouterr().err
+    anonymous = tmp_path / "anonymous.yaml"  # typed in by hand: no robot or tool to read the recording with
+    dataclasses.replace(cal, provenance={}).save(anonymous)
+    assert cli.main(["report", str(anonymous), str(ur5_recording), "-o", out]) == ExitCode.CONFIG
+    assert "--robot" in capsys.readouterr().err
+    six = tmp_path / "six.yaml"  # another sensor layout: the coefficients cannot be compared
+    Calibration(cal.C_bar, cal.D, layout=channel_layout("wrench-6")).save(six)
+    assert cli.main(["report", str(cal_path), "--against", str(six), "-o", out]) != ExitCode.OK
+    assert "shape (6, 8) and (6, 6)" in capsys.readouterr().err
+    assert cli.main(["report", str(cal_path), "--against", str(cal_path), "-o", str(cal_path)]) == ExitCode.CONFIG  # -o is an input
+    assert not Path(out).exists()

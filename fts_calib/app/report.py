@@ -188,7 +188,7 @@ def run(
             if not robot or not tool:
                 missing = "--robot" if not robot else "--tool"
                 raise ConfigError(missing, None, f"the robot and tool of the recording: {calibration} does not record it in its provenance")
-            files.update({"the robot file": robot, "the tool file": tool})
+            files.update({"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor})
             kin, loaded, settings = load_setup(robot, tool, pipeline)
             spec = load_sensor(sensor)
             collector = KeptCollector()
@@ -207,7 +207,7 @@ def run(
             kept=kept,
             samples=samples,
             configurations=names,
-            files={k: v for k, v in files.items() if v is not None and Path(str(v)).exists()},
+            files=files,
             target_percent=target,
         )
         page = render_report(content)

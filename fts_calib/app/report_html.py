@@ -45,8 +45,9 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..core.exceptions import ShapeError
+from ..core.exceptions import FtsCalibError, ShapeError
 from ..core.outputs import atomic_write_text
+from ..core.resources import resolve
 from ..model.budget import DEFAULT_TARGET_PERCENT
 from ..model.calibration import Calibration
 from ..model.offset_basis import evaluate_offsets
@@ -111,9 +112,11 @@ class KeptCollector:
     def __init__(self) -> None:
         self._parts: list[tuple[np.ndarray, ...]] = []
 
-    def __call__(self, time, w_sensor, channels, configuration, joints) -> None:
-        """Keep ``time`` (k,) [s], ``w_sensor`` (k, 6), ``channels`` (k, n), ``configuration`` (k,)."""
-        self._parts.append((np.asarray(time, float), np.asarray(w_sensor, float), np.asarray(channels, float), np.asarray(configuration)))
+    def __call__(self, time, w_sensor, channels, configuration, joints, temperature=None) -> None:
+        """Keep ``time`` (k,) [s], ``w_sensor`` (k, 6), ``channels`` (k, n), ``configuration`` (k,), ``temperature`` (k,) [°C] or None."""
+        t = np.asarray(time, float)
+        heat = np.full(len(t), np.nan) if temperature is None else np.asarray(temperature, float)
+        self._parts.append((t, np.asarray(w_sensor, float), np.asarray(channels, float), np.asarray(configuration), heat))
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(time (N,) [s], w_sensor (N, 6), channels (N, n), configuration (N,))`` of everything collected, in order."""
@@ -122,6 +125,11 @@ class KeptCollector:
         t, W, channels, codes = (np.concatenate([p[k] for p in self._parts]) for k in range(4))
         return t, W, channels, codes.astype(int)
 
+    def temperature(self) -> np.ndarray | None:
+        """The collected samples' temperatures [°C], shape (N,), or None when any is unknown."""
+        heat = np.concatenate([p[4] for p in self._parts]) if self._parts else np.zeros(0)
+        return heat if heat.size and np.all(np.isfinite(heat)) else None
+
     def samples(self, calibration: Calibration | None) -> KeptSamples | None:
         """The collected samples with their residuals through ``calibration`` (NaN without one); None when none was kept."""
         if not self._parts:
@@ -129,10 +137,10 @@ class KeptCollector:
         t, W, channels, codes = self.arrays()
         if calibration is None or calibration.layout.n_channels != channels.shape[1]:
             return KeptSamples(t, W, np.full_like(W, np.nan), codes)
-        return KeptSamples(t, W, residuals(calibration, t, W, channels, codes), codes)
+        return KeptSamples(t, W, residuals(calibration, t, W, channels, codes, self.temperature()), codes)
 
 
-def residuals(calibration: Calibration, time, w_sensor, channels, configuration) -> np.ndarray:
+def residuals(calibration: Calibration, time, w_sensor, channels, configuration, temperature=None) -> np.ndarray:
     """Measured minus known wrench of samples, with the calibration's offset model (its D when it has none).
 
     Args:
@@ -141,15 +149,16 @@ def residuals(calibration: Calibration, time, w_sensor, channels, configuration)
         w_sensor: Known wrench in S, shape (N, 6).
         channels: Raw channels, shape (N, n).
         configuration: Tool configuration index per sample, shape (N,).
+        temperature: Temperature per sample [°C], shape (N,), or None (a temperature-drift
+            model is then evaluated at its temperature origin).
 
     Returns:
-        Residuals in [N, N, N, N m, N m, N m], shape (N, 6). A temperature-drift model is
-        evaluated at its temperature origin (the kept samples carry no temperature).
+        Residuals in [N, N, N, N m, N m, N m], shape (N, 6).
     """
     measured = np.asarray(channels, float) @ calibration.C.T
     model = calibration.offset_model or {}
     if "basis" in model and model.get("model") != "constant":
-        measured += evaluate_offsets(model, time, np.asarray(configuration, int))
+        measured += evaluate_offsets(model, time, np.asarray(configuration, int), temperature)
     else:
         measured += calibration.D
     return measured - np.asarray(w_sensor, float)
@@ -220,8 +229,8 @@ def _svg(width: float, height: float, body: str, label: str) -> str:
     )
 
 
-def _text(x: float, y: float, text: str, anchor: str = "middle", size: float = 11, cls: str = "") -> str:
-    c = f' class="{cls}"' if cls else ""
+def _text(x: float, y: float, text: str, anchor: str = "middle", size: float = 11, cls: str = "", fill: str = "") -> str:
+    c = (f' class="{cls}"' if cls else "") + (f' style="fill:{fill}"' if fill else "")
     return f'<text x="{x:.1f}" y="{y:.1f}" text-anchor="{anchor}" font-size="{size:g}"{c}>{_e(text)}</text>'
 
 
@@ -260,8 +269,19 @@ def _legend(names: Sequence[str]) -> str:
 
 
 def file_record(path: str | Path) -> dict[str, Any]:
-    """A file's path, size in bytes and SHA-256 (hex), or ``{"path", "missing": True}`` when it cannot be read."""
+    """A file's path, size in bytes and SHA-256 (hex), or ``{"path", "missing": True}`` when it cannot be read.
+
+    Args:
+        path: The file, or the name of a shipped one (``ur5``, ``paper_tool``): its shipped file.
+    """
     path = Path(path)
+    if not path.exists():
+        for kind in ("configs", "robots"):
+            try:
+                path = resolve(path, kind)
+                break
+            except FtsCalibError:  # not a shipped name of this kind
+                continue
     try:
         digest = hashlib.sha256()
         with open(path, "rb") as handle:
@@ -298,7 +318,7 @@ def model_selection(calibration: Calibration | None) -> tuple[str, list[dict[str
     """
     if calibration is None:
         return "not recorded", []
-    sources = [calibration.extra.get("model_selection")]
+    sources = [getattr(calibration, "model_selection", None), calibration.extra.get("model_selection")]  # an attribute once read
     if calibration.quality is not None:
         sources.append(calibration.quality.extra.get("model_selection"))
     for table in sources:
@@ -696,7 +716,7 @@ def _offsets(content: ReportContent) -> str:
             for c, a in enumerate(axes):
                 pts = " ".join(f"{float(x):.1f},{float(y):.1f}" for x, y in zip(sx(t), sy(moved[:, a]), strict=True))
                 body.append(f'<polyline points="{pts}" fill="none" stroke="{COLOURS[c]}" stroke-width="1.6"/>')
-                body.append(_text(px + 6 + 40 * c, y0 + 13, WRENCH_AXES[a], "start", 10, ""))
+                body.append(_text(px + 6 + 40 * c, y0 + 13, WRENCH_AXES[a], "start", 11, "axis", COLOURS[c]))
             body.append(_text(px - 3, y0 + 9, f"{lim:.2g}", "end", 9, "muted"))
             body.append(_text(px - 3, y0 + H, f"{-lim:.2g}", "end", 9, "muted"))
             body.append(_text(px + W / 2, y0 + H + 14, f"D − D(end) [{'N' if panel == 0 else 'N·m'}] over {t[-1] - t[0]:.0f} s", size=10))

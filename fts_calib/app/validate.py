@@ -170,7 +170,7 @@ def run(
     if report is not None:
         from .report_html import render_report, validation_content, write_report
 
-        files = {**inputs, "the robot file": robot if Path(robot).exists() else None, "the tool file": loaded.source}
+        files = {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor}
         content = validation_content(result, loaded_calibrations[0], Path(calibrations[0]).name, loaded, files)
         with writing(report):
             print(f"wrote {write_report(report, render_report(content))}")
