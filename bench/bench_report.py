@@ -18,7 +18,8 @@ from pathlib import Path
 
 from fts_calib.app import report as report_command
 from fts_calib.app.demo import run_demo
-from fts_calib.app.report_html import KeptCollector, ReportContent, render_report, write_report
+from fts_calib.app.report_content import KeptCollector, ReportContent
+from fts_calib.app.report_html import render_report, write_report
 from fts_calib.core.resources import resolve
 from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.pipeline.settings import load_pipeline_config

@@ -15,15 +15,9 @@ import pytest
 
 from fts_calib.app import cli
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.app.report_html import (
-    CHANGE_SIGMAS,
-    KeptCollector,
-    ReportContent,
-    compare,
-    model_selection,
-    render_report,
-    sphere_gap,
-)
+from fts_calib.app.report_compare import CHANGE_SIGMAS, compare
+from fts_calib.app.report_content import KeptCollector, ReportContent, model_selection, sphere_gap
+from fts_calib.app.report_html import render_report
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration, load_calibration
 from fts_calib.model.channels import channel_layout

@@ -15,6 +15,7 @@ from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
 from .parser import Parser
+from .report_arguments import add_report, add_report_option
 from .sensor_arguments import add_prior, add_sensor
 
 
@@ -154,17 +155,8 @@ def _add_calibrate(commands) -> None:
     _accept_poor_fit(cal)
     add_prior(cal)
     add_offsets(cal)
-    _add_report_option(cal, "the calibration, also when it is refused (the diagnosis first)")
+    add_report_option(cal, "the calibration, also when it is refused (the diagnosis first)")
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def _add_report_option(parser: argparse.ArgumentParser, what: str) -> None:
-    """--report FILE.html: the one-page HTML report of the run (calibrate, live, validate)."""
-    parser.add_argument(
-        "--report",
-        metavar="FILE.html",
-        help=f"write a self-contained HTML report of {what} (verdict first; readable on a phone, prints on A4)",
-    )
 
 
 def _resume_or_restart(parser: argparse.ArgumentParser, resume_help: str) -> None:
@@ -223,7 +215,7 @@ def _add_live(commands) -> None:
     add_ur(live)
     _accept_poor_fit(live)
     add_offsets(live)
-    _add_report_option(live, "the calibration, also when it is refused (the diagnosis first)")
+    add_report_option(live, "the calibration, also when it is refused (the diagnosis first)")
     live.add_argument("--quiet", action="store_true", help="no status line")
 
 
@@ -314,7 +306,7 @@ def _add_validate(commands) -> None:
         help='write the errors of the first calibration for scripts: {"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N} '
         "(N, N·m)",
     )
-    _add_report_option(val, "the first calibration with this validation as its held-out error")
+    add_report_option(val, "the first calibration with this validation as its held-out error")
     val.add_argument(
         "--max-error", dest="max_error_percent", type=float, metavar="PERCENT", help="exit 1 when an error exceeds this %% of full scale"
     )
@@ -324,33 +316,6 @@ def _add_validate(commands) -> None:
         default=MIN_COVERAGE,
         metavar="SHARE",
         help=f"exit 1 when fewer than this share of the recording's samples could be compared (default {MIN_COVERAGE:g})",
-    )
-
-
-def _add_report(commands) -> None:
-    rep = _add(
-        commands,
-        "report",
-        "write the one-page HTML report of a calibration, or compare two",
-        "Build the self-contained HTML report of a calibration file afterwards: the verdict first (fit, accuracy budget "
-        "against the target, held-out error, model), then the gravity directions reached, the residuals, the budget, "
-        "the model selection, C with its standard errors, the offsets, what was skipped and the provenance. With the "
-        "recording it was made from, the pictures of the samples are recomputed from it (robot and tool from the file's "
-        "provenance unless given). With --against OLD.yaml: the change of every coefficient in standard errors and the "
-        "wrench difference over the full-scale box, and whether the sensor changed beyond its uncertainty.",
-        "fts-calib report calibration.yaml recording.csv -o report.html\n"
-        "  fts-calib report new.yaml --against old.yaml -o change.html   # did the sensor change?",
-    )
-    rep.add_argument("calibration", metavar="CALIBRATION", help="calibration file (fts-calib YAML)")
-    rep.add_argument("recording", nargs="?", metavar="RECORDING", help="the recording it was made from (CSV or ROS 2 bag), optional")
-    rep.add_argument("-o", "--output", required=True, metavar="FILE.html", help="HTML file to write")
-    rep.add_argument("--against", metavar="OLD.yaml", help="an older calibration of the same sensor: write the comparison instead")
-    rep.add_argument("--robot", help="robot definition for the recording (default: the calibration's provenance)")
-    rep.add_argument("--tool", help="tool file for the recording (default: the calibration's provenance)")
-    rep.add_argument("--pipeline", default="pipeline", help="pipeline configuration: filter thresholds (default: pipeline)")
-    rep.add_argument("--sensor", default="sensor", help="sensor configuration: channel limits and full scale (default: sensor)")
-    rep.add_argument(
-        "--target", dest="target_percent", type=float, metavar="PERCENT", help="accuracy target of the budget total, %% of full scale"
     )
 
 
@@ -435,7 +400,7 @@ COMMANDS = {
     "replay": _add_replay,
     "simulate": _add_simulate,
     "validate": _add_validate,
-    "report": _add_report,
+    "report": lambda commands: add_report(commands, _add),
     "tare": _add_tare,
     "payload": _add_payload,
     "export": _add_export,

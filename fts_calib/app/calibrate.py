@@ -22,7 +22,8 @@ from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
 from .report import format_budget, format_offsets
-from .report_html import KeptCollector, calibrate_content, render_report, write_report
+from .report_content import KeptCollector, calibrate_content
+from .report_html import render_report, write_report
 from .setup import load_prior, load_sensor, load_setup
 
 

@@ -59,7 +59,8 @@ from ..sim.sensor import simulated_sensor
 from .calibrate import format_counts
 from .demo_drift import drift_stage
 from .exit_codes import ExitCode, writing
-from .report_html import KeptCollector, calibrate_content, held_out, render_report, write_report
+from .report_content import KeptCollector, calibrate_content, held_out
+from .report_html import render_report, write_report
 from .trajectory import write_run
 
 #: The paper's validation: "the measurement error of the force Fx is less than 10%".

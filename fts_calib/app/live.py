@@ -20,7 +20,7 @@ from ..pipeline.remaining import load_plan_progress
 from ..pipeline.session import CalibrationSession
 from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
-from .report_html import KeptCollector
+from .report_content import KeptCollector
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -215,7 +215,8 @@ def _report(report, session, collector, calibration, error, diagnosis: str, file
         return
     from types import SimpleNamespace
 
-    from .report_html import calibrate_content, render_report, write_report
+    from .report_content import calibrate_content
+    from .report_html import render_report, write_report
 
     content = calibrate_content(SimpleNamespace(calibration=calibration, session=session, error=error), collector, files, diagnosis)
     with writing(report):

@@ -162,7 +162,9 @@ def run(
     from ..model.budget import DEFAULT_TARGET_PERCENT
     from ..model.calibration import load_calibration
     from .exit_codes import writing
-    from .report_html import KeptCollector, ReportContent, render_comparison, render_report, write_report
+    from .report_compare import render_comparison
+    from .report_content import KeptCollector, ReportContent
+    from .report_html import render_report, write_report
 
     inputs = {"the calibration": calibration, "the recording": recording, "--against": against}
     check_outputs({"-o": output}, inputs)

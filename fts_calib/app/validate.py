@@ -168,7 +168,8 @@ def run(
             )
         print(f"wrote {written}")
     if report is not None:
-        from .report_html import render_report, validation_content, write_report
+        from .report_content import validation_content
+        from .report_html import render_report, write_report
 
         files = {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor}
         content = validation_content(result, loaded_calibrations[0], Path(calibrations[0]).name, loaded, files)
