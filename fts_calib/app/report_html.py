@@ -254,7 +254,9 @@ footer{font-size:.75em;color:#777;text-align:center;margin:8px 0 20px}
  .pair{flex-wrap:nowrap;gap:8px;margin:2px 0}
  .fig{flex:0 0 52%}.nums{flex:1 1 48%}
  #sphere .fig{flex-basis:40%}
- #residuals .fig,#budget .fig{flex-basis:45%}
+ #residuals .fig,#budget .fig{flex-basis:40%}
+ .nums{overflow:visible}
+ .panels{grid-template-columns:1fr 1fr 1fr;gap:0 4px}
  table{font-size:6.5pt;margin:1px 0}th,td{padding:0 4px;white-space:nowrap}
  table.files td,table.prov td{white-space:normal}
  .small{font-size:6.5pt;margin:1px 0}
