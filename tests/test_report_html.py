@@ -134,6 +134,10 @@ def test_compare_against_noiseless_truths(calibrated):
     np.testing.assert_allclose(change.wrench_difference, expected, rtol=1e-9)
     assert change.changed and np.max(np.abs(change.z_C)) > CHANGE_SIGMAS
     assert any("max |Δ|/σ" in r for r in change.reasons) and any("beyond the combined budget" in r for r in change.reasons)
+    # the paper's two tables carry no standard errors: any change counts, and the page says so
+    tables = [load_calibration(resolve(f"paper_table{k}_calibration", "configs")) for k in (1, 2)]
+    typed = compare(tables[1], tables[0])
+    assert typed.changed and "without standard errors" in typed.reasons[0]
 
 
 def test_calibrate_writes_a_report_when_it_refuses(ur5_recording, tmp_path):

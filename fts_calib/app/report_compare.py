@@ -100,7 +100,10 @@ def compare(new: Calibration, old: Calibration, full_scale=None) -> Comparison:
     worst = float(np.max(np.abs(np.concatenate([z_C.ravel(), z_D]))))
     if worst > CHANGE_SIGMAS:
         i, j = np.unravel_index(int(np.argmax(np.abs(z_C))), z_C.shape)
-        reasons.append(f"max |Δ|/σ = {worst:.3g} > {CHANGE_SIGMAS:g} (largest in C: {WRENCH_AXES[i]}, Δ{j + 1}: {z_C[i, j]:+.3g}σ)")
+        unknown = " (a file without standard errors: any change counts)" if math.isinf(worst) else ""
+        reasons.append(
+            f"max |Δ|/σ = {worst:.3g} > {CHANGE_SIGMAS:g} (largest in C: {WRENCH_AXES[i]}, Δ{j + 1}: {z_C[i, j]:+.3g}σ){unknown}"
+        )
     beyond = [a for a in range(6) if math.isfinite(allowed[a]) and wrench_difference[a] > allowed[a]]
     if beyond:
         reasons.append(
@@ -138,7 +141,9 @@ def render_comparison(
     )
     n = cmp.z_C.shape[1]
     dC = new.C - old.C
-    text = [[f"{cmp.z_C[i, j]:+.2f}σ\n{dC[i, j]:+.2g}" for j in range(n)] for i in range(6)]
+    text = [
+        [(f"{cmp.z_C[i, j]:+.2f}σ" if math.isfinite(cmp.z_C[i, j]) else "no σ") + f"\n{dC[i, j]:+.2g}" for j in range(n)] for i in range(6)
+    ]
     heat = _heatmap(cmp.z_C, text, cmp.z_C / (2 * CHANGE_SIGMAS), [f"Δ{j + 1}" for j in range(n)], "change of C in standard errors")
     rows = [[a, f"{z:+.2f}σ", f"{d:+.3g} {u}"] for a, z, d, u in zip(WRENCH_AXES, cmp.z_D, new.D - old.D, WRENCH_UNITS, strict=True)]
     coef = _figure(

@@ -135,9 +135,9 @@ def _matrix(content: ReportContent) -> str:
     row_max = np.max(np.abs(C), axis=1, keepdims=True)
     q = cal.quality
     se = q.stderr_C if q is not None else np.full_like(C, np.nan)
-    text = [[f"{C[i, j]:.4g}\n±{se[i, j]:.2g}" for j in range(n)] for i in range(6)]
+    text = [[f"{C[i, j]:.4g}" + ("" if q is None else f"\n±{se[i, j]:.2g}") for j in range(n)] for i in range(6)]
     svg = _heatmap(C, text, C / row_max, [f"Δ{j + 1}" for j in range(n)], "calibration matrix C with standard errors")
-    rel = 100 * se / row_max
+    rel = 100 * se / row_max if q is not None else np.zeros_like(C)  # no standard errors: a calibration typed in by hand
     rows = [
         [a, f"{np.nanmax(rel[i]):.2g} %", f"{cal.D[i]:+.4g} ± {_num(q.stderr_D[i] if q else math.nan, 2)} {u}"]
         for i, (a, u) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))
