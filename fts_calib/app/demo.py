@@ -293,7 +293,8 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     )
     lap("plots")
 
-    content = calibrate_content(result, collector, {"the recording": recording, "the calibration": cal_path})
+    inputs = {"the robot file": robot_path, "the tool file": tool.source, "the sensor file": sensor_path, "the pipeline file": "pipeline"}
+    content = calibrate_content(result, collector, {"the recording": recording, **inputs, "the calibration": cal_path})
     label = f"{v_recording.name}: another motion, tool '{vtool.name}'"
     content = dataclasses.replace(content, held_out=held_out(validation.errors[0], label))
     with writing(out / "report.html"):
