@@ -61,3 +61,20 @@ def test_the_quick_demo_meets_the_targets(demo):
     result, _, _ = demo
     assert result.relative_error.max() <= 5e-4  # 0.05 % of each row's largest coefficient
     assert result.validation.errors[0].max_percent.max() <= 0.2  # % of full scale
+
+
+def test_the_demo_report_in_a_browser(demo, tmp_path):
+    # the page the demo writes, rendered by Chromium: no console message, no request out, every section, and the verdict
+    # banner (green: the demo's calibration is good) within the first 300 px of a 1200 px wide window
+    from .report_checks import banner_rows, check_page, render_in_browser
+
+    _, out, text = demo
+    page = out / "report.html"
+    assert f"  {page}" in text
+    check_page(page.read_text())
+    assert page.stat().st_size < 1_000_000  # the size target of the issue
+    shot, dom = render_in_browser(page, tmp_path)
+    for section in ("verdict", "sphere", "residuals", "budget", "model-selection", "matrix", "offsets", "skipped", "provenance"):
+        assert f'id="{section}"' in dom, f"section {section} missing after rendering"
+    rows = banner_rows(shot)
+    assert rows.size and rows.min() < 300, f"the verdict banner is not at the top of the page (rows {rows[:3]})"

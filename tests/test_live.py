@@ -27,6 +27,7 @@ from fts_calib.pipeline.live import LiveRunner
 from fts_calib.pipeline.session import CalibrationSession
 
 from .helpers import DEADLINE_S, wait_for
+from .report_checks import check_page
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -211,7 +212,7 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
         assert not out.exists()
         at_crash = kept()
         assert at_crash[0] > 300, f"configuration A is in the checkpoint: {at_crash}"
-        second = _Process([*command, "--resume"], env)
+        second = _Process([*command, "--resume", "--report", str(tmp_path / "live.html")], env)
         processes.append(second.proc)
         resumed = second.line("resumed from")
         assert f": {sum(at_crash):,} samples kept so far" in resumed, resumed
@@ -228,6 +229,10 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
     got = load_calibration(out)
     assert got.quality.rank == 7
     assert np.all(np.abs(got.C - reference.C) <= 4 * got.quality.stderr_C)
+    # the resumed run's report: the calibration's verdict; no pictures of the samples before the checkpoint
+    page = (tmp_path / "live.html").read_text()
+    check_page(page)
+    assert "GOOD" in page and "not recorded: no sample at hand" in page
     # at most 5 s of the 90 s recording lost: two or three of its 0.4 s dwells (one every 2.5 s),
     # about 120 of the 1,130 samples kept (1,125 kept in a typical run)
     assert got.quality.samples_used > 0.8 * reference.quality.samples_used, (got.quality.samples_used, reference.quality.samples_used)

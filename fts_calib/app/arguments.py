@@ -15,6 +15,7 @@ from .feed_arguments import add_recording, add_ur
 from .monitor_arguments import add_monitor
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
 from .parser import Parser, add_address, add_command, plot_path
+from .report_arguments import add_report, add_report_option
 from .sensor_arguments import add_prior, add_sensor
 from .service_arguments import add_export, add_payload, add_tare
 
@@ -131,6 +132,7 @@ def _add_calibrate(commands) -> None:
     _accept_poor_fit(cal)
     add_prior(cal)
     add_offsets(cal)
+    add_report_option(cal, "the calibration, also when it is refused (the diagnosis first)")
     cal.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -190,6 +192,7 @@ def _add_live(commands) -> None:
     add_ur(live)
     _accept_poor_fit(live)
     add_offsets(live)
+    add_report_option(live, "the calibration, also when it is refused (the diagnosis first)")
     live.add_argument("--quiet", action="store_true", help="no status line")
 
 
@@ -280,6 +283,7 @@ def _add_validate(commands) -> None:
         help='write the errors of the first calibration for scripts: {"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N} '
         "(N, N·m)",
     )
+    add_report_option(val, "the first calibration with this validation as its held-out error")
     val.add_argument(
         "--max-error", dest="max_error_percent", type=float, metavar="PERCENT", help="exit 1 when an error exceeds this %% of full scale"
     )
@@ -302,6 +306,7 @@ COMMANDS = {
     "replay": _add_replay,
     "simulate": _add_simulate,
     "validate": _add_validate,
+    "report": lambda commands: add_report(commands, add_command),
     "tare": add_tare,
     "payload": add_payload,
     "export": add_export,

@@ -22,6 +22,8 @@ from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
 from .report import format_budget, format_model_selection, format_offsets
+from .report_content import KeptCollector, calibrate_content
+from .report_html import render_report, write_report
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -48,6 +50,7 @@ def run(
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
     model: str | None = None,
+    report: str | Path | None = None,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -80,6 +83,8 @@ def run(
         prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
         model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
             (default auto: chosen with the offset model by held-out error) when None.
+        report: HTML report to write (:mod:`fts_calib.app.report_html`), also when the
+            calibration is refused (its diagnosis first); None for none.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
@@ -95,13 +100,14 @@ def run(
         **({"the prior": prior} if prior is not None else {}),
     }
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
-    check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
+    check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)
     bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
+    collector = None if report is None else KeptCollector()
     result = calibrate_recording(
         paths,
         kin,
@@ -121,12 +127,18 @@ def run(
         limits=spec.limits,
         model=model or spec.model,
         full_channels=spec.full_channels,
+        on_kept=collector,
     )
     written = None
     if result.calibration is not None:
         with writing(output):
             written = save_calibration(result.calibration, output)
     print(format_summary(result, " ".join(map(str, paths)), written))
+    if report is not None:
+        diagnosis = "" if result.calibration is not None else refusal(result)
+        content = calibrate_content(result, collector, {**inputs, "the calibration (-o)": written}, diagnosis)
+        with writing(report):
+            print(f"wrote {write_report(report, render_report(content))}")
     if result.calibration is not None:
         return ExitCode.OK
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
@@ -219,6 +231,13 @@ def _unusable(session: CalibrationSession, problems: list[str]) -> str | None:
     return f"{text}; the notes above name the first" if problems else text
 
 
+def refusal(result: CalibrateResult) -> str:
+    """Why a run wrote no calibration, in one sentence (its fit diagnosis, or what the data cannot determine)."""
+    if isinstance(result.error, PoorFit):
+        return result.error.check.summary()
+    return f"{_unusable(result.session, result.problems) or result.error}"
+
+
 def format_summary(result: CalibrateResult, recording: str | Path, output: Path | None) -> str:
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
@@ -234,7 +253,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
         if isinstance(result.error, PoorFit):
             lines.append("NO CALIBRATION written: the fit is poor (above); fix the cause, or accept it knowingly with --accept-poor-fit")
         else:
-            lines.append(f"NO CALIBRATION: {_unusable(result.session, result.problems) or result.error}")
+            lines.append(f"NO CALIBRATION: {refusal(result)}")
         return "\n".join(lines)
     cal, q = result.calibration, result.calibration.quality
     if q is None:  # CalibrationSession.solve always measures the fit

@@ -10,7 +10,9 @@
    the paper's Table 1 with its Table 2 over the same motion, as the paper did.
 
 Everything goes into one folder (``out/`` by default): trajectories, recordings, the
-calibration and the plots of the paper's Figs 5-6, 7 and 9-10.
+calibration, the plots of the paper's Figs 5-6, 7 and 9-10, and the calibration's one-page
+HTML report ``report.html`` (:mod:`fts_calib.app.report_html`) with the validation as its
+held-out error.
 
 With ``drift`` the simulated sensor's offsets move during the run (a drift, a warm-up
 with a temperature channel, jumps at tool changes: :mod:`fts_calib.app.demo_drift`); the
@@ -20,6 +22,7 @@ the true offsets over time. The validation then reads the sensor as it is at the
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from dataclasses import dataclass
@@ -56,6 +59,8 @@ from ..sim.sensor import simulated_sensor
 from .calibrate import format_counts
 from .demo_drift import drift_stage
 from .exit_codes import ExitCode, writing
+from .report_content import KeptCollector, calibrate_content, held_out
+from .report_html import render_report, write_report
 from .trajectory import write_run
 
 #: The paper's validation: "the measurement error of the force Fx is less than 10%".
@@ -207,8 +212,8 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     lap("simulate")
 
     say("[3/5] calibrating with the quasi-static filter ...")
-    kept: list[tuple[np.ndarray, ...]] = []
-    result = calibrate_recording(recording, kin, tool, pipeline, on_kept=lambda t, W, s, k, _: kept.append((t, W, s, k)))
+    collector = KeptCollector()
+    result = calibrate_recording(recording, kin, tool, pipeline, on_kept=collector)
     if result.calibration is None:
         raise result.error or FtsCalibError("the demo's calibration failed")  # InsufficientExcitation or PoorFit
     calibration = result.calibration
@@ -221,10 +226,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     lap("calibrate")
 
     say("[4/5] following the estimate sample by sample (paper Fig. 7) ...")
-    W = np.concatenate([k[1] for k in kept])
-    S = np.concatenate([k[2] for k in kept])
-    codes = np.concatenate([k[3] for k in kept])
-    times = np.concatenate([k[0] for k in kept])
+    times, W, S, codes = collector.arrays()
     curve = convergence(W, S, sensor.C_bar[0, 0], 120 if quick else 300, times, codes, len(tool.names))
     starts = [
         (int(np.nonzero(codes == c)[0][0]), tool.configurations[c].name) for c in range(len(tool.configurations)) if np.any(codes == c)
@@ -290,6 +292,14 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
         )
     )
     lap("plots")
+
+    inputs = {"the robot file": robot_path, "the tool file": tool.source, "the sensor file": sensor_path, "the pipeline file": "pipeline"}
+    content = calibrate_content(result, collector, {"the recording": recording, **inputs, "the calibration": cal_path})
+    label = f"{v_recording.name}: another motion, tool '{vtool.name}'"
+    content = dataclasses.replace(content, held_out=held_out(validation.errors[0], label))
+    with writing(out / "report.html"):
+        files.append(write_report(out / "report.html", render_report(content)))
+    lap("report")
 
     rel = np.abs(calibration.C - sensor.C) / np.max(np.abs(sensor.C), axis=1, keepdims=True)
     _report(say, calibration, sensor, rel, curve, starts, final_se, validation, paper, files, seconds)

@@ -21,6 +21,7 @@ from ..pipeline.remaining import load_plan_progress
 from ..pipeline.session import CalibrationSession
 from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
+from .report_content import KeptCollector
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -50,6 +51,7 @@ def run(
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
     model: str | None = None,
+    report: str | Path | None = None,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
@@ -92,6 +94,10 @@ def run(
         model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
             (default auto: chosen with the offset model by held-out error) when None.
 
+        report: HTML report of the run to write, also when no calibration is written (its
+            diagnosis first; :mod:`fts_calib.app.report_html`); None for none. A resumed run's
+            report has no pictures of the samples kept before the checkpoint.
+
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
         refused it (the checkpoint is kept in both cases); 16 (an error) when the UR
@@ -102,7 +108,7 @@ def run(
     host, port = listen
     host = listen_host(host, listen_any, port)  # before any work: a refused address wastes nothing
     inputs = {"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor}
-    check_outputs({"-o": output, "--checkpoint": checkpoint}, inputs)  # before any work: nothing lost, nothing wasted
+    check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
     check_start(checkpoint, resume, restart)
     kin, loaded, settings = load_setup(robot, tool, pipeline)
     settings = settings.with_offsets(offsets)
@@ -125,6 +131,7 @@ def run(
         )
     source, record = f"live udp://{host}:{port}", live_source(host, port)
     models: dict[str, Any] = {"model": model or spec.model, "full_channels": spec.full_channels, "full_scale": spec.full_scale}
+    collector = None if report is None or resume else KeptCollector()
     if resume:
         session = CalibrationSession.resume(checkpoint, kin, loaded, settings, source=source, source_record=record, layout=layout, **models)
         print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
@@ -138,6 +145,7 @@ def run(
             source_record=record,
             layout=layout,
             **models,
+            on_kept=collector,
         )
     latency_s = settings.live.latency_s if latency_s is None else latency_s
     max_gap_s = settings.live.max_gap_s if max_gap_s is None else max_gap_s
@@ -187,8 +195,10 @@ def run(
             print(f"NO CALIBRATION: {exc}; no checkpoint kept (it would hold nothing): check the address the feeds send to")
             return ExitCode.CHECK_FAILED
         print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
+        _report(report, session, collector, None, exc, f"{exc}", inputs)
         return ExitCode.CHECK_FAILED
     except PoorFit as exc:
+        _report(report, session, collector, None, exc, exc.check.summary(), inputs)
         print("\n".join(format_fit(exc.check)))
         print(f"NO CALIBRATION written: the fit is poor (above); checkpoint kept in {checkpoint}")
         print("fix the cause, or run again with --resume --accept-poor-fit to write it with the verdict")
@@ -202,7 +212,22 @@ def run(
     if quality.prior is not None:
         print(describe_prior(dict(quality.prior)))
     print(f"rank {quality.rank} of {quality.full_rank}, condition number {quality.condition_number:.1f}; wrote {path}")
+    _report(report, session, collector, calibration, None, "", {**inputs, "the calibration (-o)": path})
     return ExitCode.OK
+
+
+def _report(report, session, collector, calibration, error, diagnosis: str, files) -> None:
+    """Write the run's HTML report when one was asked for (``--report``)."""
+    if report is None:
+        return
+    from types import SimpleNamespace
+
+    from .report_content import calibrate_content
+    from .report_html import render_report, write_report
+
+    content = calibrate_content(SimpleNamespace(calibration=calibration, session=session, error=error), collector, files, diagnosis)
+    with writing(report):
+        print(f"wrote {write_report(report, render_report(content))}")
 
 
 def format_rtde(rtde: RtdePoller) -> str:

@@ -1,8 +1,9 @@
-"""Text reports for the command line: tables with units, for people to read."""
+"""Text reports for the command line: tables with units, for people to read; and the ``report`` command (HTML)."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -155,3 +156,95 @@ def format_model_selection(selection, quality=None) -> list[str]:
     if held and held.get("count"):
         lines.append(f"  {held['count']} directions no load excites held by the rule: {held['rule']}")
     return lines
+
+
+def run(
+    *,
+    calibration: str | Path,
+    output: str | Path,
+    recording: str | Path | None = None,
+    against: str | Path | None = None,
+    robot: str | Path | None = None,
+    tool: str | Path | None = None,
+    pipeline: str | Path = "pipeline",
+    sensor: str | Path = "sensor",
+    target_percent: float | None = None,
+) -> int:
+    """Write the HTML report of a calibration file, or its comparison with an older one (``fts-calib report``).
+
+    Args:
+        calibration: The calibration file (fts-calib YAML).
+        output: HTML file to write.
+        recording: The recording it was made from: the kept samples are found again with the
+            pipeline's filter and their residuals computed through ``calibration``; None for none.
+        against: An older calibration of the same sensor: write the comparison instead.
+        robot: Robot definition for the recording; the calibration's provenance (its robot's
+            shipped name) when None.
+        tool: Tool file for the recording; the calibration's provenance (its tool file) when None.
+        pipeline: Pipeline settings (filter thresholds) for the recording.
+        sensor: Sensor configuration for the recording (channel limits, full scale).
+        target_percent: Accuracy target of the budget total, in [%] of full scale; the
+            default of a sized plan when None.
+
+    Returns:
+        0.
+    """
+    from ..core.exceptions import ConfigError
+    from ..core.paths import check_outputs
+    from ..model.budget import DEFAULT_TARGET_PERCENT
+    from ..model.calibration import load_calibration
+    from .exit_codes import writing
+    from .report_compare import render_comparison
+    from .report_content import KeptCollector, ReportContent
+    from .report_html import render_report, write_report
+
+    inputs = {"the calibration": calibration, "the recording": recording, "--against": against}
+    check_outputs({"-o": output}, inputs)
+    target = DEFAULT_TARGET_PERCENT if target_percent is None else float(target_percent)
+    if not (math.isfinite(target) and target > 0):
+        raise ConfigError("--target", target_percent, "a percentage of full scale above 0 (e.g. 0.05)")
+    cal = load_calibration(calibration)
+    files = {"the calibration": calibration, "the recording": recording}
+    if against is not None:
+        old = load_calibration(against)
+        page = render_comparison(cal, old, str(calibration), str(against), {"new": calibration, "old": against})
+    else:
+        prov = dict(cal.provenance)
+        tools = prov.get("tools") or {}
+        names = tuple(str(c.get("name")) for c in tools.get("configurations", []))
+        samples, skipped, seen, kept = None, None, None, None
+        if recording is not None:
+            from ..pipeline.calibrate import calibrate_recording
+            from .setup import load_sensor, load_setup
+
+            robot = robot or (prov.get("robot") or {}).get("name")
+            tool = tool or tools.get("file")
+            if not robot or not tool:
+                missing = "--robot" if not robot else "--tool"
+                raise ConfigError(missing, None, f"the robot and tool of the recording: {calibration} does not record it in its provenance")
+            files.update({"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor})
+            kin, loaded, settings = load_setup(robot, tool, pipeline)
+            spec = load_sensor(sensor)
+            collector = KeptCollector()
+            again = calibrate_recording(
+                recording, kin, loaded, settings, on_kept=collector, accept_poor_fit=True, layout=spec.layout, limits=spec.limits
+            )
+            samples = collector.samples(cal)
+            progress = again.session.progress()
+            skipped, seen, kept, names = progress.skipped, progress.seen, progress.kept, tuple(loaded.names)
+        title = f"Calibration on {(prov.get('robot') or {}).get('name', 'an unnamed robot')} with {tools.get('name', 'an unnamed tool')}"
+        content = ReportContent(
+            title=title,
+            calibration=cal,
+            skipped=skipped,
+            seen=seen,
+            kept=kept,
+            samples=samples,
+            configurations=names,
+            files=files,
+            target_percent=target,
+        )
+        page = render_report(content)
+    with writing(output):
+        print(f"wrote {write_report(output, page)}")
+    return 0

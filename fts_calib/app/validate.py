@@ -57,6 +57,7 @@ def run(
     configuration_topic: str = BagTopics.configuration,
     joint_stamps: str = BagTopics.joint_stamps,
     json_path: str | Path | None = None,
+    report: str | Path | None = None,
 ) -> int:
     """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
 
@@ -83,6 +84,9 @@ def run(
         json_path: Where to write the errors of the first calibration for scripts,
             ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}`` (N, N·m),
             atomically; None for none. Not written when no sample was compared.
+        report: HTML report of the first calibration with this validation as its held-out
+            error and residuals (:mod:`fts_calib.app.report_html`); None for none. Not
+            written when no sample was compared.
 
     Returns:
         0, or 1 when an error exceeds ``max_error_percent`` or when fewer than
@@ -98,7 +102,8 @@ def run(
     inputs = {f"calibration {k + 1}": p for k, p in enumerate(calibrations)}
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(recording_paths(recording))})
     check_outputs(
-        {"--json": json_path, "--plot": plot_path}, {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor}
+        {"--json": json_path, "--plot": plot_path, "--report": report},
+        {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor},
     )
     kin, loaded, _ = load_setup(robot, tool)
     loaded_calibrations = [read_calibration(p) for p in calibrations]
@@ -162,6 +167,14 @@ def run(
                 f"validation over {Path(recording).name}",
             )
         print(f"wrote {written}")
+    if report is not None:
+        from .report_content import validation_content
+        from .report_html import render_report, write_report
+
+        files = {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor}
+        content = validation_content(result, loaded_calibrations[0], Path(calibrations[0]).name, loaded, files)
+        with writing(report):
+            print(f"wrote {write_report(report, render_report(content))}")
     worst = float(np.max([e.max_percent.max() for e in result.errors]))
     if max_error_percent is not None and worst > max_error_percent:
         print(f"FAILED: largest error {worst:.4f} % of full scale, above the limit of {max_error_percent:g} % (--max-error)")

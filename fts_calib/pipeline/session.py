@@ -85,7 +85,7 @@ class CalibrationSession:
         source: What the samples come from, for the calibration's provenance.
         clock: Wall-clock function in [s] (for checkpoint timing).
         on_kept: Called with ``(time (k,), w_sensor (k, 6), channels (k, n), configuration
-            indices (k,), joints (k, n_joints))`` for the samples entering the least squares,
+            indices (k,), joints (k, n_joints), temperature (k,) [°C] or None)`` for the samples entering the least squares,
             in order (e.g. to plot the convergence, or for the accuracy budget); None for nothing.
         source_record: What the checkpoint records of the source, to resume only with it
             (:func:`fts_calib.pipeline.checkpoint.recording_source`, ``live_source``), or None.
@@ -116,7 +116,7 @@ class CalibrationSession:
         use_filter: bool = True,
         source: str = "",
         clock: Callable[[], float] = _time.monotonic,
-        on_kept: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+        on_kept: Callable[..., None] | None = None,
         source_record: dict | None = None,
         layout: ChannelLayout = MALTESE_CROSS_8,
         model: str = "linear",
@@ -258,7 +258,7 @@ class CalibrationSession:
         self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
-            self._on_kept(kept.time, W, kept.channels, codes, kept.joints)
+            self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)
         self.kept += np.bincount(codes, minlength=len(self.kept))
         unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
         rows = fit_rows(g, kept.channels, self.layout, self.estimator.drift_rows(kept.time, kept.temperature))
