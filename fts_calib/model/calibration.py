@@ -5,7 +5,8 @@ in N m), D in [N, N, N, N m, N m, N m]. C is always derived from C_bar (``C = C_
 paper eq 7, with P the sensor's channel layout, :mod:`fts_calib.model.channels`), so the
 two can never disagree; a file whose C does not match its C_bar is refused.
 
-The file is written atomically: a crash never leaves half a file.
+The file is written atomically: a crash never leaves half a file. The quality and its
+section of the file are :mod:`fts_calib.model.quality`'s (:class:`Quality` is re-exported here).
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .features import SensorModel
 from .health import ParityModel
-from .sensor import WRENCH_AXES, WRENCH_UNITS, wrench_from_strain
+from .quality import Quality, quality_from_dict, quality_to_dict
+from .sensor import WRENCH_UNITS, wrench_from_strain
 
 #: Value of the ``format`` field of a calibration file.
 FORMAT = "fts-calib/1"
@@ -43,72 +45,6 @@ _UNITS = {
 def now_iso() -> str:
     """Current UTC time as an ISO 8601 string with seconds, e.g. '2026-11-22T10:00:00Z'."""
     return _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
-
-
-@dataclass(frozen=True)
-class Quality:
-    """How good a calibration is.
-
-    Attributes:
-        samples_used: Samples that entered the least squares.
-        samples_seen: Samples offered, including those skipped.
-        rank: Numerical rank of the 7x7 matrix S_XX (7 when every coefficient is determined).
-        condition_number: Condition number of S_XX after scaling its diagonal to 1.
-        residual_rms: RMS of the fit residual per wrench axis, in [N, N, N, N m, N m, N m].
-            Shape (6,).
-        stderr_C_bar: Standard error of every coefficient of C_bar. Shape (6, 6).
-        stderr_D: Standard error of every offset, in [N, N, N, N m, N m, N m]. Shape (6,).
-        stderr_C: Standard error of every coefficient of C. Shape (6, n), n channels.
-        skipped: Samples skipped, by reason (e.g. ``{"non-finite strain": 3}``).
-        fit: The fit check's verdict as plain data (verdict, residual RMS per
-            configuration and axis, the expected noise, the diagnosis), or None when the
-            fit was not checked (see :mod:`fts_calib.pipeline.fit`).
-        budget: The measured accuracy budget as plain data (per term and axis in % of full
-            scale, the total; :meth:`fts_calib.model.budget.AccuracyBudget.to_dict`), or None.
-        full_rank: The rank that determines every coefficient: 6 + the offset model's
-            columns (7 for the paper's constant offsets, 6 for a jig).
-        prior: The prior C_bar was shrunk toward, as plain data (source, weight, effective
-            parameters, shrinkage: :mod:`fts_calib.model.prior`), or None for none.
-        held_directions: How many directions of the model no load excited, and the rule
-            that held them (``{count, rule}``, :mod:`fts_calib.model.model_choice`), or None
-            when the model was not chosen by held-out error.
-        extra: Fields of the file's ``quality`` that this version does not know (written by
-            a newer one), kept as read and written back unchanged.
-    """
-
-    samples_used: int
-    samples_seen: int
-    rank: int
-    condition_number: float
-    residual_rms: np.ndarray
-    stderr_C_bar: np.ndarray
-    stderr_D: np.ndarray
-    stderr_C: np.ndarray
-    skipped: Mapping[str, int] = field(default_factory=dict)
-    fit: Mapping[str, Any] | None = None
-    budget: Mapping[str, Any] | None = None
-    full_rank: int = 7
-    prior: Mapping[str, Any] | None = None
-    held_directions: Mapping[str, Any] | None = None
-    extra: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self):
-        object.__setattr__(self, "extra", dict(self.extra))
-        n = np.shape(self.stderr_C)[-1] if np.ndim(self.stderr_C) == 2 else -1
-        for name, shape in (("residual_rms", (6,)), ("stderr_C_bar", (6, 6)), ("stderr_D", (6,)), ("stderr_C", (6, n))):
-            object.__setattr__(self, name, frozen(as_matrix(getattr(self, name), shape, name)))
-        object.__setattr__(self, "skipped", dict(self.skipped))
-
-    def relative_stderr_C(self, C: np.ndarray) -> np.ndarray:
-        """Standard error of each coefficient of C relative to the largest |coefficient| of its row.
-
-        Args:
-            C: The calibration matrix the errors belong to. Shape (6, n).
-
-        Returns:
-            Dimensionless ratios, shape (6, n).
-        """
-        return self.stderr_C / np.max(np.abs(C), axis=1, keepdims=True)
 
 
 @dataclass(frozen=True)
@@ -244,43 +180,6 @@ class Calibration:
         return replace(self, D=D, offset_history=(*self.offset_history, entry))
 
 
-def _quality_to_dict(quality: Quality) -> dict[str, Any]:
-    return {
-        "samples_used": quality.samples_used,
-        "samples_seen": quality.samples_seen,
-        "skipped": dict(quality.skipped),
-        "rank": quality.rank,
-        "condition_number": quality.condition_number,
-        "residual_rms": dict(zip(WRENCH_AXES, quality.residual_rms.tolist(), strict=True)),
-        "stderr_C_bar": quality.stderr_C_bar,
-        "stderr_D": quality.stderr_D,
-        "stderr_C": quality.stderr_C,
-        **({"fit": dict(quality.fit)} if quality.fit is not None else {}),
-        **({"accuracy_budget": dict(quality.budget)} if quality.budget is not None else {}),
-        "full_rank": quality.full_rank,
-        **({"prior": dict(quality.prior)} if quality.prior is not None else {}),
-        **({"held_directions": dict(quality.held_directions)} if quality.held_directions is not None else {}),
-        **{key: value for key, value in quality.extra.items() if key not in _QUALITY_FIELDS},
-    }
-
-
-#: The fields of ``quality`` this version reads; others are kept in ``Quality.extra``.
-_QUALITY_FIELDS = (
-    "samples_used",
-    "samples_seen",
-    "skipped",
-    "rank",
-    "condition_number",
-    "residual_rms",
-    "stderr_C_bar",
-    "stderr_D",
-    "stderr_C",
-    "fit",
-    "accuracy_budget",
-    "full_rank",
-    "prior",
-    "held_directions",
-)
 #: The top-level fields of a calibration file this version reads; others are kept in ``Calibration.extra``.
 FIELDS = (
     "format",
@@ -318,7 +217,7 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
         "D": calibration.D,
     }
     if calibration.quality is not None:
-        data["quality"] = _quality_to_dict(calibration.quality)
+        data["quality"] = quality_to_dict(calibration.quality)
     data["provenance"] = dict(calibration.provenance)
     data["offset_history"] = list(calibration.offset_history)
     if calibration.offset_model is not None:
@@ -331,37 +230,6 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
     data.update({key: value for key, value in calibration.extra.items() if key not in FIELDS})  # a newer version's fields, kept
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
     return atomic_write_text(path, header + dump_yaml(data))
-
-
-def _quality_from_dict(raw: Any, path: Path, n: int) -> Quality:
-    if not isinstance(raw, Mapping):
-        raise FileFormatError(path, "quality", "expected a mapping")
-    rms = require(raw, "residual_rms", path, "quality.")
-    if isinstance(rms, Mapping):
-        missing = [axis for axis in WRENCH_AXES if axis not in rms]
-        if missing:
-            raise FileFormatError(path, "quality.residual_rms", f"missing axes {missing}")
-        rms = [rms[axis] for axis in WRENCH_AXES]
-    try:
-        return Quality(
-            samples_used=int(require(raw, "samples_used", path, "quality.")),
-            samples_seen=int(require(raw, "samples_seen", path, "quality.")),
-            rank=int(require(raw, "rank", path, "quality.")),
-            condition_number=float(require(raw, "condition_number", path, "quality.")),
-            residual_rms=read_array(rms, (6,), path, "quality.residual_rms"),
-            stderr_C_bar=read_array(require(raw, "stderr_C_bar", path, "quality."), (6, 6), path, "quality.stderr_C_bar"),
-            stderr_D=read_array(require(raw, "stderr_D", path, "quality."), (6,), path, "quality.stderr_D"),
-            stderr_C=read_array(require(raw, "stderr_C", path, "quality."), (6, n), path, "quality.stderr_C"),
-            skipped={str(k): int(v) for k, v in (raw.get("skipped") or {}).items()},
-            fit=dict(raw["fit"]) if isinstance(raw.get("fit"), Mapping) else None,
-            budget=dict(raw["accuracy_budget"]) if isinstance(raw.get("accuracy_budget"), Mapping) else None,
-            full_rank=int(raw.get("full_rank", 7)),
-            prior=dict(raw["prior"]) if isinstance(raw.get("prior"), Mapping) else None,
-            held_directions=dict(raw["held_directions"]) if isinstance(raw.get("held_directions"), Mapping) else None,
-            extra={key: value for key, value in raw.items() if key not in _QUALITY_FIELDS},
-        )
-    except (TypeError, ValueError) as exc:
-        raise FileFormatError(path, "quality", str(exc)) from None
 
 
 def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
@@ -395,7 +263,7 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
         raise FileFormatError(
             path, "C", f"does not equal C_bar @ P (largest difference {mismatch:.3g}); the file was edited inconsistently"
         )
-    quality = _quality_from_dict(data["quality"], path, layout.n_channels) if data.get("quality") is not None else None
+    quality = quality_from_dict(data["quality"], path, layout.n_channels) if data.get("quality") is not None else None
     provenance = data.get("provenance") or {}
     if not isinstance(provenance, Mapping):
         raise FileFormatError(path, "provenance", "expected a mapping")

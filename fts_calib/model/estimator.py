@@ -33,24 +33,22 @@ the full rank is 6 + K, reached with the same three centres of mass (see :data:`
 from __future__ import annotations
 
 import math
-from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
 
 from .._version import __version__
-from ..core.arrays import as_matrix
-from ..core.exceptions import ConfigError, InsufficientExcitation
+from ..core.exceptions import InsufficientExcitation
 from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
-from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
+from .channels import MALTESE_CROSS_8, ChannelLayout
+from .estimator_state import estimator_state, merge_estimators, restore_estimator
 from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, solve_normal, undetermined_columns
 from .model_choice import HOLD_RULE, Chooser, Selection
 from .model_fit import model_residuals, solve_model
 from .offset_basis import (
     AUTO,
-    CONSTANT_ONLY,
     Candidate,
     OffsetBasis,
     candidates,
@@ -60,7 +58,6 @@ from .offset_basis import (
     model_sums,
     offset_setting,
 )
-from .offset_trace import OffsetTrace
 from .prior import Prior
 from .sensor import WRENCH_AXES
 
@@ -121,44 +118,10 @@ class OnlineEstimator(SampleSums):
 
         Both must have the same forgetting factor, channel layout, offset setting and basis;
         with forgetting < 1, ``other``'s data count as the more recent. ``other``'s sums are
-        moved to this estimator's time and temperature origins first.
+        moved to this estimator's time and temperature origins first
+        (:func:`~fts_calib.model.estimator_state.merge_estimators`).
         """
-        for name, mine, theirs in (
-            ("forgetting", self.forgetting, other.forgetting),
-            ("channels", self.layout, other.layout),
-            ("offsets", self.offsets, other.offsets),
-            ("offset basis", self.basis, other.basis),
-            ("model", (self.model, self.full_channels), (other.model, other.full_channels)),
-        ):
-            if mine != theirs:
-                label = (
-                    f"channel layouts {self.layout.name} and {other.layout.name}" if name == "channels" else f"{name} {mine} and {theirs}"
-                )
-                message = f"cannot merge estimators {'of' if name == 'channels' else 'with'} {label}"
-                raise ConfigError(name, theirs, f"{mine}, the same as this estimator's", message=message)
-        self._flush()
-        other._flush()
-        out = OnlineEstimator(self.forgetting, self.layout, self.offsets, self.basis, self.model, self.full_channels, self.full_scale)
-        out.time_origin = self.time_origin if self.time_origin is not None else other.time_origin
-        out.temperature_origin = self.temperature_origin if self.temperature_origin is not None else other.temperature_origin
-        shift = [
-            0.0 if b is None or a is None else b - a
-            for a, b in ((out.time_origin, other.time_origin), (out.temperature_origin, other.temperature_origin))
-        ]
-        G = np.eye(len(self._sums))
-        G[12:, 12:] = self.basis.shift(*shift)
-        decay = self.forgetting**other.samples_used
-        out._sums = self._sums * decay + G @ other._sums @ G.T
-        out._weight_sum = self._weight_sum * decay + other._weight_sum
-        out.samples_used = self.samples_used + other.samples_used
-        out.samples_seen = self.samples_seen + other.samples_seen
-        out.trace = self.trace.merged(other.trace)
-        if self.units is not None and other.units is not None:
-            out.units, out.unit_rows = self.units.merged(other.units, G[12:, 12:]), self.unit_rows + other.unit_rows
-        for source in (self.skipped, other.skipped):
-            for reason, count in source.items():
-                out._skip(reason, count)
-        return out
+        return merge_estimators(self, other)
 
     # -- views --------------------------------------------------------------------------
 
@@ -389,43 +352,13 @@ class OnlineEstimator(SampleSums):
     # -- checkpoints --------------------------------------------------------------------
 
     def state(self) -> dict:
-        """Everything needed to resume: plain types, safe to write as YAML or JSON."""
-        return {
-            "forgetting": self.forgetting,
-            "channels": self.layout.to_config(),
-            "offsets": self.offsets,
-            "model": self.model,
-            "full_channels": self.full_channels,
-            **({"units": self.units.state(), "unit_rows": self.unit_rows} if self.units is not None else {}),
-            "basis": self.basis.to_config(),
-            "time_origin": self.time_origin,
-            "temperature_origin": self.temperature_origin,
-            "trace": self.trace.state(),
-            "S": self._current().tolist(),
-            "weight_sum": self._weight_sum,
-            "samples_used": self.samples_used,
-            "samples_seen": self.samples_seen,
-            "skipped": dict(self.skipped),
-        }
+        """Everything needed to resume: plain types, safe to write as YAML or JSON.
+
+        See :func:`~fts_calib.model.estimator_state.estimator_state`.
+        """
+        return estimator_state(self)
 
     @classmethod
     def from_state(cls, state: Mapping) -> OnlineEstimator:
         """Rebuild an estimator from :meth:`state` (a state of an older version, without offset models, too)."""
-        basis = OffsetBasis.from_config(state["basis"]) if "basis" in state else CONSTANT_ONLY
-        offsets = str(state.get("offsets", "constant"))
-        model, full = str(state.get("model", "linear")), bool(state.get("full_channels", False))
-        out = cls(float(state["forgetting"]), channel_layout(state.get("channels")), offsets, basis, model, full)
-        if out.units is not None and "units" in state:
-            out.units.restore(state["units"])
-            out.unit_rows = int(state.get("unit_rows", 0))
-        width = 12 + basis.size
-        out._sums = as_matrix(state["S"], (width, width), "state['S']").copy()
-        out._weight_sum = float(state["weight_sum"])
-        out.samples_used = int(state["samples_used"])
-        out.samples_seen = int(state["samples_seen"])
-        out.skipped = Counter({str(k): int(v) for k, v in state.get("skipped", {}).items()})
-        for name in ("time_origin", "temperature_origin"):
-            value = state.get(name)
-            setattr(out, name, None if value is None else float(value))
-        out.trace = OffsetTrace.from_state(state.get("trace"))
-        return out
+        return restore_estimator(cls, state)

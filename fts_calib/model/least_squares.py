@@ -23,7 +23,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .calibration import Quality
+from .quality import Quality
 
 #: Default relative eigenvalue threshold for the numerical rank of the scaled S_XX.
 #: A direction whose strain amplitude is below about 3e-4 of the typical one
@@ -288,7 +288,7 @@ def fit_quality(
         offset_row: Offset basis row of the reported D, shape (k,), or None (see above).
 
     Returns:
-        The :class:`~fts_calib.model.calibration.Quality` (residual RMS and standard errors
+        The :class:`~fts_calib.model.quality.Quality` (residual RMS and standard errors
         in N and N m).
     """
     p = theta.shape[1]

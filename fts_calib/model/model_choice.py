@@ -14,8 +14,9 @@ from the sums alone:
     \mathrm{RSS}_g = \mathrm{diag}(S_{WW,g} - 2\,\Theta_{-g} S_{XW,g} + \Theta_{-g} S_{XX,g} \Theta_{-g}^T)
 
 The score of a candidate is its held-out mean square over units and axes, each axis divided
-by its scale (the full scale when given, else the RMS of the known wrench) so that forces and
-moments count alike. Among the candidates whose score is within :data:`EQUAL_WITHIN_SE` standard
+by the smallest held-out RMS any candidate reaches on it (the noise level the data allow), so
+that forces and moments count alike and an axis brought down to its noise counts whatever its
+share of full scale. Among the candidates whose score is within :data:`EQUAL_WITHIN_SE` standard
 errors (of the per-unit differences to the best, over units) of the best one's, the one of
 fewest parameters wins: an ideal sensor keeps the linear model and constant offsets, while a model that is wrong
 (a nonlinearity, offsets that move) loses by far more than its noise. BIC, which rewards any
@@ -32,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -139,6 +140,7 @@ class Score:
         error: Held-out mean square, each axis over its scale squared, averaged over axes and units.
         per_unit: Each unit's normalised mean square, shape (G,).
         held: Directions held at minimum norm in the fit on all units.
+        unit_ms: Each unit's held-out mean square per axis, [N², N² ..., N² m²]. Shape (G, 6).
     """
 
     family: str
@@ -148,6 +150,7 @@ class Score:
     error: float
     per_unit: np.ndarray
     held: int
+    unit_ms: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -269,7 +272,8 @@ class Chooser:
         per_unit = (rss / self.scale**2).sum(axis=1) / np.maximum(counts, 1e-300) / 6.0
         n = max(float(counts.sum()), 1e-300)
         heldout = np.sqrt(rss.sum(axis=0) / n)
-        return Score(family, candidate, p, heldout, float(per_unit.mean()), per_unit, p - kept.shape[1])
+        unit_ms = rss / np.maximum(counts, 1e-300)[:, None]
+        return Score(family, candidate, p, heldout, float(per_unit.mean()), per_unit, p - kept.shape[1], unit_ms)
 
     def _range(self, S: np.ndarray, family: str) -> tuple[np.ndarray, np.ndarray]:
         """(diagonal scaling (p,), orthonormal basis (p, r) of the directions kept) of a candidate's normal matrix."""
@@ -294,12 +298,35 @@ class Chooser:
     def select(self) -> Selection:
         """Score every candidate and choose (see the module docstring)."""
         options = candidates(self.basis, np.diag(self.total)[6 + self.sums.n_features :] > 0, self.setting[1])
-        scores = [self.score(f, c) for f in self.families() for c in options]
+        scores = _per_noise([self.score(f, c) for f in self.families() for c in options])
         finite = [s for s in scores if math.isfinite(s.error)] or scores
         best = min(finite, key=lambda s: s.error)
         equal = [s for s in finite if s is best or _paired_se(s, best)[0] <= EQUAL_WITHIN_SE * _paired_se(s, best)[1]]
         chosen = min(equal, key=lambda s: (s.parameters, s.error))
         return Selection(scores, chosen, best, self.setting, len(self.sums.sums), self.scale)
+
+
+def _per_noise(scores: list[Score]) -> list[Score]:
+    """The scores with each axis over the smallest held-out RMS any candidate reaches on it.
+
+    That RMS is the noise level the data allow on the axis: an axis whose error a candidate
+    brings down to it counts as much as any other, whatever its unit or full scale (on a
+    low-cost sensor the forces' noise is 0.6 % of their full scale and the moments' 0.09 %:
+    scaled by the full scale, a nonlinearity seen on the moments alone was lost in the forces'
+    noise).
+    """
+    if any(s.unit_ms is None for s in scores):
+        return scores
+    reached = [s.heldout_rms for s in scores if np.all(np.isfinite(s.heldout_rms))]
+    if not reached:
+        return scores
+    noise = np.min(reached, axis=0)
+    noise = np.maximum(noise, 1e-12 * max(float(noise.max()), 1e-300))
+    rescored = []
+    for s in scores:
+        per_unit = (s.unit_ms / noise**2).mean(axis=1)
+        rescored.append(replace(s, per_unit=per_unit, error=float(per_unit.mean())))
+    return rescored
 
 
 def _paired_se(score: Score, best: Score) -> tuple[float, float]:

@@ -95,14 +95,14 @@ class KeptSamples:
     """The samples entering the least squares, collected for the measured budget.
 
     Pass it as the session's ``on_kept``: it is called with ``(time (k,), w_sensor (k, 6),
-    channels (k, n), configuration (k,), joints (k, n_joints))``.
+    channels (k, n), configuration (k,), joints (k, n_joints))`` and the temperature (k,) or None.
     """
 
     def __init__(self) -> None:
         self._parts: list[tuple[np.ndarray, ...]] = []
 
-    def __call__(self, time, w_sensor, channels, configuration, joints) -> None:
-        """Keep one batch of kept samples."""
+    def __call__(self, time, w_sensor, channels, configuration, joints, temperature=None) -> None:
+        """Keep one batch of kept samples (the session's ``on_kept``; the temperature is not needed here)."""
         self._parts.append(tuple(np.array(a) for a in (time, w_sensor, channels, configuration, joints)))
 
     def __len__(self) -> int:

@@ -26,7 +26,7 @@ written in mm or cm, one configuration's mass mistyped, and a collinear tool fil
 no strain data can fit when the mounted tool was not collinear). The first that fits is
 named in the diagnosis. Two mistakes scale C without leaving a residual, so their values
 are checked instead: a centre of mass beyond 1 m (mm or cm for m) and a gravity outside
-9.7-9.9 m/s^2.
+9.7-9.9 m/s^2 (:mod:`fts_calib.pipeline.tool_plausibility`).
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor import WRENCH_AXES
 from ..robot.tool import Tool
 from ..robot.wrench import wrench_matrix
+from .tool_plausibility import implausible_tool
 
 #: Largest accepted ratio of a configuration's residual RMS to the expected noise, per axis.
 #: A consistent fit over hundreds of samples gives 1 +- a few %: 3 leaves room for the
@@ -49,14 +50,6 @@ from ..robot.wrench import wrench_matrix
 MAX_RATIO = 3.0
 #: Floor of the expected residual, relative to the tool's weight (forces) and moment (moments).
 RELATIVE_FLOOR = 1e-6
-#: Largest plausible distance of a calibration tool's centre of mass from the sensor, in [m].
-MAX_COM_M = 1.0
-#: Smallest distance a unit correction may bring it to, in [m] (below, the unit is not guessed).
-MIN_COM_M = 0.005
-#: A typical calibration tool's centre of mass distance, in [m]: picks mm or cm when both are plausible.
-TYPICAL_COM_M = 0.1
-#: The range accepted for the magnitude of gravity, in [m/s^2] (9.78 to 9.83 on Earth's surface).
-GRAVITY_RANGE = (9.7, 9.9)
 #: Tool configurations up to which every permutation of the labels is tried.
 MAX_PERMUTED = 4
 #: Mass factors tried for one configuration (0.01x to 100x).
@@ -237,7 +230,7 @@ def check_model_fit(
     ratio = np.array([residual_rms[k] / expected for k in names])
     k, axis = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     worst = f"configuration {names[k]}, {WRENCH_AXES[axis]}"
-    implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
+    implausible = implausible_tool(tool)
     if implausible:
         return FitCheck("poor", float(ratio.max()), residual_rms, expected, implausible, worst)
     if noise_std is None:
@@ -303,41 +296,6 @@ def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov, p
     return sorted(fits, key=lambda item: item[1])
 
 
-def _implausible_gravity(tool: Tool) -> str:
-    """Why the tool file's gravity cannot be the Earth's, or ''.
-
-    A wrong magnitude of gravity scales every wrench, so C absorbs it and the residuals do not
-    show it; only its value does. On Earth it is 9.78 to 9.83 m/s^2.
-    """
-    low, high = GRAVITY_RANGE
-    if low <= tool.gravity <= high:
-        return ""
-    unit = (
-        " (it looks like cm/s^2)" if low <= tool.gravity / 100 <= high else " (it looks like g, not m/s^2)" if tool.gravity == 1.0 else ""
-    )
-    return f"the tool file's gravity is {tool.gravity:g} m/s^2, expected {low:g} to {high:g} m/s^2 on Earth{unit}"
-
-
-def _implausible_geometry(tool: Tool) -> str:
-    """Why the tool file's centres of mass cannot be a calibration tool's, or ''.
-
-    Scaling every centre of mass by the same factor scales the moment rows of C and fits the
-    data as well: the mistake shows only in the size. A centre of mass beyond
-    :data:`MAX_COM_M` is taken for mm or cm when that unit brings it to a plausible size.
-    """
-    largest = max(float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations)
-    if largest <= MAX_COM_M:
-        return ""
-    plausible = [(unit, f) for unit, f in (("mm", 1e-3), ("cm", 1e-2)) if MIN_COM_M <= largest * f <= MAX_COM_M]
-    if plausible:  # the unit that brings it nearest a typical tool's 0.1 m (log scale)
-        unit, factor = min(plausible, key=lambda u: abs(math.log(largest * u[1] / TYPICAL_COM_M)))
-        return (
-            f"the centres of mass of the tool file are in {unit}, not m: the largest is {largest:g} m from the sensor "
-            f"(divide them by {1 / factor:g})"
-        )
-    return f"the tool file's largest centre of mass is {largest:g} m from the sensor: expected at most {MAX_COM_M:g} m"
-
-
 def check_fit(
     tool: Tool,
     sums: np.ndarray,
@@ -370,7 +328,7 @@ def check_fit(
     if not counts.sum() > 0:  # no sample in the sums: nothing to judge
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
     noise_cov = layout.projected_noise(0.0 if noise_std is None else noise_std)  # covariance of P Delta, (6, 6)
-    implausible = _implausible_gravity(tool) or _implausible_geometry(tool)
+    implausible = implausible_tool(tool)
     judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise_cov, per_configuration)
     if judged is None:
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))

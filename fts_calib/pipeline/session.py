@@ -38,18 +38,17 @@ from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
-from ..model.least_squares import unexplained_strain
 from ..model.prior import Prior
 from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
-from .advice import missing_words, refused_words
 from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
+from .fit import FitCheck
 from .health import with_health
+from .kept_sums import add_kept, empty_sums, refusal, session_fit_check, session_progress
 from .latency import LatencyEstimate
 from .progress import Progress
 from .provenance import session_provenance
@@ -149,9 +148,7 @@ class CalibrationSession:
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
-        self._directions = np.zeros((n, 4, 4))  # sum of [u; 1][u; 1]^T per configuration, u = g / |g|
-        m = 10 + self.estimator.basis.n_drift  # sum of y y^T per configuration, y = [g; P Delta; 1; drift] (fit checks)
-        self._fit_sums = np.zeros((n, m, m))
+        self._directions, self._fit_sums = empty_sums(n, self.estimator.basis.n_drift)  # per configuration (kept_sums)
         self._staged: list[tuple] = []
         self._last: tuple[float, int, float | None] | None = None  # time, configuration, temperature of the last valid sample
         self._clock = clock
@@ -259,14 +256,7 @@ class CalibrationSession:
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)
-        self.kept += np.bincount(codes, minlength=len(self.kept))
-        unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
-        rows = fit_rows(g, kept.channels, self.layout, self.estimator.drift_rows(kept.time, kept.temperature))
-        for c in np.unique(codes):
-            mine = codes == c
-            u = unit[mine]
-            self._directions[c] += u.T @ u
-            self._fit_sums[c] += rows[mine].T @ rows[mine]
+        add_kept(self, g, kept.channels, codes, kept.time, kept.temperature)
 
     def flush(self) -> None:
         """Decide the samples the filter still holds (call when the stream ends)."""
@@ -285,19 +275,7 @@ class CalibrationSession:
 
     def progress(self) -> Progress:
         """Counts, rank and what is missing, in words."""
-        rank, condition = self.estimator.rank()
-        full, last = self.estimator.full_rank(), self.checks.last_time
-        return Progress(
-            seen=self.seen,
-            kept=int(self.kept.sum()),
-            kept_by_configuration={name: int(n) for name, n in zip(self.tool.names, self.kept, strict=True)},
-            rank=rank,
-            condition_number=condition,
-            missing="" if rank == full else missing_words(self.tool, self.kept, self._directions),
-            skipped=self.all_skipped(),
-            last_time=None if last == -math.inf else last,
-            full_rank=full,
-        )
+        return session_progress(self)
 
     def fit_check(self, hint: str = "") -> FitCheck:
         """Whether the kept samples fit the tool's model at the noise level of the data.
@@ -309,21 +287,7 @@ class CalibrationSession:
         Args:
             hint: Words added to a poor fit's diagnosis when no alternative explains it.
         """
-        noise = None if self.filter is None else self.filter.noise_floor
-        in_sums = self._fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
-        missing = int(self.kept.sum() - round(float(in_sums.sum())))
-        if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
-            reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
-            return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
-        chosen = self.estimator.model_in_use()[0]
-        sums, per_configuration = model_fit_sums(self._fit_sums, chosen.model, chosen.columns, self.estimator.basis.n_configurations)
-        linear = check_fit(self.tool, sums, in_sums, noise, hint, self.layout, per_configuration)  # noise: floored at step/sqrt(12)
-        residuals = self.estimator.model_residuals()
-        if residuals is None:  # the linear model on P Delta: the check above is the model's
-            return linear
-        rms, C_bar = residuals
-        named = {name: rms[k] for k, name in enumerate(self.tool.names) if k in rms}
-        return check_model_fit(self.tool, named, C_bar, noise, self.layout, linear)
+        return session_fit_check(self, hint)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
         """The calibration from everything kept so far, with its fit check, measured budget and latency in the quality.
@@ -347,13 +311,8 @@ class CalibrationSession:
         self._flush_staged()
         try:
             calibration = self.estimator.solve(configurations=self.tool.names, at=self._last, prior=prior)
-        except InsufficientExcitation as exc:
-            check = self.fit_check(hint) if not accept_poor_fit and self._strains_unexplained() else None
-            if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
-                raise PoorFit(check, None) from None
-            refused = refused_words(self.checks.skipped, self.seen, int(self.kept.sum()))
-            words = missing_words(self.tool, self.kept, self._directions, self.estimator.undetermined(self.tool.names), hint, refused)
-            raise InsufficientExcitation(exc.rank, exc.missing, words, exc.full) from None
+        except InsufficientExcitation as exc:  # a wrong tool file or joint unit, not a short sweep: the fit names it
+            raise refusal(self, exc, hint, accept_poor_fit) from None
         if calibration.quality is None:  # the estimator always measures the fit
             raise FtsCalibError("the estimator returned a calibration without its quality")
         check = self.fit_check(hint)
@@ -366,13 +325,6 @@ class CalibrationSession:
             calibration, self.kin, self.tool, self._kept_samples, int(self.kept.sum()), noise_floor, self._moving, self.full_scale
         )
         return with_health(self, calibration, noise_floor)
-
-    def _strains_unexplained(self) -> bool:
-        """Whether the strains carry a signal the tool file's loads cannot produce (:func:`unexplained_strain`)."""
-        if self.filter is None or self.filter.noise_floor is None:
-            return False
-        sums, noise = self.estimator.model_sums(self.estimator.model_in_use()[0]), self.layout.projected_noise(self.filter.noise_floor)
-        return unexplained_strain(sums, noise, self.estimator.weight_sum) > MAX_RATIO**2
 
     @property
     def _provenance(self) -> dict:

@@ -21,7 +21,6 @@ by hand.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -42,26 +41,8 @@ from .joints import (
     resolve_limits,
     warn_problems,
 )
+from .motion import SensorMotion
 from .urdf import build_model, require_sweep_joints
-
-
-@dataclass(frozen=True)
-class SensorMotion:
-    """Velocity and classical acceleration of the sensor frame, expressed in the sensor frame.
-
-    Attributes:
-        omega: Angular velocity [rad/s]. Shape (3,) or (N, 3).
-        alpha: Angular acceleration [rad/s^2]. Shape (3,) or (N, 3).
-        v: Linear velocity of the origin of S [m/s]. Shape (3,) or (N, 3).
-        a: Classical linear acceleration of the origin of S [m/s^2]. Shape (3,) or (N, 3).
-        R_world_sensor: Orientation of S. Shape (3, 3) or (N, 3, 3).
-    """
-
-    omega: np.ndarray
-    alpha: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    R_world_sensor: np.ndarray
 
 
 class Kinematics:

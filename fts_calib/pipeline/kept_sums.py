@@ -1,0 +1,150 @@
+"""What a calibration session keeps of its kept samples per tool configuration, and what it tells.
+
+Per configuration ``c`` the session (:class:`fts_calib.pipeline.session.CalibrationSession`)
+keeps the sum of ``[u; 1][u; 1]^T`` with ``u = g / |g|`` (4 x 4: the gravity directions the
+sensor saw, for the advice on what is missing) and the sum of ``y y^T`` with
+``y = [g_sensor; P Delta; 1; drift]`` ((10 + m) x (10 + m), :func:`fts_calib.pipeline.fit.fit_rows`,
+for the fit check). From them: the progress in words, the fit check of the model in use, and
+the error raised when a solve lacks rank. Units: gravity in [m/s^2], channels raw.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..core.exceptions import InsufficientExcitation, PoorFit
+from ..model.least_squares import unexplained_strain
+from .advice import missing_words, refused_words
+from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
+from .progress import Progress
+
+if TYPE_CHECKING:
+    from .session import CalibrationSession
+
+
+def empty_sums(n_configurations: int, n_drift: int) -> tuple[np.ndarray, np.ndarray]:
+    """The empty sums of a new session: gravity directions and fit rows, per configuration.
+
+    Args:
+        n_configurations: k, the tool's configurations.
+        n_drift: m, the drift columns of the estimator's offset basis.
+
+    Returns:
+        ``(directions (k, 4, 4), fit sums (k, 10 + m, 10 + m))``, zeros.
+    """
+    m = 10 + n_drift  # sum of y y^T per configuration, y = [g; P Delta; 1; drift] (fit checks)
+    return np.zeros((n_configurations, 4, 4)), np.zeros((n_configurations, m, m))  # directions: sum of [u; 1][u; 1]^T, u = g / |g|
+
+
+def add_kept(session: CalibrationSession, g: np.ndarray, channels: np.ndarray, codes: np.ndarray, time, temperature) -> None:
+    """Add kept samples to the session's counts, gravity directions and fit sums, per configuration.
+
+    Args:
+        session: The session (its ``kept``, directions and fit sums are updated in place).
+        g: Gravity in the sensor frame [m/s^2], shape (N, 3).
+        channels: Raw channels, shape (N, n).
+        codes: Configuration indices in the tool's order, shape (N,).
+        time: Times [s], shape (N,) (the estimator's drift columns).
+        temperature: Sensor temperatures [°C], shape (N,), or None.
+    """
+    session.kept += np.bincount(codes, minlength=len(session.kept))
+    unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
+    rows = fit_rows(g, channels, session.layout, session.estimator.drift_rows(time, temperature))
+    for c in np.unique(codes):
+        mine = codes == c
+        u = unit[mine]
+        session._directions[c] += u.T @ u
+        session._fit_sums[c] += rows[mine].T @ rows[mine]
+
+
+def session_progress(session: CalibrationSession) -> Progress:
+    """Counts, rank and what is missing, in words (:meth:`CalibrationSession.progress`).
+
+    Args:
+        session: The session.
+
+    Returns:
+        The progress; ``missing`` is '' at full rank.
+    """
+    rank, condition = session.estimator.rank()
+    full, last = session.estimator.full_rank(), session.checks.last_time
+    return Progress(
+        seen=session.seen,
+        kept=int(session.kept.sum()),
+        kept_by_configuration={name: int(n) for name, n in zip(session.tool.names, session.kept, strict=True)},
+        rank=rank,
+        condition_number=condition,
+        missing="" if rank == full else missing_words(session.tool, session.kept, session._directions),
+        skipped=session.all_skipped(),
+        last_time=None if last == -math.inf else last,
+        full_rank=full,
+    )
+
+
+def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
+    """Whether the session's kept samples fit the tool's model at the noise level of the data.
+
+    The noise is the filter's noise floor (the strain scatter of the still windows, raw units,
+    shape (n,)); without the filter, or with a fixed strain threshold, none is measured and
+    the verdict is 'unchecked'. See :mod:`fts_calib.pipeline.fit`.
+
+    Args:
+        session: The session.
+        hint: Words added to a poor fit's diagnosis when no alternative explains it.
+
+    Returns:
+        The check of the model in use (a nonlinear model's by its residual per configuration).
+    """
+    noise = None if session.filter is None else session.filter.noise_floor
+    in_sums = session._fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
+    missing = int(session.kept.sum() - round(float(in_sums.sum())))
+    if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
+        reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
+        return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
+    chosen = session.estimator.model_in_use()[0]
+    sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
+    linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration)  # noise: floored at step/sqrt(12)
+    residuals = session.estimator.model_residuals()
+    if residuals is None:  # the linear model on P Delta: the check above is the model's
+        return linear
+    rms, C_bar = residuals
+    named = {name: rms[k] for k, name in enumerate(session.tool.names) if k in rms}
+    return check_model_fit(session.tool, named, C_bar, noise, session.layout, linear)
+
+
+def strains_unexplained(session: CalibrationSession) -> bool:
+    """Whether the strains carry a signal the tool file's loads cannot produce (:func:`unexplained_strain`).
+
+    Args:
+        session: The session (its filter's noise floor; False without one).
+    """
+    if session.filter is None or session.filter.noise_floor is None:
+        return False
+    estimator = session.estimator
+    sums, noise = estimator.model_sums(estimator.model_in_use()[0]), session.layout.projected_noise(session.filter.noise_floor)
+    return unexplained_strain(sums, noise, estimator.weight_sum) > MAX_RATIO**2
+
+
+def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str, accept_poor_fit: bool) -> PoorFit | InsufficientExcitation:
+    """The error for a solve the estimator refused for rank: a poor fit when the strains show one, else what is missing.
+
+    Args:
+        session: The session.
+        exc: The estimator's refusal (its rank, missing directions and full rank).
+        hint: See :func:`session_fit_check`.
+        accept_poor_fit: Do not turn the refusal into a :class:`PoorFit`.
+
+    Returns:
+        :class:`PoorFit` (no calibration) when a wrong tool file or joint unit, not a short
+        sweep, explains the missing rank; otherwise :class:`InsufficientExcitation` in words.
+    """
+    check = session_fit_check(session, hint) if not accept_poor_fit and strains_unexplained(session) else None
+    if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
+        return PoorFit(check, None)
+    refused = refused_words(session.checks.skipped, session.seen, int(session.kept.sum()))
+    undetermined = session.estimator.undetermined(session.tool.names)
+    words = missing_words(session.tool, session.kept, session._directions, undetermined, hint, refused)
+    return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)
