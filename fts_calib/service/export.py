@@ -61,17 +61,7 @@ def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
         " * wrench = C * strain + D, wrench = [Fx Fy Fz] in N and [Mx My Mz] in N*m, in the sensor frame;",
         f" * strain = the {n} raw channels ({calibration.layout.name} layout), in the unit used during calibration.",
         f" * method: {prov.get('method', 'unknown')}; time: {prov.get('time', 'unknown')}. */",
-        f"#ifndef {prefix}_H",
-        f"#define {prefix}_H",
-        "",
-        "#ifdef FTS_CALIB_DOUBLE",
-        f"typedef double {lower}_real;",
-        f"#define {prefix}_R(x) x",
-        "#else",
-        f"typedef float {lower}_real;",
-        f"#define {prefix}_R(x) x##f",
-        "#endif",
-        "",
+        *_guard_and_real(prefix),
         f"/* C: rows Fx Fy Fz (N per strain unit), Mx My Mz (N*m per strain unit); columns strain 1..{n} */",
         f"static const {lower}_real {prefix}_C[6][{n}] = {{",
         C_rows,
@@ -97,6 +87,24 @@ def c_header(calibration: Calibration, name: str = "fts_calib") -> str:
     return "\n".join(lines)
 
 
+def _guard_and_real(prefix: str) -> list[str]:
+    """The header's include guard and its real type: float, or double with ``FTS_CALIB_DOUBLE``."""
+    lower = prefix.lower()
+    return [
+        f"#ifndef {prefix}_H",
+        f"#define {prefix}_H",
+        "",
+        "#ifdef FTS_CALIB_DOUBLE",
+        f"typedef double {lower}_real;",
+        f"#define {prefix}_R(x) x",
+        "#else",
+        f"typedef float {lower}_real;",
+        f"#define {prefix}_R(x) x##f",
+        "#endif",
+        "",
+    ]
+
+
 def _rows(matrix, prefix: str) -> str:
     """A C initializer of a matrix's rows, each value as ``PREFIX_R(repr)``."""
     return ",\n".join("    {" + ", ".join(f"{prefix}_R({float(v)!r})" for v in row) + "}" for row in matrix)
@@ -116,17 +124,7 @@ def _polynomial_header(calibration: Calibration, model: SensorModel, prefix: str
         " * the product of an earlier feature and one entry of u. wrench = [Fx Fy Fz] in N and [Mx My Mz] in N*m,",
         f" * in the sensor frame; strain = the {n} raw channels, in the unit used during calibration.",
         f" * method: {prov.get('method', 'unknown')}; time: {prov.get('time', 'unknown')}. */",
-        f"#ifndef {prefix}_H",
-        f"#define {prefix}_H",
-        "",
-        "#ifdef FTS_CALIB_DOUBLE",
-        f"typedef double {lower}_real;",
-        f"#define {prefix}_R(x) x",
-        "#else",
-        f"typedef float {lower}_real;",
-        f"#define {prefix}_R(x) x##f",
-        "#endif",
-        "",
+        *_guard_and_real(prefix),
     ]
     if not model.full:
         lines += ["/* P: the layout's projection, u = P * strain */", f"static const {lower}_real {prefix}_P[6][{n}] = {{"]
