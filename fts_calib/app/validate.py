@@ -125,6 +125,8 @@ def run(
         f"'{loaded.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
         f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)"
     )
+    for path, words in zip(calibrations, result.offsets, strict=True):
+        print(f"offsets of {path}: {words}")
     skipped = ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items())
     if skipped:
         print("skipped: " + skipped)
