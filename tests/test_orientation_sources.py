@@ -76,3 +76,35 @@ def test_a_recording_without_orientation_names_the_forms(still_run):
         RecordingError, match=r"must give the sensor's orientation: columns qw,qx,qy,qz or roll,pitch,yaw or tcp_rx,tcp_ry,tcp_rz"
     ):
         calibrate_recording(joints_path, orientation_kinematics(), tool, use_filter=False)
+
+
+def test_calibrate_and_validate_without_a_robot_from_the_command_line(still_run, tmp_path, capsys):
+    """The tcp form with its mount, no --robot: calibrate writes the joints run's C, and
+    validate of the same recording is at the noise (the true C within 0.1 % FS)."""
+    from fts_calib import load_calibration
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+
+    kin, tool, folder, table, R, joints_path = still_run
+    rv = np.array([pin.log3(r) for r in R @ pin.rpy.rpyToMatrix(*MOUNT).T])
+    path = _write(tmp_path, table, "tcp", {"tcp_rx": rv[:, 0], "tcp_ry": rv[:, 1], "tcp_rz": rv[:, 2]})
+    mount = [f"{v:.17g}" for v in MOUNT]
+    out = tmp_path / "cal.yaml"
+    assert main(["calibrate", str(path), "--tool", "paper_tool", "--mount", *mount, "-o", str(out), "--quiet"]) == 0
+    reference = calibrate_recording(joints_path, kin, tool).calibration
+    np.testing.assert_allclose(load_calibration(out).C, reference.C, rtol=1e-9, atol=1e-9 * np.abs(reference.C).max())
+    capsys.readouterr()
+    assert (
+        main(
+            ["validate", str(path), "--calibration", str(out), "--tool", "paper_tool", "--mount", *mount, "--static", "--max-error", "0.1"]
+        )
+        == 0
+    )
+    assert "validation of 1 calibration(s)" in capsys.readouterr().out
+    assert main(["calibrate", str(joints_path), "--tool", "paper_tool", "-o", str(tmp_path / "x.yaml")]) == ExitCode.RECORDING
+    assert "no --robot given, so the recording must give the sensor's orientation" in capsys.readouterr().err
+    assert (
+        main(["calibrate", str(path), "--robot", "ur5", "--tool", "paper_tool", "--mount", "0", "0", "0", "-o", str(tmp_path / "y.yaml")])
+        != 0
+    )
+    assert "no --mount with --robot" in capsys.readouterr().err

@@ -42,7 +42,7 @@ ORIENTATION_FORMS = {
 FLANGE = "flange"
 
 
-def orientation_kinematics(mount_rpy: Sequence[float] = (0.0, 0.0, 0.0), name: str = "orientation") -> Kinematics:
+def orientation_kinematics(mount_rpy: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0), name: str = "orientation") -> Kinematics:
     """Kinematics of a recording that gives orientations: the gimbal of the module docstring.
 
     Args:
