@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
-from ..service.payload import MIN_SPREAD_DEG
 from .parser import add_address, add_command
+
+#: fts_calib.service.payload.MIN_SPREAD_DEG [deg], written here: importing it would load the
+#: kinematics into the parser (tests/test_app.py checks the two defaults agree).
+MIN_SPREAD_DEG = 3.0
 
 
 def add_tare(commands) -> None:
