@@ -64,7 +64,9 @@ class ValidationOffsets:
         self.samples += n
         if self.model == "constant" or n == 0:
             return out
-        codes = self.codes[np.asarray(configuration, dtype=np.int64)]
+        configuration = np.asarray(configuration, dtype=np.int64)
+        known = (configuration >= 0) & (configuration < len(self.codes))  # an unknown configuration takes D
+        codes = np.where(known, self.codes[np.clip(configuration, 0, max(len(self.codes) - 1, 0))], -1)
         use = codes >= 0
         if self.model == "drift":
             use &= (time >= self.span[0]) & (time <= self.span[1])
