@@ -105,7 +105,7 @@ def test_a_run_function_raises_the_error_the_command_line_maps(tmp_path, ur5_joi
     from fts_calib.app import payload
 
     one_pose = _recording(tmp_path / "one.csv", ur5_joints)
-    with pytest.raises(PayloadError, match="at least 3 orientations"):
+    with pytest.raises(PayloadError, match="see it along one direction"):
         payload.run(recording=one_pose, calibration=CALIBRATION, robot="ur5", output=tmp_path / "p.yaml")
 
 
@@ -189,7 +189,7 @@ def _errors(tmp_path, ur5_joints):
             ExitCode.TRAJECTORY,
             "rate=0.0 Hz",
         ),
-        (["payload", "--calibration", cal, "--robot", "ur5", str(still), "-o", out], ExitCode.PAYLOAD, "orientations"),
+        (["payload", "--calibration", cal, "--robot", "ur5", str(still), "-o", out], ExitCode.PAYLOAD, "one direction"),
         (["export", "--format", "json", "--calibration", cal, "-o", unwritable], ExitCode.FILE_ACCESS, "cannot write"),
     ]
 

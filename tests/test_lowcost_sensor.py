@@ -390,7 +390,7 @@ def test_payload_refuses_railed_samples_and_finds_the_mass(lowcost, ur5, paper_t
         writer.write(time, joints, counts, "A")
     railed = int(np.sum(np.any((counts <= 0) | (counts >= 1023), axis=1)))
     # random poses: some closer than the 15° a payload wizard asks for; they determine it all the same
-    found = identify_payload_from_recording(path, ur5, Calibration(linear.C_bar, linear.D_readings), min_separation_deg=1.0)
+    found = identify_payload_from_recording(path, ur5, Calibration(linear.C_bar, linear.D_readings))
     assert len(found.rails) == 1 and found.rails[0].startswith("strain_7 at its rail 1023 in ")
     assert found.rails[0].endswith(f": {railed:,} samples")
     # the pressed poses would pull the mass by about 60 N / 9.81 m/s^2 over a sixth of the samples

@@ -20,8 +20,24 @@ from .sensor_arguments import add_prior, add_sensor
 from .service_arguments import add_export, add_payload, add_tare
 
 
-def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool_required: bool = True) -> None:
-    parser.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool_required: bool = True, orientations: bool = False) -> None:
+    if orientations:  # the recording may give the sensor's orientation instead of joints
+        parser.add_argument(
+            "--robot",
+            help="robot definition: a shipped name (ur5) or a YAML path; without it the recording gives the sensor's "
+            "orientation (columns qw,qx,qy,qz or roll,pitch,yaw or tcp_rx,tcp_ry,tcp_rz; gravity -Z of the world)",
+        )
+        parser.add_argument(
+            "--mount",
+            dest="mount_rpy",
+            nargs=3,
+            type=float,
+            metavar=("R", "P", "Y"),
+            help="without --robot: roll, pitch, yaw in rad from the frame the recording's orientation gives (e.g. the "
+            "TCP of tcp_rx,tcp_ry,tcp_rz) to the sensor (default: 0 0 0)",
+        )
+    else:
+        parser.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
     if tool_required:
         parser.add_argument(
             "--tool", required=True, help="the calibration tool mounted (required): a shipped name (paper_tool) or a YAML path"
@@ -122,7 +138,7 @@ def _add_calibrate(commands) -> None:
         "  fts-calib calibrate --robot ur5 --tool paper_tool --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
     )
     add_recording(cal)
-    _robot_and_tool(cal)
+    _robot_and_tool(cal, orientations=True)
     add_sensor(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
     cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
@@ -270,7 +286,7 @@ def _add_validate(commands) -> None:
         metavar="CALIBRATION",
         help="a reference calibration compared too, e.g. the sensor's factory ATI .cal (the same as a second --calibration)",
     )
-    _robot_and_tool(val, pipeline=False, tool_required=False)
+    _robot_and_tool(val, pipeline=False, tool_required=False, orientations=True)
     val.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: its full scale (default: sensor)")
     val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
     val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")

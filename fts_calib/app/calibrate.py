@@ -30,7 +30,7 @@ from .setup import load_prior, load_sensor, load_setup
 def run(
     *,
     recording: str | Path | Sequence[str | Path],
-    robot: str | Path,
+    robot: str | Path | None = None,
     tool: str | Path,
     pipeline: str | Path = "pipeline",
     output: str | Path = "calibration.yaml",
@@ -51,13 +51,17 @@ def run(
     prior_weight: float = 1.0,
     model: str | None = None,
     report: str | Path | None = None,
+    mount_rpy: Sequence[float] | None = None,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
     Args:
         recording: Recording (CSV or CSV.gz): time, joints, strain_1..n, tool; or ROS 2 bags
             (``.mcap``, ``.db3``, bag folders), each optionally ``BAG:CONFIGURATION``.
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
+            recording that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
+        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
+            orientation gives to the sensor; None for none.
         tool: Tool file: a shipped name or a YAML path.
         pipeline: Pipeline settings (filter thresholds).
         output: Calibration file to write.
@@ -101,7 +105,7 @@ def run(
     }
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
     check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
-    kin, loaded, settings = load_setup(robot, tool, pipeline)
+    kin, loaded, settings = load_setup(robot, tool, pipeline, mount_rpy)
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
     layout = spec.layout

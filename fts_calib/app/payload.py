@@ -9,7 +9,7 @@ import numpy as np
 from ..core.paths import check_outputs
 from ..model.calibration import load_calibration
 from ..robot.tool import save_tool
-from ..service.payload import PayloadEstimate, identify_payload_from_recording
+from ..service.payload import MIN_SPREAD_DEG, PayloadEstimate, identify_payload_from_recording
 from .exit_codes import ExitCode, writing
 from .setup import load_kinematics, load_settings
 
@@ -18,7 +18,8 @@ def format_payload(estimate: PayloadEstimate, rows: int) -> str:
     """The estimate with its standard errors, with units; ``rows`` samples were read."""
     lines = [
         f"payload from {estimate.samples:,} still samples ({rows - estimate.samples:,} moving or unsettled skipped) in "
-        f"{len(estimate.poses)} orientations:",
+        f"{len(estimate.poses)} orientations (gravity spread {estimate.spread_deg[0]:.1f}° and {estimate.spread_deg[1]:.1f}° RMS "
+        f"about two axes; condition number {estimate.condition:.3g}):",
         f"  mass {estimate.mass:.4f} ± {estimate.stderr_mass:.1g} kg",
         "  centre of mass in the sensor frame "
         + ", ".join(f"{a} {v:+.5f} ± {e:.1g}" for a, v, e in zip("xyz", estimate.com, estimate.stderr_com, strict=True))
@@ -47,19 +48,19 @@ def run(
     output: str | Path,
     name: str = "payload",
     mount: bool = False,
-    min_separation_deg: float = 15.0,
+    min_spread_deg: float = MIN_SPREAD_DEG,
     pipeline: str | Path = "pipeline",
 ) -> int:
     """Identify a payload held still in several orientations and write it as a tool file (``fts-calib payload``).
 
     Args:
-        recording: Recording of the payload in at least three well-spread still orientations.
+        recording: Recording of the payload still in orientations that tilt gravity about two axes.
         calibration: The sensor's calibration file.
         robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
         output: Tool file to write (for gravity compensation).
         name: Name of the payload in the tool file.
         mount: Also estimate a small rotation of the sensor mount.
-        min_separation_deg: Smallest angle between orientations, in [deg].
+        min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes, in [deg].
         pipeline: Pipeline settings (filter thresholds).
 
     Returns:
@@ -73,7 +74,7 @@ def run(
     check_outputs({"-o": output}, inputs)
     kin = load_kinematics(robot)
     settings = load_settings(pipeline)
-    found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_separation_deg)
+    found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_spread_deg)
     estimate = found.estimate
     print(format_payload(estimate, found.rows))
     for line in found.rails:

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from .parser import add_address, add_command
 
+#: fts_calib.service.payload.MIN_SPREAD_DEG [deg], written here: importing it would load the
+#: kinematics into the parser (tests/test_app.py checks the two defaults agree).
+MIN_SPREAD_DEG = 3.0
+
 
 def add_tare(commands) -> None:
     """``tare``: re-estimate the offsets D from a still window (a recording or a live feed)."""
@@ -33,9 +37,10 @@ def add_payload(commands) -> None:
         commands,
         "payload",
         "identify an unknown payload: mass, centre of mass, offsets",
-        "From a recording of the payload held still in at least three well-spread orientations: its mass, centre "
-        "of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for gravity "
-        "compensation. Refuses orientations that are too few or too close, and says which.",
+        "From a recording of the payload held still in orientations that tilt gravity about two axes: its mass, "
+        "centre of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for "
+        "gravity compensation. Judges the whole set (the spread of the gravity directions, the fit's conditioning) "
+        "and refuses one that cannot determine the payload, saying what is missing.",
         "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml",
     )
     pay.add_argument("recording", help="recording of the payload in several still orientations")
@@ -45,11 +50,11 @@ def add_payload(commands) -> None:
     pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
     pay.add_argument("--mount", action="store_true", help="also estimate a small rotation of the sensor mount")
     pay.add_argument(
-        "--min-separation",
-        dest="min_separation_deg",
+        "--min-spread",
+        dest="min_spread_deg",
         type=float,
-        default=15.0,
-        help="smallest angle between orientations in deg (default 15)",
+        default=MIN_SPREAD_DEG,
+        help=f"smallest RMS spread of the gravity directions about each of two axes, in deg (default {MIN_SPREAD_DEG:g})",
     )
     pay.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
 

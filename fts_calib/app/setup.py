@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
+import numpy as np
+
+from ..core import validation
+from ..core.arrays import as_matrix
 from ..core.exceptions import ConfigError
 from ..core.resources import resolve
 from ..model.channels import ChannelLayout
@@ -14,6 +19,7 @@ from ..model.sensor_config import SensorSpec, load_sensor_config
 from ..pipeline.settings import PipelineConfig, load_pipeline_config
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
+from ..robot.orientation import orientation_kinematics
 from ..robot.tool import Tool, load_tool
 from ..service.ati import SUFFIX as ATI_SUFFIX
 from ..service.ati import load_ati_calibration, read_calibration
@@ -90,16 +96,29 @@ def load_kinematics(robot: str | Path) -> Kinematics:
     return Kinematics(load_robot(resolve(robot, "robots")))
 
 
-def load_setup(robot: str | Path, tool: str | Path = "paper_tool", pipeline: str | Path = "pipeline") -> Setup:
+def load_setup(
+    robot: str | Path | None, tool: str | Path = "paper_tool", pipeline: str | Path = "pipeline", mount_rpy: Sequence[float] | None = None
+) -> Setup:
     """Load the robot's kinematics, the tool and the pipeline settings a command names.
 
     Args:
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
+            recording that gives the sensor's orientation (:func:`fts_calib.robot.orientation.orientation_kinematics`).
         tool: Tool file: a shipped name (``configs/NAME.yaml``) or a YAML path.
         pipeline: Pipeline settings: a shipped name or a YAML path.
+        mount_rpy: Without a robot: roll, pitch, yaw [rad] from the frame the recording's
+            orientation gives to the sensor; None for none.
 
     Raises:
         ResourceNotFound: A name that is neither a file nor shipped.
         FileFormatError: A file with a missing or wrong field.
+        ConfigError: ``mount_rpy`` with a robot (its file declares the mount), or not 3 finite angles.
     """
-    return Setup(load_kinematics(robot), load_tool(resolve(tool, "configs", "tool")), load_settings(pipeline))
+    if robot is None:
+        mount = validation.finite_array("mount", as_matrix(mount_rpy if mount_rpy is not None else np.zeros(3), (3,), "mount"))
+        kin = orientation_kinematics(mount)
+    elif mount_rpy is not None:
+        raise ConfigError("mount", list(mount_rpy), "no --mount with --robot: the robot file declares the sensor mount")
+    else:
+        kin = load_kinematics(robot)
+    return Setup(kin, load_tool(resolve(tool, "configs", "tool")), load_settings(pipeline))

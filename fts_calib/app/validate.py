@@ -43,7 +43,7 @@ def run(
     recording: str | Path | Sequence[str | Path],
     calibrations: Sequence[str | Path],
     reference: str | Path | None = None,
-    robot: str | Path,
+    robot: str | Path | None = None,
     tool: str | Path = "paper_tool",
     sensor: str | Path = "sensor",
     full_scale_force: float | None = None,
@@ -58,6 +58,7 @@ def run(
     joint_stamps: str = BagTopics.joint_stamps,
     json_path: str | Path | None = None,
     report: str | Path | None = None,
+    mount_rpy: Sequence[float] | None = None,
 ) -> int:
     """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
 
@@ -67,7 +68,10 @@ def run(
         calibrations: One calibration file, or two to compare them with each other too
             (fts-calib YAML or ATI ``.cal``, e.g. the factory calibration as a reference).
         reference: A calibration appended to ``calibrations`` (e.g. the factory ATI file).
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
+            recording that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
+        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
+            orientation gives to the sensor; None for none.
         tool: Tool file of the tool mounted during the recording.
         sensor: Sensor configuration or ATI ``.cal``: its full scale.
         full_scale_force: Full scale of the forces, in [N]; the sensor file's when None.
@@ -105,7 +109,7 @@ def run(
         {"--json": json_path, "--plot": plot_path, "--report": report},
         {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor},
     )
-    kin, loaded, _ = load_setup(robot, tool)
+    kin, loaded, _ = load_setup(robot, tool, mount_rpy=mount_rpy)
     loaded_calibrations = [read_calibration(p) for p in calibrations]
     spec = load_sensor(sensor)
     full_scale = spec.full_scale.copy()
@@ -125,6 +129,8 @@ def run(
         f"'{loaded.name}' (expected wrench: {'moving tool, Newton-Euler' if result.dynamic else 'static weight'}; full scale "
         f"{full_scale[0]:g} N, {full_scale[3]:g} N·m)"
     )
+    for path, words in zip(calibrations, result.offsets, strict=True):
+        print(f"offsets of {path}: {words}")
     skipped = ", ".join(f"{r}: {n:,}" for r, n in result.skipped.items())
     if skipped:
         print("skipped: " + skipped)

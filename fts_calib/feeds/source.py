@@ -87,6 +87,11 @@ def open_recording(
         raise RecordingError(first, None, None, f"a folder without a metadata.yaml is not a ROS 2 bag: expected {ACCEPTED}")
     if first.suffix not in CSV_SUFFIXES:
         raise RecordingError(first, None, None, f"unknown kind of recording '{first.suffix or first.name}': expected {ACCEPTED}")
+    from ..robot.orientation import GIMBAL_JOINTS
     from .recording import RecordingReader  # lazily: pandas is for reading CSVs, not for the parser of the command line
 
+    if joint_names is not None and tuple(joint_names) == GIMBAL_JOINTS:  # no robot: the file gives orientations
+        from .orientation_reader import open_orientation_recording
+
+        return open_orientation_recording(first, tool_names, max_abs_channel)
     return RecordingReader(first, joint_names, tool_names, max_abs_channel=max_abs_channel)

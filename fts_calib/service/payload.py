@@ -14,10 +14,14 @@ order propagation. With ``mount=True`` the small rotation ``delta`` [rad] betwee
 frame the kinematics assume and the real one is estimated too (``g_real = g_S - delta x
 g_S``), by Gauss-Newton from the linear solution.
 
-Like the payload wizards of robot vendors, the identification refuses orientations that do
-not determine the payload: fewer than three distinct ones (samples within 5 deg of each
-other count as one), pairs closer than ``min_separation_deg``, or directions that leave the
-centre of mass undetermined; the error says which.
+The identification judges the whole set of orientations, not pairs of them: the RMS spread
+of the unit gravity directions about their mean along the two principal axes of their
+scatter (:func:`orientation_spread`). Gravity along one direction (spread below
+``min_spread_deg`` on the first axis) cannot tell the mass from the force offsets; a swing
+about one axis only (spread below it on the second) leaves the centre of mass along that
+axis undetermined; each is refused with what is missing. Beyond that, the conditioning of
+the fit refuses what the spread lets through, and the standard errors of mass and centre of
+mass say how well the set determines them: 100 poses tilted within 25° of vertical work.
 """
 
 from __future__ import annotations
@@ -44,6 +48,8 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import STANDARD_GRAVITY, Tool, ToolConfiguration
 
 _SAME_POSE_DEG = 5.0  # gravity directions closer than this are one orientation
+#: Smallest RMS spread of the gravity directions along each of two axes [deg] (``--min-spread``).
+MIN_SPREAD_DEG = 3.0
 _MAX_CONDITION = 1e8  # scaled normal matrix above this: the payload is not determined
 
 
@@ -63,6 +69,9 @@ class PayloadEstimate:
         residual_rms: Per axis [N, N m]. Shape (6,).
         poses: Gravity direction of each orientation found (unit), shape (K, 3).
         samples: Samples used.
+        spread_deg: RMS spread of the gravity directions along the two principal axes
+            [deg], largest first, shape (2,) (:func:`orientation_spread`).
+        condition: Condition number of the scaled normal matrix of the fit.
     """
 
     mass: float
@@ -76,9 +85,11 @@ class PayloadEstimate:
     residual_rms: np.ndarray
     poses: np.ndarray
     samples: int
+    spread_deg: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+    condition: float = 0.0
 
     def __post_init__(self):
-        for name in ("com", "stderr_com", "offsets", "stderr_offsets", "residual_rms", "poses"):
+        for name in ("com", "stderr_com", "offsets", "stderr_offsets", "residual_rms", "poses", "spread_deg"):
             object.__setattr__(self, name, frozen(getattr(self, name)))
 
     def tool(self, name: str = "payload", gravity: float = STANDARD_GRAVITY) -> Tool:
@@ -108,24 +119,46 @@ def group_orientations(g_sensor: np.ndarray, same_deg: float = _SAME_POSE_DEG) -
     return labels, np.array(means).reshape(-1, 3)
 
 
-def _check_orientations(poses: np.ndarray, counts: np.ndarray, min_separation_deg: float) -> None:
-    if len(poses) < 3:
+def orientation_spread(g_sensor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The spread of the gravity directions: RMS angle about their mean along its two principal axes.
+
+    The eigen-decomposition of the scatter of the unit directions ``u`` about their mean,
+    ``S = mean((u - u_mean)(u - u_mean)^T)``: an eigenvalue ``lambda`` is an RMS swing of
+    ``asin(sqrt(lambda))`` along its eigenvector, tangent to the sphere.
+
+    Args:
+        g_sensor: Gravity at each sample [m/s^2], shape (N, 3).
+
+    Returns:
+        ``(spread [deg], largest first, shape (2,); the two axes in the sensor frame (unit), shape (2, 3))``.
+    """
+    unit = g_sensor / np.linalg.norm(g_sensor, axis=1, keepdims=True)
+    centred = unit - unit.mean(axis=0)
+    values, vectors = np.linalg.eigh(centred.T @ centred / len(unit))
+    order = np.argsort(values)[::-1][:2]
+    spread = np.degrees(np.arcsin(np.sqrt(np.clip(values[order], 0.0, 1.0))))
+    return spread, vectors[:, order].T
+
+
+def _check_orientations(g: np.ndarray, poses: np.ndarray, min_spread_deg: float) -> np.ndarray:
+    """Refuse a set of gravity directions that cannot determine the payload; return its spread [deg], (2,)."""
+    spread, axes = orientation_spread(g)
+    where = f"{len(g):,} samples in {len(poses)} orientation(s) (within {_SAME_POSE_DEG:.0f}° count as one)"
+    if spread[0] < min_spread_deg:
         raise PayloadError(
-            f"payload identification needs at least 3 orientations of the tool, well spread; got "
-            f"{len(poses)} (samples within {_SAME_POSE_DEG:.0f}° of each other count as one). Add poses with "
-            "the tool axis pointing down, sideways and tilted."
+            f"payload identification needs gravity seen from several directions, but the {where} see it along one "
+            f"direction (RMS spread {spread[0]:.2f}°, below {min_spread_deg:g}°): the mass cannot be told from the "
+            "force offsets, nor the centre of mass from the moment offsets. Add poses with the tool tilted by 20° or "
+            "more about two different axes."
         )
-    close = []
-    for i in range(len(poses)):
-        for j in range(i + 1, len(poses)):
-            angle = math.degrees(math.acos(max(-1.0, min(1.0, float(poses[i] @ poses[j])))))
-            if angle < min_separation_deg:
-                close.append(f"{i + 1} and {j + 1} ({angle:.1f}°)")
-    if close:
+    if spread[1] < min_spread_deg:
+        axis = ", ".join(f"{v:+.2f}" for v in axes[0])
         raise PayloadError(
-            f"orientations too close (at least {min_separation_deg:.0f}° apart needed): {', '.join(close)}; "
-            f"{len(poses)} orientations with {counts.tolist()} samples. Move those poses farther apart."
+            f"the gravity directions of the {where} swing about one axis only (RMS spread {spread[0]:.1f}° along "
+            f"({axis}) in the sensor frame, {spread[1]:.2f}° across, below {min_spread_deg:g}°): the centre of mass "
+            "along that direction is undetermined. Add poses tilted about a second axis."
         )
+    return spread
 
 
 def _design(g: np.ndarray) -> np.ndarray:
@@ -156,17 +189,18 @@ def _weighted_solve(A: np.ndarray, y: np.ndarray, sigma: np.ndarray):
     return x, cov, condition
 
 
-def identify_payload(w_measured, g_sensor, mount: bool = False, min_separation_deg: float = 15.0) -> PayloadEstimate:
+def identify_payload(w_measured, g_sensor, mount: bool = False, min_spread_deg: float = MIN_SPREAD_DEG) -> PayloadEstimate:
     """Identify a payload from still samples in several orientations (see the module docstring).
 
     Args:
         w_measured: Calibrated wrenches with the payload on [N, N m], shape (N, 6).
         g_sensor: Gravity in the sensor frame at each sample [m/s^2], shape (N, 3).
         mount: Also estimate the small rotation of the sensor mount.
-        min_separation_deg: Smallest angle allowed between two orientations [deg].
+        min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes [deg].
 
     Raises:
-        PayloadError: Too few, too close or too poorly spread orientations.
+        PayloadError: Gravity directions along one direction or one axis, or a fit too
+            poorly conditioned; the message names what is missing.
         ShapeError: Wrong shapes.
     """
     W, _ = as_samples(w_measured, 6, "w_measured")
@@ -175,9 +209,8 @@ def identify_payload(w_measured, g_sensor, mount: bool = False, min_separation_d
         raise ShapeError(f"w_measured has {len(W)} rows but g_sensor has {len(g)}: expected the same N")
     ok = np.all(np.isfinite(W), axis=1) & np.all(np.isfinite(g), axis=1)
     W, g = W[ok], g[ok]
-    labels, poses = group_orientations(g)
-    counts = np.bincount(labels, minlength=len(poses))
-    _check_orientations(poses, counts, min_separation_deg)
+    _, poses = group_orientations(g)
+    spread = _check_orientations(g, poses, min_spread_deg)
     A = _design(g)
     sigma = np.ones(6)
     for _ in range(2):  # unweighted, then weighted by the residual spread of each axis
@@ -213,6 +246,8 @@ def identify_payload(w_measured, g_sensor, mount: bool = False, min_separation_d
         residual_rms=np.sqrt(np.mean(residual**2, axis=0)),
         poses=poses,
         samples=len(W),
+        spread_deg=spread,
+        condition=float(condition),
     )
 
 
@@ -266,7 +301,7 @@ def identify_payload_from_recording(
     calibration: Calibration,
     settings: FilterConfig | None = None,
     mount: bool = False,
-    min_separation_deg: float = 15.0,
+    min_spread_deg: float = MIN_SPREAD_DEG,
     limits: ChannelLimits | None = None,
 ) -> RecordedPayload:
     """Identify an unknown payload from a recording of it held still in several orientations.
@@ -282,14 +317,14 @@ def identify_payload_from_recording(
         calibration: The sensor's calibration.
         settings: Filter thresholds; the defaults when None.
         mount: Also estimate a small rotation of the sensor mount.
-        min_separation_deg: Smallest angle between orientations, in [deg].
+        min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes, in [deg].
         limits: The channels' declared resolution and rails; what is not declared is
             detected in the recording. Samples with a channel at its rail are refused.
 
     Raises:
         RecordingError: The recording cannot be read.
-        PayloadError: No usable row, more than one configuration name, or orientations too
-            few or too close.
+        PayloadError: No usable row, more than one configuration name, or orientations that
+            cannot determine the payload.
     """
     with open_recording(path, kin.joint_names, None) as reader:
         chunks = list(reader)
@@ -310,8 +345,6 @@ def identify_payload_from_recording(
     checks = SampleChecks(kin, limits=found)
     samples = samples.select(checks.accept(samples))  # a NaN, a railed channel or a row out of order never poisons a window
     still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, found), kin, None, samples, final=True)
-    estimate = identify_payload(
-        calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_separation_deg=min_separation_deg
-    )
+    estimate = identify_payload(calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_spread_deg=min_spread_deg)
     rails = () if checks.rails is None else tuple(checks.rails.lines(held or ["payload"]))
     return RecordedPayload(estimate, len(samples), rails)

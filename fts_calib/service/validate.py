@@ -6,7 +6,9 @@ Newton-Euler wrench of the moving tool, with joint velocities and accelerations 
 from the readings as the quasi-static filter does (:func:`fts_calib.pipeline.qsfilter.joint_rates`);
 with ``dynamic=False`` the static weight alone (paper eqs 17-18: what the paper compared, its
 error then includes the uncompensated dynamics). The *measured* wrench is ``C strain + D``
-with each calibration. Errors per axis, in [N] or [N m] and in % of the sensor's full
+with each calibration, ``D`` being its offset model's where it applies (each
+configuration's offset, the drift at each sample's time on the calibration's own recording:
+:mod:`fts_calib.service.validate_offsets`). Errors per axis, in [N] or [N m] and in % of the sensor's full
 scale (the paper's sensor: 50 N, 5 N m), and, with two calibrations, the same between them
 (the paper's Table 1 against Table 2).
 
@@ -37,6 +39,7 @@ from ..pipeline.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
+from .validate_offsets import ValidationOffsets
 
 _PLOT_POINTS = 20_000  # samples kept for the plot, at most twice this
 _WINDOW_S = FilterConfig().derivative_window_s  # the joint-rate window [s]: the filter's, so both see the same rates
@@ -88,6 +91,7 @@ class ValidationResult:
         rows_read: Channel samples read from the recording (compared or skipped).
         rails: One line per channel whose samples were skipped at its rail
             (:meth:`fts_calib.pipeline.checks.RailTally.lines`).
+        offsets: Per calibration, which offsets were used (:attr:`ValidationOffsets.words`).
     """
 
     samples: int
@@ -107,6 +111,7 @@ class ValidationResult:
         return self.samples / self.rows_read if self.rows_read else 0.0
 
     rails: list[str] = field(default_factory=list)
+    offsets: list[str] = field(default_factory=list)
 
     def as_json(self, index: int = 0) -> dict:
         """The errors of calibration ``index`` for scripts: ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}``.
@@ -219,6 +224,7 @@ def validate_recording(
     plot = _Thinner(_PLOT_POINTS)
     skipped: Counter[str] = Counter()
     rails = None if limits is None else RailTally(limits.n_channels)
+    offsets = [ValidationOffsets(cal, tool.names) for cal in calibrations]
     samples = 0
     dt, half = 0.0, 0
     last_time = -np.inf
@@ -233,9 +239,13 @@ def validate_recording(
     def compare(rows: tuple[np.ndarray, ...], first: int, last: int) -> None:
         """Compare rows ``first:last``; the rows around them serve the rate estimates."""
         nonlocal samples
-        t, q, s, k = rows
+        t, q, s, k, T = rows
         W = expected_wrench(kin, tool, t, q, k, dt, dynamic)[first:last]
-        measured = [cal.wrench(s[first:last]) for cal in calibrations]
+        heat = None if np.isnan(T[first:last]).all() else T[first:last]
+        measured = [
+            cal.wrench(s[first:last]) - cal.D + off.offsets(t[first:last], k[first:last], heat)
+            for cal, off in zip(calibrations, offsets, strict=True)
+        ]
         for errs, m in zip(errors, measured, strict=True):
             errs.add(m - W)
         if len(measured) == 2:
@@ -250,6 +260,7 @@ def validate_recording(
     with open_recording(path, kin.joint_names, tool.names, max_abs_channel, topics, kin.continuous) as reader:
         for chunk in reader:
             t, q, s, k = chunk.time, chunk.joints, chunk.channels, chunk.configuration
+            T = np.full(len(t), np.nan) if chunk.temperature is None else chunk.temperature
             for cal in calibrations:  # each calibration reads the channels of its own layout
                 check_channels(cal.layout, s.shape[1], str(reader.path), CALIBRATION_HINT)
             finite, ok = valid_values(t, q, s, max_abs_channel)
@@ -263,7 +274,7 @@ def validate_recording(
             skip(BACKWARDS, int((ok & ~forward).sum()))
             if not forward.any():
                 continue
-            new = (t[forward], q[forward], s[forward], k[forward])
+            new = (t[forward], q[forward], s[forward], k[forward], T[forward])
             last_time = float(new[0][-1])
             if dt == 0.0 and len(new[0]) > PERIOD_SAMPLES:
                 dt = sample_period(new[0])
@@ -297,4 +308,5 @@ def validate_recording(
         problems=problems,
         rows_read=rows_read,
         rails=[] if rails is None else rails.lines(tool.names),
+        offsets=[off.words for off in offsets],
     )
