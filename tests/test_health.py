@@ -324,7 +324,7 @@ def test_cli_monitor_listens_with_joints_and_tracks_the_offset(calibrated, ur5_r
     data = json.loads((tmp_path / "m.json").read_text())
     assert data["events"] == [] and data["samples"] > 8000, data["samples"]
     # the recording the calibration came from: its still windows read the payload to the calibration's own error.
-    # How many windows the live path accepts depends on how the datagrams were batched on arrival (3 to 40 seen):
+    # How many windows the live path accepts depends on how the datagrams were batched on arrival (3, or more than 20):
     # at least one, and every accepted one within the calibration's own error.
     assert data["offset"]["windows_without_contact"] >= 1, data["offset"]
     assert np.all(np.abs(data["offset"]["error"][:3]) < 0.02) and np.all(np.abs(data["offset"]["error"][3:]) < 0.002), data["offset"]

@@ -193,7 +193,7 @@ def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, mo
         monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host, fake=fake: fake))
         options = ["--ur", "127.0.0.1", "--ur-wrench", "--sensor", "factory_sensor", "--configuration", name]
         timing = ["--listen", "127.0.0.1:0", "--idle-timeout", "0.3", "--quiet", *(["--resume"] if k else [])]
-        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", "--tool", "paper_tool", *options, "-o", str(out), *timing])
+        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", *options, "-o", str(out), *timing])
         text = capsys.readouterr().out
         assert f"RTDE: {len(run[0]):,} controller samples" in text, text
     server.close()
@@ -212,8 +212,6 @@ def test_ur_wrench_needs_a_six_channel_sensor(tmp_path):
                 "live",
                 "--robot",
                 "ur5",
-                "--tool",
-                "paper_tool",
                 "--tool",
                 "paper_tool",
                 "--ur",
