@@ -191,7 +191,7 @@ def test_what_is_neither_a_csv_nor_a_bag_is_refused(tmp_path):
         open_recording(tmp_path / "run.txt", None, None)
     with pytest.raises(RecordingError, match="a folder without a metadata.yaml is not a ROS 2 bag"):
         open_recording(tmp_path, None, None)
-    with pytest.raises(RecordingError, match="several recordings are read only as ROS 2 bags"):
+    with pytest.raises(RecordingError, match="several recordings are either all CSV files or all ROS 2 bags, and this is not a bag"):
         open_recording([tmp_path / "run.txt", tmp_path / "b.mcap"], None, None)
     assert (
         main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(tmp_path / "run.txt"), "-o", str(tmp_path / "c.yaml")])

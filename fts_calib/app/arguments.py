@@ -243,7 +243,7 @@ def _add_simulate(commands) -> None:
     )
     _robot_and_tool(sim, pipeline=False)
     sim.add_argument("--trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
-    sim.add_argument("-o", "--output", required=True, help="recording to write (.csv or .csv.gz)")
+    sim.add_argument("-o", "--output", required=True, help="recording to write (.csv or .csv.gz); with --pose-files, a folder")
     sim.add_argument("--sensor", default="sensor", help="sensor configuration with a 'simulation' section (default: sensor)")
     sim.add_argument("--noise", dest="noise_std", type=float, help="noise per channel, raw units (default: the sensor file's)")
     sim.add_argument("--noiseless", action="store_true", help="no noise at all")
@@ -257,6 +257,12 @@ def _add_simulate(commands) -> None:
         "--poses-only",
         action="store_true",
         help="record only the samples where the arm holds still at a stop: a static-pose recording (poses separated by gaps)",
+    )
+    sim.add_argument(
+        "--pose-files",
+        action="store_true",
+        help="as --poses-only, but one file per pose: -o is then a folder that receives pose_01.csv, pose_02.csv, ..., "
+        "each from time 0 (calibrate them with 'FOLDER/*.csv'); poses and seconds per pose: trajectory --levels --stops --dwell",
     )
 
 

@@ -12,6 +12,7 @@ from ..core.exceptions import FtsCalibError, PoorFit
 from ..core.paths import check_outputs
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
+from ..feeds.recording_set import describe_files
 from ..feeds.source import recording_paths
 from ..feeds.sync import AFTER_JOINTS, BEFORE_JOINTS, JOINT_GAP
 from ..model.calibration import save_calibration
@@ -137,7 +138,7 @@ def run(
     if result.calibration is not None:
         with writing(output):
             written = save_calibration(result.calibration, output)
-    print(format_summary(result, " ".join(map(str, paths)), written))
+    print(format_summary(result, describe_files(paths), written))
     if report is not None:
         diagnosis = "" if result.calibration is not None else refusal(result)
         content = calibrate_content(result, collector, {**inputs, "the calibration (-o)": written}, diagnosis)

@@ -14,6 +14,7 @@ from ..core.exceptions import ConfigError
 from ..core.outputs import atomic_write_text
 from ..core.paths import check_outputs
 from ..feeds.protocol import Strain
+from ..feeds.recording_set import describe_files
 from ..feeds.source import open_recording, recording_paths
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
@@ -124,7 +125,7 @@ def run(
             monitor.update_batch(time, channels)
             last_time = float(time[-1])
     span = 0.0 if first_time is None or last_time is None else last_time - first_time
-    return _report(monitor, parity, " ".join(map(str, paths)), calibration, span, skipped, false_alarms_per_hour, json_path, offsets)
+    return _report(monitor, parity, describe_files(paths), calibration, span, skipped, false_alarms_per_hour, json_path, offsets)
 
 
 def _report(

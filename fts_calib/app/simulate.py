@@ -13,6 +13,7 @@ from ..core.resources import resolve
 from ..model.sensor_config import load_sensor_config
 from ..planning.trajectory_io import TrajectoryFile, read_trajectory
 from ..robot.tool import Tool
+from ..sim.pose_files import simulate_pose_files
 from ..sim.recording import simulate_recording
 from ..sim.sensor import simulated_sensor
 from .exit_codes import ExitCode, writing
@@ -63,6 +64,7 @@ def run(
     tool_change_s: float = 2.0,
     dynamic: bool = True,
     poses_only: bool = False,
+    pose_files: bool = False,
 ) -> int:
     """Write a recording of planned trajectories, in the format a robot produces (``fts-calib simulate``).
 
@@ -80,6 +82,9 @@ def run(
         dynamic: The tool's full dynamic wrench (False: its static weight only).
         poses_only: Record only the samples where the arm holds still at a stop: a static-pose
             recording (poses separated by gaps).
+        pose_files: Like ``poses_only``, but one file per pose: ``output`` is then a folder
+            that receives ``pose_01.csv``, ``pose_02.csv``, ... each starting at time 0
+            (:mod:`fts_calib.sim.pose_files`).
 
     Returns:
         0.
@@ -89,7 +94,8 @@ def run(
         OSError: ``output`` cannot be written (checked before the simulation runs).
     """
     inputs = {f"the trajectory file {path.name}": path for path in trajectory_files(trajectory)}
-    check_outputs({"-o": output}, {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor})
+    first = Path(output) / "pose_01.csv" if pose_files else output  # the folder's first file stands for it
+    check_outputs({"-o": first}, {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor})
     kin, loaded, _ = load_setup(robot, tool)
     sensor_path = resolve(sensor, "configs")
     spec = load_sensor_config(sensor_path)
@@ -102,11 +108,16 @@ def run(
     missing = [name for name in loaded.names if name not in {t.tool for t in trajectories}]
     rng = None if noiseless else np.random.default_rng(seed)
     with writing(output):
-        path = simulate_recording(
-            output, kin, loaded, trajectories, simulated, rng, tool_change_s=tool_change_s, dynamic=dynamic, poses_only=poses_only
-        )
+        if pose_files:
+            files = simulate_pose_files(output, kin, loaded, trajectories, simulated, rng, tool_change_s, dynamic)
+            path = f"{len(files)} pose files in {output} ({files[0].name} ... {files[-1].name}, each from time 0)"
+        else:
+            written = simulate_recording(
+                output, kin, loaded, trajectories, simulated, rng, tool_change_s=tool_change_s, dynamic=dynamic, poses_only=poses_only
+            )
+            path = str(written)
     rows = sum(len(t.time) for t in trajectories)
-    if poses_only:
+    if poses_only or pose_files:
         rows = sum(int(np.sum(np.all(t.qd == 0.0, axis=1) & np.all(t.qdd == 0.0, axis=1))) for t in trajectories)
     noise = "none" if rng is None else f"up to {simulated.noise_std.max():.2g} {spec.strain_unit} per channel (seed {seed})"
     wrench = "moving (Newton-Euler)" if dynamic else "static"
@@ -116,7 +127,7 @@ def run(
         + f"; tool wrench {wrench}, noise {noise}, "
         + (f"{simulated.adc_bits}-bit ADC" if simulated.adc_bits else "no quantization")
         + (f", {_nonlinearity(simulated)}" if simulated.quadratic or simulated.cubic else "")
-        + ("; still at the stops only (a static-pose recording)" if poses_only else "")
+        + ("; still at the stops only (a static-pose recording)" if poses_only or pose_files else "")
     )
     return ExitCode.OK
 

@@ -15,6 +15,7 @@ from ..core.fileio import atomic_write_text
 from ..core.paths import check_outputs
 from ..core.text import table
 from ..feeds.bag_log import BagTopics
+from ..feeds.recording_set import describe_files
 from ..feeds.source import MIN_COVERAGE, recording_paths
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..service.ati import read_calibration
@@ -122,7 +123,7 @@ def run(
     result = validate_recording(
         recording_paths(recording), kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic, topics=topics, limits=spec.limits
     )
-    recording = " ".join(map(str, recording_paths(recording)))
+    recording = describe_files(recording_paths(recording))
     print(
         f"validation of {len(calibrations)} calibration(s) over {result.samples:,} of {result.rows_read:,} samples "
         f"({100 * result.coverage:.3g} %) of {recording} with "

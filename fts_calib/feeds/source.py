@@ -1,6 +1,8 @@
 """The one place a recording argument becomes a reader: a CSV recording or ROS 2 bags, by name.
 
-- ``RUN.csv`` or ``RUN.csv.gz``: :class:`fts_calib.feeds.recording.RecordingReader`;
+- ``RUN.csv`` or ``RUN.csv.gz``: :class:`fts_calib.feeds.recording.RecordingReader`; several
+  of them (a static-pose dataset of one file per pose; patterns such as ``'poses/*.csv'``
+  are expanded here): :class:`fts_calib.feeds.recording_set.RecordingSet`;
 - ``RUN.mcap``, ``RUN.db3``, a bag folder (with its ``metadata.yaml``), or several of them,
   each optionally ``:CONFIGURATION`` (the tool configuration it holds throughout):
   :class:`fts_calib.feeds.bag.BagReader`.
@@ -21,6 +23,7 @@ import numpy as np
 from ..core.exceptions import RecordingError
 from .bag import BagReader
 from .bag_log import BagTopics, is_bag, parse_bag_argument
+from .recording_set import RecordingSet, expand_patterns
 
 if TYPE_CHECKING:
     from .recording import RecordingReader
@@ -40,8 +43,12 @@ ACCEPTED = (
 
 
 def recording_paths(recording: str | Path | Sequence[str | Path]) -> list[str | Path]:
-    """A recording argument as a list: one path, or several bags."""
-    return [recording] if isinstance(recording, (str, Path)) else list(recording)
+    """A recording argument as a list of paths: one, or several, each pattern (``'poses/*.csv'``) replaced by its matches.
+
+    Raises:
+        RecordingError: A pattern matches no file (:func:`fts_calib.feeds.recording_set.expand_patterns`).
+    """
+    return expand_patterns([recording] if isinstance(recording, (str, Path)) else list(recording))
 
 
 def open_recording(
@@ -53,11 +60,11 @@ def open_recording(
     continuous: Sequence[bool] | np.ndarray | None = None,
     max_gap_s: float = 0.05,
     latency_s: float = 0.0,
-) -> RecordingReader | BagReader:
+) -> RecordingReader | RecordingSet | BagReader:
     """The reader of a recording (see the module docstring).
 
     Args:
-        recording: One CSV path, or one or more bags (``PATH`` or ``PATH:CONFIGURATION``).
+        recording: One or more CSV paths (or patterns), or one or more bags (``PATH`` or ``PATH:CONFIGURATION``).
         joint_names: The robot's joints, in its order; None for the file's.
         tool_names: The tool's configuration names, in order; None to accept any.
         max_abs_channel: Largest plausible channel magnitude, raw units (CSV notes rows beyond it).
@@ -67,8 +74,9 @@ def open_recording(
         latency_s: How late a bag's joint stamps are relative to its channel stamps [s].
 
     Raises:
-        RecordingError: Not one of the accepted kinds (the message lists them), several
-            files that are not all bags, or the reader's own errors (a
+        RecordingError: Not one of the accepted kinds (the message lists them), CSV files
+            and bags mixed, a pattern that matches nothing, a set of CSV files that do not
+            fit together (:class:`~fts_calib.feeds.recording_set.RecordingSet`), or the reader's own errors (a
             :class:`~fts_calib.core.exceptions.BagError` for a bag).
     """
     paths = recording_paths(recording)
@@ -77,21 +85,28 @@ def open_recording(
     parts = [parse_bag_argument(p) for p in paths]
     if all(is_bag(part.path) for part in parts):
         return BagReader(parts, joint_names, tool_names, topics, continuous, max_gap_s, latency_s)
-    first = Path(paths[0])
-    if len(paths) > 1:
+    if any(is_bag(part.path) for part in parts):
         other = next(p.path for p in parts if not is_bag(p.path))
-        raise RecordingError(other, None, None, f"several recordings are read only as ROS 2 bags, and this is not one: expected {ACCEPTED}")
-    if first.suffix not in CSV_SUFFIXES and not first.exists():  # a missing CSV is the CSV reader's "file not found"
-        raise RecordingError(first, None, None, f"file or folder not found (expected {ACCEPTED})")
-    if first.is_dir():
-        raise RecordingError(first, None, None, f"a folder without a metadata.yaml is not a ROS 2 bag: expected {ACCEPTED}")
-    if first.suffix not in CSV_SUFFIXES:
-        raise RecordingError(first, None, None, f"unknown kind of recording '{first.suffix or first.name}': expected {ACCEPTED}")
+        raise RecordingError(
+            other, None, None, f"several recordings are either all CSV files or all ROS 2 bags, and this is not a bag: expected {ACCEPTED}"
+        )
+    for path in map(Path, paths):
+        if path.suffix not in CSV_SUFFIXES and not path.exists():  # a missing CSV is the CSV reader's "file not found"
+            raise RecordingError(path, None, None, f"file or folder not found (expected {ACCEPTED})")
+        if path.is_dir():
+            raise RecordingError(path, None, None, f"a folder without a metadata.yaml is not a ROS 2 bag: expected {ACCEPTED}")
+        if path.suffix not in CSV_SUFFIXES:
+            raise RecordingError(path, None, None, f"unknown kind of recording '{path.suffix or path.name}': expected {ACCEPTED}")
     from ..robot.orientation import GIMBAL_JOINTS
     from .recording import RecordingReader  # lazily: pandas is for reading CSVs, not for the parser of the command line
 
-    if joint_names is not None and tuple(joint_names) == GIMBAL_JOINTS:  # no robot: the file gives orientations
-        from .orientation_reader import open_orientation_recording
+    def open_csv(path: Path) -> RecordingReader:
+        if joint_names is not None and tuple(joint_names) == GIMBAL_JOINTS:  # no robot: the file gives orientations
+            from .orientation_reader import open_orientation_recording
 
-        return open_orientation_recording(first, tool_names, max_abs_channel)
-    return RecordingReader(first, joint_names, tool_names, max_abs_channel=max_abs_channel)
+            return open_orientation_recording(path, tool_names, max_abs_channel)
+        return RecordingReader(path, joint_names, tool_names, max_abs_channel=max_abs_channel)
+
+    if len(paths) == 1:
+        return open_csv(Path(paths[0]))
+    return RecordingSet(paths, open_csv)

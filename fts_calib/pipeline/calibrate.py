@@ -28,6 +28,7 @@ from ..core.paths import check_distinct
 from ..core.resources import locate
 from ..feeds.bag_log import BagTopics
 from ..feeds.batch import SampleBatch
+from ..feeds.recording_set import RecordingSet, describe_files
 from ..feeds.source import open_recording, recording_paths
 from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
@@ -285,6 +286,18 @@ def calibrate(
     return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)
 
 
+def _counting(files: RecordingSet, per_file: np.ndarray, on_kept):
+    """``on_kept`` that first adds each kept sample to ``per_file`` [the index of its file in ``files``]."""
+
+    def counted(time, *rest):
+        index = files.file_of(time)
+        per_file[:] += np.bincount(index[index >= 0], minlength=len(per_file))
+        if on_kept is not None:
+            on_kept(time, *rest)
+
+    return counted
+
+
 class _Run:
     """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice."""
 
@@ -301,7 +314,7 @@ class _Run:
             whose rows could be read.
         """
         paths, kin, tool, checkpoint, progress = self.paths, self.kin, self.tool, self.checkpoint, self.progress
-        source = " ".join(map(str, paths))
+        source = describe_files(paths)
         live = settings.live
         with open_recording(
             paths, kin.joint_names, tool.names, settings.checks.max_abs_channel, self.topics, kin.continuous, live.max_gap_s, live.latency_s
@@ -310,7 +323,12 @@ class _Run:
                 progress.total = max(float(reader.size), 1.0)
             record = None if checkpoint is None else recording_source(paths)
             layout = self.layout
+            files = reader if isinstance(reader, RecordingSet) else None
+            per_file = None if files is None else np.zeros(len(files.paths), dtype=np.int64)
+            if files is not None and per_file is not None:  # count each file's kept samples, to name the files with none
+                on_kept = _counting(files, per_file, on_kept)
             if resume and checkpoint is not None and Path(checkpoint).exists():
+                per_file = None  # the samples before the checkpoint are not at hand
                 session = CalibrationSession.resume(
                     checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, **self.models
                 )
@@ -337,7 +355,13 @@ class _Run:
                 session.note_skipped(reason, count)
             problems, rows = reader.notes(), reader.rows_read
             lost = reader.unusable_configurations()
-        session.flush()
+            session.flush()
+            if files is not None and per_file is not None and not per_file.all():
+                empty = [files.paths[k].name for k in np.flatnonzero(per_file == 0)]
+                listed = ", ".join(empty[:10]) + (f" and {len(empty) - 10} more" if len(empty) > 10 else "")
+                problems.insert(
+                    1, f"{len(empty)} of {len(per_file)} files with no still sample kept: {listed}; the run goes on without them"
+                )
         if progress is not None:
             progress.update(progress.total, rows)
         session.checkpoint()

@@ -251,7 +251,7 @@ class CalibrationSession:
         if not len(kept) or W is None:
             return
         codes = kept.configuration
-        units = None if self.estimator.units is None else self.units.assign(kept.time, codes)
+        units = None if self.estimator.units is None else self.units.assign(kept.time, codes, kept.joints)
         self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:

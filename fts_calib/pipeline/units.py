@@ -7,9 +7,14 @@ stretch of time), so a unit must be a whole static pose, or a block of still win
 - a new unit starts when the tool configuration changes;
 - or after a gap of more than :data:`UNIT_GAP_S` between kept samples (the arm moved: the
   next pose of a static-pose dataset, or the next still stretch of a sweep);
-- or when a unit has lasted :data:`UNIT_SPAN_S` (a long slow sweep is cut into blocks in time).
+- or when a unit has lasted :data:`UNIT_SPAN_S` (a long slow sweep is cut into blocks in time),
+  once the joints have moved more than :data:`UNIT_STILL_RAD` from the stretch's first
+  sample: a static pose held for longer (13 s, say) stays one unit, since its blocks
+  would share one orientation and leaving one out would test nothing. (Without joints,
+  every stretch is cut by time.)
 
-Times in [s].
+A new file of a recording made of several files starts after a gap
+(:mod:`fts_calib.feeds.recording_set`), so it starts a new unit. Times in [s], joints in [rad].
 """
 
 from __future__ import annotations
@@ -20,6 +25,8 @@ import numpy as np
 UNIT_GAP_S = 0.5
 #: A unit lasts at most this long, [s]: a sweep's still stretches are cut into blocks.
 UNIT_SPAN_S = 10.0
+#: Joints within this of a stretch's first sample hold one pose, [rad]: its stretch is not cut in time.
+UNIT_STILL_RAD = 1e-3
 
 
 class HeldOutUnits:
@@ -28,13 +35,15 @@ class HeldOutUnits:
     def __init__(self) -> None:
         self.count = 0  # units started so far
         self._open: tuple[float, int, float, int] | None = None  # the open stretch: start [s], its first unit, last time [s], configuration
+        self._pose: tuple[np.ndarray, bool] | None = None  # the open stretch's first joints [rad], and whether they moved since
 
-    def assign(self, time: np.ndarray, configuration: np.ndarray) -> np.ndarray:
+    def assign(self, time: np.ndarray, configuration: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray:
         """Unit indices of kept samples (in time order), continuing the open stretch.
 
         Args:
             time: Times [s], shape (N,).
             configuration: Tool configuration index per sample, shape (N,).
+            joints: Joint readings [rad], shape (N, n_joints); None: every stretch is cut in time.
 
         Returns:
             Shape (N,), integers >= 0.
@@ -53,14 +62,21 @@ class HeldOutUnits:
         stretches += [(a, ends[j + 1], None) for j, a in enumerate(firsts)]
         for a, e, opened in stretches:
             start, first = (opened[0], opened[1]) if opened else (float(time[a]), self.count)
-            out[a:e] = first + np.floor((time[a:e] - start) / UNIT_SPAN_S).astype(np.int64)
+            blocks = np.floor((time[a:e] - start) / UNIT_SPAN_S).astype(np.int64)
+            if joints is not None:
+                pose = self._pose if opened and self._pose is not None else (np.array(joints[a], dtype=float), False)
+                moved = pose[1] | (np.cumsum(np.any(np.abs(joints[a:e] - pose[0]) > UNIT_STILL_RAD, axis=1)) > 0)
+                blocks = np.where(moved, blocks, 0)  # one pose held: one unit, however long
+                self._pose = (pose[0], bool(moved[-1]))
+            out[a:e] = first + blocks
             self.count = max(self.count, int(out[e - 1]) + 1)
             self._open = (start, first, float(time[e - 1]), int(codes[e - 1]))
         return out
 
     def state(self) -> dict:
         """Plain data for checkpoints."""
-        return {"count": self.count, "open": None if self._open is None else list(self._open)}
+        pose = None if self._pose is None else [self._pose[0].tolist(), self._pose[1]]
+        return {"count": self.count, "open": None if self._open is None else list(self._open), "pose": pose}
 
     def restore(self, state: dict | None) -> None:
         """Load :meth:`state` (None: nothing saved)."""
@@ -68,3 +84,5 @@ class HeldOutUnits:
             self.count = int(state["count"])
             o = state.get("open")
             self._open = None if o is None else (float(o[0]), int(o[1]), float(o[2]), int(o[3]))
+            pose = state.get("pose")  # absent from an older checkpoint: the stretch is cut in time
+            self._pose = None if pose is None else (np.asarray(pose[0], dtype=float), bool(pose[1]))
