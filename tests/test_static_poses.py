@@ -212,6 +212,11 @@ def test_bad_inputs_are_refused_naming_the_file(dataset, tmp_path):
     copy.write_bytes(files[3].read_bytes())
     with pytest.raises(RecordingError, match=rf"{copy}: the same content as {files[3]} \(a copy\?\)"):
         open_recording([*files, copy], None, None)
+    # other joint columns (a file of another robot, read without one: every column but time, strains, tool)
+    other = tmp_path / "other.csv"
+    pd.read_csv(files[1]).drop(columns=["wrist_3_joint"]).to_csv(other, index=False)
+    with pytest.raises(RecordingError, match=rf"{other}, line 1: joint \(or orientation\) columns .* but {files[0]} has"):
+        open_recording([files[0], other], None, None)
     # a temperature column in one file and not in another
     warm = tmp_path / "warm.csv"
     pd.read_csv(files[1]).assign(temperature=25.0).to_csv(warm, index=False)

@@ -14,7 +14,8 @@ from ..feeds.rtde import TIMEOUT_S
 
 #: Help text of the recording argument of calibrate, validate and replay.
 RECORDING_HELP = (
-    "recording CSV (or .csv.gz), or ROS 2 bags: RUN.mcap, RUN.db3 or a bag folder; "
+    "recording CSV (or .csv.gz); several CSVs read as one, in order (e.g. one per static pose: a.csv b.csv, or a quoted "
+    "pattern 'poses/*.csv', expanded in natural order); or ROS 2 bags: RUN.mcap, RUN.db3 or a bag folder; "
     "one bag per tool configuration as BAG:CONFIGURATION (e.g. a.mcap:A b.mcap:B)"
 )
 

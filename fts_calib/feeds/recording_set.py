@@ -17,7 +17,8 @@ shell's limit on the length of a command line). The rules:
   model choice (:mod:`fts_calib.pipeline.units`). The drift offset model sees the files
   back to back; the time the arm took between them is unknown and not counted.
 - **What each file holds.** Every file has the same channels (``strain_1..n``), the same
-  optional ``temperature`` column (present in all or in none) and, like a single
+  joint columns (or the same orientation form), the same optional ``temperature`` column
+  (present in all or in none) and, like a single
   recording, the joints (or an orientation form) and a ``tool`` column that names each
   row's configuration. A file that differs, an empty file (no header, or a header and no
   row) or a file that cannot be read is an error that names it.
@@ -137,7 +138,8 @@ class RecordingSet:
 
     Raises:
         RecordingError: A file given twice, a file that cannot be read, or one whose
-            channels or temperature column differ from the first file's (naming both).
+            channels, joint (or orientation) columns or temperature column differ from the
+            first file's (naming both).
 
     Attributes:
         starts: The first time after its shift [s] of each file read so far that has one.
@@ -164,6 +166,9 @@ class RecordingSet:
                 if reader.n_channels != first.n_channels:
                     message = f"{reader.n_channels} channels (strain_1..{reader.n_channels}), but {first.path} has {first.n_channels}"
                     raise RecordingError(path, 1, None, message + ": every file of a recording is of the same sensor")
+                if list(reader.joint_names) != list(first.joint_names):
+                    message = f"joint (or orientation) columns {list(reader.joint_names)}, but {first.path} has {list(first.joint_names)}"
+                    raise RecordingError(path, 1, None, message + ": every file of a recording gives the same")
                 if reader.has_temperature != first.has_temperature:
                     has, lacks = (path, first.path) if reader.has_temperature else (first.path, path)
                     message = f"{has} has a temperature column and {lacks} has none: give it in every file or in none"
