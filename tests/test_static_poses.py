@@ -7,6 +7,8 @@ some poses, 3 % of full scale of quadratic nonlinearity). The truth is the simul
 its noiseless reading of the tool's weight at each pose.
 """
 
+import gzip
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -203,8 +205,12 @@ def test_bad_inputs_are_refused_naming_the_file(dataset, tmp_path):
     header.write_text(files[0].read_text().splitlines()[0] + "\n")
     code, _ = calibrate([*files, header], out)
     assert code == ExitCode.RECORDING and not out.exists()
-    with pytest.raises(RecordingError, match=rf"{header}, line 2: no data rows"), open_recording([files[0], header], None, None) as reader:
-        list(reader)
+    with pytest.raises(RecordingError, match=rf"{header}, line 2: no data rows"):
+        open_recording([files[0], header], None, None)  # before any file is read
+    gz = tmp_path / "header.csv.gz"
+    gz.write_bytes(gzip.compress(header.read_bytes()))
+    with pytest.raises(RecordingError, match=rf"{gz}, line 2: no data rows"), open_recording([files[0], gz], None, None) as reader:
+        list(reader)  # a compressed one: when it is read
     # the same file twice, by path or as a copy
     with pytest.raises(RecordingError, match=rf"{files[0]}: given twice"):
         open_recording([files[0], files[1], files[0]], None, None)

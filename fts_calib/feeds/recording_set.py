@@ -157,6 +157,8 @@ class RecordingSet:
         for path in self.paths:
             with open_one(path) as reader:
                 self.size += reader.size
+                if not reader.compressed and reader.bytes_read >= reader.size:  # found before any work (a .gz: when read)
+                    raise RecordingError(path, 2, None, "no data rows: the file has a header line and nothing after it")
                 if first is None:
                     first = reader
                     self.joint_names, self.columns = reader.joint_names, reader.columns
