@@ -8,6 +8,7 @@ its noiseless reading of the tool's weight at each pose.
 """
 
 import gzip
+import json
 
 import numpy as np
 import pandas as pd
@@ -140,6 +141,15 @@ def test_held_out_units_are_the_poses_and_one_file_with_gaps_gives_the_same_cali
     assert by_files.model_selection["chosen"] == by_one.model_selection["chosen"]
     np.testing.assert_allclose(by_files.C, by_one.C, rtol=0, atol=1e-9 * np.abs(by_one.C).max())
     np.testing.assert_allclose(by_files.D, by_one.D, rtol=0, atol=1e-9 * np.abs(by_one.D).max())
+    # validate reads the files as calibrate does: the same samples, the same errors as over the one file
+    reports = []
+    for name, recordings in (("files", [folder / "poses" / "*.csv"]), ("one", [one])):
+        argv = ["validate", *map(str, recordings), "--calibration", str(tmp_path / "files.yaml"), "--robot", "ur5", "--tool", "paper_tool"]
+        assert main([*argv, *LOWCOST, "--static", "--json", str(tmp_path / f"{name}.json")]) == ExitCode.OK
+        reports.append(json.loads((tmp_path / f"{name}.json").read_text()))
+    assert reports[0]["samples"] == reports[1]["samples"] > 0
+    for axis, errors in reports[1]["axes"].items():
+        assert reports[0]["axes"][axis] == pytest.approx(errors, rel=1e-9), axis
 
 
 def test_files_given_by_name_in_any_order_of_patterns_and_a_resumed_run_agree(dataset, tmp_path):
