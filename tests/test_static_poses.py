@@ -258,3 +258,30 @@ def test_a_pose_held_longer_than_a_unit_span_stays_one_unit_and_a_slow_sweep_is_
     first = units2.assign(time[:1000], codes[:1000], sweep[:1000])
     restored.restore(units2.state())
     np.testing.assert_array_equal(np.r_[first, restored.assign(time[1000:], codes[1000:], sweep[1000:])], whole)
+
+
+def test_simulate_pose_files_writes_one_file_per_pose_and_never_mixes_two_datasets(ur5, tmp_path, capsys):
+    from fts_calib.planning.trajectory_io import write_trajectory
+
+    plan = tmp_path / "plan"
+    for name in ("A", "B", "C"):
+        t = static_trajectory(ur5, name, WRISTS[:2])
+        write_trajectory(plan / f"{name}.csv", t.joint_names, t.time, t.q, t.qd, t.qdd, name)
+    argv = [
+        "simulate",
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "--trajectory",
+        str(plan),
+        *LOWCOST,
+        "--pose-files",
+        "-o",
+        str(tmp_path / "p"),
+    ]
+    assert main(argv) == ExitCode.OK
+    assert "wrote 6 pose files in" in capsys.readouterr().out
+    assert sorted(p.name for p in (tmp_path / "p").iterdir()) == [f"pose_{k:02d}.csv" for k in range(1, 7)]
+    assert main(argv) == ExitCode.CONFIG  # a second dataset into the same folder: refused, nothing overwritten
+    assert "already holds pose files (pose_01.csv, ... 6 in all)" in capsys.readouterr().err
