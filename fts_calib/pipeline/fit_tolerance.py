@@ -7,23 +7,24 @@ An error within them changes the known wrench of every sample, and the part of t
 fit cannot absorb into ``[C_bar, D]`` shows as residual. The fit check
 (:mod:`fts_calib.pipeline.fit`) expects it, beside the strain noise:
 
-- the errors enter the known wrench linearly in gravity, so each is a change of a
-  configuration's wrench matrix ``M_c`` (eqs 17-18): the mass of configuration c,
-  ``dM_c = M_c / m_c``; a coordinate ``a`` of its centre of mass, ``dM_c = [0; m_c [e_a]x]``;
-  the mount rotated about axis ``a`` of S (one rotation for every configuration),
-  ``dM_c = M_c [e_a]x``;
+- the errors are the budget's: one mass error, one centre-of-mass error (3 coordinates) and one
+  mount rotation (3 axes) for the run, common to every configuration (the tool file's meaning:
+  one body moved between configurations, :class:`fts_calib.robot.tool.ToolTolerance`), each
+  independent and uniform within its bound (standard deviation bound / sqrt(3));
+- they enter the known wrench linearly in gravity, so each is a change of every
+  configuration's wrench matrix ``M_c`` (eqs 17-18) per unit error: the mass,
+  ``dM_c = M_c / m_c``; a coordinate ``a`` of the centre of mass, ``dM_c = [0; m_c [e_a]x]``;
+  the mount rotated about axis ``a`` of S, ``dM_c = M_c [e_a]x``;
 - each is fitted on the same sums as the fit itself (``[C_bar, D]`` from ``sum_c dM_c S_gx,c``
   and ``S_XX``, the offset model's columns included), and what it leaves is its residual sum of
   squares per configuration and axis, ``RSS_p,c,j`` for a unit error p: the error projected off
-  the fitted model's column space, exactly. A centre of mass off by the same vector in every
-  configuration leaves nothing (C_bar absorbs it: it is a budget term, not a residual); one off
-  in a single configuration, or a rotated mount on centres of mass that differ, leaves some;
-- the errors are independent and uniform within their bounds, as the budget takes them
-  (standard deviation bound / sqrt(3)), and the tool's mass and centre of mass are taken per
-  configuration: what the file declares allows each configuration its own error, and a common
-  one is the special case that leaves no residual. The tolerance part of configuration c,
-  axis j, is the standard deviation of the residual they leave,
-  ``sigma_T,c,j^2 = sum_p sigma_p^2 RSS_p,c,j / n_c``;
+  the fitted model's column space, exactly. The centre-of-mass error leaves nothing (a common
+  lever is ``dW = A W``: C_bar absorbs it, it is a budget term, not a residual), nor does a mass
+  error when the masses are equal (a scale); a rotated mount on centres of mass that differ
+  leaves some. A centre of mass off in one configuration alone is not what the file declares:
+  the budget does not cover it, and the check refuses it beyond the noise and this allowance.
+  The tolerance part of configuration c, axis j, is the standard deviation of the residual the
+  errors leave, ``sigma_T,c,j^2 = sum_p sigma_p^2 RSS_p,c,j / n_c``;
 - a joint-reading error is a new draw at every stop (the budget's encoder term): the fit
   absorbs little of it, so it enters unprojected, as a rotation of gravity by
   ``sqrt(n_joints / 12)`` encoder steps: ``|row_j M_c| |g| resolution sqrt(n_joints / 12)``.
@@ -34,7 +35,8 @@ Per axis the tolerance part is the largest over the configurations. The fit chec
 quadrature to the strain noise, ``sigma_j = sqrt(sigma_W,j^2 + sigma_T,j^2)``, and keeps its
 limit of 3 such standard deviations: for one or a few dominant errors that covers the worst
 corner of the declared box (sqrt(3) sigma for one), while an error 5 times a tolerance is
-refused (5 sqrt(3) ~ 8.7 sigma). Beside it, an absolute floor (the pipeline setting
+refused (5 sqrt(3) ~ 8.7 sigma; one configuration's centre of mass 5 tolerances off: 29-32 times,
+tests/tolerance_sweep.py). Beside it, an absolute floor (the pipeline setting
 ``fit.floor``, 0.01 % of each axis's full scale by default): a residual RMS below it never
 refuses. Units: N for forces, N m for moments, rad, m, kg.
 """
@@ -51,7 +53,7 @@ from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..robot.definition import RobotAccuracy
 from ..robot.tool import Tool
 
-#: Largest accepted ratio of a configuration's residual RMS to the expected noise, per axis.
+#: Largest accepted ratio of a configuration's residual RMS to the expected residual (noise and tolerances), per axis.
 #: A consistent fit over hundreds of samples gives 1 +- a few %: 3 leaves room for the
 #: unmodelled dynamics the filter lets through, wrong data give 1e3 to 1e7.
 MAX_RATIO = 3.0
