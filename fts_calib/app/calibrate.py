@@ -19,7 +19,7 @@ from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
-from ..pipeline.fit import FitCheck
+from ..pipeline.fit import MAX_RATIO, FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
 from .report import format_budget, format_model_selection, format_offsets
@@ -203,13 +203,20 @@ def format_counts(session: CalibrationSession) -> list[str]:
 
 
 def format_fit(check: FitCheck) -> list[str]:
-    """Lines: the fit verdict, and the residual RMS per configuration and axis beside the expected noise."""
+    """Lines: the fit verdict, and the residual RMS per configuration and axis beside the expected residual and its parts."""
     lines = [check.summary()]
     if check.residual_rms:
         rows = [[name, *[f"{v:.3g}" for v in rms]] for name, rms in check.residual_rms.items()]
         rows.append(["expected", *[f"{v:.3g}" for v in check.expected]])
+        heading = "residual RMS per configuration, and the noise the data show (through C):"
+        if check.noise is not None and check.tolerance is not None and max(check.tolerance) > 0:
+            rows += [["  noise", *[f"{v:.3g}" for v in check.noise]], ["  tolerances", *[f"{v:.3g}" for v in check.tolerance]]]
+        if check.floor is not None and any(MAX_RATIO * e <= f * (1.0 + 1e-9) for e, f in zip(check.expected, check.floor, strict=True)):
+            floor = [f"{v / MAX_RATIO:.3g}" for v in check.floor]  # the least expected: a residual below fit.floor never refuses
+            rows.append([f"  fit.floor/{MAX_RATIO:g}", *floor])
+            heading = "residual RMS per configuration, and the expected: the noise (through C) and the declared tolerances, in quadrature:"
         units = [f"{a} [{u}]" for a, u in zip(WRENCH_AXES, WRENCH_UNITS, strict=True)]
-        lines.append("residual RMS per configuration, and the noise the data show (through C):")
+        lines.append(heading)
         lines.append(table(["", *units], rows, "  "))
     return lines
 

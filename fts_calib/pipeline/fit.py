@@ -17,10 +17,13 @@ The expected residual is the strain noise through C, ``sigma_W = sqrt(diag(C Sig
 with ``Sigma`` the filter's noise floor per channel (the scatter of the still windows, never
 below a quantized channel's step / sqrt(12), :attr:`QuasiStaticFilter.noise_floor`: at a
 still pose the rounding error of a channel with sub-count noise is a constant of that pose,
-a noise across poses), or
-a floor of ``1e-6`` of the tool's weight (and of its moment ``m g |c|``) where the noise
-is below it (noiseless or quantized data). A fit is *consistent* when every ratio
-``rms_c / sigma_W`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap
+a noise across poses), **plus**, in quadrature, ``sigma_T``: what the tolerances the tool and
+robot files declare leave after the fit (tool mass and centre of mass, mount, encoders: the
+accuracy budget's terms, :mod:`fts_calib.pipeline.fit_tolerance`). It is at least ``1e-6``
+of the tool's weight (and of its moment ``m g |c|``: noiseless or quantized data) and at least
+the absolute floor ``fit.floor`` (0.01 % of each axis's full scale) / :data:`MAX_RATIO`, so
+that a residual RMS below that floor never refuses. A fit is *consistent* when every ratio
+``rms_c / sigma`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap
 alternatives are tried on the same sums: configuration labels permuted, centres of mass
 written in mm or cm, one configuration's mass mistyped, and a collinear tool file (which
 no strain data can fit when the mounted tool was not collinear). The first that fits is
@@ -42,14 +45,9 @@ from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor import WRENCH_AXES
 from ..robot.tool import Tool
 from ..robot.wrench import wrench_matrix
+from .fit_tolerance import MAX_RATIO, FitAllowance, expected_residual, expected_words, noise_residual, tolerance_residual
 from .tool_plausibility import implausible_tool
 
-#: Largest accepted ratio of a configuration's residual RMS to the expected noise, per axis.
-#: A consistent fit over hundreds of samples gives 1 +- a few %: 3 leaves room for the
-#: unmodelled dynamics the filter lets through, wrong data give 1e3 to 1e7.
-MAX_RATIO = 3.0
-#: Floor of the expected residual, relative to the tool's weight (forces) and moment (moments).
-RELATIVE_FLOOR = 1e-6
 #: Tool configurations up to which every permutation of the labels is tried.
 MAX_PERMUTED = 4
 #: Mass factors tried for one configuration (0.01x to 100x).
@@ -65,8 +63,14 @@ class FitCheck:
         max_ratio: The largest residual-to-noise ratio over axes and configurations.
         residual_rms: Per configuration name, the residual RMS per axis in
             [N, N, N, N m, N m, N m], shape (6,) each.
-        expected: The expected residual (noise through C, or the floor) per axis, shape (6,).
+        expected: The expected residual per axis, shape (6,): the noise part and the tolerance
+            part in quadrature, at least the floors; every ratio is ``residual / expected``.
         diagnosis: The likely cause of a poor fit, in words ('' when consistent or unknown).
+        worst: Where the largest ratio is ('configuration B, Mx').
+        noise: The noise part per axis (strain noise through C), shape (6,), or None.
+        tolerance: The tolerance part per axis (what the declared tolerances leave,
+            :mod:`fts_calib.pipeline.fit_tolerance`), shape (6,), or None.
+        floor: The absolute floor per axis (``fit.floor``: below it a residual never refuses), shape (6,), or None.
     """
 
     verdict: str
@@ -75,6 +79,9 @@ class FitCheck:
     expected: np.ndarray
     diagnosis: str = ""
     worst: str = field(default="")
+    noise: np.ndarray | None = None
+    tolerance: np.ndarray | None = None
+    floor: np.ndarray | None = None
 
     @property
     def ok(self) -> bool:
@@ -89,6 +96,9 @@ class FitCheck:
             "max_ratio_allowed": MAX_RATIO,
             "worst": self.worst,
             "expected_residual": self.expected.tolist(),
+            "noise_residual": None if self.noise is None else self.noise.tolist(),
+            "tolerance_residual": None if self.tolerance is None else self.tolerance.tolist(),
+            "floor": None if self.floor is None else self.floor.tolist(),
             "residual_rms_by_configuration": {k: v.tolist() for k, v in self.residual_rms.items()},
             "diagnosis": self.diagnosis,
         }
@@ -101,7 +111,7 @@ class FitCheck:
             measured = "no noise level was measured: no filter, or a fixed max_strain_std"
             return f"fit unchecked ({measured}); largest residual {self.max_ratio:.3g}x the floor"
         text = f"fit {self.verdict}: largest residual {self.max_ratio:.3g}x the expected noise"
-        text += f" ({self.worst})" if self.worst else ""
+        text += f" ({self.worst}{expected_words(self.worst, self.expected, self.noise, self.tolerance, self.floor)})" if self.worst else ""
         return text + (f"; likely cause: {self.diagnosis}" if self.diagnosis else "")
 
 
@@ -175,10 +185,14 @@ def _solve(matrices: Sequence[np.ndarray], sums: np.ndarray, per_configuration: 
     return theta, np.maximum(np.array(per_config), 0.0)
 
 
-def _ratios(tool: Tool, matrices, sums, counts, noise_cov, per_configuration=False) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _ratios(
+    tool: Tool, matrices, sums, counts, noise_cov, per_configuration=False, allowance: FitAllowance | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """(ratio (k, 6), rms (k, 6), expected (6,)) of a hypothesis; None when it cannot be solved.
 
-    ``noise_cov`` is the covariance of the projected channels ``P Delta``, ``P Sigma P^T`` (6, 6).
+    ``noise_cov`` is the covariance of the projected channels ``P Delta``, ``P Sigma P^T`` (6, 6). With an
+    ``allowance`` the expected residual holds the declared tolerances and the floor (:func:`expected_residual`);
+    without, the noise alone.
     """
     solved = _solve(matrices, sums, per_configuration)
     if solved is None:
@@ -186,24 +200,12 @@ def _ratios(tool: Tool, matrices, sums, counts, noise_cov, per_configuration=Fal
     theta, rss = solved
     seen = counts > 0
     rms = np.sqrt(rss / np.maximum(counts, 1)[:, None])
-    expected = expected_residual(tool, theta[:, :6], noise_cov)
+    tolerance = None
+    if allowance is not None:
+        tolerance = tolerance_residual(tool, matrices, sums, _embeddings(sums, per_configuration), counts, allowance)
+    expected = expected_residual(tool, theta[:, :6], noise_cov, tolerance, None if allowance is None else allowance.floor)
     ratio = np.where(seen[:, None], rms / expected[None, :], 0.0)
     return ratio, rms, expected
-
-
-def expected_residual(tool: Tool, C_bar: np.ndarray, noise_cov: np.ndarray) -> np.ndarray:
-    """The residual the noise explains per axis: ``sqrt(diag(C_bar Sigma_P C_bar^T))``, floored; shape (6,), [N, N m].
-
-    Args:
-        tool: The tool file (its weight and moment set the floor, :data:`RELATIVE_FLOOR`).
-        C_bar: Modified calibration matrix (a nonlinear model's slope), shape (6, 6).
-        noise_cov: Covariance of ``P Delta`` of one sample, shape (6, 6).
-    """
-    sigma = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", C_bar, noise_cov, C_bar), 0.0))
-    weight = max(c.mass for c in tool.configurations) * tool.gravity
-    moment = max(c.mass * float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations) * tool.gravity
-    floor = RELATIVE_FLOOR * np.array([weight] * 3 + [max(moment, 1e-3 * weight)] * 3)
-    return np.maximum(sigma, floor)
 
 
 def check_model_fit(
@@ -213,7 +215,9 @@ def check_model_fit(
 
     The verdict compares each configuration's residual RMS with the noise through the model's
     slope at the centre of the data, as :func:`check_fit` does; a poor fit takes the linear check's diagnosis (the
-    alternatives of the tool file are tried on the linear model).
+    alternatives of the tool file are tried on the linear model). The tolerance part and the floor are the linear
+    check's: a model with more columns absorbs at least as much of a declared error, so the linear model's tolerance
+    part bounds its own.
 
     Args:
         tool: The tool file.
@@ -225,19 +229,21 @@ def check_model_fit(
     """
     if not residual_rms:
         return linear
-    expected = expected_residual(tool, C_bar, layout.projected_noise(0.0 if noise_std is None else noise_std))
+    noise_cov = layout.projected_noise(0.0 if noise_std is None else noise_std)
+    expected = expected_residual(tool, C_bar, noise_cov, linear.tolerance, linear.floor)
+    parts = {"noise": noise_residual(C_bar, noise_cov), "tolerance": linear.tolerance, "floor": linear.floor}
     names = list(residual_rms)
     ratio = np.array([residual_rms[k] / expected for k in names])
     k, axis = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     worst = f"configuration {names[k]}, {WRENCH_AXES[axis]}"
     implausible = implausible_tool(tool)
     if implausible:
-        return FitCheck("poor", float(ratio.max()), residual_rms, expected, implausible, worst)
+        return FitCheck("poor", float(ratio.max()), residual_rms, expected, implausible, worst, **parts)
     if noise_std is None:
-        return FitCheck("unchecked", float(ratio.max()), residual_rms, expected, "", worst)
+        return FitCheck("unchecked", float(ratio.max()), residual_rms, expected, "", worst, **parts)
     if ratio.max() <= MAX_RATIO:
-        return FitCheck("consistent", float(ratio.max()), residual_rms, expected, "", worst)
-    return FitCheck("poor", float(ratio.max()), residual_rms, expected, linear.diagnosis, worst)
+        return FitCheck("consistent", float(ratio.max()), residual_rms, expected, "", worst, **parts)
+    return FitCheck("poor", float(ratio.max()), residual_rms, expected, linear.diagnosis, worst, **parts)
 
 
 def _golden(f, low: float, high: float, iterations: int = 60) -> tuple[float, float]:
@@ -304,6 +310,7 @@ def check_fit(
     hint: str = "",
     layout: ChannelLayout = MALTESE_CROSS_8,
     per_configuration: bool = False,
+    allowance: FitAllowance | None = None,
 ) -> FitCheck:
     """Judge the fit of the tool's model to the kept samples (see the module docstring).
 
@@ -320,6 +327,9 @@ def check_fit(
         per_configuration: One offset per configuration (the per-configuration and drift
             offset models) instead of one for all; drift columns are those of ``sums``
             (:func:`model_fit_sums`).
+        allowance: The robot's mount and encoder tolerances and the floor ``fit.floor``
+            (:func:`fts_calib.pipeline.fit_tolerance.robot_allowance`); None: the tool file's tolerance alone,
+            no floor but the relative one.
 
     Returns:
         The verdict; its diagnosis names the first alternative that fits.
@@ -329,19 +339,22 @@ def check_fit(
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
     noise_cov = layout.projected_noise(0.0 if noise_std is None else noise_std)  # covariance of P Delta, (6, 6)
     implausible = implausible_tool(tool)
-    judged = _ratios(tool, [c.wrench_matrix for c in tool.configurations], sums, counts, noise_cov, per_configuration)
+    allowance = allowance or FitAllowance()
+    matrices = [c.wrench_matrix for c in tool.configurations]
+    judged = _ratios(tool, matrices, sums, counts, noise_cov, per_configuration, allowance)
     if judged is None:
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan))
     ratio, rms, expected = judged
+    parts = _parts(tool, matrices, sums, counts, noise_cov, per_configuration, allowance)
     residual = {name: rms[k] for k, name in enumerate(tool.names) if counts[k] > 0}
     k, axis = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     worst = f"configuration {tool.names[k]}, {WRENCH_AXES[axis]}"
     if implausible:  # a uniform scale of every centre of mass fits any data: only its size shows it
-        return FitCheck("poor", float(ratio.max()), residual, expected, implausible, worst)
+        return FitCheck("poor", float(ratio.max()), residual, expected, implausible, worst, **parts)
     if noise_std is None:
-        return FitCheck("unchecked", float(ratio.max()), residual, expected, "", worst)
+        return FitCheck("unchecked", float(ratio.max()), residual, expected, "", worst, **parts)
     if ratio.max() <= MAX_RATIO:
-        return FitCheck("consistent", float(ratio.max()), residual, expected, "", worst)
+        return FitCheck("consistent", float(ratio.max()), residual, expected, "", worst, **parts)
     causes = _alternatives(tool, sums, counts, noise_cov, per_configuration)
     if causes:
         diagnosis = causes[0][0]
@@ -356,4 +369,12 @@ def check_fit(
             "configuration labels, the joint units and the sensor mount; offsets that drift during the run (warm-up, "
             "temperature) or move at a tool change also leave such residuals (--offsets auto or drift models them)"
         )
-    return FitCheck("poor", float(ratio.max()), residual, expected, diagnosis, worst)
+    return FitCheck("poor", float(ratio.max()), residual, expected, diagnosis, worst, **parts)
+
+
+def _parts(tool: Tool, matrices, sums, counts, noise_cov, per_configuration: bool, allowance: FitAllowance) -> dict:
+    """The noise part, the tolerance part and the floor of the expected residual (FitCheck's fields), shape (6,) each."""
+    solved = _solve(matrices, sums, per_configuration)
+    noise = np.full(6, math.nan) if solved is None else noise_residual(solved[0][:, :6], noise_cov)
+    tolerance = tolerance_residual(tool, matrices, sums, _embeddings(sums, per_configuration), counts, allowance)
+    return {"noise": noise, "tolerance": tolerance, "floor": allowance.floor}

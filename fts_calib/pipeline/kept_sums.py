@@ -19,6 +19,7 @@ from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..model.least_squares import unexplained_strain
 from .advice import missing_words, refused_words
 from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
+from .fit_tolerance import robot_allowance
 from .progress import Progress
 
 if TYPE_CHECKING:
@@ -89,7 +90,9 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
 
     The noise is the filter's noise floor (the strain scatter of the still windows, raw units,
     shape (n,)); without the filter, or with a fixed strain threshold, none is measured and
-    the verdict is 'unchecked'. See :mod:`fts_calib.pipeline.fit`.
+    the verdict is 'unchecked'. The tool file's tolerance, the robot file's mount and encoders and the
+    setting ``fit.floor`` (of the session's full scale) widen what is expected
+    (:mod:`fts_calib.pipeline.fit_tolerance`). See :mod:`fts_calib.pipeline.fit`.
 
     Args:
         session: The session.
@@ -106,7 +109,9 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
     chosen = session.estimator.model_in_use()[0]
     sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
-    linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration)  # noise: floored at step/sqrt(12)
+    kin = session.kin
+    allowance = robot_allowance(kin.robot.accuracy, kin.n_joints, session.full_scale, session.settings.fit.floor)
+    linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration, allowance)  # noise: >= step/sqrt(12)
     residuals = session.estimator.model_residuals()
     if residuals is None:  # the linear model on P Delta: the check above is the model's
         return linear

@@ -28,6 +28,10 @@ excitation report of planned trajectories (default: the sensor file's).
 power of time in the drift model (default 2); ``time_scale_s`` [s] the unit of time of
 its basis (default 600, conditioning only).
 
+``fit``: ``floor``, in % of each axis's full scale (the sensor file's), the residual RMS below
+which the fit check never refuses (default 0.01: a misfit that small is below what any use
+of the sensor notices; :mod:`fts_calib.pipeline.fit_tolerance`).
+
 An unknown section or key (a typo) is refused with the known ones listed.
 """
 
@@ -41,13 +45,14 @@ from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number
 from ..model.channel_limits import ChannelLimits
 from ..model.offset_basis import AUTO, OffsetBasis, offset_setting
+from .fit_tolerance import DEFAULT_FLOOR_PERCENT
 
 #: Default of ``checks.max_abs_channel`` [raw units]: larger than any reading of a sensor
 #: delivering mV/V, N or 24-bit ADC counts (2^23 = 8.4e6), far below a corrupt cell (1e160).
 DEFAULT_MAX_ABS_CHANNEL = 1e9
 
 #: The sections of a pipeline settings file.
-SECTIONS = ("filter", "live", "checks", "design", "offsets")
+SECTIONS = ("filter", "live", "checks", "design", "offsets", "fit")
 
 
 @dataclass(frozen=True)
@@ -130,6 +135,16 @@ class OffsetConfig:
 
 
 @dataclass(frozen=True)
+class FitConfig:
+    """Fit-check settings (see the module docstring)."""
+
+    floor: float = DEFAULT_FLOOR_PERCENT  # [% of full scale]
+
+    def __post_init__(self):
+        object.__setattr__(self, "floor", validation.non_negative("fit.floor", self.floor, "% of full scale"))
+
+
+@dataclass(frozen=True)
 class PipelineConfig:
     """All pipeline settings.
 
@@ -138,6 +153,7 @@ class PipelineConfig:
         live: Live feeds.
         checks: Sample checks (plausible channel range).
         offsets: The offset model of the estimator.
+        fit: The fit check (its absolute floor).
         noise_std: Strain noise per bridge for experiment design [raw units], or None for
             the sensor file's.
     """
@@ -147,6 +163,7 @@ class PipelineConfig:
     noise_std: float | None = None
     checks: ChecksConfig = field(default_factory=ChecksConfig)
     offsets: OffsetConfig = field(default_factory=OffsetConfig)
+    fit: FitConfig = field(default_factory=FitConfig)
 
     def with_limits(self, limits: ChannelLimits | None) -> PipelineConfig:
         """These settings with the channels' declared resolution and rails (:attr:`SensorSpec.limits`; None: none)."""
@@ -192,7 +209,7 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
     check_keys(design, ("noise_std",), path, "design")
     noise = design.get("noise_std")
     filter_config, live, checks = section("filter", FilterConfig), section("live", LiveConfig), section("checks", ChecksConfig)
-    offsets = section("offsets", OffsetConfig)
+    offsets, fit = section("offsets", OffsetConfig), section("fit", FitConfig)
     with fields_of(path):
         return PipelineConfig(
             filter=filter_config,
@@ -200,4 +217,5 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
             noise_std=None if noise is None else read_number(noise, path, "design.noise_std"),
             checks=checks,
             offsets=offsets,
+            fit=fit,
         )
