@@ -5,7 +5,7 @@ import pandas as pd
 import pinocchio as pin
 import pytest
 
-from fts_calib.core.exceptions import RecordingError
+from fts_calib.core.exceptions import BagError, RecordingError
 from fts_calib.core.resources import resolve
 from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.planning.trajectory_io import TrajectoryFile
@@ -13,6 +13,7 @@ from fts_calib.robot.orientation import orientation_kinematics
 from fts_calib.sim.recording import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
+HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.3, 0.7])  # the tare recording's pose (tests/test_tare.py)
 MOUNT = np.array([0.1, -0.2, 0.3])  # TCP -> sensor of the tcp form [rad]
 
 
@@ -108,3 +109,177 @@ def test_calibrate_and_validate_without_a_robot_from_the_command_line(still_run,
         != 0
     )
     assert "no --mount with --robot" in capsys.readouterr().err
+
+
+def _quaternions(R):
+    """[w, x, y, z] of rotations (N, 3, 3), every other one negated (q and -q: the same rotation)."""
+    q = np.array([pin.Quaternion(r).coeffs() for r in R])[:, [3, 0, 1, 2]]
+    return q * np.where(np.arange(len(q)) % 2, -1.0, 1.0)[:, None]
+
+
+def _close(found, reference):
+    assert reference is not None and found is not None
+    np.testing.assert_allclose(found.C, reference.C, rtol=1e-9, atol=1e-9 * np.abs(reference.C).max())
+    np.testing.assert_allclose(found.D, reference.D, rtol=1e-9, atol=1e-9 * np.abs(reference.D).max())
+
+
+def test_a_bag_with_a_pose_topic_gives_the_joints_bag_calibration(still_run, tmp_path):
+    """The same still run as a bag of joint states and as a bag of PoseStamped (the sensor's
+    quaternion, header-stamped at the channels' times): C equal to 1e-9 relative (seen: 1e-14)."""
+    from fts_calib.feeds.bag_log import BagTopics
+    from fts_calib.sim.bag import BagWriter, recording_to_bag
+
+    kin, tool, folder, table, R, joints_path = still_run
+    joints_bag = recording_to_bag(joints_path, tmp_path / "joints_bag")
+    strains = table[[c for c in table.columns if c.startswith("strain_")]].to_numpy()
+    topics = BagTopics(pose="/robot/sensor_pose")
+    with BagWriter(tmp_path / "pose_bag", topics=topics, poses=True) as writer:
+        current = None
+        for t, q, s, name in zip(table["time"], _quaternions(R), strains, table["tool"], strict=True):
+            if name != current:
+                writer.configuration(t, current := name)
+            writer.pose(t, q, position=(0.4, -0.1, 0.3))  # the position is not used
+            writer.channels(t, s)
+    reference = calibrate_recording(joints_bag, kin, tool).calibration
+    _close(calibrate_recording(tmp_path / "pose_bag", orientation_kinematics(), tool, topics=topics).calibration, reference)
+    with pytest.raises(BagError, match=r"PoseStamped topic \(name it with --pose-topic: this bag's are /robot/sensor_pose\)"):
+        calibrate_recording(tmp_path / "pose_bag", orientation_kinematics(), tool)  # the default topic name: not in this bag
+
+
+def _live(kin, tool, datagrams):
+    """The live path without its socket: datagrams decoded, counted, paired, calibrated."""
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import LiveStats, feed_datagram
+    from fts_calib.pipeline.session import CalibrationSession
+
+    sync, stats = Synchronizer(kin.joint_names, kin.continuous, configurations=tool.names, n_channels=8), LiveStats()
+    for data in datagrams:
+        feed_datagram(data, sync, stats)
+    session = CalibrationSession(kin, tool)
+    session.add_samples(sync.pop(final=True))
+    return session.solve(), stats
+
+
+def _datagrams(table, orientation):
+    """The run's rows as live datagrams: the tool, then an orientation (or joints) message and a strain message per row, one stamp."""
+    import json
+
+    strains = table[[c for c in table.columns if c.startswith("strain_")]].to_numpy()
+    out, current = [], None
+    for t, o, s, name in zip(table["time"], orientation, strains, table["tool"], strict=True):
+        if name != current:
+            out.append(json.dumps({"type": "tool", "t": t, "name": (current := name)}).encode())
+        out.append(json.dumps({"type": "joints", "t": t, **o}).encode())
+        out.append(json.dumps({"type": "strain", "t": t, "strain": s.tolist()}).encode())
+    return out
+
+
+@pytest.mark.parametrize("field", ["R", "R rows", "quat"])
+def test_live_datagrams_with_an_orientation_give_the_joints_calibration(still_run, field):
+    """The same run as joints datagrams and as "R" (9 numbers or 3 rows) or "quat" datagrams, through
+    the live path's decoding, pairing and session: C equal to 1e-9 relative (seen: 1e-14)."""
+    kin, tool, folder, table, R, joints_path = still_run
+    joints = [{"q": dict(zip(kin.joint_names, row.tolist(), strict=True))} for row in table[list(kin.joint_names)].to_numpy()]
+    reference, _ = _live(kin, tool, _datagrams(table, joints))
+    if field == "quat":
+        given = [{"quat": q.tolist()} for q in _quaternions(R)]
+    else:
+        given = [{"R": r.tolist() if field == "R rows" else r.ravel().tolist()} for r in R]
+    found, stats = _live(orientation_kinematics(), tool, _datagrams(table, given))
+    assert stats.malformed == 0 and stats.joints == len(table)
+    _close(found, reference)
+
+
+@pytest.mark.parametrize(
+    ("orientation", "says"),
+    [
+        ({"quat": [2.0, 0.0, 0.0, 0.0]}, "'quat' has norm 2, not 1"),
+        ({"quat": [1.0, 0.0, 0.0]}, "'quat' must be a unit quaternion [w, x, y, z], got shape (3,)"),
+        ({"quat": [1.0, 0.0, "0", 0.0]}, "'quat' must be a list of numbers"),
+        ({"R": [1, 0, 0, 0, 1, 0, 0, 0, -1]}, "'R' has determinant -1: a reflection"),
+        ({"R": [1.1, 0, 0, 0, 1, 0, 0, 0, 1]}, "'R' is not orthonormal"),
+        ({"R": [[1, 0, 0], [0, 1, 0]]}, "'R' must be a rotation matrix, 9 numbers row-major or 3 rows of 3, got shape (2, 3)"),
+        ({"R": [1, 0, 0, 0, 1, 0, 0, 0]}, "'R' must be a rotation matrix"),
+        ({"R": [1, 0, 0, 0, 1, 0, 0, 0, 1e400]}, "'R' holds a number that is not finite"),
+        ({"quat": [1, 0, 0, float("nan")]}, "'quat' holds NaN, not a number fts-calib accepts"),
+        ({"R": [1, 0, 0, 0, 1, 0, 0, 0, 1], "quat": [1, 0, 0, 0]}, "gives both 'R' and 'quat'"),
+    ],
+)
+def test_hostile_orientation_datagrams_are_counted_and_named(orientation, says):
+    """A bad orientation is one malformed datagram, named in the run's summary; the good ones around it count."""
+    import json
+
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import LiveStats, feed_datagram
+    from fts_calib.robot.orientation import GIMBAL_JOINTS
+
+    sync, stats = Synchronizer(GIMBAL_JOINTS, configurations=["A"]), LiveStats()
+    good = json.dumps({"type": "joints", "t": 0.0, "quat": [1, 0, 0, 0]}).encode()
+    text = json.dumps({"type": "joints", "t": 0.01, **orientation}).replace("Infinity", "1e400").encode()  # json writes NaN as NaN
+    for data in (good, text, good):
+        feed_datagram(data, sync, stats)
+    assert (stats.malformed, stats.joints) == (1, 2)
+    assert says in stats.first_malformed, stats.first_malformed
+
+
+def test_the_gimbal_joints_written_twice_agree():
+    from fts_calib.feeds import bag_pose
+    from fts_calib.robot.orientation import GIMBAL_JOINTS
+
+    assert bag_pose.GIMBAL_JOINTS == GIMBAL_JOINTS
+
+
+def test_an_orientation_datagram_with_a_robot_is_named():
+    import json
+
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import LiveStats, feed_datagram
+
+    sync, stats = Synchronizer(["a", "b"]), LiveStats()
+    feed_datagram(json.dumps({"type": "joints", "t": 0.0, "R": np.eye(3).ravel().tolist()}).encode(), sync, stats)
+    assert stats.malformed == 1 and "the orientation 'R' but the robot's joints ['a', 'b'] are expected" in stats.first_malformed
+
+
+def _as_form(kin, joints_path, form):
+    """A joints recording written again with the sensor's orientation: 'quaternion' or 'tcp' (the TCP's rotation vector, MOUNT)."""
+    table = pd.read_csv(joints_path)
+    R = kin.R_world_sensor(table[list(kin.joint_names)].to_numpy())
+    if form == "quaternion":
+        q = _quaternions(R)
+        return _write(joints_path.parent, table, f"{joints_path.stem}_{form}", {"qw": q[:, 0], "qx": q[:, 1], "qy": q[:, 2], "qz": q[:, 3]})
+    rv = np.array([pin.log3(r) for r in R @ pin.rpy.rpyToMatrix(*MOUNT).T])
+    return _write(joints_path.parent, table, f"{joints_path.stem}_{form}", {"tcp_rx": rv[:, 0], "tcp_ry": rv[:, 1], "tcp_rz": rv[:, 2]})
+
+
+def test_tare_and_payload_without_a_robot(tmp_path, ur5, rng, capsys):
+    """tare with a mounted configuration and payload, from a quaternion and from a TCP pose with
+    --mount: the offsets and the payload of the joints recording, to 1e-9 relative (seen: 1e-15)."""
+    from fts_calib import Calibration, load_calibration, load_tool
+    from fts_calib.app.cli import main
+    from fts_calib.model.calibration import save_calibration
+    from tests.test_payload import _payload_recording
+    from tests.test_tare import _recording
+
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
+    tool = load_tool(resolve("paper_tool", "configs"))
+    tare_path = _recording(tmp_path / "tare.csv", sensor, ur5, tool.configuration("B").static_wrench(ur5.g_sensor(HOME, 9.81)), rng)
+    poses = [(0.0, 0.0), (1.2, 0.0), (-1.2, 0.5), (0.6, 2.0), (-0.5, -2.2), (2.2, 1.0)]
+    payload_path, _ = _payload_recording(tmp_path / "poses.csv", ur5, poses, rng)
+    mount = ["--mount", *(f"{v:.17g}" for v in MOUNT)]
+    tare = ["tare", "--calibration", str(cal), "--tool", "paper_tool", "--configuration", "B", "-o"]
+    payload = ["payload", "--calibration", str(cal), "-o"]
+    assert main([*tare, str(tmp_path / "ref.yaml"), "--robot", "ur5", str(tare_path)]) == 0
+    assert main([*payload, str(tmp_path / "ref_payload.yaml"), "--robot", "ur5", str(payload_path)]) == 0
+    D = load_calibration(tmp_path / "ref.yaml").D
+    reference = load_tool(tmp_path / "ref_payload.yaml").configurations[0]
+    for form in ("quaternion", "tcp"):
+        given = [] if form == "quaternion" else mount
+        assert main([*tare, str(tmp_path / f"{form}.yaml"), *given, str(_as_form(ur5, tare_path, form))]) == 0
+        np.testing.assert_allclose(load_calibration(tmp_path / f"{form}.yaml").D, D, rtol=1e-9, atol=1e-9 * np.abs(D).max())
+        out = tmp_path / f"{form}_payload.yaml"
+        assert main([*payload, str(out), *given, str(_as_form(ur5, payload_path, form))]) == 0
+        found = load_tool(out).configurations[0]
+        assert found.mass == pytest.approx(reference.mass, rel=1e-9)
+        np.testing.assert_allclose(found.p_sensor_com, reference.p_sensor_com, rtol=1e-9, atol=1e-12)
+    assert "in 6 orientations" in capsys.readouterr().out
