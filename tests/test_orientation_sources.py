@@ -283,3 +283,54 @@ def test_tare_and_payload_without_a_robot(tmp_path, ur5, rng, capsys):
         assert found.mass == pytest.approx(reference.mass, rel=1e-9)
         np.testing.assert_allclose(found.p_sensor_com, reference.p_sensor_com, rtol=1e-9, atol=1e-12)
     assert "in 6 orientations" in capsys.readouterr().out
+
+
+def test_the_frames_picture_is_drawn_by_its_script(tmp_path):
+    """docs/img/frames.png (docs/real-sensors.md) comes from docs/img/frames.py: the script runs and draws a PNG of the same size."""
+    import runpy
+    from pathlib import Path
+
+    script = Path(__file__).parents[1] / "docs" / "img" / "frames.py"
+    out = runpy.run_path(str(script))["draw"](tmp_path / "frames.png")
+    shipped = script.with_name("frames.png").read_bytes()
+    assert out.read_bytes()[:8] == shipped[:8] == b"\x89PNG\r\n\x1a\n"
+    assert out.read_bytes()[16:24] == shipped[16:24]  # the IHDR's width and height
+
+
+def test_live_without_a_robot_takes_orientation_datagrams(tmp_path, monkeypatch, capsys):
+    """``live`` with no --robot: R and quat datagrams are the joints, a reflection is named, 'end' stops the run."""
+    import json
+    import socket
+    import threading
+
+    from fts_calib.app import live
+    from fts_calib.app.cli import main
+
+    bound = []
+
+    class Receiver(live.UdpReceiver):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            bound.append(self.address)
+
+    monkeypatch.setattr(live, "UdpReceiver", Receiver)
+    argv = ["live", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(tmp_path / "c.yaml"), "--quiet", "--idle-timeout", "20"]
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(code=main(argv)), daemon=True)
+    thread.start()
+    deadline = threading.Event()
+    while not bound and thread.is_alive() and not deadline.wait(0.01):
+        pass
+    datagrams = [{"type": "tool", "t": 0.0, "name": "A"}]
+    for k in range(20):
+        orientation = {"R": np.eye(3).ravel().tolist()} if k % 2 else {"quat": [1.0, 0.0, 0.0, 0.0]}
+        datagrams += [{"type": "joints", "t": 0.01 * k, **orientation}]
+    datagrams += [{"type": "joints", "t": 0.2, "R": [1, 0, 0, 0, 1, 0, 0, 0, -1]}, {"type": "end"}]
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        for message in datagrams:
+            sock.sendto(json.dumps(message).encode(), bound[0])
+    thread.join(timeout=30)
+    assert not thread.is_alive() and "code" in result
+    out = capsys.readouterr().out
+    assert "(20 joints, 0 strain, 1 tool), 1 malformed" in out, out
+    assert "the first skipped: malformed datagram: 'R' has determinant -1" in out, out

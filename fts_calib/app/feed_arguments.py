@@ -46,7 +46,7 @@ def add_robot_or_orientation(parser: argparse.ArgumentParser, what: str = "the r
         nargs=3,
         type=float,
         metavar=("R", "P", "Y"),
-        help=f"without --robot: roll, pitch, yaw in rad from the frame {what}'s orientation gives (e.g. the "
+        help=f"without --robot: roll, pitch, yaw in rad from the frame whose orientation {what} gives (e.g. the "
         "TCP of tcp_rx,tcp_ry,tcp_rz) to the sensor (default: 0 0 0)",
     )
 

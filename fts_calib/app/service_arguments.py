@@ -27,7 +27,7 @@ def add_tare(commands) -> None:
     tare.add_argument("-o", "--output", help="where to write (default: update the calibration file)")
     tare.add_argument("--listen", type=add_address, metavar="HOST:PORT", help="re-tare from a live window on this address instead")
     tare.add_argument("--seconds", dest="window_s", type=float, default=2.0, help="length of the live window in s (default 2)")
-    add_robot_or_orientation(tare, "the recording or feed", "needed with a mounted configuration")
+    add_robot_or_orientation(tare, "the recording or feed", "used with a mounted configuration")
     tare.add_argument("--tool", default="paper_tool", help="tool file of the mounted configuration (default: paper_tool)")
     tare.add_argument("--configuration", help="the mounted configuration (default: nothing mounted)")
     tare.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
