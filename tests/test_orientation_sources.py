@@ -381,3 +381,56 @@ def test_replay_sends_an_orientation_recording_as_R_datagrams(real_run, form):
     found, stats = _live(orientation_kinematics(MOUNT if form == "tcp" else (0.0, 0.0, 0.0)), tool, sent)
     assert stats.malformed == 0
     _close(found, reference)
+
+
+def test_re_tare_from_a_live_window_of_quaternion_datagrams(ur5, rng):
+    """Configuration B mounted, no robot: "quat" and strain datagrams on loopback during a live window;
+    the offsets' shift recovered as from joints (tests/test_tare.py's tolerance: 5 sigma of a 100-sample mean)."""
+    import json
+    import socket
+    import threading
+    import time
+
+    from fts_calib import Calibration, load_tool
+    from fts_calib.service.tare import tare_live
+    from tests.test_tare import SHIFT
+
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    cal = Calibration(sensor.C_bar, sensor.D)
+    tool = load_tool(resolve("paper_tool", "configs"))
+    R = ur5.R_world_sensor(HOME[None])[0]
+    weight = tool.configuration("B").static_wrench(R.T @ np.array([0.0, 0.0, -tool.gravity]))
+    drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})
+    strains = drifted.channels(np.tile(weight, (2000, 1)), rng=rng)
+    quat = _quaternions(R[None])[0].tolist()
+    bound, listening, stop = [], threading.Event(), threading.Event()
+    rate_hz = 5000.0
+
+    def send():
+        if not listening.wait(60.0) or not bound:
+            return
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            start = time.monotonic()
+            for k, strain in enumerate(strains):
+                ahead = start + k / rate_hz - time.monotonic()
+                if k % 50 == 0 and ahead > 0 and stop.wait(ahead):
+                    return
+                t = k / 1000.0  # the sensor's clock: 2 s of 1 kHz samples, sent in 0.4 s
+                if k % 5 == 0:
+                    sock.sendto(json.dumps({"type": "joints", "t": t, "quat": quat}).encode(), bound[0])
+                sock.sendto(json.dumps({"type": "strain", "t": t, "strain": strain.tolist()}).encode(), bound[0])
+
+    def on_listening(address):
+        bound.append(address)
+        listening.set()
+
+    sender = threading.Thread(target=send)
+    sender.start()
+    try:
+        result = tare_live(cal, "127.0.0.1", 0, 0.8, orientation_kinematics(), tool, "B", on_listening=on_listening)
+    finally:
+        stop.set()
+        listening.set()
+        sender.join(timeout=60.0)
+    assert result.estimate.samples_used > 100
+    np.testing.assert_allclose(result.calibration.D - cal.D, SHIFT, atol=2e-3)
