@@ -26,13 +26,14 @@ ORIENTATION_HELP = (
 )
 
 
-def add_robot_or_orientation(parser: argparse.ArgumentParser, what: str = "the recording", required_for: str = "") -> None:
+def add_robot_or_orientation(parser: argparse.ArgumentParser, what: str = "the recording", required_for: str = "", note: str = "") -> None:
     """``--robot`` (optional) and ``--mount R P Y``: joints and a robot, or a feed that gives the sensor's orientation.
 
     Args:
         parser: The command's parser.
         what: What gives the orientation without a robot (for the help text).
         required_for: When the orientation is needed at all (e.g. "with a mounted configuration"), for the help text.
+        note: Appended to the help of ``--mount``.
     """
     needed = f" ({required_for})" if required_for else ""
     parser.add_argument(
@@ -47,7 +48,7 @@ def add_robot_or_orientation(parser: argparse.ArgumentParser, what: str = "the r
         type=float,
         metavar=("R", "P", "Y"),
         help=f"without --robot: roll, pitch, yaw in rad from the frame whose orientation {what} gives (e.g. the "
-        "TCP of tcp_rx,tcp_ry,tcp_rz) to the sensor (default: 0 0 0)",
+        f"TCP of tcp_rx,tcp_ry,tcp_rz) to the sensor (default: 0 0 0){note}",
     )
 
 

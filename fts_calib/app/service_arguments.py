@@ -48,7 +48,7 @@ def add_payload(commands) -> None:
     )
     pay.add_argument("recording", help="recording of the payload in several still orientations")
     pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
-    add_robot_or_orientation(pay)
+    add_robot_or_orientation(pay, note="; to estimate a small mount rotation: --estimate-mount")
     pay.add_argument("-o", "--output", required=True, help="tool file to write")
     pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
     pay.add_argument(

@@ -141,6 +141,7 @@ class BagReader:
         self._messages = 0
         self._ignored_joints = 0
         self._reader = None  # the bag being read
+        self._reading = self.path  # and its path
         self._joint_index: dict[tuple[str, ...], np.ndarray | None] = {}
         self.joint_names: list[str] = list(joint_names or [])
         self._previous: np.ndarray | None = None  # the last sample placed (time, joints, channels, configuration)
@@ -291,7 +292,8 @@ class BagReader:
     def _read(self, part: BagPart) -> Iterator[SampleBatch]:
         from rosbags.highlevel import AnyReaderError
 
-        reader = self._reader = open_bag(part.path)
+        reader, self._reading = open_bag(part.path), part.path
+        self._reader = reader
         try:
             sync = Synchronizer(self.joint_names, self.continuous, self.max_gap_s, self.latency_s, n_channels=self.n_channels)
             if part.configuration is not None:
@@ -333,7 +335,7 @@ class BagReader:
             joints = pose_joints(message)
             if isinstance(joints, str):
                 self._ignored_joints += 1
-                self._note(f"{self.path}, topic '{self._joints_topic}' at {seconds(log_ns):.9f} s: {joints}; ignored")
+                self._note(f"{self._reading}, topic '{self._joints_topic}' at {seconds(log_ns):.9f} s: {joints}; ignored")
             else:
                 sync.add_joints(self._joint_time(log_ns, message), joints)
             return
