@@ -280,13 +280,17 @@ HOSTILE_DATAGRAMS = {
     "1e400 channel": b'{"type":"strain","t":1.0,"strain":[1e400,0,0,0,0,0,0,0]}',
     "NaN channel": b'{"type":"strain","t":1.0,"strain":[NaN,0,0,0,0,0,0,0]}',
     "1e400 joint": b'{"type":"joints","t":1.0,"q":{"a":1e400}}',
+    "NaN quaternion": b'{"type":"joints","t":1.0,"quat":[NaN,0,0,1]}',
+    "reflection R": b'{"type":"joints","t":1.0,"R":[1,0,0,0,1,0,0,0,-1]}',
 }
 REASONS = {
     "nested 4,000 deep": f"malformed datagram: nested 4000 levels deep (at most {MAX_NESTING})",
     "400-digit channel": "malformed datagram: an integer of 400 digits (at most 20)",
     "1e400 channel": "malformed datagram: 'strain' holds a number that is not finite (or beyond the float range)",
-    "NaN channel": "malformed datagram: NaN is not a number fts-calib accepts (expected a finite number)",
+    "NaN channel": "malformed datagram: 'strain' holds NaN, not a number fts-calib accepts (expected finite numbers)",
     "1e400 joint": "malformed datagram: 'q' holds a joint reading that is not finite (or beyond the float range)",
+    "NaN quaternion": "malformed datagram: 'quat' holds NaN, not a number fts-calib accepts (expected finite numbers)",
+    "reflection R": "malformed datagram: 'R' has determinant -1: a reflection, not a rotation (expected det +1)",
 }
 
 

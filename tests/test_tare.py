@@ -66,8 +66,8 @@ def test_cli_tare_updates_the_file_and_keeps_the_history(tmp_path, setup, ur5, r
     updated = load_calibration(file)
     assert len(updated.offset_history) == 2 and updated.offset_history[0]["D"] == cal.D.tolist()
     np.testing.assert_allclose(updated.D - cal.D, SHIFT, atol=ATOL_SHIFT)
-    assert main(["tare", "--calibration", str(file), str(path), "--configuration", "A"]) == ExitCode.CONFIG
-    assert "needs --robot" in capsys.readouterr().err
+    assert main(["tare", "--calibration", str(file), str(path), "--configuration", "A"]) == ExitCode.RECORDING  # no robot: orientations
+    assert "no --robot given, so the recording must give the sensor's orientation" in capsys.readouterr().err
 
 
 def test_re_tare_from_a_live_window(setup, rng):

@@ -11,7 +11,7 @@ import argparse
 
 from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
-from .feed_arguments import add_recording, add_ur
+from .feed_arguments import add_recording, add_robot_or_orientation, add_ur
 from .monitor_arguments import add_monitor
 from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
 from .parser import Parser, add_address, add_command, plot_path
@@ -20,22 +20,9 @@ from .sensor_arguments import add_prior, add_sensor
 from .service_arguments import add_export, add_payload, add_tare
 
 
-def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool_required: bool = True, orientations: bool = False) -> None:
-    if orientations:  # the recording may give the sensor's orientation instead of joints
-        parser.add_argument(
-            "--robot",
-            help="robot definition: a shipped name (ur5) or a YAML path; without it the recording gives the sensor's "
-            "orientation (columns qw,qx,qy,qz or roll,pitch,yaw or tcp_rx,tcp_ry,tcp_rz; gravity -Z of the world)",
-        )
-        parser.add_argument(
-            "--mount",
-            dest="mount_rpy",
-            nargs=3,
-            type=float,
-            metavar=("R", "P", "Y"),
-            help="without --robot: roll, pitch, yaw in rad from the frame the recording's orientation gives (e.g. the "
-            "TCP of tcp_rx,tcp_ry,tcp_rz) to the sensor (default: 0 0 0)",
-        )
+def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool_required: bool = True, orientations: str = "") -> None:
+    if orientations:  # the recording or feed (this text) may give the sensor's orientation instead of joints
+        add_robot_or_orientation(parser, orientations)
     else:
         parser.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
     if tool_required:
@@ -137,8 +124,8 @@ def _add_calibrate(commands) -> None:
         "  fts-calib calibrate --robot ur5 --tool paper_tool run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
         "  fts-calib calibrate --robot ur5 --tool paper_tool --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
     )
-    add_recording(cal)
-    _robot_and_tool(cal, orientations=True)
+    add_recording(cal, pose=True)
+    _robot_and_tool(cal, orientations="the recording")
     add_sensor(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
     cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
@@ -176,9 +163,11 @@ def _add_live(commands) -> None:
         "through RTDE (with --ur-wrench also the channels: the built-in sensor's wrench); --configuration names the "
         "tool configuration mounted, so that one run per configuration (--resume) needs no tool datagram.",
         "fts-calib live --robot ur5 --tool paper_tool --listen 127.0.0.1:5005 -o calibration.yaml\n"
-        "  fts-calib live --robot ur5 --tool paper_tool --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml",
+        "  fts-calib live --robot ur5 --tool paper_tool --ur 192.168.1.10 --ur-wrench --sensor factory_sensor --configuration A -o ur.yaml"
+        "\n"
+        "  fts-calib live --tool paper_tool --listen 127.0.0.1:5005 -o calibration.yaml   # datagrams with R or quat, no joints",
     )
-    _robot_and_tool(live)
+    _robot_and_tool(live, orientations="the feed")
     add_sensor(live)
     add_prior(live)
     live.add_argument(
@@ -278,7 +267,7 @@ def _add_validate(commands) -> None:
         "Exits 1 when an error exceeds --max-error, or when less than --min-coverage of the samples could be compared.",
         "fts-calib validate --calibration calibration.yaml --robot ur5 --tool validation_tool validation.csv --plot validation.png",
     )
-    add_recording(val)
+    add_recording(val, pose=True)
     val.add_argument(
         "--calibration",
         dest="calibrations",
@@ -292,7 +281,7 @@ def _add_validate(commands) -> None:
         metavar="CALIBRATION",
         help="a reference calibration compared too, e.g. the sensor's factory ATI .cal (the same as a second --calibration)",
     )
-    _robot_and_tool(val, pipeline=False, tool_required=False, orientations=True)
+    _robot_and_tool(val, pipeline=False, tool_required=False, orientations="the recording")
     val.add_argument("--sensor", default="sensor", help="sensor configuration or ATI .cal: its full scale (default: sensor)")
     val.add_argument("--full-scale-force", type=float, help="full scale of the forces in N (default: the sensor file's)")
     val.add_argument("--full-scale-moment", type=float, help="full scale of the moments in N·m (default: the sensor file's)")

@@ -47,6 +47,7 @@ def run(
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
     joint_stamps: str = BagTopics.joint_stamps,
+    pose_topic: str = BagTopics.pose,
     offsets: str | None = None,
     prior: str | Path | None = None,
     prior_weight: float = 1.0,
@@ -81,6 +82,7 @@ def run(
         channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
         joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
+        pose_topic: Without ``robot``: a bag's geometry_msgs/msg/PoseStamped topic of the sensor's orientation.
         offsets: The offset model ('auto', 'constant', 'per-configuration', 'drift'); the
             pipeline file's (default auto) when None.
         prior: A calibration to shrink C_bar toward (fts-calib YAML or ATI ``.cal``, of the
@@ -125,7 +127,7 @@ def run(
         joints_in_degrees=joints_in_degrees,
         progress=bar,
         accept_poor_fit=accept_poor_fit,
-        topics=BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps),
+        topics=BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps, pose_topic),
         layout=layout,
         prior=shrink,
         full_scale=spec.full_scale,

@@ -20,12 +20,52 @@ RECORDING_HELP = (
 )
 
 
-def add_recording(parser: argparse.ArgumentParser) -> None:
-    """The recording argument (a CSV, or ROS 2 bags) and the topic names of a bag."""
+#: What a feed gives instead of joints when there is no ``--robot`` (fts_calib.robot.orientation).
+ORIENTATION_HELP = (
+    "CSV columns qw,qx,qy,qz or roll,pitch,yaw or tcp_rx,tcp_ry,tcp_rz; a bag's geometry_msgs/msg/PoseStamped topic; "
+    'datagrams with an "R" or "quat" field; gravity -Z of the world'
+)
+
+
+def add_robot_or_orientation(parser: argparse.ArgumentParser, what: str = "the recording", required_for: str = "", note: str = "") -> None:
+    """``--robot`` (optional) and ``--mount R P Y``: joints and a robot, or a feed that gives the sensor's orientation.
+
+    Args:
+        parser: The command's parser.
+        what: What gives the orientation without a robot (for the help text).
+        required_for: When the orientation is needed at all (e.g. "with a mounted configuration"), for the help text.
+        note: Appended to the help of ``--mount``.
+    """
+    needed = f" ({required_for})" if required_for else ""
+    parser.add_argument(
+        "--robot",
+        help=f"robot definition: a shipped name (ur5) or a YAML path{needed}; without it {what} gives the sensor's "
+        f"orientation ({ORIENTATION_HELP})",
+    )
+    parser.add_argument(
+        "--mount",
+        dest="mount_rpy",
+        nargs=3,
+        type=float,
+        metavar=("R", "P", "Y"),
+        help=f"without --robot: roll, pitch, yaw in rad from the frame whose orientation {what} gives (e.g. the "
+        f"TCP of tcp_rx,tcp_ry,tcp_rz) to the sensor (default: 0 0 0){note}",
+    )
+
+
+def add_recording(parser: argparse.ArgumentParser, pose: bool = False) -> None:
+    """The recording argument (a CSV, or ROS 2 bags) and the topic names of a bag (``pose``: the pose topic too)."""
     parser.add_argument("recording", nargs="+", metavar="RECORDING", help=RECORDING_HELP)
     default = BagTopics()
     bag = parser.add_argument_group("ROS 2 bags (topic names; docs/formats.md, ROS 2 bags)")
     bag.add_argument("--joints-topic", default=default.joints, help=f"sensor_msgs/msg/JointState topic (default {default.joints})")
+    if pose:
+        bag.add_argument(
+            "--pose-topic",
+            default=default.pose,
+            help=f"without --robot: geometry_msgs/msg/PoseStamped topic of the sensor's orientation, read instead of the joints "
+            f"(default {default.pose})",
+        )
     bag.add_argument(
         "--channels-topic",
         default=default.channels,

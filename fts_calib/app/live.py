@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,7 @@ from .setup import load_prior, load_sensor, load_setup
 
 def run(
     *,
-    robot: str | Path,
+    robot: str | Path | None = None,
     tool: str | Path,
     pipeline: str | Path = "pipeline",
     listen: tuple[str, int] = ("127.0.0.1", 5005),
@@ -52,11 +53,13 @@ def run(
     prior_weight: float = 1.0,
     model: str | None = None,
     report: str | Path | None = None,
+    mount_rpy: Sequence[float] | None = None,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
     Args:
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for datagrams
+            that give the sensor's orientation (``"R"`` or ``"quat"``, :mod:`fts_calib.feeds.protocol`).
         tool: Tool file: a shipped name or a YAML path.
         pipeline: Pipeline settings (filter thresholds, live settings).
         listen: (host, port) to bind; port 0 takes any free port.
@@ -97,6 +100,8 @@ def run(
         report: HTML report of the run to write, also when no calibration is written (its
             diagnosis first; :mod:`fts_calib.app.report_html`); None for none. A resumed run's
             report has no pictures of the samples kept before the checkpoint.
+        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the datagrams'
+            orientation gives to the sensor; None for none.
 
     Returns:
         0 with a calibration written, 1 when the data cannot determine C, 15 when the fit check
@@ -110,7 +115,9 @@ def run(
     inputs = {"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor}
     check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
     check_start(checkpoint, resume, restart)
-    kin, loaded, settings = load_setup(robot, tool, pipeline)
+    if ur is not None and robot is None:
+        raise ConfigError("robot", None, "a robot definition", message="--ur reads a UR's joints: give its robot definition with --robot")
+    kin, loaded, settings = load_setup(robot, tool, pipeline, mount_rpy)
     settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
     settings = settings.with_limits(spec.limits)  # railed samples refused from the start, as the recording's

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,7 @@ from ..model.calibration import load_calibration
 from ..robot.tool import save_tool
 from ..service.payload import MIN_SPREAD_DEG, PayloadEstimate, identify_payload_from_recording
 from .exit_codes import ExitCode, writing
-from .setup import load_kinematics, load_settings
+from .setup import load_robot_or_orientation, load_settings
 
 
 def format_payload(estimate: PayloadEstimate, rows: int) -> str:
@@ -44,35 +45,39 @@ def run(
     *,
     recording: str | Path,
     calibration: str | Path,
-    robot: str | Path,
+    robot: str | Path | None = None,
     output: str | Path,
     name: str = "payload",
     mount: bool = False,
     min_spread_deg: float = MIN_SPREAD_DEG,
     pipeline: str | Path = "pipeline",
+    mount_rpy: Sequence[float] | None = None,
 ) -> int:
     """Identify a payload held still in several orientations and write it as a tool file (``fts-calib payload``).
 
     Args:
         recording: Recording of the payload still in orientations that tilt gravity about two axes.
         calibration: The sensor's calibration file.
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
+            recording that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
         output: Tool file to write (for gravity compensation).
         name: Name of the payload in the tool file.
-        mount: Also estimate a small rotation of the sensor mount.
+        mount: Also estimate a small rotation of the sensor mount (``--estimate-mount``).
         min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes, in [deg].
         pipeline: Pipeline settings (filter thresholds).
+        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
+            orientation gives to the sensor; None for none (``--mount R P Y``).
 
     Returns:
         0.
 
     Raises:
-        ConfigError: ``output`` is one of the inputs (the recording, the calibration).
+        ConfigError: ``output`` is one of the inputs (the recording, the calibration), or ``mount_rpy`` with a robot.
         OSError: ``output`` cannot be written (a folder); checked before any work.
     """
     inputs = {"the recording": recording, "the calibration": calibration, "the robot file": robot, "the pipeline file": pipeline}
     check_outputs({"-o": output}, inputs)
-    kin = load_kinematics(robot)
+    kin = load_robot_or_orientation(robot, mount_rpy)
     settings = load_settings(pipeline)
     found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_spread_deg)
     estimate = found.estimate

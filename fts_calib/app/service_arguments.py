@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .feed_arguments import add_robot_or_orientation
 from .parser import add_address, add_command
 
 #: fts_calib.service.payload.MIN_SPREAD_DEG [deg], written here: importing it would load the
@@ -16,16 +17,17 @@ def add_tare(commands) -> None:
         "tare",
         "new offsets D for a calibration file, from a short still window",
         "Estimate the offsets D again with C_bar kept, from a recording or a live window with the sensor still, "
-        "with nothing mounted or with a known tool configuration (then --robot gives its orientation). The file "
-        "keeps the previous offsets and when they were replaced.",
-        "fts-calib tare --calibration calibration.yaml tare.csv",
+        "with nothing mounted or with a known tool configuration (then --robot gives its orientation, or without it "
+        "the recording or feed gives the sensor's). The file keeps the previous offsets and when they were replaced.",
+        "fts-calib tare --calibration calibration.yaml tare.csv\n"
+        "  fts-calib tare --calibration calibration.yaml --tool paper_tool --configuration A still_A.csv   # qw,qx,qy,qz columns",
     )
     tare.add_argument("recording", nargs="?", help="recording with the sensor still")
     tare.add_argument("--calibration", required=True, help="calibration file to update")
     tare.add_argument("-o", "--output", help="where to write (default: update the calibration file)")
     tare.add_argument("--listen", type=add_address, metavar="HOST:PORT", help="re-tare from a live window on this address instead")
     tare.add_argument("--seconds", dest="window_s", type=float, default=2.0, help="length of the live window in s (default 2)")
-    tare.add_argument("--robot", help="robot definition (needed with a mounted configuration)")
+    add_robot_or_orientation(tare, "the recording or feed", "used with a mounted configuration")
     tare.add_argument("--tool", default="paper_tool", help="tool file of the mounted configuration (default: paper_tool)")
     tare.add_argument("--configuration", help="the mounted configuration (default: nothing mounted)")
     tare.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
@@ -41,14 +43,17 @@ def add_payload(commands) -> None:
         "centre of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for "
         "gravity compensation. Judges the whole set (the spread of the gravity directions, the fit's conditioning) "
         "and refuses one that cannot determine the payload, saying what is missing.",
-        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml",
+        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml\n"
+        "  fts-calib payload --calibration calibration.yaml gripper_tcp.csv --mount 0 0 0.785 -o gripper.yaml   # tcp_rx,tcp_ry,tcp_rz",
     )
     pay.add_argument("recording", help="recording of the payload in several still orientations")
     pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
-    pay.add_argument("--robot", required=True, help="robot definition: a shipped name (ur5) or a YAML path")
+    add_robot_or_orientation(pay, note="; to estimate a small mount rotation: --estimate-mount")
     pay.add_argument("-o", "--output", required=True, help="tool file to write")
     pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
-    pay.add_argument("--mount", action="store_true", help="also estimate a small rotation of the sensor mount")
+    pay.add_argument(
+        "--estimate-mount", dest="mount", action="store_true", help="also estimate a small rotation of the sensor mount (beyond --mount's)"
+    )
     pay.add_argument(
         "--min-spread",
         dest="min_spread_deg",

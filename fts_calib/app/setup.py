@@ -96,6 +96,26 @@ def load_kinematics(robot: str | Path) -> Kinematics:
     return Kinematics(load_robot(resolve(robot, "robots")))
 
 
+def load_robot_or_orientation(robot: str | Path | None, mount_rpy: Sequence[float] | None = None) -> Kinematics:
+    """The robot's kinematics, or without a robot the gimbal of a recording that gives orientations.
+
+    Args:
+        robot: Robot definition: a shipped name or a YAML path; None for the gimbal
+            (:func:`fts_calib.robot.orientation.orientation_kinematics`).
+        mount_rpy: Without a robot: roll, pitch, yaw [rad] from the frame the recording's
+            orientation gives to the sensor, shape (3,); None for none.
+
+    Raises:
+        ConfigError: ``mount_rpy`` with a robot (its file declares the mount), or not 3 finite angles.
+    """
+    if robot is None:
+        mount = validation.finite_array("mount", as_matrix(mount_rpy if mount_rpy is not None else np.zeros(3), (3,), "mount"))
+        return orientation_kinematics(mount)
+    if mount_rpy is not None:
+        raise ConfigError("mount", list(mount_rpy), "no --mount with --robot: the robot file declares the sensor mount")
+    return load_kinematics(robot)
+
+
 def load_setup(
     robot: str | Path | None, tool: str | Path = "paper_tool", pipeline: str | Path = "pipeline", mount_rpy: Sequence[float] | None = None
 ) -> Setup:
@@ -114,11 +134,5 @@ def load_setup(
         FileFormatError: A file with a missing or wrong field.
         ConfigError: ``mount_rpy`` with a robot (its file declares the mount), or not 3 finite angles.
     """
-    if robot is None:
-        mount = validation.finite_array("mount", as_matrix(mount_rpy if mount_rpy is not None else np.zeros(3), (3,), "mount"))
-        kin = orientation_kinematics(mount)
-    elif mount_rpy is not None:
-        raise ConfigError("mount", list(mount_rpy), "no --mount with --robot: the robot file declares the sensor mount")
-    else:
-        kin = load_kinematics(robot)
+    kin = load_robot_or_orientation(robot, mount_rpy)
     return Setup(kin, load_tool(resolve(tool, "configs", "tool")), load_settings(pipeline))

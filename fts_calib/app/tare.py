@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +56,7 @@ def run(
     tool: str | Path = "paper_tool",
     configuration: str | None = None,
     pipeline: str | Path = "pipeline",
+    mount_rpy: Sequence[float] | None = None,
 ) -> int:
     """Estimate the offsets D again, C_bar kept, and write the calibration (``fts-calib tare``).
 
@@ -64,16 +66,19 @@ def run(
         output: Where to write; None updates ``calibration`` in place.
         listen: (host, port) to re-tare from a live window instead of a recording.
         window_s: Length of the live window, in [s].
-        robot: Robot definition (a shipped name or a YAML path); needed with a mounted configuration.
+        robot: Robot definition (a shipped name or a YAML path); with a mounted configuration,
+            None for a recording or feed that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
         tool: Tool file of the mounted configuration.
         configuration: The mounted configuration of ``tool``; None for nothing mounted.
         pipeline: Pipeline settings (filter thresholds).
+        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
+            orientation gives to the sensor; None for none.
 
     Returns:
         0.
 
     Raises:
-        ConfigError: A configuration without a robot, neither a recording nor ``listen``, or
+        ConfigError: Neither a recording nor ``listen``, ``mount_rpy`` with a robot, or
             ``output`` one of the inputs (the recording: ``-o`` is the calibration to write).
     """
     if output is not None:  # without -o the calibration is updated in place: that is the job
@@ -83,11 +88,8 @@ def run(
     current = load_calibration(calibration)
     kin: Kinematics | None = None
     mounted: Tool | None = None
-    if configuration is not None:
-        if robot is None:
-            message = "a mounted configuration needs --robot: the load it puts on the sensor depends on the orientation"
-            raise ConfigError("robot", None, "a robot definition", message=message)
-        kin, mounted, _ = load_setup(robot, tool, pipeline)
+    if configuration is not None:  # the load depends on the orientation: the robot's joints, or the recording's orientation
+        kin, mounted, _ = load_setup(robot, tool, pipeline, mount_rpy)
         mounted.configuration(configuration)  # a clear error for an unknown name, before any waiting
     settings = load_settings(pipeline)
     if recording is not None:

@@ -57,6 +57,7 @@ def run(
     channels_topic: str = BagTopics.channels,
     configuration_topic: str = BagTopics.configuration,
     joint_stamps: str = BagTopics.joint_stamps,
+    pose_topic: str = BagTopics.pose,
     json_path: str | Path | None = None,
     report: str | Path | None = None,
     mount_rpy: Sequence[float] | None = None,
@@ -86,6 +87,7 @@ def run(
         channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
         configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
         joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
+        pose_topic: Without ``robot``: a bag's geometry_msgs/msg/PoseStamped topic of the sensor's orientation.
         json_path: Where to write the errors of the first calibration for scripts,
             ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}`` (N, N·m),
             atomically; None for none. Not written when no sample was compared.
@@ -119,7 +121,7 @@ def run(
     if full_scale_moment is not None:
         full_scale[3:] = full_scale_moment
     full_scale = dataclasses.replace(spec, full_scale=full_scale).full_scale  # the sensor spec refuses <= 0, NaN
-    topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps)
+    topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps, pose_topic)
     result = validate_recording(
         recording_paths(recording), kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic, topics=topics, limits=spec.limits
     )

@@ -10,6 +10,9 @@ contract of DESIGN.md, topic names being options (:class:`BagTopics`):
   the n raw channels, stamped by the bag's log time), or ``geometry_msgs/msg/WrenchStamped``
   (6 channels ``[fx, fy, fz, tx, ty, tz]`` in [N, N·m], header stamps: the ``wrench-6``
   channel layout);
+- or, for a run without a robot, the sensor's orientation: ``geometry_msgs/msg/PoseStamped``
+  (default ``/ft_sensor/pose``, :mod:`fts_calib.feeds.bag_pose`) instead of the joints, stamped
+  as they would be;
 - the tool configuration: ``std_msgs/msg/String`` (default ``/fts_calib/configuration``), a
   configuration name of the tool file from its log time on; or one bag per configuration
   (``RUN_A.mcap:A``, :func:`parse_bag_argument`), the topic then unused.
@@ -34,6 +37,7 @@ synchronizer (a joint stream never reaches into another bag).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import Counter
 from collections.abc import Iterator, Sequence
@@ -46,6 +50,7 @@ from .bag_checks import check_clocks, refuse_repeated_parts
 from .bag_log import (
     FLOAT64_ARRAY,
     JOINT_STATE,
+    POSE_STAMPED,
     STRING,
     WRENCH_STAMPED,
     BagPart,
@@ -56,6 +61,7 @@ from .bag_log import (
     seconds,
     stamp_s,
 )
+from .bag_pose import is_pose_run, missing_pose_topic, pose_joints
 from .batch import DUPLICATE, UNKNOWN_TOOL, SampleBatch, repeated_rows
 from .row_notes import MAX_NOTES
 from .sync import Synchronizer
@@ -79,7 +85,8 @@ class BagReader:
     Args:
         parts: The bags, each a :class:`BagPart` or a path (``RUN.mcap:A`` names its configuration).
         joint_names: The robot's joints, in its order; None for the names of the first joint
-            message, in its order.
+            message, in its order; the gimbal's (``fts_calib.robot.orientation.GIMBAL_JOINTS``)
+            to read the pose topic instead (a run without a robot).
         tool_names: Tool configuration names, in the tool's order; None to accept any name
             (indices in order of appearance, names in :attr:`tool_names`).
         topics: Topic names.
@@ -120,6 +127,8 @@ class BagReader:
             raise ConfigError("recording", "", "at least one bag", message="no bag given")
         self.path = self.parts[0].path
         self.topics = topics or BagTopics()
+        self._pose = is_pose_run(joint_names)  # no robot: the orientation topic stands for the joints
+        self._joints_topic = self.topics.pose if self._pose else self.topics.joints
         self.tool_codes = {name: k for k, name in enumerate(tool_names or [])}
         self._open_tools = tool_names is None
         self.max_gap_s, self.latency_s = float(max_gap_s), float(latency_s)
@@ -132,6 +141,7 @@ class BagReader:
         self._messages = 0
         self._ignored_joints = 0
         self._reader = None  # the bag being read
+        self._reading = self.path  # and its path
         self._joint_index: dict[tuple[str, ...], np.ndarray | None] = {}
         self.joint_names: list[str] = list(joint_names or [])
         self._previous: np.ndarray | None = None  # the last sample placed (time, joints, channels, configuration)
@@ -145,7 +155,8 @@ class BagReader:
                 self._counts.append(self._check_topics(part, reader))
                 if not self.joint_names:
                     self.joint_names = self._first_joint_names(part.path, reader)
-                self._check_joints(part.path, reader)
+                if not self._pose:
+                    self._check_joints(part.path, reader)
                 self._check_clocks(part.path, reader)
                 starts.append(reader.start_time)
             finally:
@@ -182,7 +193,8 @@ class BagReader:
         """The problems kept, then how many more were found (when any): for a report."""
         lines = list(self.problems)
         if self._ignored_joints:
-            lines.append(f"{self._ignored_joints:,} joint message(s) on {self.topics.joints} without every robot joint were ignored")
+            what = "without a unit quaternion" if self._pose else "without every robot joint"
+            lines.append(f"{self._ignored_joints:,} message(s) on {self._joints_topic} {what} were ignored")
         if self.unlisted:
             lines.append(f"and {self.unlisted:,} more problem(s) not listed (the counts by reason are complete)")
         return lines
@@ -201,12 +213,17 @@ class BagReader:
         """Refuse a bag whose topics are missing or of another type; the number of messages to read."""
         topics = reader.topics
         listing = ", ".join(f"{name} ({info.msgtype})" for name, info in sorted(topics.items())) or "none"
-        wanted = [(self.topics.joints, (JOINT_STATE,)), (self.topics.channels, (FLOAT64_ARRAY, WRENCH_STAMPED))]
+        wanted = [
+            (self._joints_topic, (POSE_STAMPED if self._pose else JOINT_STATE,)),
+            (self.topics.channels, (FLOAT64_ARRAY, WRENCH_STAMPED)),
+        ]
         if part.configuration is None:
             wanted.append((self.topics.configuration, (STRING,)))
         for topic, types in wanted:
             info = topics.get(topic)
             expected = " or ".join(types)
+            if info is None and topic == self._joints_topic and self._pose:
+                raise missing_pose_topic(part.path, self.topics, topics, listing)
             if info is None:
                 hint = ""
                 if topic == self.topics.configuration:
@@ -218,7 +235,7 @@ class BagReader:
 
     def _joint_messages(self, reader, limit: int, topic: str | None = None, log: bool = False):
         """The first ``limit`` messages of ``topic`` (the joints' by default), with their log time [ns] when ``log``."""
-        connections = [c for c in reader.connections if c.topic == (topic or self.topics.joints)]
+        connections = [c for c in reader.connections if c.topic == (topic or self._joints_topic)]
         for count, (connection, log_ns, raw) in enumerate(reader.messages(connections)):
             if count >= limit:
                 return
@@ -237,12 +254,12 @@ class BagReader:
             (stamp_s(m.header.stamp) if wrench else seconds(log_ns), seconds(log_ns))
             for log_ns, m in self._joint_messages(reader, PEEK_MESSAGES, self.topics.channels, log=True)
         ]
-        check_clocks(path, self.topics, joints, channels, wrench)
+        check_clocks(path, dataclasses.replace(self.topics, joints=self._joints_topic), joints, channels, wrench)
 
     def _first_joint_names(self, path: Path, reader) -> list[str]:
         for message in self._joint_messages(reader, 1):
             return list(message.name)
-        raise BagError(path, self.topics.joints, "no joint message: the bag has the topic but no message on it")
+        raise BagError(path, self._joints_topic, "no joint message: the bag has the topic but no message on it")
 
     def _check_joints(self, path: Path, reader) -> None:
         """Refuse a bag none of whose first joint messages holds every robot joint."""
@@ -275,12 +292,13 @@ class BagReader:
     def _read(self, part: BagPart) -> Iterator[SampleBatch]:
         from rosbags.highlevel import AnyReaderError
 
-        reader = self._reader = open_bag(part.path)
+        reader, self._reading = open_bag(part.path), part.path
+        self._reader = reader
         try:
             sync = Synchronizer(self.joint_names, self.continuous, self.max_gap_s, self.latency_s, n_channels=self.n_channels)
             if part.configuration is not None:
                 sync.add_tool(-math.inf, part.configuration)
-            wanted = {self.topics.joints, self.topics.channels}
+            wanted = {self._joints_topic, self.topics.channels}
             if part.configuration is None:
                 wanted.add(self.topics.configuration)
             connections = [c for c in reader.connections if c.topic in wanted]
@@ -291,7 +309,7 @@ class BagReader:
                 except AnyReaderError as exc:
                     self._malformed(part, connection.topic, log_ns, exc)
                     continue
-                if connection.topic == self.topics.joints:
+                if connection.topic == self._joints_topic:
                     self._add_joints(sync, log_ns, message)
                 elif connection.topic == self.topics.channels:
                     self._add_channels(sync, connection.msgtype, log_ns, message)
@@ -313,6 +331,14 @@ class BagReader:
         self._note(f"{part.path}, topic '{topic}' at {seconds(log_ns):.9f} s: cannot decode the message ({exc}); skipped")
 
     def _add_joints(self, sync: Synchronizer, log_ns: int, message) -> None:
+        if self._pose:
+            joints = pose_joints(message)
+            if isinstance(joints, str):
+                self._ignored_joints += 1
+                self._note(f"{self._reading}, topic '{self._joints_topic}' at {seconds(log_ns):.9f} s: {joints}; ignored")
+            else:
+                sync.add_joints(self._joint_time(log_ns, message), joints)
+            return
         index = self._index(tuple(message.name))
         position = np.asarray(message.position, dtype=float)
         if index is None or len(position) != len(message.name):

@@ -17,6 +17,7 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64_ARRAY = "std_msgs/msg/Float64MultiArray"
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 STRING = "std_msgs/msg/String"
+POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 
 #: Where a joint message's time is read: its header stamp (the contract's default) or its log time.
 JOINT_STAMPS = ("header", "log")
@@ -39,15 +40,19 @@ class BagTopics:
         joints: ``sensor_msgs/msg/JointState`` topic.
         channels: ``std_msgs/msg/Float64MultiArray`` or ``geometry_msgs/msg/WrenchStamped`` topic.
         configuration: ``std_msgs/msg/String`` topic of the tool configuration.
-        joint_stamps: The time of a joint message: ``header`` (its header stamp) or ``log``
+        joint_stamps: The time of a joint (or pose) message: ``header`` (its header stamp) or ``log``
             (the bag's log time: for a log of simulated time whose header stamps stay 0, or
             a driver stamping on another clock).
+        pose: ``geometry_msgs/msg/PoseStamped`` topic of the sensor's orientation, read
+            instead of ``joints`` when there is no robot (:mod:`fts_calib.robot.orientation`):
+            its quaternion gives ``R_world_sensor``, or the TCP's with a mount rotation.
     """
 
     joints: str = "/joint_states"
     channels: str = "/ft_sensor/raw"
     configuration: str = "/fts_calib/configuration"
     joint_stamps: str = "header"
+    pose: str = "/ft_sensor/pose"
 
     def __post_init__(self):
         if self.joint_stamps not in JOINT_STAMPS:

@@ -3,11 +3,20 @@
 ::
 
     {"type": "joints", "t": 12.345, "q": {"shoulder_pan_joint": 0.1, ...}, "seq": 41}
+    {"type": "joints", "t": 12.345, "R": [r11, r12, r13, r21, ..., r33]}   (or "R": [[r11, r12, r13], ...])
+    {"type": "joints", "t": 12.345, "quat": [w, x, y, z]}
     {"type": "strain", "t": 12.346, "strain": [s1, ..., sn], "temperature": 31.2, "seq": 42}
     {"type": "tool",   "t": 12.0,   "name": "B", "seq": 43}
     {"type": "end", "seq": 44}
 
 ``t`` is the sender's clock in [s], one clock for both streams; joint readings in [rad];
+instead of joint readings, a joints message may give the sensor's orientation (for a run
+without a robot, :mod:`fts_calib.robot.orientation`): ``"R"``, the rotation matrix
+``R_world_sensor`` row-major (9 numbers or 3 rows), or ``"quat"``, its unit quaternion
+``[w, x, y, z]`` (with a mount rotation, the orientation of the frame the sensor is mounted on).
+One farther than :data:`~fts_calib.robot.orientation.UNIT_TOLERANCE` from a rotation (a
+quaternion of another norm, an R not orthonormal or a reflection), of the wrong length or
+not finite, is malformed;
 strains raw, one value per channel of the sensor (8 for the paper's, 6 for a factory
 wrench; the synchronizer counts and skips a message of another length); ``temperature``
 is optional, the sensor's temperature in [°C] (for the drift offset model). ``seq`` is
@@ -45,6 +54,19 @@ class Joints:
 
 
 @dataclass(frozen=True)
+class Orientation:
+    """The sensor's orientation at time ``t`` [s]: ``R`` row-major (9 numbers), from the datagram's ``field`` ('R' or 'quat').
+
+    ``seq``: the sender's datagram number, or None.
+    """
+
+    t: float
+    R: tuple[float, ...]
+    field: str = "R"
+    seq: int | None = None
+
+
+@dataclass(frozen=True)
 class Strain:
     """Raw channels (n values) at time ``t`` [s]; ``seq``: the sender's datagram number, or None; ``temperature`` [°C] or None."""
 
@@ -70,7 +92,10 @@ class End:
     seq: int | None = None
 
 
-Message = Joints | Strain | ToolChange | End
+Message = Joints | Orientation | Strain | ToolChange | End
+
+#: The fields of a joints message that give an orientation instead of joint readings.
+ORIENTATION_FIELDS = ("R", "quat")
 
 
 def _time(obj: dict) -> float:
@@ -89,6 +114,52 @@ def _seq(obj: dict) -> int | None:
     return seq
 
 
+def _orientation(obj: dict, seq: int | None) -> Orientation:
+    given = [name for name in ORIENTATION_FIELDS if name in obj]
+    if len(given) > 1:
+        raise ProtocolError("malformed", "a joints message gives both 'R' and 'quat': give one orientation")
+    field = given[0]
+    value = obj[field]
+    items = value if isinstance(value, list) else []
+    if items and all(isinstance(row, list) for row in items):  # rows of a matrix
+        items = [v for row in items for v in row]
+    if not items or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in items):
+        shape = "[w, x, y, z]" if field == "quat" else "9 numbers row-major, or 3 rows of 3"
+        raise ProtocolError("malformed", f"'{field}' must be a list of numbers: {shape}")
+    from ..robot.orientation import checked_rotation  # lazily: pinocchio is not for the parser of the command line
+
+    try:
+        R = checked_rotation(value, field)
+    except ValueError as exc:
+        raise ProtocolError("malformed", str(exc)) from None
+    return Orientation(_time(obj), tuple(R.ravel().tolist()), field, seq)
+
+
+def _named(data: bytes, problem: str) -> str:
+    """``problem`` with the field that holds a NaN or an infinity named (the datagram, at most MAX_DATAGRAM bytes, read again)."""
+    found: list[str] = []
+
+    def constant(name: str) -> float:
+        found.append(name)
+        return math.nan
+
+    try:
+        obj = json.loads(data, parse_constant=constant)
+    except (UnicodeDecodeError, ValueError, RecursionError):
+        return problem
+    if not found or not isinstance(obj, dict):
+        return problem
+    fields = [key for key, value in obj.items() if not math.isfinite(sum(_numbers(value)))]
+    named = ", ".join(repr(k) for k in fields)
+    return f"{named} holds {found[0]}, not a number fts-calib accepts (expected finite numbers)" if fields else problem
+
+
+def _numbers(value) -> list[float]:
+    if isinstance(value, (list, dict)):
+        return [v for item in (value.values() if isinstance(value, dict) else value) for v in _numbers(item)]
+    return [value] if isinstance(value, float) else []
+
+
 def decode(data: bytes) -> Message:
     """Parse one datagram.
 
@@ -100,7 +171,7 @@ def decode(data: bytes) -> Message:
     try:
         obj = loads_json(data, MAX_NESTING)
     except LimitError as exc:
-        raise ProtocolError("malformed", str(exc)) from None
+        raise ProtocolError("malformed", _named(data, str(exc))) from None
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise ProtocolError("malformed", f"not JSON ({exc})") from None
     if not isinstance(obj, dict):
@@ -118,6 +189,8 @@ def decode(data: bytes) -> Message:
         if not math.isfinite(sum(strain)):  # 1e400 parses as inf; one sum tells any non-finite value
             raise ProtocolError("malformed", "'strain' holds a number that is not finite (or beyond the float range)")
         return Strain(_time(obj), strain, seq, None if heat is None else float(heat))
+    if kind == "joints" and "q" not in obj and any(name in obj for name in ORIENTATION_FIELDS):
+        return _orientation(obj, seq)
     if kind == "joints":
         q = obj.get("q")
         if (
@@ -125,7 +198,7 @@ def decode(data: bytes) -> Message:
             or not q
             or not all(isinstance(k, str) and isinstance(v, (int, float)) and not isinstance(v, bool) for k, v in q.items())
         ):
-            raise ProtocolError("malformed", "'q' must map joint names to numbers")
+            raise ProtocolError("malformed", "'q' must map joint names to numbers (or give the orientation: 'R' or 'quat')")
         joints = {k: float(v) for k, v in q.items()}
         if not math.isfinite(sum(joints.values())):
             raise ProtocolError("malformed", "'q' holds a joint reading that is not finite (or beyond the float range)")
@@ -149,6 +222,8 @@ def encode(message: Message) -> bytes:
             obj["temperature"] = message.temperature
     elif isinstance(message, Joints):
         obj = {"type": "joints", "t": message.t, "q": message.q}
+    elif isinstance(message, Orientation):
+        obj = {"type": "joints", "t": message.t, "R": list(message.R)}
     elif isinstance(message, ToolChange):
         obj = {"type": "tool", "t": message.t, "name": message.name}
     else:

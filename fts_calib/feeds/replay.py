@@ -4,7 +4,10 @@ Every row becomes a strain message; joint messages go at ``joint_rate_hz`` (ever
 default, with the row's readings) and carry stamps late by ``latency_s`` (as a joint feed
 with a constant latency would); a tool message announces each configuration when it
 starts and is repeated every second (so that a receiver restarted mid-run learns it); an
-``end`` message closes the run. Every message carries ``seq``, its number in the
+``end`` message closes the run. A CSV recording that gives the sensor's orientation instead
+of joints (columns ``qw,qx,qy,qz``, ``roll,pitch,yaw`` or ``tcp_rx,tcp_ry,tcp_rz``,
+:mod:`fts_calib.robot.orientation`) sends it as ``"R"`` (row-major), for ``live`` without a
+robot (with its ``--mount`` for the TCP form). Every message carries ``seq``, its number in the
 sender's sequence (0, 1, 2, ...), so that the receiver counts what the network loses.
 ``loss`` drops that fraction of the joint and strain messages (after numbering them: they
 show as gaps) and ``reorder`` delays that fraction by one to five messages (seeded).
@@ -28,7 +31,7 @@ import numpy as np
 from ..core import validation
 from ..core.exceptions import ConfigError, RecordingError
 from .bag_log import BagTopics
-from .protocol import End, Joints, Message, Strain, ToolChange, encode
+from .protocol import End, Joints, Message, Orientation, Strain, ToolChange, encode
 from .source import MIN_COVERAGE, open_recording
 
 _TOOL_REPEAT_S = 1.0  # [s] of recording time between tool announcements
@@ -66,6 +69,17 @@ class ReplayOptions:
             object.__setattr__(self, name, value)
 
 
+def _orientation_columns(names: Sequence[str]):
+    """For joint columns that are exactly an orientation form's: the function of one row [its columns] -> R (3, 3); else None."""
+    from ..robot.orientation import ORIENTATION_FORMS, orientation_form, rotations  # lazily: pinocchio is not for the parser
+
+    form = orientation_form(names)
+    if form is None or set(names) != set(ORIENTATION_FORMS[form]):
+        return None
+    order = [list(names).index(column) for column in ORIENTATION_FORMS[form]]
+    return lambda row: rotations(form, np.asarray(row, dtype=float)[order][None])[0]
+
+
 def messages(
     path: str | Path | Sequence[str | Path], options: ReplayOptions, topics: BagTopics | None = None
 ) -> Iterator[tuple[float, Message]]:
@@ -85,6 +99,7 @@ def messages(
     placed = 0
     with open_recording(path, None, None, topics=topics) as reader:
         names = reader.joint_names
+        as_rotation = _orientation_columns(names)
         current, next_joint, next_tool, last = None, -np.inf, -np.inf, 0.0
         period = 0.0 if options.joint_rate_hz is None else 1.0 / options.joint_rate_hz
         for chunk in reader:
@@ -99,7 +114,10 @@ def messages(
                     yield t, ToolChange(t, current, next(seq))
                 if t >= next_joint:
                     next_joint = t + period if period else t
-                    yield t, Joints(t + options.latency_s, dict(zip(names, q.tolist(), strict=True)), next(seq))
+                    if as_rotation is None:
+                        yield t, Joints(t + options.latency_s, dict(zip(names, q.tolist(), strict=True)), next(seq))
+                    else:
+                        yield t, Orientation(t + options.latency_s, tuple(as_rotation(q).ravel().tolist()), "R", next(seq))
                 yield t, Strain(t, tuple(s.tolist()), next(seq), temperature)
                 last = t
                 placed += 1

@@ -21,8 +21,10 @@ import threading
 import warnings
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from ..core.exceptions import ConfigError, FtsCalibWarning, ProtocolError
-from .protocol import End, Joints, Message, Strain, ToolChange, decode
+from .protocol import End, Joints, Message, Orientation, Strain, ToolChange, decode
 from .sync import Synchronizer
 
 _RECV_BUFFER = 1 << 22  # socket receive buffer [bytes]
@@ -272,6 +274,8 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
                     f"malformed datagram: a joints message with unknown joints {unknown} and missing {missing} "
                     "(expected exactly the robot's)"
                 )
+    elif isinstance(message, Orientation):
+        _feed_orientation(message, sync, stats)
     elif isinstance(message, ToolChange):
         stats.tool += 1
         if sync is not None:
@@ -279,3 +283,21 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
     elif isinstance(message, End):
         stats.ended = True
     return message
+
+
+def _feed_orientation(message: Orientation, sync: Synchronizer | None, stats: LiveStats) -> None:
+    """An orientation datagram as the gimbal's joints (a run without a robot); malformed when a robot's joints are expected."""
+    from ..robot.orientation import GIMBAL_JOINTS, gimbal_angles  # lazily: pinocchio is not for the parser of the command line
+
+    if sync is None:
+        stats.joints += 1
+    elif tuple(sync.joint_names) == GIMBAL_JOINTS:
+        angles = gimbal_angles(np.array(message.R).reshape(3, 3))[0]
+        sync.add_joints(message.t, dict(zip(GIMBAL_JOINTS, angles.tolist(), strict=True)))
+        stats.joints += 1
+    else:
+        stats.malformed += 1
+        stats.first_malformed = stats.first_malformed or (
+            f"malformed datagram: a joints message with the orientation '{message.field}' but the robot's joints "
+            f"{list(sync.joint_names)} are expected (without --robot the feed may give the orientation)"
+        )

@@ -38,6 +38,11 @@ ORIENTATION_FORMS = {
     "roll-pitch-yaw": ("roll", "pitch", "yaw"),
     "tcp": ("tcp_rx", "tcp_ry", "tcp_rz"),
 }
+#: Largest departure from a rotation accepted of one given orientation (a datagram's ``R`` or
+#: ``quat``, a bag's quaternion): ``| |q| - 1 |``, or the largest element of ``R^T R - I``.
+#: Within it the value is made exact (``q / |q|``; the nearest rotation to ``R``); beyond it,
+#: or with ``det R < 0`` (a reflection), it is refused.
+UNIT_TOLERANCE = 1e-3
 #: The gimbal's frame the sensor is mounted on.
 FLANGE = "flange"
 
@@ -90,6 +95,43 @@ def rotations(form: str, values: np.ndarray) -> np.ndarray:
     if form == "roll-pitch-yaw":
         return np.array([pin.rpy.rpyToMatrix(*row) for row in values])
     return np.array([pin.exp3(row) for row in values])
+
+
+def checked_rotation(value, field: str) -> np.ndarray:
+    """One given orientation as a rotation matrix, shape (3, 3), or a ValueError naming ``field``.
+
+    Args:
+        value: A quaternion ``[w, x, y, z]`` (``field`` ``'quat'``), or a rotation matrix, row-major:
+            9 numbers or 3 rows of 3 (any other ``field``, e.g. ``'R'``).
+        field: The name of the value, for the message.
+
+    Raises:
+        ValueError: Not numbers, of the wrong length, not finite, or farther than
+            :data:`UNIT_TOLERANCE` from a unit quaternion or a rotation (a reflection too).
+    """
+    quaternion = field == "quat"
+    expected = "a unit quaternion [w, x, y, z]" if quaternion else "a rotation matrix, 9 numbers row-major or 3 rows of 3"
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"'{field}' must be {expected}, got {value!r:.80}") from None
+    if array.shape not in (((4,),) if quaternion else ((9,), (3, 3))):
+        raise ValueError(f"'{field}' must be {expected}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"'{field}' holds a number that is not finite: expected {expected}")
+    if quaternion:
+        norm = float(np.linalg.norm(array))
+        if abs(norm - 1.0) > UNIT_TOLERANCE:
+            raise ValueError(f"'{field}' has norm {norm:.6g}, not 1 (within {UNIT_TOLERANCE:g}): expected {expected}")
+        return rotations("quaternion", array[None])[0]
+    R = array.reshape(3, 3)
+    departure = float(np.abs(R.T @ R - np.eye(3)).max())
+    if departure > UNIT_TOLERANCE:
+        raise ValueError(f"'{field}' is not orthonormal (R^T R - I up to {departure:.3g}, at most {UNIT_TOLERANCE:g}): expected {expected}")
+    if np.linalg.det(R) < 0:
+        raise ValueError(f"'{field}' has determinant {np.linalg.det(R):.6g}: a reflection, not a rotation (expected det +1)")
+    u, _, vt = np.linalg.svd(R)
+    return u @ vt
 
 
 def gimbal_angles(R: np.ndarray) -> np.ndarray:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -309,6 +310,8 @@ def tare_live(
     receiver = UdpReceiver(host, port)
     host, port = receiver.address[:2]
     sync = None if kin is None else Synchronizer(kin.joint_names, kin.continuous, settings.live.max_gap_s, settings.live.latency_s)
+    if sync is not None and configuration is not None:  # mounted throughout: the sender need not announce it
+        sync.add_tool(-math.inf, configuration)
     stats = LiveStats()
     strains: list[tuple[float, ...]] = []
     times: list[float] = []

@@ -3,7 +3,8 @@
 The bag follows the robot-log contract of DESIGN.md (:mod:`fts_calib.feeds.bag`): joint
 states with header stamps, the channels as ``std_msgs/msg/Float64MultiArray`` at their log
 time or as ``geometry_msgs/msg/WrenchStamped`` with header stamps (6 channels), and the tool
-configuration as ``std_msgs/msg/String`` when it changes. Written with the ``rosbags``
+configuration as ``std_msgs/msg/String`` when it changes; or, for a run without a robot, the
+sensor's orientation as ``geometry_msgs/msg/PoseStamped`` instead of the joints. Written with the ``rosbags``
 library's writer; times in [s] become integer nanoseconds (rounded).
 """
 
@@ -15,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import ConfigError, ShapeError
-from ..feeds.bag_log import FLOAT64_ARRAY, JOINT_STATE, STRING, WRENCH_STAMPED, BagTopics
+from ..feeds.bag_log import FLOAT64_ARRAY, JOINT_STATE, POSE_STAMPED, STRING, WRENCH_STAMPED, BagTopics
 from ..feeds.source import open_recording
 
 #: Storage plugins of a bag, by name.
@@ -36,6 +37,7 @@ class BagWriter:
         channels_type: ``std_msgs/msg/Float64MultiArray`` or ``geometry_msgs/msg/WrenchStamped``.
         topics: Topic names.
         configuration_topic: Whether the bag has the configuration topic.
+        poses: The bag has the pose topic (:meth:`pose`) instead of the joint topic.
 
     Raises:
         ConfigError: An unknown storage or channel type.
@@ -48,6 +50,7 @@ class BagWriter:
         channels_type: str = FLOAT64_ARRAY,
         topics: BagTopics | None = None,
         configuration_topic: bool = True,
+        poses: bool = False,
     ):
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
@@ -65,7 +68,11 @@ class BagWriter:
         self._writer = Writer(self.path, version=9, storage_plugin=plugin)
         self._writer.open()
         add = self._writer.add_connection
-        self._joints = add(self.topics.joints, JOINT_STATE, typestore=self._store)
+        self._joints = (
+            add(self.topics.pose, POSE_STAMPED, typestore=self._store)
+            if poses
+            else add(self.topics.joints, JOINT_STATE, typestore=self._store)
+        )
         self._channels = add(self.topics.channels, channels_type, typestore=self._store)
         self._configuration = add(self.topics.configuration, STRING, typestore=self._store) if configuration_topic else None
 
@@ -83,6 +90,15 @@ class BagWriter:
             header=self._header(ns), name=list(names), position=np.array(position, dtype=float), velocity=empty, effort=empty
         )
         self._write(self._joints, ns if log_t is None else _ns(log_t), message)
+
+    def pose(self, t: float, quaternion: Sequence[float], position: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+        """A PoseStamped stamped and logged at ``t`` [s]: orientation ``quaternion`` ``[w, x, y, z]``, ``position`` [m]."""
+        ns, T = _ns(t), self._types
+        w, x, y, z = (float(v) for v in quaternion)
+        pose = T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](*map(float, position)), orientation=T["geometry_msgs/msg/Quaternion"](x, y, z, w)
+        )
+        self._write(self._joints, ns, T[POSE_STAMPED](header=self._header(ns), pose=pose))
 
     def channels(self, t: float, values: Sequence[float], log_t: float | None = None) -> None:
         """Raw channels at ``t`` [s]: the log time of a Float64MultiArray, the header stamp of a WrenchStamped (6 values).
