@@ -111,3 +111,13 @@ def test_a_plot_that_is_not_an_image_is_refused_before_the_job(capsys):
         main(["validate", "--calibration", "c.yaml", "--robot", "ur5", "--tool", "paper_tool", "r.csv", "--plot", "errors.csv"])
     assert info.value.code == ExitCode.USAGE
     assert "argument --plot: 'errors.csv' is not an image file: expected a name ending in .png, .pdf" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["payload", "tare", "calibrate"])
+def test_a_bare_mount_says_what_it_takes_and_names_estimate_mount(command, capsys):
+    argv = [command, "run.csv", "--mount"]
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "roll, pitch, yaw in rad" in err and "--estimate-mount" in err

@@ -19,7 +19,7 @@ def plot_path(text: str) -> str:
 
 
 class Parser(argparse.ArgumentParser):
-    """An argument parser whose error for a missing ``--tool`` names the shipped tools (no tool is assumed)."""
+    """An argument parser whose errors explain: a missing ``--tool`` names the shipped tools, a bare ``--mount`` its values."""
 
     def error(self, message: str):
         """Print the usage and the message (with the shipped tools when ``--tool`` is missing), exit 2."""
@@ -30,6 +30,11 @@ class Parser(argparse.ArgumentParser):
             message += (
                 f"; name the calibration tool mounted: a shipped one ({', '.join(f'--tool {t}' for t in tools)}) "
                 "or your tool YAML (--tool my_tool.yaml): a wrong tool gives a wrong calibration"
+            )
+        elif "argument --mount: expected 3 arguments" in message:
+            message += (
+                ": roll, pitch, yaw in rad from the frame the feed gives to the sensor, e.g. --mount 0 0 1.5708 "
+                "(payload's flag that estimates a small mount rotation is now --estimate-mount)"
             )
         super().error(message)
 
