@@ -285,3 +285,27 @@ def test_simulate_pose_files_writes_one_file_per_pose_and_never_mixes_two_datase
     assert sorted(p.name for p in (tmp_path / "p").iterdir()) == [f"pose_{k:02d}.csv" for k in range(1, 7)]
     assert main(argv) == ExitCode.CONFIG  # a second dataset into the same folder: refused, nothing overwritten
     assert "already holds pose files (pose_01.csv, ... 6 in all)" in capsys.readouterr().err
+
+
+def test_pose_files_with_roll_pitch_yaw_and_no_robot_give_the_joints_calibration(dataset, tmp_path):
+    """The real-world case of the issue: static poses logged as roll/pitch/yaw, one file per pose, no URDF."""
+    import pinocchio as pin
+
+    folder, files, _, kin, *_ = dataset
+    rpy_folder = tmp_path / "rpy"
+    rpy_folder.mkdir()
+    for path in files:
+        table = pd.read_csv(path)
+        R = kin.R_world_sensor(table[list(kin.joint_names)].to_numpy())
+        rpy = np.array([pin.rpy.matrixToRpy(r) for r in R])
+        strains = [c for c in table.columns if c.startswith("strain_")]
+        out = pd.concat([table[["time"]], pd.DataFrame(rpy, columns=["roll", "pitch", "yaw"]), table[[*strains, "tool"]]], axis=1)
+        out.to_csv(rpy_folder / path.name, index=False, float_format="%.17g")
+    code, text = calibrate([folder / "poses" / "*.csv"], tmp_path / "joints.yaml")
+    assert code == ExitCode.OK, text
+    argv = ["calibrate", "--tool", "paper_tool", *LOWCOST, str(rpy_folder / "*.csv"), "-o", str(tmp_path / "rpy.yaml"), "--quiet"]
+    assert main(argv) == ExitCode.OK
+    joints, rpy = load_calibration(tmp_path / "joints.yaml"), load_calibration(tmp_path / "rpy.yaml")
+    assert rpy.model_selection["units"] == joints.model_selection["units"]
+    np.testing.assert_allclose(rpy.C, joints.C, rtol=0, atol=1e-9 * np.abs(joints.C).max())
+    np.testing.assert_allclose(rpy.D, joints.D, rtol=0, atol=1e-9 * np.abs(joints.D).max())
