@@ -65,7 +65,7 @@ def test_a_recording_of_one_configuration_cannot_determine_c(tmp_path, ur5_recor
     assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(only_a), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 1
     text = capsys.readouterr().out
     assert "NO CALIBRATION: insufficient excitation: the information matrix has rank 4 of 7" in text
-    assert "need a second centre of mass: mount configuration B or C" in text
+    assert "one centre of mass (configuration A); mount two more, not on one line with it (B and C of the tool file)" in text
     assert not (tmp_path / "c.yaml").exists()
 
 

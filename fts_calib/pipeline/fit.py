@@ -42,7 +42,7 @@ from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor import WRENCH_AXES
 from ..robot.tool import Tool
 from ..robot.wrench import wrench_matrix
-from .tool_plausibility import implausible_tool
+from .tool_plausibility import MIN_COM_M, implausible_tool
 
 #: Largest accepted ratio of a configuration's residual RMS to the expected noise, per axis.
 #: A consistent fit over hundreds of samples gives 1 +- a few %: 3 leaves room for the
@@ -52,6 +52,11 @@ MAX_RATIO = 3.0
 RELATIVE_FLOOR = 1e-6
 #: Tool configurations up to which every permutation of the labels is tried.
 MAX_PERMUTED = 4
+#: An alternative of the tool file is named only when its largest ratio is at most MAX_RATIO and this
+#: many times below the stated tool's (:mod:`fts_calib.pipeline.diagnosis`): a fit at the noise, never a least-bad guess.
+CLEARLY_BETTER = 2.0
+#: The start of the advice given when no alternative fits.
+UNEXPLAINED = "no simple alternative fits"
 #: Mass factors tried for one configuration (0.01x to 100x).
 _MASS_FACTORS = np.logspace(-2, 2, 161)
 
@@ -274,7 +279,10 @@ def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov, p
             if order != tuple(range(len(configs))):
                 moved = ", ".join(f"the data labelled {names[k]} fit configuration {names[j]}" for k, j in enumerate(order) if k != j)
                 judge(f"configuration labels permuted: {moved}", [configs[j].wrench_matrix for j in order])
+    largest = max(float(np.linalg.norm(c.p_sensor_com)) for c in configs)
     for unit, factor in (("mm", 1e-3), ("cm", 1e-2)):
+        if largest * factor < MIN_COM_M:  # centres of mass within millimetres of the sensor: no calibration tool
+            continue
         judge(
             f"the centres of mass of the tool file are in {unit}, not m (divide them by {1 / factor:g})",
             [wrench_matrix(c.mass, c.p_sensor_com * factor) for c in configs],
@@ -342,7 +350,7 @@ def check_fit(
         return FitCheck("unchecked", float(ratio.max()), residual, expected, "", worst)
     if ratio.max() <= MAX_RATIO:
         return FitCheck("consistent", float(ratio.max()), residual, expected, "", worst)
-    causes = _alternatives(tool, sums, counts, noise_cov, per_configuration)
+    causes = [c for c in _alternatives(tool, sums, counts, noise_cov, per_configuration) if c[1] * CLEARLY_BETTER <= ratio.max()]
     if causes:
         diagnosis = causes[0][0]
     elif tool.com_rank() < 2:
@@ -352,7 +360,7 @@ def check_fit(
         )
     else:
         diagnosis = hint or (
-            "no simple alternative fits: check the tool file (masses, centres of mass in m in the sensor frame), the "
+            f"{UNEXPLAINED}: check the tool file (masses, centres of mass in m in the sensor frame), the "
             "configuration labels, the joint units and the sensor mount; offsets that drift during the run (warm-up, "
             "temperature) or move at a tool change also leave such residuals (--offsets auto or drift models them)"
         )

@@ -11,6 +11,7 @@ the error raised when a solve lacks rank. Units: gravity in [m/s^2], channels ra
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,7 +19,8 @@ import numpy as np
 from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..model.least_squares import unexplained_strain
 from .advice import missing_words, refused_words
-from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
+from .diagnosis import RECORDING_KINDS, Cause, cause, missing_centres, weak_excitation
+from .fit import MAX_RATIO, UNEXPLAINED, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .progress import Progress
 
 if TYPE_CHECKING:
@@ -89,7 +91,8 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
 
     The noise is the filter's noise floor (the strain scatter of the still windows, raw units,
     shape (n,)); without the filter, or with a fixed strain threshold, none is measured and
-    the verdict is 'unchecked'. See :mod:`fts_calib.pipeline.fit`.
+    the verdict is 'unchecked'. See :mod:`fts_calib.pipeline.fit`; a poor fit's diagnosis is
+    the first cause the data support (:mod:`fts_calib.pipeline.diagnosis`).
 
     Args:
         session: The session.
@@ -98,21 +101,30 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
     Returns:
         The check of the model in use (a nonlinear model's by its residual per configuration).
     """
+    return _checked(session, hint)[0]
+
+
+def _checked(session: CalibrationSession, hint: str) -> tuple[FitCheck, Cause | None]:
+    """The fit check of :func:`session_fit_check`, and the cause of a poor linear fit (None otherwise)."""
     noise = None if session.filter is None else session.filter.noise_floor
     in_sums = session._fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
     missing = int(session.kept.sum() - round(float(in_sums.sum())))
     if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
         reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
-        return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
+        return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason), None
     chosen = session.estimator.model_in_use()[0]
     sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
     linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration)  # noise: floored at step/sqrt(12)
+    found = None
+    if linear.verdict == "poor":
+        found = cause(session, linear, per_configuration, hint or UNEXPLAINED, session.joints_in_degrees)
+        linear = replace(linear, diagnosis=found.text)
     residuals = session.estimator.model_residuals()
     if residuals is None:  # the linear model on P Delta: the check above is the model's
-        return linear
+        return linear, found
     rms, C_bar = residuals
     named = {name: rms[k] for k, name in enumerate(session.tool.names) if k in rms}
-    return check_model_fit(session.tool, named, C_bar, noise, session.layout, linear)
+    return check_model_fit(session.tool, named, C_bar, noise, session.layout, linear), found
 
 
 def strains_unexplained(session: CalibrationSession) -> bool:
@@ -129,7 +141,13 @@ def strains_unexplained(session: CalibrationSession) -> bool:
 
 
 def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str, accept_poor_fit: bool) -> PoorFit | InsufficientExcitation:
-    """The error for a solve the estimator refused for rank: a poor fit when the strains show one, else what is missing.
+    """The error for a solve the estimator refused for rank: what the recording lacks, unless the strains show a wrong file.
+
+    In the order of :mod:`fts_calib.pipeline.diagnosis`: configurations recorded that lack a
+    centre of mass of the tool file are named first, whatever the fit; then, when the strains
+    carry a signal the loads cannot produce, a cause the data support (joint units, the tool
+    file's alternatives, a collinear tool file) is a poor fit; a weak excitation or no cause
+    at all leaves the missing rank, with the weakly excited axis named.
 
     Args:
         session: The session.
@@ -138,13 +156,17 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
         accept_poor_fit: Do not turn the refusal into a :class:`PoorFit`.
 
     Returns:
-        :class:`PoorFit` (no calibration) when a wrong tool file or joint unit, not a short
-        sweep, explains the missing rank; otherwise :class:`InsufficientExcitation` in words.
+        :class:`PoorFit` (no calibration) when a wrong tool file or joint unit, not the
+        recording, explains the missing rank; otherwise :class:`InsufficientExcitation` in words.
     """
-    check = session_fit_check(session, hint) if not accept_poor_fit and strains_unexplained(session) else None
-    if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
-        return PoorFit(check, None)
+    short = missing_centres(session)
+    if not short and not accept_poor_fit and strains_unexplained(session):
+        check, found = _checked(session, hint)
+        if not check.ok and (found is None or found.kind not in RECORDING_KINDS):  # a wrong file or unit, not a short sweep
+            return PoorFit(check, None)
+    weak = None if short else weak_excitation(session)
     refused = refused_words(session.checks.skipped, session.seen, int(session.kept.sum()))
     undetermined = session.estimator.undetermined(session.tool.names)
-    words = missing_words(session.tool, session.kept, session._directions, undetermined, hint, refused)
+    said = "; ".join(w for w in (hint, "" if weak is None else weak.text) if w)
+    words = missing_words(session.tool, session.kept, session._directions, undetermined, said, refused)
     return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)
