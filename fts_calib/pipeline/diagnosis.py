@@ -106,35 +106,52 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
     if _seen_span(session)[0] < 2:
         return None
     est = session.estimator
-    sums = est.model_sums(est.model_in_use()[0])
+    chosen = est.model_in_use()[0]
+    rank, condition = _information(est.model_sums(chosen))[:2]
+    if condition <= WEAK_CONDITION:
+        return None
+    axis = _weak_axis(est.model_sums(est._constant()))
+    name, i = WRENCH_AXES[axis], axis % 3
+    others = " or ".join(f"its {a} axis" for a in _AXES if a != _AXES[i])
+    if axis < 3:
+        directions = session._directions.sum(axis=0)  # sum of [u; 1][u; 1]^T over the configurations
+        n = max(directions[3, 3], 1.0)
+        spread = math.sqrt(max(directions[i, i] / n - (directions[i, 3] / n) ** 2, 0.0))
+        seen = f"; gravity's {_AXES[i]} component in the sensor frame has a standard deviation of {spread:.2g} g"
+        motion = f"tilt the sensor's {_AXES[i]} axis up and down (rotate it about {others}) so that gravity's {_AXES[i]} component changes"
+    else:
+        seen = ""
+        motion = f"rotate the sensor about its {_AXES[i]} axis, and tilt it, with the tool's centre of mass off that axis"
+    full = len(chosen.A) + 6
+    how = f"rank {rank} of {full}" if rank < full else f"condition number {condition:.2g}"
+    level = "does not vary" if rank < full else "barely varies"
+    offsets = "" if chosen.model == "constant" else f" with {chosen.model} offsets"
+    text = f"weak excitation: {name} {level} over the kept samples ({how}{offsets}{seen}): {motion}"
+    return Cause("weak excitation", text)
+
+
+def _information(sums: np.ndarray) -> tuple[int, float, np.ndarray, np.ndarray]:
+    """(rank, condition number, eigenvalues, eigenvectors) of the known loads' information ``[W; b]``, scaled to a unit diagonal."""
     known = np.r_[0:6, 12 : len(sums)]
     scaled, _ = _equilibrate(sums[np.ix_(known, known)])
     eig, vec = np.linalg.eigh(scaled)
-    if not eig[-1] > 0:
-        return None
-    missing = eig[0] <= RCOND * eig[-1]
-    condition = math.inf if missing else float(eig[-1] / eig[0])
-    if condition <= WEAK_CONDITION:
-        return None
-    axis = int(np.argmax(np.abs(vec[:6, 0])))
-    name = WRENCH_AXES[axis]
-    directions = session._directions.sum(axis=0)  # sum of [u; 1][u; 1]^T over the configurations
-    n = max(directions[3, 3], 1.0)
-    i = axis % 3
-    spread = math.sqrt(max(directions[i, i] / n - (directions[i, 3] / n) ** 2, 0.0))
-    others = " or ".join(f"its {a} axis" for a in _AXES if a != _AXES[i])
-    if axis < 3:
-        motion = f"tilt the sensor's {_AXES[i]} axis up and down (rotate it about {others}) so that gravity's {_AXES[i]} component changes"
-    else:
-        motion = f"rotate the sensor about its {_AXES[i]} axis, and tilt it, with the tool's centre of mass off that axis"
-    level = "does not vary" if missing else "barely varies"
-    how = f"rank {int(np.sum(eig > RCOND * eig[-1]))} of {len(eig)}" if missing else f"condition number {condition:.2g}"
-    text = (
-        f"weak excitation: {name} {level} over the kept samples ({how} of the loads' information; the unit gravity "
-        f"direction's {_AXES[i]} component in the sensor frame has a standard deviation of {spread:.2g}): {motion}; "
-        "a plan of fts-calib trajectory excites every axis"
-    )
-    return Cause("weak excitation", text)
+    top = eig[-1] if eig[-1] > 0 else 1.0
+    rank = int(np.sum(eig > RCOND * top))
+    return rank, (float(top / eig[0]) if rank == len(eig) else math.inf), eig, vec
+
+
+def _weak_axis(sums: np.ndarray) -> int:
+    """The wrench axis (0-5) that the loads vary least on its own, with constant offsets.
+
+    With full rank, the largest variance inflation ``(S^-1)_jj`` of a wrench column in the
+    scaled information (how little of it the other columns leave); below full rank, the
+    wrench column with the largest weight in a missing direction.
+    """
+    rank, _, eig, vec = _information(sums)
+    if rank < len(eig):
+        return int(np.argmax(np.abs(vec[:6, 0])))
+    inflation = np.einsum("ij,j,ij->i", vec[:6], 1.0 / eig, vec[:6])  # diag of the inverse, wrench columns
+    return int(np.argmax(inflation))
 
 
 def _kept(session: CalibrationSession):
