@@ -74,9 +74,11 @@ def _tool_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.nda
         mount = f"{_listed([names[k] for k in others])} of the tool file" if others else "the tool file has no other configuration"
         words.append(f"one centre of mass ({share}); mount two more, not on one line with it ({mount})")
     elif span == 1:
-        off = [names[k] for k in others if np.linalg.matrix_rank(np.vstack([coms[seen] - coms[seen[0]], coms[k] - coms[seen[0]]]), tol=1e-6) == 2]
+        base = coms[seen] - coms[seen[0]]
+        off = [names[k] for k in others if np.linalg.matrix_rank(np.vstack([base, coms[k] - coms[seen[0]]]), tol=1e-6) == 2]
         if off:
-            words.append(f"centres of mass on one line (configurations {label}); mount one more off that line ({' or '.join(off)} of the tool file)")
+            mount = f"mount one more off that line ({' or '.join(off)} of the tool file)"
+            words.append(f"centres of mass on one line (configurations {label}); {mount}")
         else:
             words.append(
                 f"the centres of mass of {label} and every other configuration lie on one line: the tool "

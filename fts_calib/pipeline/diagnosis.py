@@ -249,7 +249,9 @@ def nonlinear(session: CalibrationSession, check: FitCheck, per_configuration: b
     return Cause("nonlinear", text)
 
 
-def cause(session: CalibrationSession, check: FitCheck, per_configuration: bool, unexplained: str, joints_in_degrees: bool) -> Cause:
+def cause(
+    session: CalibrationSession, check: FitCheck, per_configuration: bool, unexplained: str, joints_in_degrees: bool, linear: bool = True
+) -> Cause:
     """The cause of a poor fit, in the order of the module docstring (causes 2 to 5).
 
     Args:
@@ -260,16 +262,16 @@ def cause(session: CalibrationSession, check: FitCheck, per_configuration: bool,
         unexplained: The start of :func:`~fts_calib.pipeline.fit.check_fit`'s generic advice
             (no alternative fits), or of the hint that replaces it.
         joints_in_degrees: The joints were converted from degrees.
+        linear: The model in use is the linear one (else a nonlinear one is, and cause 4 is not tried).
     """
     if implausible_tool(session.tool):  # a value no residual shows: certain whatever the fit
         return Cause("tool file", check.diagnosis)
     for found in (
         joint_units(session, check, per_configuration, joints_in_degrees),
         weak_excitation(session),
-        nonlinear(session, check, per_configuration),
+        nonlinear(session, check, per_configuration) if linear else None,
     ):
         if found is not None:
             return found
     generic = not check.diagnosis or check.diagnosis.startswith(unexplained)
     return Cause("unexplained" if generic else "tool file", check.diagnosis)
-

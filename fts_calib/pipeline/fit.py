@@ -22,9 +22,12 @@ a floor of ``1e-6`` of the tool's weight (and of its moment ``m g |c|``) where t
 is below it (noiseless or quantized data). A fit is *consistent* when every ratio
 ``rms_c / sigma_W`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap
 alternatives are tried on the same sums: configuration labels permuted, centres of mass
-written in mm or cm, one configuration's mass mistyped, and a collinear tool file (which
-no strain data can fit when the mounted tool was not collinear). The first that fits is
-named in the diagnosis. Two mistakes scale C without leaving a residual, so their values
+written in mm or cm (only when the result is a plausible tool's), one configuration's mass
+mistyped, and a collinear tool file (which no strain data can fit when the mounted tool was
+not collinear). The best that fits at the noise, and at least :data:`CLEARLY_BETTER` times
+better than the stated tool, is named in the diagnosis; causes the data show before these
+(joint units, weak excitation, a nonlinear sensor) are tried first by
+:mod:`fts_calib.pipeline.diagnosis`. Two mistakes scale C without leaving a residual, so their values
 are checked instead: a centre of mass beyond 1 m (mm or cm for m) and a gravity outside
 9.7-9.9 m/s^2 (:mod:`fts_calib.pipeline.tool_plausibility`).
 """
@@ -330,7 +333,7 @@ def check_fit(
             (:func:`model_fit_sums`).
 
     Returns:
-        The verdict; its diagnosis names the first alternative that fits.
+        The verdict; its diagnosis names the best alternative that fits at the noise, clearly better than the stated tool.
     """
     counts = np.asarray(counts, dtype=float)
     if not counts.sum() > 0:  # no sample in the sums: nothing to judge

@@ -115,11 +115,11 @@ def _checked(session: CalibrationSession, hint: str) -> tuple[FitCheck, Cause | 
     chosen = session.estimator.model_in_use()[0]
     sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
     linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration)  # noise: floored at step/sqrt(12)
-    found = None
-    if linear.verdict == "poor":
-        found = cause(session, linear, per_configuration, hint or UNEXPLAINED, session.joints_in_degrees)
-        linear = replace(linear, diagnosis=found.text)
     residuals = session.estimator.model_residuals()
+    found = None
+    if linear.verdict == "poor":  # a quadratic model is named only when the linear one is in use
+        found = cause(session, linear, per_configuration, hint or UNEXPLAINED, session.joints_in_degrees, residuals is None)
+        linear = replace(linear, diagnosis=found.text)
     if residuals is None:  # the linear model on P Delta: the check above is the model's
         return linear, found
     rms, C_bar = residuals

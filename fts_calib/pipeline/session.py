@@ -10,7 +10,7 @@ From a controller's own loop::
 
     session = CalibrationSession(kin, tool)
     session.add(t, joints, channels, "A")    # [s], joint readings [rad], raw channels, configuration
-    print(session.progress().missing)        # e.g. "centres of mass on one line (configurations A and B); mount one more off that line (C of the tool file)"
+    print(session.progress().missing)        # e.g. "centres of mass on one line (configurations A and B); mount one more ..."
     calibration = session.solve()
 
 With a checkpoint path the session saves its sums atomically every
