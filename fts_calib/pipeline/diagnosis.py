@@ -201,12 +201,22 @@ def joint_units(session: CalibrationSession, check: FitCheck, per_configuration:
     return Cause("joint units", "the joint columns are in degrees: pass --joints-in-degrees (joints_in_degrees=True)")
 
 
-def _still(time: np.ndarray, joints: np.ndarray, max_speed: float) -> np.ndarray:
-    """Samples whose joint speed to both neighbours (those within 0.1 s) is at most ``max_speed`` [rad/s], shape (N,)."""
-    dt = np.diff(time)
-    speed = np.max(np.abs(np.diff(joints, axis=0)), axis=1) / np.maximum(dt, 1e-9)
-    slow = np.where(dt <= 0.1, speed <= max_speed, True)  # a gap: no neighbour to judge by
-    return np.r_[True, slow] & np.r_[slow, True]
+def _still(time: np.ndarray, joints: np.ndarray, max_speed: float, window_s: float = 0.2, most: int = 64) -> np.ndarray:
+    """Samples whose joints move by at most ``max_speed`` [rad/s] to every sample within ``window_s`` [s] either side, shape (N,).
+
+    The quasi-static filter judged the joints as read; read in another unit, a sample at the
+    start or end of a motion is not still: it is left out (up to ``most`` neighbours a side).
+    """
+    still = np.ones(len(time), dtype=bool)
+    for d in range(1, min(most, len(time) - 1) + 1):
+        dt = time[d:] - time[:-d]
+        near = dt <= window_s
+        if not near.any():
+            break
+        fast = near & (np.max(np.abs(joints[d:] - joints[:-d]), axis=1) > max_speed * np.maximum(dt, 1e-9))
+        still[d:] &= ~fast
+        still[:-d] &= ~fast
+    return still
 
 
 def _clearly_fits(ratio: float, stated: float) -> bool:
