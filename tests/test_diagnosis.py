@@ -66,7 +66,7 @@ def test_a_weakly_excited_recording_names_the_axis_and_the_motion(tmp_path, shor
 def test_a_poor_fit_of_a_weakly_excited_recording_names_the_axis_not_a_guess(tmp_path, short_plan, ur5, paper_tool, seed):
     """A's first 12 s reach the second level of its sweep, B's and C's first 8 s do not: full rank, Fx barely varies.
 
-    The offsets' drift columns follow the motion (condition number about 2e4); a 1 % FS bend leaves a poor fit, and
+    The drift offsets follow the motion in time (condition number about 2e4); a 1 % FS bend leaves a poor fit, and
     the weak excitation is named before the bend (the coefficients along Fx are the data's noise).
     """
     cuts = {"A": 12.0, "B": 8.0, "C": 8.0}

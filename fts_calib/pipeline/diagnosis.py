@@ -110,7 +110,8 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
     rank, condition = _information(est.model_sums(chosen))[:2]
     if condition <= WEAK_CONDITION:
         return None
-    axis = _weak_axis(est.model_sums(est._constant()))
+    constant = est.model_sums(est._constant())
+    axis = _weak_axis(constant)
     name, i = WRENCH_AXES[axis], axis % 3
     others = " or ".join(f"its {a} axis" for a in _AXES if a != _AXES[i])
     if axis < 3:
@@ -127,6 +128,9 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
     level = "does not vary" if rank < full else "barely varies"
     offsets = "" if chosen.model == "constant" else f" with {chosen.model} offsets"
     text = f"weak excitation: {name} {level} over the kept samples ({how}{offsets}{seen}): {motion}"
+    plain = _information(constant)[1]
+    if offsets and plain <= WEAK_CONDITION:  # the offset model's columns follow the motion, not the loads alone
+        text += f" while the orientations are revisited as time goes on (with constant offsets the condition number is {plain:.3g})"
     return Cause("weak excitation", text)
 
 
