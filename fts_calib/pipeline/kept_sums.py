@@ -116,15 +116,16 @@ def _checked(session: CalibrationSession, hint: str) -> tuple[FitCheck, Cause | 
     sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
     linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration)  # noise: floored at step/sqrt(12)
     residuals = session.estimator.model_residuals()
-    found = None
-    if linear.verdict == "poor":  # a quadratic model is named only when the linear one is in use
-        found = cause(session, linear, per_configuration, hint or UNEXPLAINED, session.joints_in_degrees, residuals is None)
-        linear = replace(linear, diagnosis=found.text)
-    if residuals is None:  # the linear model on P Delta: the check above is the model's
-        return linear, found
-    rms, C_bar = residuals
-    named = {name: rms[k] for k, name in enumerate(session.tool.names) if k in rms}
-    return check_model_fit(session.tool, named, C_bar, noise, session.layout, linear), found
+    final = linear  # the linear model on P Delta: the check above is the model's
+    if residuals is not None:
+        rms, C_bar = residuals
+        named = {name: rms[k] for k, name in enumerate(session.tool.names) if k in rms}
+        final = check_model_fit(session.tool, named, C_bar, noise, session.layout, linear)
+    if final.verdict != "poor" or linear.verdict != "poor":
+        return final, None
+    # a quadratic model is named only when the linear one is in use
+    found = cause(session, linear, per_configuration, hint or UNEXPLAINED, session.joints_in_degrees, residuals is None)
+    return replace(final, diagnosis=found.text), found
 
 
 def strains_unexplained(session: CalibrationSession) -> bool:
