@@ -6,14 +6,16 @@ can show; the causes are tried in this order, and the first that the data suppor
 1. **Missing centres of mass** (:func:`missing_centres`): the configurations recorded give
    one centre of mass, or centres on one line, while the tool file has more. The rank the
    recording lacks is named with the configurations to mount (an
-   :class:`~fts_calib.core.exceptions.InsufficientExcitation`, exit 8), whatever the fit.
+   :class:`~fts_calib.core.exceptions.InsufficientExcitation`: ``calibrate`` exits 1, exit 8
+   where it ends a command as an error), whatever the fit.
 2. **Joint units** (:func:`joint_units`): the kept samples' joints read in the other unit
    (degrees for rad, or rad for degrees) fit the tool's model at the noise. A unit mistake
    also shrinks the orientations seen, so it is tried before the weak excitation it causes.
 3. **Weak excitation** (:func:`weak_excitation`): the information of the known loads
    ``[W; b]`` (scaled to a unit diagonal, as the estimator's rank) has a condition number
-   above :data:`WEAK_CONDITION`, or a missing direction: the wrench axis that direction loads
-   most is named, with the spread of gravity seen along it and the motion that varies it.
+   above :data:`WEAK_CONDITION`, or a missing direction: the wrench axis the loads vary least
+   on its own is named, with the spread of gravity seen along it and the motion that varies it
+   (a missing direction stays an ``InsufficientExcitation``; a poor conditioning diagnoses a poor fit).
 4. **A nonlinear sensor** (:func:`nonlinear`): the quadratic family of
    :mod:`fts_calib.model.features` (``u``, every ``u_i u_j``) fitted to the kept samples
    leaves a residual at the noise (at most :data:`~fts_calib.pipeline.fit.MAX_RATIO` times
@@ -34,7 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..model.features import features
-from ..model.least_squares import RCOND, _equilibrate
+from ..model.least_squares import load_information
 from ..model.sensor import WRENCH_AXES
 from ..robot.tool_wrench import tool_load
 from .advice import MIN_SAMPLES
@@ -107,7 +109,7 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
         return None
     est = session.estimator
     chosen = est.model_in_use()[0]
-    rank, condition = _information(est.model_sums(chosen))[:2]
+    rank, condition = load_information(est.model_sums(chosen))[:2]
     if condition <= WEAK_CONDITION:
         return None
     constant = est.model_sums(est._constant())
@@ -128,20 +130,10 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
     level = "does not vary" if rank < full else "barely varies"
     offsets = "" if chosen.model == "constant" else f" with {chosen.model} offsets"
     text = f"weak excitation: {name} {level} over the kept samples ({how}{offsets}{seen}): {motion}"
-    plain = _information(constant)[1]
+    plain = load_information(constant)[1]
     if offsets and plain <= WEAK_CONDITION:  # the offset model's columns follow the motion, not the loads alone
         text += f" while the orientations are revisited as time goes on (with constant offsets the condition number is {plain:.3g})"
     return Cause("weak excitation", text)
-
-
-def _information(sums: np.ndarray) -> tuple[int, float, np.ndarray, np.ndarray]:
-    """(rank, condition number, eigenvalues, eigenvectors) of the known loads' information ``[W; b]``, scaled to a unit diagonal."""
-    known = np.r_[0:6, 12 : len(sums)]
-    scaled, _ = _equilibrate(sums[np.ix_(known, known)])
-    eig, vec = np.linalg.eigh(scaled)
-    top = eig[-1] if eig[-1] > 0 else 1.0
-    rank = int(np.sum(eig > RCOND * top))
-    return rank, (float(top / eig[0]) if rank == len(eig) else math.inf), eig, vec
 
 
 def _weak_axis(sums: np.ndarray) -> int:
@@ -151,7 +143,7 @@ def _weak_axis(sums: np.ndarray) -> int:
     scaled information (how little of it the other columns leave); below full rank, the
     wrench column with the largest weight in a missing direction.
     """
-    rank, _, eig, vec = _information(sums)
+    rank, _, eig, vec = load_information(sums)
     if rank < len(eig):
         return int(np.argmax(np.abs(vec[:6, 0])))
     inflation = np.einsum("ij,j,ij->i", vec[:6], 1.0 / eig, vec[:6])  # diag of the inverse, wrench columns
