@@ -19,7 +19,10 @@ can show; the causes are tried in this order, and the first that the data suppor
 4. **A nonlinear sensor** (:func:`nonlinear`): the quadratic family of
    :mod:`fts_calib.model.features` (``u``, every ``u_i u_j``) fitted to the kept samples
    leaves a residual at the noise (at most :data:`~fts_calib.pipeline.fit.MAX_RATIO` times
-   it, per configuration and axis) where the linear model does not.
+   it, per configuration and axis) where the linear model does not; or **drifting offsets**
+   (:func:`drifting`): the drift offset model with every time power does. A quadratic in the
+   channels absorbs a part of a drift along a sweep (and the reverse), so when both fit the
+   one with the smaller residual is named.
 5. The tool file's alternatives of :func:`fts_calib.pipeline.fit.check_fit` (labels permuted,
    centres of mass in mm or cm, one mass mistyped), each named only when it fits at the noise
    and clearly better than the stated tool; then the collinear tool file, then the generic advice.
@@ -37,10 +40,11 @@ import numpy as np
 
 from ..model.features import features
 from ..model.least_squares import load_information
+from ..model.offset_basis import candidates
 from ..model.sensor import WRENCH_AXES
 from ..robot.tool_wrench import tool_load
 from .advice import MIN_SAMPLES
-from .fit import CLEARLY_BETTER, MAX_RATIO, FitCheck, _ratios, fit_rows
+from .fit import CLEARLY_BETTER, MAX_RATIO, FitCheck, _ratios, fit_rows, model_fit_sums
 from .tool_plausibility import implausible_tool
 
 if TYPE_CHECKING:
@@ -59,13 +63,15 @@ class Cause:
     """A named cause.
 
     Attributes:
-        kind: 'missing centres', 'joint units', 'weak excitation', 'nonlinear', 'tool file'
+        kind: 'missing centres', 'joint units', 'weak excitation', 'nonlinear', 'drift', 'tool file'
             (an alternative, an implausible value or a collinear file) or 'unexplained'.
         text: The diagnosis, in words.
+        ratio: The largest residual-to-noise ratio of the model it names (drift, nonlinear), else NaN.
     """
 
     kind: str
     text: str
+    ratio: float = math.nan
 
 
 def _seen_span(session: CalibrationSession) -> tuple[int, int, np.ndarray]:
@@ -220,6 +226,29 @@ def _clearly_fits(ratio: float, stated: float) -> bool:
     return ratio <= MAX_RATIO and ratio * CLEARLY_BETTER <= stated
 
 
+def drifting(session: CalibrationSession, check: FitCheck) -> Cause | None:
+    """Offsets that drift during the run, when the drift model with every time power fits at the noise (with cause 4), or None.
+
+    Args:
+        session: The session (its fit sums with the offset basis's drift columns, noise floor).
+        check: The fit check of the offset model in use (constant or per-configuration).
+    """
+    est, noise_cov = session.estimator, _noise_cov(session)
+    drifts = [c for c in candidates(est.basis, est._present(), "drift") if c.model == "drift"]
+    if not drifts or noise_cov is None or est.model_in_use()[0].model == "drift":
+        return None
+    sums = model_fit_sums(session._fit_sums, "drift", drifts[-1].columns, est.basis.n_configurations)[0]
+    matrices = [c.wrench_matrix for c in session.tool.configurations]
+    judged = _ratios(session.tool, matrices, sums, session._fit_sums[:, 9, 9], noise_cov, True)
+    if judged is None or not _clearly_fits(ratio := float(judged[0].max()), check.max_ratio):
+        return None
+    text = (
+        f"offsets that drift during the run (warm-up, temperature): drifting offsets fit at the noise (largest residual "
+        f"{ratio:.3g}x the expected noise, the offsets in use {check.max_ratio:.3g}x): --offsets auto or drift models them"
+    )
+    return Cause("drift", text, ratio)
+
+
 def nonlinear(session: CalibrationSession, check: FitCheck, per_configuration: bool) -> Cause | None:
     """A quadratic model of the kept samples that fits at the noise where the linear one does not (cause 4), or None.
 
@@ -252,7 +281,7 @@ def nonlinear(session: CalibrationSession, check: FitCheck, per_configuration: b
         f"the sensor is nonlinear: a quadratic model fits at the noise (largest residual {worst:.3g}x the expected noise, "
         f"the linear model's {check.max_ratio:.3g}x): --model quadratic or auto"
     )
-    return Cause("nonlinear", text)
+    return Cause("nonlinear", text, worst)
 
 
 def cause(
@@ -272,12 +301,12 @@ def cause(
     """
     if implausible_tool(session.tool):  # a value no residual shows: certain whatever the fit
         return Cause("tool file", check.diagnosis)
-    for found in (
-        joint_units(session, check, per_configuration, joints_in_degrees),
-        weak_excitation(session),
-        nonlinear(session, check, per_configuration) if linear else None,
-    ):
+    for found in (joint_units(session, check, per_configuration, joints_in_degrees), weak_excitation(session)):
         if found is not None:
             return found
+    # the sensor's own behaviour: a bend with the load or a drift with time, the one that fits the better
+    behaviours = [c for c in (drifting(session, check), nonlinear(session, check, per_configuration) if linear else None) if c is not None]
+    if behaviours:
+        return min(behaviours, key=lambda c: c.ratio)
     generic = not check.diagnosis or check.diagnosis.startswith(unexplained)
     return Cause("unexplained" if generic else "tool file", check.diagnosis)
