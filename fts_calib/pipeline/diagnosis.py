@@ -119,6 +119,9 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
     if condition <= WEAK_CONDITION:
         return None
     constant = est.model_sums(est._constant())
+    plain = load_information(constant)[1]
+    if rank < len(chosen.A) + 6 and plain <= WEAK_CONDITION:  # only the offset model's columns are missing: their words say which
+        return None
     axis = _weak_axis(constant)
     name, i = WRENCH_AXES[axis], axis % 3
     others = " or ".join(f"its {a} axis" for a in _AXES if a != _AXES[i])
@@ -136,7 +139,6 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
     level = "does not vary" if rank < full else "barely varies"
     offsets = "" if chosen.model == "constant" else f" with {chosen.model} offsets"
     text = f"weak excitation: {name} {level} over the kept samples ({how}{offsets}{seen}): {motion}"
-    plain = load_information(constant)[1]
     if offsets and plain <= WEAK_CONDITION:  # the offset model's columns follow the motion, not the loads alone
         text += f" while the orientations are revisited as time goes on (with constant offsets the condition number is {plain:.3g})"
     return Cause("weak excitation", text)
