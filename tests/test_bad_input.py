@@ -314,7 +314,7 @@ def test_a_recording_whose_every_row_is_skipped_says_so_not_hold_the_arm_still(t
     lines = ur5_recording.read_text().splitlines()
     path = tmp_path / "warm.csv"
     path.write_text("\n".join([lines[0] + ",temperature", *[line + ",warm" for line in lines[1:]]]) + "\n")
-    assert _calibrate(path, tmp_path) == ExitCode.CHECK_FAILED
+    assert _calibrate(path, tmp_path) == ExitCode.EXCITATION
     out = capsys.readouterr().out
     assert "warm.csv, line 2: column 'temperature': 'warm' is not a number" in out, out
     expected = "NO CALIBRATION: no usable sample: every row was skipped before the filter (malformed line: 9,009); the notes above"

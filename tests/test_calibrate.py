@@ -62,10 +62,12 @@ def test_a_recording_of_one_configuration_cannot_determine_c(tmp_path, ur5_recor
     lines = _lines(ur5_recording)
     only_a = tmp_path / "a.csv"
     only_a.write_text("".join([lines[0], *[line for line in lines[1:] if line.rstrip().endswith(",A")]]))
-    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(only_a), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 1
+    assert (
+        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(only_a), "-o", str(tmp_path / "c.yaml"), "--quiet"]) == 8
+    )  # missing centres of mass: ExitCode.EXCITATION
     text = capsys.readouterr().out
     assert "NO CALIBRATION: insufficient excitation: the information matrix has rank 4 of 7" in text
-    assert "need a second centre of mass: mount configuration B or C" in text
+    assert "one centre of mass (configuration A); mount two more, not on one line with it (B and C of the tool file)" in text
     assert not (tmp_path / "c.yaml").exists()
 
 

@@ -387,7 +387,7 @@ def test_drift_offsets_name_the_columns_the_data_cannot_separate(tmp_path, drift
             "drift",
         ]
     )
-    assert code == ExitCode.CHECK_FAILED
+    assert code == ExitCode.EXCITATION
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last.startswith("NO CALIBRATION: insufficient excitation: the information matrix has rank 11 of 12"), last
     assert "the offset columns 'time^1' and 'temperature' cannot be told apart: the temperature followed time" in last or (
@@ -430,7 +430,7 @@ def test_a_configuration_whose_temperature_is_empty_is_named(tmp_path, drifting_
     n_b = sum(cells[tool] == "B" for cells in rows)
     code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
     printed = capsys.readouterr().out
-    assert code in (ExitCode.POOR_FIT, ExitCode.CHECK_FAILED)
+    assert code in (ExitCode.POOR_FIT, ExitCode.EXCITATION)
     expected = (
         f"configuration B has no usable row in no_heat_b.csv: column 'temperature' is empty or not a number on {n_b:,} of its "
         f"{n_b:,} rows, so it is missing from the calibration; the temperature is needed on every row once the file has the "
@@ -461,7 +461,7 @@ def test_streams_that_do_not_overlap_say_so_and_refer_to_no_unprinted_notes(tmp_
     bag = _bag(tmp_path / "short", ur5_recording, lambda k, t: t + 0.9, rows=50)
     assert (
         main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(bag), "-o", str(tmp_path / "c.yaml"), "--quiet"])
-        == ExitCode.CHECK_FAILED
+        == ExitCode.EXCITATION
     )
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert last == (

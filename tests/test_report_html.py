@@ -164,7 +164,7 @@ def test_calibrate_reports_insufficient_excitation(ur5_recording, tmp_path):
     only_a.write_text("\n".join([lines[0], *[row for row in lines[1:] if row.split(",")[tool_column] == "A"]]) + "\n")
     report = tmp_path / "r.html"
     args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(only_a), "-o", str(tmp_path / "c.yaml"), "--report", str(report)]
-    assert cli.main([*args, "--quiet"]) == ExitCode.CHECK_FAILED
+    assert cli.main([*args, "--quiet"]) == ExitCode.EXCITATION
     page = report.read_text()
     check_page(page)
     assert "REFUSED" in page and "rank" in page.lower()

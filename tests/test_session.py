@@ -53,8 +53,8 @@ def test_progress_says_what_is_missing(ur5, paper_tool, ur5_recording):
         session.flush()
         p = session.progress()
         words.append((p.rank, p.missing))
-    assert words[0] == (4, "need a second centre of mass: mount configuration B or C")
-    assert words[1] == (6, "need a third centre of mass not on the line through A and B: mount configuration C")
+    assert words[0] == (4, "one centre of mass (configuration A); mount two more, not on one line with it (B and C of the tool file)")
+    assert words[1] == (6, "centres of mass on one line (configurations A and B); mount one more off that line (C of the tool file)")
     assert words[2] == (7, "")
     assert session.progress().kept_by_configuration["C"] > 300
 

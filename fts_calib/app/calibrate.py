@@ -148,7 +148,7 @@ def run(
             print(f"wrote {write_report(report, render_report(content))}")
     if result.calibration is not None:
         return ExitCode.OK
-    return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.CHECK_FAILED
+    return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.EXCITATION
 
 
 class ProgressBar:

@@ -89,8 +89,8 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
     ExitCodeEntry(
         ExitCode.CHECK_FAILED,
         (),
-        "the job ran but its result failed a check: no calibration for lack of excitation, a validation error "
-        "above --max-error, a failed trajectory check",
+        "the job ran but its result failed a check: a validation error above --max-error, a failed trajectory "
+        "check, a live run to which no data came",
     ),
     ExitCodeEntry(ExitCode.USAGE, (), "command-line usage: an unknown option, a missing argument, a malformed value (argparse)"),
     ExitCodeEntry(ExitCode.CONFIG, (ConfigError,), "a setting, option or argument has a value fts-calib cannot use"),
@@ -107,7 +107,11 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
         "the robot definition does not match its URDF (frame, joint, joint type), or the URDF's package is missing",
     ),
     ExitCodeEntry(ExitCode.TOOL_CONFIGURATION, (UnknownToolConfiguration,), "a tool configuration name is not in the tool file"),
-    ExitCodeEntry(ExitCode.EXCITATION, (InsufficientExcitation,), "the data cannot determine every coefficient (raised as an error)"),
+    ExitCodeEntry(
+        ExitCode.EXCITATION,
+        (InsufficientExcitation,),
+        "no calibration: the data cannot determine every coefficient (centres of mass missing, weak excitation; the message names which)",
+    ),
     ExitCodeEntry(
         ExitCode.POOR_FIT,
         (PoorFit,),

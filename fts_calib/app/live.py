@@ -203,7 +203,7 @@ def run(
             return ExitCode.CHECK_FAILED
         print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
         _report(report, session, collector, None, exc, f"{exc}", inputs)
-        return ExitCode.CHECK_FAILED
+        return ExitCode.EXCITATION
     except PoorFit as exc:
         _report(report, session, collector, None, exc, exc.check.summary(), inputs)
         print("\n".join(format_fit(exc.check)))

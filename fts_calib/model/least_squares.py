@@ -106,6 +106,25 @@ def excitation_rank(sums: np.ndarray, rcond: float = RCOND) -> int:
     return information_rank(sums[np.ix_(known, known)], rcond)[0]
 
 
+def load_information(sums: np.ndarray, rcond: float = RCOND) -> tuple[int, float, np.ndarray, np.ndarray]:
+    """What the known loads excite, direction by direction: the information of ``[W; b]`` scaled to a unit diagonal.
+
+    Args:
+        sums: Sums of ``z z^T`` with ``z = [W; P Delta; b]``, shape (12 + k, 12 + k).
+        rcond: Eigenvalues below ``rcond`` times the largest count as missing.
+
+    Returns:
+        ``(rank, condition number (inf below full rank), eigenvalues (6 + k,) ascending,
+        eigenvectors (6 + k, 6 + k) as columns)``; rows 0-5 are the wrench axes, then the offset columns.
+    """
+    known = np.r_[0:6, 12 : len(sums)]
+    scaled, _ = _equilibrate(np.asarray(sums, dtype=float)[np.ix_(known, known)])
+    eig, vec = np.linalg.eigh(scaled)
+    top = eig[-1] if eig[-1] > 0 else 1.0
+    rank = int(np.sum(eig > rcond * top)) if eig[-1] > 0 else 0
+    return rank, (float(top / eig[0]) if rank == len(eig) else math.inf), eig, vec
+
+
 def undetermined_columns(S: np.ndarray, names: list[str], rcond: float = RCOND, share: float = 0.2) -> list[list[str]]:
     """The columns an information matrix cannot separate: for each direction it misses, the columns that direction mixes.
 

@@ -67,22 +67,29 @@ def _tool_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.nda
         words.append(f"configuration {', '.join(few)}: gravity seen from too few directions so far (keep sweeping)")
     coms = np.array([c.p_sensor_com for c in tool.configurations])
     others = [k for k in range(len(names)) if k not in seen]
-    if len(seen) == 1:
-        words.append(f"need a second centre of mass: mount configuration {' or '.join(names[k] for k in others) or '(none left)'}")
-    elif len(seen) >= 2:
-        base = coms[seen[0]]
-        span = np.linalg.matrix_rank(coms[seen] - base, tol=1e-6)
-        if span < 2:
-            label = " and ".join(names[k] for k in seen)
-            off = [names[k] for k in others if np.linalg.matrix_rank(np.vstack([coms[seen] - base, coms[k] - base]), tol=1e-6) == 2]
-            if off:
-                words.append(f"need a third centre of mass not on the line through {label}: mount configuration {' or '.join(off)}")
-            else:
-                words.append(
-                    f"the centres of mass of {label} and every other configuration lie on one line: the tool "
-                    "needs a configuration off that line (paper eqs 19-20)"
-                )
+    label = " and ".join(names[k] for k in seen)
+    span = int(np.linalg.matrix_rank(coms[seen] - coms[seen[0]], tol=1e-6))
+    if span == 0:  # one centre of mass (one configuration, or several that share it)
+        share = f"configuration {label}" if len(seen) == 1 else f"configurations {label} share it"
+        mount = f"{_listed([names[k] for k in others])} of the tool file" if others else "the tool file has no other configuration"
+        words.append(f"one centre of mass ({share}); mount two more, not on one line with it ({mount})")
+    elif span == 1:
+        base = coms[seen] - coms[seen[0]]
+        off = [names[k] for k in others if np.linalg.matrix_rank(np.vstack([base, coms[k] - coms[seen[0]]]), tol=1e-6) == 2]
+        if off:
+            mount = f"mount one more off that line ({' or '.join(off)} of the tool file)"
+            words.append(f"centres of mass on one line (configurations {label}); {mount}")
+        else:
+            words.append(
+                f"the centres of mass of {label} and every other configuration lie on one line: the tool "
+                "needs a configuration off that line (paper eqs 19-20)"
+            )
     return "; ".join(words) or GENERIC
+
+
+def _listed(names: Sequence[str]) -> str:
+    """'B', 'B and C', 'B, C and D'."""
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
 def refused_words(skipped: Mapping[str, int], seen: int, kept: int) -> str:

@@ -166,7 +166,8 @@ def calibrate_recording(
     if progress is not None:
         progress.close()
     # what is really missing comes first: a configuration all of whose rows were unreadable
-    hint = "; ".join([*lost, *(["the joint columns may be in rad already: run without --joints-in-degrees"] if joints_in_degrees else [])])
+    hint = "; ".join(lost)
+    session.joints_in_degrees = joints_in_degrees  # the diagnosis of a poor fit tries the joints in rad
     try:
         calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
     except (InsufficientExcitation, PoorFit) as exc:
@@ -283,6 +284,7 @@ def calibrate(
             "a SampleBatch, or a mapping with time, joints, channels and configuration"
         )
     session.flush()
+    session.joints_in_degrees = joints_in_degrees
     return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)
 
 

@@ -25,9 +25,12 @@ the absolute floor ``fit.floor`` (0.01 % of each axis's full scale) / :data:`MAX
 that a residual RMS below that floor never refuses. A fit is *consistent* when every ratio
 ``rms_c / sigma`` is at most :data:`MAX_RATIO`; otherwise it is *poor*, and the cheap
 alternatives are tried on the same sums: configuration labels permuted, centres of mass
-written in mm or cm, one configuration's mass mistyped, and a collinear tool file (which
-no strain data can fit when the mounted tool was not collinear). The first that fits is
-named in the diagnosis. Two mistakes scale C without leaving a residual, so their values
+written in mm or cm (only when the result is a plausible tool's), one configuration's mass
+mistyped, and a collinear tool file (which no strain data can fit when the mounted tool was
+not collinear). The best that fits at the noise, and at least :data:`CLEARLY_BETTER` times
+better than the stated tool, is named in the diagnosis; causes the data show before these
+(joint units, weak excitation, a nonlinear sensor) are tried first by
+:mod:`fts_calib.pipeline.diagnosis`. Two mistakes scale C without leaving a residual, so their values
 are checked instead: a centre of mass beyond 1 m (mm or cm for m) and a gravity outside
 9.7-9.9 m/s^2 (:mod:`fts_calib.pipeline.tool_plausibility`).
 """
@@ -46,10 +49,15 @@ from ..model.sensor import WRENCH_AXES
 from ..robot.tool import Tool
 from ..robot.wrench import wrench_matrix
 from .fit_tolerance import MAX_RATIO, FitAllowance, expected_residual, expected_words, noise_residual, tolerance_residual
-from .tool_plausibility import implausible_tool
+from .tool_plausibility import MIN_COM_M, implausible_tool
 
 #: Tool configurations up to which every permutation of the labels is tried.
 MAX_PERMUTED = 4
+#: An alternative of the tool file is named only when its largest ratio is at most MAX_RATIO and this
+#: many times below the stated tool's (:mod:`fts_calib.pipeline.diagnosis`): a fit at the noise, never a least-bad guess.
+CLEARLY_BETTER = 2.0
+#: The start of the advice given when no alternative fits.
+UNEXPLAINED = "no simple alternative fits"
 #: Mass factors tried for one configuration (0.01x to 100x).
 _MASS_FACTORS = np.logspace(-2, 2, 161)
 
@@ -264,14 +272,16 @@ def _golden(f, low: float, high: float, iterations: int = 60) -> tuple[float, fl
     return (c, fc) if fc < fd else (d, fd)
 
 
-def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov, per_configuration=False) -> list[tuple[str, float]]:
+def _alternatives(
+    tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov, per_configuration=False, allowance: FitAllowance | None = None
+) -> list[tuple[str, float]]:
     """(cause in words, its largest ratio) of each alternative that fits, best first."""
     names = tool.names
     configs = tool.configurations
     fits: list[tuple[str, float]] = []
 
     def judge(label: str, matrices) -> None:
-        judged = _ratios(tool, matrices, sums, counts, noise_cov, per_configuration)
+        judged = _ratios(tool, matrices, sums, counts, noise_cov, per_configuration, allowance)
         if judged is not None and judged[0].max() <= MAX_RATIO:
             fits.append((label, float(judged[0].max())))
 
@@ -280,7 +290,10 @@ def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov, p
             if order != tuple(range(len(configs))):
                 moved = ", ".join(f"the data labelled {names[k]} fit configuration {names[j]}" for k, j in enumerate(order) if k != j)
                 judge(f"configuration labels permuted: {moved}", [configs[j].wrench_matrix for j in order])
+    largest = max(float(np.linalg.norm(c.p_sensor_com)) for c in configs)
     for unit, factor in (("mm", 1e-3), ("cm", 1e-2)):
+        if largest * factor < MIN_COM_M:  # centres of mass within millimetres of the sensor: no calibration tool
+            continue
         judge(
             f"the centres of mass of the tool file are in {unit}, not m (divide them by {1 / factor:g})",
             [wrench_matrix(c.mass, c.p_sensor_com * factor) for c in configs],
@@ -290,7 +303,7 @@ def _alternatives(tool: Tool, sums: np.ndarray, counts: np.ndarray, noise_cov, p
         def worst(log_factor: float, k: int = k) -> float:
             f = math.exp(log_factor)
             matrices = [c.wrench_matrix * (f if j == k else 1.0) for j, c in enumerate(configs)]
-            judged = _ratios(tool, matrices, sums, counts, noise_cov, per_configuration)
+            judged = _ratios(tool, matrices, sums, counts, noise_cov, per_configuration, allowance)
             return math.inf if judged is None else float(judged[0].max())
 
         grid = np.log(_MASS_FACTORS)
@@ -332,7 +345,7 @@ def check_fit(
             no floor but the relative one.
 
     Returns:
-        The verdict; its diagnosis names the first alternative that fits.
+        The verdict; its diagnosis names the best alternative that fits at the noise, clearly better than the stated tool.
     """
     counts = np.asarray(counts, dtype=float)
     if not counts.sum() > 0:  # no sample in the sums: nothing to judge
@@ -355,7 +368,8 @@ def check_fit(
         return FitCheck("unchecked", float(ratio.max()), residual, expected, "", worst, **parts)
     if ratio.max() <= MAX_RATIO:
         return FitCheck("consistent", float(ratio.max()), residual, expected, "", worst, **parts)
-    causes = _alternatives(tool, sums, counts, noise_cov, per_configuration)
+    alternatives = _alternatives(tool, sums, counts, noise_cov, per_configuration, allowance)
+    causes = [c for c in alternatives if c[1] * CLEARLY_BETTER <= ratio.max()]
     if causes:
         diagnosis = causes[0][0]
     elif tool.com_rank() < 2:
@@ -365,7 +379,7 @@ def check_fit(
         )
     else:
         diagnosis = hint or (
-            "no simple alternative fits: check the tool file (masses, centres of mass in m in the sensor frame), the "
+            f"{UNEXPLAINED}: check the tool file (masses, centres of mass in m in the sensor frame), the "
             "configuration labels, the joint units and the sensor mount; offsets that drift during the run (warm-up, "
             "temperature) or move at a tool change also leave such residuals (--offsets auto or drift models them)"
         )

@@ -11,6 +11,7 @@ the error raised when a solve lacks rank. Units: gravity in [m/s^2], channels ra
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,8 +19,8 @@ import numpy as np
 from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..model.least_squares import unexplained_strain
 from .advice import missing_words, refused_words
-from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
-from .fit_tolerance import robot_allowance
+from .diagnosis import RECORDING_KINDS, Cause, cause, missing_centres, session_allowance, weak_excitation
+from .fit import MAX_RATIO, UNEXPLAINED, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .progress import Progress
 
 if TYPE_CHECKING:
@@ -92,7 +93,8 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
     shape (n,)); without the filter, or with a fixed strain threshold, none is measured and
     the verdict is 'unchecked'. The tool file's tolerance, the robot file's mount and encoders and the
     setting ``fit.floor`` (of the session's full scale) widen what is expected
-    (:mod:`fts_calib.pipeline.fit_tolerance`). See :mod:`fts_calib.pipeline.fit`.
+    (:mod:`fts_calib.pipeline.fit_tolerance`). See :mod:`fts_calib.pipeline.fit`; a poor fit's diagnosis is
+    the first cause the data support (:mod:`fts_calib.pipeline.diagnosis`).
 
     Args:
         session: The session.
@@ -101,23 +103,32 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
     Returns:
         The check of the model in use (a nonlinear model's by its residual per configuration).
     """
+    return _checked(session, hint)[0]
+
+
+def _checked(session: CalibrationSession, hint: str) -> tuple[FitCheck, Cause | None]:
+    """The fit check of :func:`session_fit_check`, and the cause of a poor linear fit (None otherwise)."""
     noise = None if session.filter is None else session.filter.noise_floor
     in_sums = session._fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
     missing = int(session.kept.sum() - round(float(in_sums.sum())))
     if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
         reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
-        return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
+        return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason), None
     chosen = session.estimator.model_in_use()[0]
     sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
-    kin = session.kin
-    allowance = robot_allowance(kin.robot.accuracy, kin.n_joints, session.full_scale, session.settings.fit.floor)
+    allowance = session_allowance(session)
     linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration, allowance)  # noise: >= step/sqrt(12)
     residuals = session.estimator.model_residuals()
-    if residuals is None:  # the linear model on P Delta: the check above is the model's
-        return linear
-    rms, C_bar = residuals
-    named = {name: rms[k] for k, name in enumerate(session.tool.names) if k in rms}
-    return check_model_fit(session.tool, named, C_bar, noise, session.layout, linear)
+    final = linear  # the linear model on P Delta: the check above is the model's
+    if residuals is not None:
+        rms, C_bar = residuals
+        named = {name: rms[k] for k, name in enumerate(session.tool.names) if k in rms}
+        final = check_model_fit(session.tool, named, C_bar, noise, session.layout, linear)
+    if final.verdict != "poor" or linear.verdict != "poor":
+        return final, None
+    # a quadratic model is named only when the linear one is in use
+    found = cause(session, linear, per_configuration, hint or UNEXPLAINED, session.joints_in_degrees, residuals is None)
+    return replace(final, diagnosis=found.text), found
 
 
 def strains_unexplained(session: CalibrationSession) -> bool:
@@ -134,7 +145,13 @@ def strains_unexplained(session: CalibrationSession) -> bool:
 
 
 def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str, accept_poor_fit: bool) -> PoorFit | InsufficientExcitation:
-    """The error for a solve the estimator refused for rank: a poor fit when the strains show one, else what is missing.
+    """The error for a solve the estimator refused for rank: what the recording lacks, unless the strains show a wrong file.
+
+    In the order of :mod:`fts_calib.pipeline.diagnosis`: configurations recorded that lack a
+    centre of mass of the tool file are named first, whatever the fit; then, when the strains
+    carry a signal the loads cannot produce, a cause the data support (joint units, the tool
+    file's alternatives, a collinear tool file) is a poor fit; a weak excitation or no cause
+    at all leaves the missing rank, with the weakly excited axis named.
 
     Args:
         session: The session.
@@ -143,13 +160,17 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
         accept_poor_fit: Do not turn the refusal into a :class:`PoorFit`.
 
     Returns:
-        :class:`PoorFit` (no calibration) when a wrong tool file or joint unit, not a short
-        sweep, explains the missing rank; otherwise :class:`InsufficientExcitation` in words.
+        :class:`PoorFit` (no calibration) when a wrong tool file or joint unit, not the
+        recording, explains the missing rank; otherwise :class:`InsufficientExcitation` in words.
     """
-    check = session_fit_check(session, hint) if not accept_poor_fit and strains_unexplained(session) else None
-    if check is not None and not check.ok:  # a wrong tool file or joint unit, not a short sweep: the fit names it
-        return PoorFit(check, None)
+    short = missing_centres(session)
+    if not short and not accept_poor_fit and strains_unexplained(session):
+        check, found = _checked(session, hint)
+        if not check.ok and (found is None or found.kind not in RECORDING_KINDS):  # a wrong file or unit, not a short sweep
+            return PoorFit(check, None)
+    weak = None if short else weak_excitation(session)
     refused = refused_words(session.checks.skipped, session.seen, int(session.kept.sum()))
     undetermined = session.estimator.undetermined(session.tool.names)
-    words = missing_words(session.tool, session.kept, session._directions, undetermined, hint, refused)
+    said = "; ".join(w for w in (hint, "" if weak is None else weak.text) if w)
+    words = missing_words(session.tool, session.kept, session._directions, undetermined, said, refused)
     return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)

@@ -10,7 +10,7 @@ From a controller's own loop::
 
     session = CalibrationSession(kin, tool)
     session.add(t, joints, channels, "A")    # [s], joint readings [rad], raw channels, configuration
-    print(session.progress().missing)        # e.g. "need a third centre of mass not on the line through A and B"
+    print(session.progress().missing)        # e.g. "centres of mass on one line (configurations A and B); mount one more ..."
     calibration = session.solve()
 
 With a checkpoint path the session saves its sums atomically every
@@ -134,6 +134,7 @@ class CalibrationSession:
         self.checkpoint_path = Path(checkpoint) if checkpoint else None
         self.source = source
         self.source_record = source_record
+        self.joints_in_degrees = False  # the joints were converted from degrees (the fit's diagnosis tries rad)
         n = len(tool.configurations)
         self.estimator = OnlineEstimator(
             layout=self.layout,

@@ -1,0 +1,321 @@
+r"""The cause of a poor fit or of a missing rank, named in a fixed order before any guess.
+
+A fit the noise does not explain (:mod:`fts_calib.pipeline.fit`) has one cause that the data
+can show; the causes are tried in this order, and the first that the data support is named:
+
+1. **Missing centres of mass** (:func:`missing_centres`): the configurations recorded give
+   one centre of mass, or centres on one line, while the tool file has more. The rank the
+   recording lacks is named with the configurations to mount (an
+   :class:`~fts_calib.core.exceptions.InsufficientExcitation`: ``calibrate`` exits 1, exit 8
+   where it ends a command as an error), whatever the fit.
+2. **Joint units** (:func:`joint_units`): the kept samples' joints read in the other unit
+   (degrees for rad, or rad for degrees) fit the tool's model at the noise. A unit mistake
+   also shrinks the orientations seen, so it is tried before the weak excitation it causes.
+3. **Weak excitation** (:func:`weak_excitation`): the information of the known loads
+   ``[W; b]`` (scaled to a unit diagonal, as the estimator's rank) has a condition number
+   above :data:`WEAK_CONDITION`, or a missing direction: the wrench axis the loads vary least
+   on its own is named, with the spread of gravity seen along it and the motion that varies it
+   (a missing direction stays an ``InsufficientExcitation``; a poor conditioning diagnoses a poor fit).
+4. **A nonlinear sensor** (:func:`nonlinear`): the quadratic family of
+   :mod:`fts_calib.model.features` (``u``, every ``u_i u_j``) fitted to the kept samples
+   leaves a residual at the noise (at most :data:`~fts_calib.pipeline.fit.MAX_RATIO` times
+   it, per configuration and axis) where the linear model does not; or **drifting offsets**
+   (:func:`drifting`): the drift offset model with every time power does. A quadratic in the
+   channels absorbs a part of a drift along a sweep (and the reverse), so when both fit the
+   one with the smaller residual is named.
+5. The tool file's alternatives of :func:`fts_calib.pipeline.fit.check_fit` (labels permuted,
+   centres of mass in mm or cm, one mass mistyped), each named only when it fits at the noise
+   and clearly better than the stated tool; then the collinear tool file, then the generic advice.
+
+Units: gravity in [m/s^2], wrenches in [N, N m], channels raw.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..model.features import features
+from ..model.least_squares import load_information
+from ..model.offset_basis import candidates
+from ..model.sensor import WRENCH_AXES
+from ..robot.tool_wrench import tool_load
+from .advice import MIN_SAMPLES
+from .fit import CLEARLY_BETTER, MAX_RATIO, FitCheck, _ratios, fit_rows, model_fit_sums
+from .fit_tolerance import FitAllowance, robot_allowance
+from .tool_plausibility import implausible_tool
+
+if TYPE_CHECKING:
+    from .session import CalibrationSession
+
+#: Condition number of the known loads' information (scaled to a unit diagonal) above which an
+#: axis counts as weakly excited. A plan of ``fts-calib trajectory`` reads 50 to 700.
+WEAK_CONDITION = 1e4
+#: Kinds of cause (:attr:`Cause.kind`) that a recording, not a file, explains: a missing rank stays one (exit 8).
+RECORDING_KINDS = ("weak excitation", "unexplained")
+_AXES = "xyz"
+
+
+@dataclass(frozen=True)
+class Cause:
+    """A named cause.
+
+    Attributes:
+        kind: 'missing centres', 'joint units', 'weak excitation', 'nonlinear', 'drift', 'tool file'
+            (an alternative, an implausible value or a collinear file) or 'unexplained'.
+        text: The diagnosis, in words.
+        ratio: The largest residual-to-noise ratio of the model it names (drift, nonlinear), else NaN.
+    """
+
+    kind: str
+    text: str
+    ratio: float = math.nan
+
+
+def _seen_span(session: CalibrationSession) -> tuple[int, int, np.ndarray]:
+    """(affine rank of the seen configurations' centres of mass, configurations seen, every centre of mass (k, 3))."""
+    coms = np.array([c.p_sensor_com for c in session.tool.configurations])
+    seen = [k for k in range(len(coms)) if session.kept[k] >= MIN_SAMPLES]
+    return (_span(coms[seen]) if seen else -1), len(seen), coms
+
+
+def missing_centres(session: CalibrationSession) -> bool:
+    """Whether the configurations recorded lack the centres of mass that the tool file has (cause 1).
+
+    True when the seen configurations' centres of mass are one point or lie on one line, and
+    either only one configuration was recorded or the tool file has one off that line.
+
+    Args:
+        session: The session (its kept counts per configuration and its tool).
+    """
+    span, seen, coms = _seen_span(session)
+    if span < 0 or span >= 2:
+        return False
+    return seen == 1 or _span(coms) > span
+
+
+def _span(points: np.ndarray) -> int:
+    """Affine rank of centres of mass (0: one point, 1: a line, 2: a plane or more)."""
+    return int(np.linalg.matrix_rank(points - points[0], tol=1e-6)) if len(points) > 1 else 0
+
+
+def weak_excitation(session: CalibrationSession) -> Cause | None:
+    """The weakly excited wrench axis, its condition number and the motion that excites it (cause 3), or None.
+
+    Centres of mass on one line leave a direction that no motion excites (a tool file's
+    matter, causes 1 and 5): then None.
+
+    Args:
+        session: The session (the estimator's sums of the offset model in use; the gravity
+            directions seen per configuration).
+    """
+    if _seen_span(session)[0] < 2:
+        return None
+    est = session.estimator
+    chosen = est.model_in_use()[0]
+    rank, condition = load_information(est.model_sums(chosen))[:2]
+    if condition <= WEAK_CONDITION:
+        return None
+    constant = est.model_sums(est._constant())
+    plain = load_information(constant)[1]
+    if rank < len(chosen.A) + 6 and plain <= WEAK_CONDITION:  # only the offset model's columns are missing: their words say which
+        return None
+    axis = _weak_axis(constant)
+    name, i = WRENCH_AXES[axis], axis % 3
+    others = " or ".join(f"its {a} axis" for a in _AXES if a != _AXES[i])
+    if axis < 3:
+        directions = session._directions.sum(axis=0)  # sum of [u; 1][u; 1]^T over the configurations
+        n = max(directions[3, 3], 1.0)
+        spread = math.sqrt(max(directions[i, i] / n - (directions[i, 3] / n) ** 2, 0.0))
+        seen = f"; gravity's {_AXES[i]} component in the sensor frame has a standard deviation of {spread:.2g} g"
+        motion = f"tilt the sensor's {_AXES[i]} axis up and down (rotate it about {others}) so that gravity's {_AXES[i]} component changes"
+    else:
+        seen = ""
+        motion = f"rotate the sensor about its {_AXES[i]} axis, and tilt it, with the tool's centre of mass off that axis"
+    full = len(chosen.A) + 6
+    how = f"rank {rank} of {full}" if rank < full else f"condition number {condition:.2g}"
+    level = "does not vary" if rank < full else "barely varies"
+    offsets = "" if chosen.model == "constant" else f" with {chosen.model} offsets"
+    text = f"weak excitation: {name} {level} over the kept samples ({how}{offsets}{seen}): {motion}"
+    if offsets and plain <= WEAK_CONDITION:  # the offset model's columns follow the motion, not the loads alone
+        text += f" while the orientations are revisited as time goes on (with constant offsets the condition number is {plain:.3g})"
+    return Cause("weak excitation", text)
+
+
+def _weak_axis(sums: np.ndarray) -> int:
+    """The wrench axis (0-5) that the loads vary least on its own, with constant offsets.
+
+    With full rank, the largest variance inflation ``(S^-1)_jj`` of a wrench column in the
+    scaled information (how little of it the other columns leave); below full rank, the
+    wrench column with the largest weight in a missing direction.
+    """
+    rank, _, eig, vec = load_information(sums)
+    if rank < len(eig):
+        return int(np.argmax(np.abs(vec[:6, 0])))
+    inflation = np.einsum("ij,j,ij->i", vec[:6], 1.0 / eig, vec[:6])  # diag of the inverse, wrench columns
+    return int(np.argmax(inflation))
+
+
+def _kept(session: CalibrationSession):
+    """The kept samples ``(time, W, channels, configuration, joints)``, or None when not all are at hand (a resumed session)."""
+    arrays = session._kept_samples.arrays()
+    return arrays if len(arrays[0]) and len(arrays[0]) == int(session.kept.sum()) else None
+
+
+def session_allowance(session: CalibrationSession) -> FitAllowance:
+    """What the robot file's mount and encoder tolerances and ``fit.floor`` add to the expected residual of the session's fit."""
+    kin = session.kin
+    return robot_allowance(kin.robot.accuracy, kin.n_joints, session.full_scale, session.settings.fit.floor)
+
+
+def _noise_cov(session: CalibrationSession) -> np.ndarray | None:
+    noise = None if session.filter is None else session.filter.noise_floor
+    return None if noise is None else session.layout.projected_noise(noise)
+
+
+def joint_units(session: CalibrationSession, check: FitCheck, per_configuration: bool, joints_in_degrees: bool) -> Cause | None:
+    """The joint columns in the other unit, when read so the kept samples fit at the noise (cause 2), or None.
+
+    Args:
+        session: The session (its kinematics, tool, kept samples and noise floor).
+        check: The fit check of the joints as read.
+        per_configuration: The offset model in use has one offset per configuration.
+        joints_in_degrees: The joints were converted from degrees (then rad is tried), else degrees are.
+    """
+    kept, noise_cov = _kept(session), _noise_cov(session)
+    if kept is None or noise_cov is None:
+        return None
+    time, _, channels, codes, joints = kept
+    factor = math.degrees(1.0) if joints_in_degrees else math.radians(1.0)
+    joints = joints * factor
+    still = _still(time, joints, session.settings.filter.max_joint_speed)  # the filter judged the joints as read
+    if still.sum() < MIN_SAMPLES:
+        return None
+    channels, codes, joints = channels[still], codes[still], joints[still]
+    g = tool_load(session.kin, session.tool, joints, codes).g_sensor
+    rows = fit_rows(g, channels, session.layout)
+    k = len(session.tool.configurations)
+    sums = np.zeros((k, rows.shape[1], rows.shape[1]))
+    for c in range(k):
+        mine = rows[codes == c]
+        sums[c] = mine.T @ mine
+    counts = sums[:, 9, 9]
+    matrices = [c.wrench_matrix for c in session.tool.configurations]
+    judged = _ratios(session.tool, matrices, sums, counts, noise_cov, per_configuration, session_allowance(session))
+    if judged is None or not _clearly_fits(float(judged[0].max()), check.max_ratio):
+        return None
+    if joints_in_degrees:
+        return Cause("joint units", "the joint columns are in rad already: run without --joints-in-degrees")
+    return Cause("joint units", "the joint columns are in degrees: pass --joints-in-degrees (joints_in_degrees=True)")
+
+
+def _still(time: np.ndarray, joints: np.ndarray, max_speed: float, window_s: float = 0.2, most: int = 64) -> np.ndarray:
+    """Samples whose joints move by at most ``max_speed`` [rad/s] to every sample within ``window_s`` [s] either side, shape (N,).
+
+    The quasi-static filter judged the joints as read; read in another unit, a sample at the
+    start or end of a motion is not still: it is left out (up to ``most`` neighbours a side).
+    """
+    still = np.ones(len(time), dtype=bool)
+    for d in range(1, min(most, len(time) - 1) + 1):
+        dt = time[d:] - time[:-d]
+        near = dt <= window_s
+        if not near.any():
+            break
+        fast = near & (np.max(np.abs(joints[d:] - joints[:-d]), axis=1) > max_speed * np.maximum(dt, 1e-9))
+        still[d:] &= ~fast
+        still[:-d] &= ~fast
+    return still
+
+
+def _clearly_fits(ratio: float, stated: float) -> bool:
+    """An alternative fits at the noise, and clearly better than the stated model."""
+    return ratio <= MAX_RATIO and ratio * CLEARLY_BETTER <= stated
+
+
+def drifting(session: CalibrationSession, check: FitCheck) -> Cause | None:
+    """Offsets that drift during the run, when the drift model with every time power fits at the noise (with cause 4), or None.
+
+    Args:
+        session: The session (its fit sums with the offset basis's drift columns, noise floor).
+        check: The fit check of the offset model in use (constant or per-configuration).
+    """
+    est, noise_cov = session.estimator, _noise_cov(session)
+    drifts = [c for c in candidates(est.basis, est._present(), "drift") if c.model == "drift"]
+    if not drifts or noise_cov is None or est.model_in_use()[0].model == "drift":
+        return None
+    sums = model_fit_sums(session._fit_sums, "drift", drifts[-1].columns, est.basis.n_configurations)[0]
+    matrices = [c.wrench_matrix for c in session.tool.configurations]
+    judged = _ratios(session.tool, matrices, sums, session._fit_sums[:, 9, 9], noise_cov, True, session_allowance(session))
+    if judged is None or not _clearly_fits(ratio := float(judged[0].max()), check.max_ratio):
+        return None
+    text = (
+        f"offsets that drift during the run (warm-up, temperature): drifting offsets fit at the noise (largest residual "
+        f"{ratio:.3g}x the expected noise, the offsets in use {check.max_ratio:.3g}x): --offsets auto or drift models them"
+    )
+    return Cause("drift", text, ratio)
+
+
+def nonlinear(session: CalibrationSession, check: FitCheck, per_configuration: bool) -> Cause | None:
+    """A quadratic model of the kept samples that fits at the noise where the linear one does not (cause 4), or None.
+
+    Args:
+        session: The session (its kept samples, channel layout and noise floor).
+        check: The linear model's fit check (its expected residual per axis, its largest ratio).
+        per_configuration: One offset per configuration (the offset model in use), else one for all.
+    """
+    kept = _kept(session)
+    if kept is None or _noise_cov(session) is None:
+        return None
+    _, W, channels, codes, _ = kept
+    u = session.layout.project(channels).reshape(-1, 6)
+    names = session.tool.names
+    offsets = np.eye(len(names))[codes] if per_configuration else np.ones((len(W), 1))
+    X = np.hstack([features(u - u.mean(axis=0), 2), offsets])
+    if len(X) < 3 * X.shape[1]:
+        return None
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    theta = np.linalg.lstsq(X / scale, W, rcond=None)[0]
+    residual = W - (X / scale) @ theta
+    worst = 0.0
+    for c in np.unique(codes):
+        rms = np.sqrt(np.mean(residual[codes == c] ** 2, axis=0))
+        worst = max(worst, float(np.max(rms / check.expected)))
+    if not _clearly_fits(worst, check.max_ratio):
+        return None
+    text = (
+        f"the sensor is nonlinear: a quadratic model fits at the noise (largest residual {worst:.3g}x the expected noise, "
+        f"the linear model's {check.max_ratio:.3g}x): --model quadratic or auto"
+    )
+    return Cause("nonlinear", text, worst)
+
+
+def cause(
+    session: CalibrationSession, check: FitCheck, per_configuration: bool, unexplained: str, joints_in_degrees: bool, linear: bool = True
+) -> Cause:
+    """The cause of a poor fit, in the order of the module docstring (causes 2 to 5).
+
+    Args:
+        session: The session.
+        check: The linear model's poor fit check; its diagnosis is cause 5 (the tool file's
+            alternatives, the collinear file) or the generic advice.
+        per_configuration: The offset model in use has one offset per configuration.
+        unexplained: The start of :func:`~fts_calib.pipeline.fit.check_fit`'s generic advice
+            (no alternative fits), or of the hint that replaces it.
+        joints_in_degrees: The joints were converted from degrees.
+        linear: The model in use is the linear one (else a nonlinear one is, and cause 4 is not tried).
+    """
+    if implausible_tool(session.tool):  # a value no residual shows: certain whatever the fit
+        return Cause("tool file", check.diagnosis)
+    for found in (joint_units(session, check, per_configuration, joints_in_degrees), weak_excitation(session)):
+        if found is not None:
+            return found
+    # the sensor's own behaviour: a bend with the load or a drift with time, the one that fits the better
+    behaviours = [c for c in (drifting(session, check), nonlinear(session, check, per_configuration) if linear else None) if c is not None]
+    if behaviours:
+        return min(behaviours, key=lambda c: c.ratio)
+    generic = not check.diagnosis or check.diagnosis.startswith(unexplained)
+    return Cause("unexplained" if generic else "tool file", check.diagnosis)
