@@ -44,7 +44,7 @@ from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor_config import SensorSpec
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
-from ..robot.tool_wrench import dynamic_fraction, tool_load
+from ..robot.tool_wrench import tool_load
 from .derivatives import JointMotion, joint_motion, kernel_gains
 from .latency_fit import LatencyFit
 from .qsfilter import PERIOD_SAMPLES, QuasiStaticFilter, sample_period
@@ -59,7 +59,7 @@ NOISE_SAMPLES = 1000
 #: Strain noise through C, per axis, in units of full scale, without a nominal C (the paper's sensor: 2 mN of 50 N).
 DEFAULT_NOISE_FS = 4e-5
 #: A significant latency for ``latency_s: auto`` [s] (``calibrate`` reads again beyond it and 3 standard errors).
-LATENCY_SIGNIFICANT_S = 2e-4
+LATENCY_SIGNIFICANT_S = 5e-5
 
 
 def third_difference_noise(values: np.ndarray) -> np.ndarray:
@@ -244,12 +244,14 @@ class DynamicFilter:
             self._levers,
             settings.inertia_tolerance,
         )
-        weight, trusted = trust_weights(random, systematic, self.sigma_w(), settings.max_error_ratio)
+        sigma_w = self.sigma_w()
+        weight, trusted = trust_weights(random, systematic, sigma_w, settings.max_error_ratio)
         self.rejected["expected wrench not trusted"] += int((~trusted).sum())
         keep[index] = trusted
         mine = index[trusted]
         self.latency_fit.add(self.layout.project(rows.channels[mine]), codes[trusted], moving[trusted], rate[trusted], weight[trusted])
-        return StillSamples(rows, keep, load.g_sensor[trusted], moving[trusted], weight[trusted], (moving - load.static)[trusted])
+        static_model = np.all(np.abs(moving - load.static)[trusted] <= sigma_w, axis=1)  # the dynamic part below the noise
+        return StillSamples(rows, keep, load.g_sensor[trusted], moving[trusted], weight[trusted], static_model)
 
     def _joint_noise(self, kin: Kinematics) -> np.ndarray:
         if self.settings.joint_noise is not None:
@@ -311,10 +313,3 @@ def filtered(
     if rates is not None:
         raise ShapeError("exact joint rates are for filter.mode 'dynamic': the quasi-static filter estimates its own")
     return quasi_static(filter_, kin, tool, batch, final)
-
-
-def near_static(tool: Tool, still: StillSamples, codes: np.ndarray, fraction: float) -> np.ndarray | None:
-    """Which kept samples' dynamic part is at most ``fraction`` of the weight (the fit check's samples); None: all."""
-    if still.dynamic_part is None:
-        return None
-    return dynamic_fraction(tool, codes, still.dynamic_part) <= fraction

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.arrays import cross
 from ..robot.tool import Tool
 
 
@@ -52,7 +53,7 @@ def inertial_moment(tool: Tool, codes: np.ndarray, omega: np.ndarray, alpha: np.
         mine = codes == k
         if configuration.inertia_com is not None and mine.any():
             inertia = np.asarray(configuration.inertia_com)
-            out[mine] = alpha[mine] @ inertia.T + np.cross(omega[mine], omega[mine] @ inertia.T)
+            out[mine] = alpha[mine] @ inertia.T + cross(omega[mine], omega[mine] @ inertia.T)
     return out
 
 

@@ -1,0 +1,95 @@
+"""Benchmark: `calibrate --filter dynamic` end to end on the long recording of bench_calibrate.py.
+
+Writes the same recording (the UR5's shipped plan repeated up to 3.6 million rows, 1 kHz,
+simulated sensor with noise; the positions interpolated by cubic Hermite from the plan's
+positions and velocities, so that the readings move as the wrench does: bench_calibrate.py
+interpolates them linearly, a motion whose accelerations are kinks), then runs `fts-calib calibrate --filter dynamic` on it in a child
+process: every sample goes through the derivative filter, the kinematics, the tool's
+Newton-Euler wrench and the trust rule; with the pipeline's `latency_s: auto` the recording is
+read twice (the latency fitted on the first read, applied on the second). Prints rows/s and the
+child's peak memory. Asserts nothing.
+Run: .venv/bin/python bench/bench_dynamic.py [ROWS]
+"""
+
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fts_calib.core.resources import data_dir, resolve
+from fts_calib.feeds.recording import RecordingWriter
+from fts_calib.planning.trajectory_io import read_trajectory
+from fts_calib.robot.definition import load_robot
+from fts_calib.robot.kinematics import Kinematics
+from fts_calib.robot.tool import load_tool
+from fts_calib.sim.recording import tool_wrenches
+from fts_calib.sim.sensor import load_simulated_sensor
+
+
+def hermite(t: np.ndarray, knots: np.ndarray, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Cubic Hermite through (knots, q, qd) at times t: positions, velocities, accelerations, each (len(t), joints)."""
+    k = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
+    h = (knots[k + 1] - knots[k])[:, None]
+    s = (t - knots[k])[:, None] / h
+    p0, p1, m0, m1 = q[k], q[k + 1], qd[k] * h, qd[k + 1] * h
+    pos = (2 * s**3 - 3 * s**2 + 1) * p0 + (s**3 - 2 * s**2 + s) * m0 + (-2 * s**3 + 3 * s**2) * p1 + (s**3 - s**2) * m1
+    vel = ((6 * s**2 - 6 * s) * p0 + (3 * s**2 - 4 * s + 1) * m0 + (-6 * s**2 + 6 * s) * p1 + (3 * s**2 - 2 * s) * m1) / h
+    acc = ((12 * s - 6) * p0 + (6 * s - 4) * m0 + (-12 * s + 6) * p1 + (6 * s - 2) * m1) / h**2
+    return pos, vel, acc
+
+
+def write_recording(path: Path, rows: int) -> None:
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    tool = load_tool(resolve("paper_tool", "configs"))
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    rng = np.random.default_rng(0)
+    parts = []
+    for name in tool.names:
+        traj = read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz")
+        t = np.arange(0, traj.time[-1], 0.001)
+        q, qd, qdd = hermite(t, traj.time, traj.q, traj.qd)
+        parts.append((name, t, q, tool_wrenches(kin, tool, name, q, qd, qdd)))
+    written, offset = 0, 0.0
+    with RecordingWriter(path, kin.joint_names) as writer:
+        while written < rows:
+            for name, t, q, W in parts:
+                n = min(len(t), rows - written)
+                if n <= 0:
+                    break
+                writer.write(t[:n] + offset, q[:n], sensor.channels(W[:n], rng=rng), name)
+                written += n
+                offset += t[-1] + 2.0
+
+
+def main():
+    rows = int(sys.argv[1]) if len(sys.argv) > 1 else 3_600_000
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "long.csv"
+        start = time.perf_counter()
+        write_recording(path, rows)
+        print(f"wrote {rows:,} rows ({path.stat().st_size / 1e6:.0f} MB) in {time.perf_counter() - start:.1f} s")
+        child = (
+            "import sys; from fts_calib.app.cli import main; code = main(sys.argv[1:]); "
+            "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)"
+        )
+        for extra, what in (([], "latency auto: two reads"), (["--model", "linear"], "latency auto, --model linear")):
+            command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", "--tool", "paper_tool", "--filter", "dynamic"]
+            command += [*extra, str(path), "-o", str(Path(folder) / "cal.yaml"), "--quiet"]
+            start = time.perf_counter()
+            result = subprocess.run(command, capture_output=True, text=True)
+            seconds = time.perf_counter() - start
+            if result.returncode != 0:
+                print(result.stdout, result.stderr)
+            peak = float(result.stdout.strip().splitlines()[-1].split()[1]) / 1024  # kB
+            print("\n".join(result.stdout.splitlines()[:2]))
+            print(
+                f"calibrate --filter dynamic ({what}), end to end (process start included): {rows / seconds:,.0f} rows/s "
+                f"(target >= 150,000), {seconds:.1f} s; peak memory {peak:.0f} MB"
+            )
+
+
+if __name__ == "__main__":
+    main()
