@@ -50,7 +50,7 @@ def test_noiseless_moving_samples_recover_c_exactly(ur5, paper_tool):
     """Exact joint rates (a controller's), a noiseless sensor: C and D to 1e-9, from moving samples only."""
     tool = dataclasses.replace(paper_tool, tolerance=None)
     batches = recording(ur5, tool, noiseless(SENSOR))
-    for batch, (velocity, _) in batches:  # no still sample: every one beyond the quasi-static speed limit
+    for _, (velocity, _) in batches:  # no still sample: every one beyond the quasi-static speed limit
         assert np.min(np.max(np.abs(velocity), axis=1)) > FilterConfig().max_joint_speed
     session = session_of(ur5, tool, EXACT, batches)
     calibration = session.solve()
