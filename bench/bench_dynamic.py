@@ -1,9 +1,10 @@
 """Benchmark: `calibrate --filter dynamic` end to end on the long recording of bench_calibrate.py.
 
 Writes the same recording (the UR5's shipped plan repeated up to 3.6 million rows, 1 kHz,
-simulated sensor with noise; the positions interpolated by cubic Hermite from the plan's
-positions and velocities, so that the readings move as the wrench does: bench_calibrate.py
-interpolates them linearly, a motion whose accelerations are kinks), then runs `fts-calib calibrate --filter dynamic` on it in a child
+simulated sensor with noise; the positions interpolated by quintic Hermite from the plan's
+positions, velocities and accelerations, so that the readings move as the wrench does:
+bench_calibrate.py interpolates them linearly, a motion whose accelerations are kinks), then
+runs `fts-calib calibrate --filter dynamic` on it in a child
 process: every sample goes through the derivative filter, the kinematics, the tool's
 Newton-Euler wrench and the trust rule; with the pipeline's `latency_s: auto` the recording is
 read twice (the latency fitted on the first read, applied on the second). Prints rows/s and the
@@ -29,15 +30,22 @@ from fts_calib.sim.recording import tool_wrenches
 from fts_calib.sim.sensor import load_simulated_sensor
 
 
-def hermite(t: np.ndarray, knots: np.ndarray, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Cubic Hermite through (knots, q, qd) at times t: positions, velocities, accelerations, each (len(t), joints)."""
+def hermite(t: np.ndarray, knots: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Quintic Hermite through the plan's (knots, q, qd, qdd) at times t: positions, velocities, accelerations (len(t), joints).
+
+    Continuous to the acceleration (the jerk jumps at the knots, as a jerk-limited plan's does).
+    """
     k = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)
     h = (knots[k + 1] - knots[k])[:, None]
     s = (t - knots[k])[:, None] / h
-    p0, p1, m0, m1 = q[k], q[k + 1], qd[k] * h, qd[k + 1] * h
-    pos = (2 * s**3 - 3 * s**2 + 1) * p0 + (s**3 - 2 * s**2 + s) * m0 + (-2 * s**3 + 3 * s**2) * p1 + (s**3 - s**2) * m1
-    vel = ((6 * s**2 - 6 * s) * p0 + (3 * s**2 - 4 * s + 1) * m0 + (-6 * s**2 + 6 * s) * p1 + (3 * s**2 - 2 * s) * m1) / h
-    acc = ((12 * s - 6) * p0 + (6 * s - 4) * m0 + (-12 * s + 6) * p1 + (6 * s - 2) * m1) / h**2
+    p0, p1, v0, v1, a0, a1 = q[k], q[k + 1], qd[k] * h, qd[k + 1] * h, qdd[k] * h * h, qdd[k + 1] * h * h
+    # the quintic's coefficients in s from the end conditions
+    c3 = 10 * (p1 - p0) - 6 * v0 - 4 * v1 - 1.5 * a0 + 0.5 * a1
+    c4 = -15 * (p1 - p0) + 8 * v0 + 7 * v1 + 1.5 * a0 - a1
+    c5 = 6 * (p1 - p0) - 3 * (v0 + v1) - 0.5 * (a0 - a1)
+    pos = p0 + s * (v0 + s * (0.5 * a0 + s * (c3 + s * (c4 + s * c5))))
+    vel = (v0 + s * (a0 + s * (3 * c3 + s * (4 * c4 + s * 5 * c5)))) / h
+    acc = (a0 + s * (6 * c3 + s * (12 * c4 + s * 20 * c5))) / h**2
     return pos, vel, acc
 
 
@@ -50,7 +58,7 @@ def write_recording(path: Path, rows: int) -> None:
     for name in tool.names:
         traj = read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz")
         t = np.arange(0, traj.time[-1], 0.001)
-        q, qd, qdd = hermite(t, traj.time, traj.q, traj.qd)
+        q, qd, qdd = hermite(t, traj.time, traj.q, traj.qd, traj.qdd)
         parts.append((name, t, q, tool_wrenches(kin, tool, name, q, qd, qdd)))
     written, offset = 0, 0.0
     with RecordingWriter(path, kin.joint_names) as writer:

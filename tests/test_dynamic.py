@@ -11,7 +11,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fts_calib.core.exceptions import FileFormatError, InsufficientExcitation
+from fts_calib.core.exceptions import FileFormatError, InsufficientExcitation, PoorFit
 from fts_calib.core.resources import resolve
 from fts_calib.feeds.recording_writer import RecordingWriter
 from fts_calib.model.sensor_config import load_sensor_config
@@ -33,8 +33,8 @@ EXACT = dataclasses.replace(
 )
 
 
-def session_of(kin, tool, settings, batches, rates=True, chunk=None):
-    session = CalibrationSession(kin, tool, settings, full_scale=SPEC.full_scale, model="linear")
+def session_of(kin, tool, settings, batches, rates=True, chunk=None, model="linear"):
+    session = CalibrationSession(kin, tool, settings, full_scale=SPEC.full_scale, model=model)
     for batch, exact in batches:
         if chunk is None:
             session.add_samples(batch, exact if rates else None)
@@ -107,18 +107,38 @@ def test_late_noisy_joints_calibrate_within_the_budget(ur5, paper_tool, seed, of
     error = error_percent_fs(result.calibration, SPEC.simulated, SPEC.full_scale)
     assert np.all(error <= 0.01), error
     assert result.session.progress().kept >= 0.5 * 15_000
+    assert result.calibration.quality.fit["verdict"] == "consistent"  # the moving samples' residual at the noise
+
+
+def test_a_wrong_inertia_fails_the_fit_check(ur5, paper_tool, seed):
+    """The fit check of the dynamic mode judges the moving samples' residual: a tool file with three times the inertia is refused."""
+    rng = np.random.default_rng(seed)
+    batches = recording(ur5, paper_tool, SENSOR, joint_noise=1e-5, rng=rng, seconds=4.0)
+    settings = dataclasses.replace(DYNAMIC, filter=dataclasses.replace(DYNAMIC.filter, latency_s=0.0, latency_uncertainty_s=2e-5))
+    wrong = dataclasses.replace(
+        paper_tool, configurations=tuple(dataclasses.replace(c, inertia_com=3.0 * c.inertia_com) for c in paper_tool.configurations)
+    )
+    assert session_of(ur5, paper_tool, settings, batches, rates=False).fit_check().verdict == "consistent"  # seen: ratio 0.5
+    with pytest.raises(PoorFit):
+        session_of(ur5, wrong, settings, batches, rates=False).solve()  # seen: ratio 12
 
 
 def test_realistic_sensor_calibrates(ur5, paper_tool, seed):
-    """Quantized (24-bit ADC), a little nonlinearity (0.02 % FS at full load), late noisy joints: the quadratic model finds it."""
+    """Quantized (24-bit ADC), a little nonlinearity (0.02 % FS at full load), late noisy joints: the linear C to its floor.
+
+    The error is that of the calibration's wrench from the bent sensor's channels, over the
+    full-scale box; the linear model leaves the nonlinearity (seen over seeds 0-2: at most
+    0.0111 % FS, against the 0.02 % the quadratic term reaches at full load).
+    """
     rng = np.random.default_rng(seed)
     sensor = dataclasses.replace(SENSOR, quadratic=2e-4)
     batches = recording(ur5, paper_tool, sensor, lag_s=0.008, joint_noise=1e-5, rng=rng)
-    settings = dataclasses.replace(DYNAMIC, filter=dataclasses.replace(DYNAMIC.filter, latency_s=0.008, latency_uncertainty_s=1e-4))
+    settings = dataclasses.replace(DYNAMIC, filter=dataclasses.replace(DYNAMIC.filter, latency_s=0.008, latency_uncertainty_s=2e-5))
     session = session_of(ur5, paper_tool, settings, batches, rates=False)
-    calibration = session.solve(accept_poor_fit=True)
-    error = error_percent_fs(calibration, SENSOR, SPEC.full_scale)
-    assert np.all(error <= 0.03), error
+    calibration = session.solve()
+    W = np.random.default_rng(1).uniform(-1.0, 1.0, (4000, 6)) * SPEC.full_scale
+    error = 100.0 * np.sqrt(np.mean((calibration.wrench(sensor.channels(W)) - W) ** 2, axis=0)) / SPEC.full_scale
+    assert np.all(error <= 0.02), error
 
 
 def test_the_derivative_filter_is_exact_on_a_quintic_and_shifts_by_the_latency():
@@ -140,7 +160,7 @@ def test_noise_gains_are_those_of_the_kernels(rng):
     t = np.arange(0.0, 20.0, 0.001)
     noise = 1e-5 * rng.standard_normal((len(t), 4))
     out = joint_motion(t, noise, 0.3, 0.001, None, order=5)
-    gain_v, gain_a, _ = kernel_gains(0.3, 0.001, 5)
+    gain_v, gain_a, _, _ = kernel_gains(0.3, 0.001, 5)
     assert np.std(out.velocity[out.full]) == pytest.approx(gain_v * 1e-5, rel=0.05)
     assert np.std(out.acceleration[out.full]) == pytest.approx(gain_a * 1e-5, rel=0.05)
     assert third_difference_noise(noise + np.sin(t)[:, None]) == pytest.approx(np.full(4, 1e-5), rel=0.05)
