@@ -4,14 +4,14 @@ Writes the same recording (the UR5's shipped plan repeated up to 3.6 million row
 simulated sensor with noise; the positions interpolated by quintic Hermite from the plan's
 positions, velocities and accelerations, so that the readings move as the wrench does:
 bench_calibrate.py interpolates them linearly, a motion whose accelerations are kinks), then
-runs `fts-calib calibrate --filter dynamic` on it in a child
-process: every sample goes through the derivative filter, the kinematics, the tool's
-Newton-Euler wrench and the trust rule; with the pipeline's `latency_s: auto` the recording is
-read twice (the latency fitted on the first read, applied on the second). Prints rows/s and the
-child's peak memory. Asserts nothing.
+runs `fts-calib calibrate --filter dynamic` on it in a child process: every sample goes through
+the derivative filter, the kinematics, the tool's Newton-Euler wrench and the trust rule; with
+the pipeline's `latency_s: auto` the latency is fitted on the way (the recording has none: no
+second read). Prints rows/s, the machine's load and the child's peak memory. Asserts nothing.
 Run: .venv/bin/python bench/bench_dynamic.py [ROWS]
 """
 
+import os
 import subprocess
 import sys
 import tempfile
@@ -83,7 +83,7 @@ def main():
             "import sys; from fts_calib.app.cli import main; code = main(sys.argv[1:]); "
             "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)"
         )
-        for extra, what in (([], "latency auto: two reads"), (["--model", "linear"], "latency auto, --model linear")):
+        for extra, what in (([], "--model auto"), (["--model", "linear"], "--model linear")):
             command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", "--tool", "paper_tool", "--filter", "dynamic"]
             command += [*extra, str(path), "-o", str(Path(folder) / "cal.yaml"), "--quiet"]
             start = time.perf_counter()
@@ -95,7 +95,7 @@ def main():
             print("\n".join(result.stdout.splitlines()[:2]))
             print(
                 f"calibrate --filter dynamic ({what}), end to end (process start included): {rows / seconds:,.0f} rows/s "
-                f"(target >= 150,000), {seconds:.1f} s; peak memory {peak:.0f} MB"
+                f"(target >= 150,000), {seconds:.1f} s; peak memory {peak:.0f} MB; load average {os.getloadavg()[0]:.1f}"
             )
 
 
