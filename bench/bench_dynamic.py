@@ -7,11 +7,13 @@ bench_calibrate.py interpolates them linearly, a motion whose accelerations are 
 runs `fts-calib calibrate --filter dynamic` on it in a child process: every sample goes through
 the derivative filter, the kinematics, the tool's Newton-Euler wrench and the trust rule; with
 the pipeline's `latency_s: auto` the latency is fitted on the way (the recording has none: no
-second read). Prints rows/s, the machine's load and the child's peak memory. Asserts nothing.
+second read). Prints rows/s of wall-clock time and of the child's CPU time (which the machine's
+load does not change), the load and the child's peak memory. Asserts nothing.
 Run: .venv/bin/python bench/bench_dynamic.py [ROWS]
 """
 
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -86,16 +88,18 @@ def main():
         for extra, what in (([], "--model auto"), (["--model", "linear"], "--model linear")):
             command = [sys.executable, "-c", child, "calibrate", "--robot", "ur5", "--tool", "paper_tool", "--filter", "dynamic"]
             command += [*extra, str(path), "-o", str(Path(folder) / "cal.yaml"), "--quiet"]
-            start = time.perf_counter()
+            start, before = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
             result = subprocess.run(command, capture_output=True, text=True)
-            seconds = time.perf_counter() - start
+            seconds, after = time.perf_counter() - start, resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)  # the child's own: what the load does not change
             if result.returncode != 0:
                 print(result.stdout, result.stderr)
             peak = float(result.stdout.strip().splitlines()[-1].split()[1]) / 1024  # kB
             print("\n".join(result.stdout.splitlines()[:2]))
             print(
                 f"calibrate --filter dynamic ({what}), end to end (process start included): {rows / seconds:,.0f} rows/s "
-                f"(target >= 150,000), {seconds:.1f} s; peak memory {peak:.0f} MB; load average {os.getloadavg()[0]:.1f}"
+                f"(target >= 150,000), {seconds:.1f} s; {rows / cpu:,.0f} rows per CPU-second ({cpu:.1f} s of CPU); "
+                f"peak memory {peak:.0f} MB; load average {os.getloadavg()[0]:.1f}"
             )
 
 

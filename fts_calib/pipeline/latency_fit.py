@@ -70,10 +70,12 @@ class LatencyFit:
         z[:, 6 + self.k : 12 + self.k] = wrench[finite] / self.full_scale
         z[:, 12 + self.k :] = rate[finite] / self.full_scale
         codes, weight = codes[finite], weight[finite]
+        single = bool(np.all(codes == codes[0]))
         for c in np.unique(codes):
-            mine = codes == c
-            self.sums[c] += (z[mine] * weight[mine, None]).T @ z[mine]
-            self.counts[c] += int(mine.sum())
+            mine = slice(None) if single else codes == c  # one configuration (the usual chunk): no copies
+            part = z[mine]
+            self.sums[c] += (part * weight[mine, None]).T @ part
+            self.counts[c] += len(part)
 
     def solve(self) -> tuple[float, float] | None:
         """``(tau [s], standard error [s])``, or None with too few samples or no change of the wrench."""
