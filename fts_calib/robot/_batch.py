@@ -163,8 +163,9 @@ class Chain:
         omega, al, v, a = (np.zeros((n, 3)) for _ in range(4))
         for link in self._links:
             r = _apply(cols, link.p_parent)  # offset of this joint from its parent, world frame
-            v += cross(omega, r)
-            a += cross(al, r) + cross(omega, cross(omega, r))
+            spin = cross(omega, r)
+            v += spin
+            a += cross(al, r) + cross(omega, spin)
             cols = _compose(cols, link.R_parent)
             k = link.reading
             z = _apply(cols, link.axis)  # joint axis in the world (unchanged by the joint's own rotation)
@@ -178,8 +179,9 @@ class Chain:
                 al += cross(omega, z * qd) + z * qdd
                 omega = omega + z * qd
         r = _apply(cols, self._p_last_sensor)
-        v += cross(omega, r)
-        a += cross(al, r) + cross(omega, cross(omega, r))
+        spin = cross(omega, r)
+        v += spin
+        a += cross(al, r) + cross(omega, spin)
         cols = _compose(cols, self._R_last_sensor)
         return (
             _transpose_apply(cols, omega),
