@@ -197,3 +197,42 @@ def test_the_settings_file_takes_the_mode(tmp_path):
     with pytest.raises(FileFormatError, match="quasi-static or dynamic"):
         load_pipeline_config(path)
     assert motion(np.zeros(1), 0)[0].shape == (1, 6)
+
+
+def test_live_feeds_calibrate_in_dynamic_mode(ur5, paper_tool, seed, tmp_path):
+    """`live --filter dynamic`: the recording replayed as datagrams gives the calibration of `calibrate` on it (within 5 % of its
+    standard errors: the synchronizer interpolates the joints at the strain times)."""
+    import threading
+
+    from fts_calib.feeds.replay import ReplayOptions, replay
+    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.feeds.udp import UdpReceiver
+    from fts_calib.pipeline.live import LiveRunner
+
+    rng = np.random.default_rng(seed)
+    path = tmp_path / "moving.csv"
+    with RecordingWriter(path, ur5.joint_names) as writer:
+        for batch, _ in recording(ur5, paper_tool, SENSOR, seconds=3.0, joint_noise=1e-5, rng=rng):
+            writer.write(
+                batch.time - batch.time[0] + 4.0 * batch.configuration[0],
+                batch.joints,
+                batch.channels,
+                paper_tool.names[batch.configuration[0]],
+            )
+    settings = dataclasses.replace(DYNAMIC, filter=dataclasses.replace(DYNAMIC.filter, latency_s=0.0, latency_uncertainty_s=2e-5))
+    reference = calibrate_recording(path, ur5, paper_tool, settings, layout=SPEC.layout, full_scale=SPEC.full_scale, model="linear")
+    session = CalibrationSession(ur5, paper_tool, settings, full_scale=SPEC.full_scale, model="linear")
+    receiver = UdpReceiver("127.0.0.1", 0)
+    runner = LiveRunner(session, receiver, Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names))
+    result = {}
+    thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=10.0)))
+    thread.start()
+    try:
+        replay(path, *receiver.address, ReplayOptions(speed=20.0))
+        thread.join(timeout=60)
+    finally:
+        receiver.close()
+    assert not thread.is_alive() and result["stats"].ended
+    got = session.solve()
+    assert isinstance(session.filter, DynamicFilter) and session.progress().kept >= 0.9 * reference.session.progress().kept
+    assert np.all(np.abs(got.C - reference.calibration.C) <= 0.05 * reference.calibration.quality.stderr_C + 1e-12)
