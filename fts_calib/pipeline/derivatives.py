@@ -151,6 +151,20 @@ def joint_motion(
     return JointMotion(position, velocity, acceleration, full, check)
 
 
+def _fast_size(n: int) -> int:
+    """The smallest ``2^a 3^b 5^c`` at least n: a length pocketfft transforms fast (a power of two wastes up to half)."""
+    best = 1 << int(np.ceil(np.log2(max(n, 1))))
+    fives = 1
+    while fives < best:
+        threes = fives
+        while threes < best:
+            size = threes << max(0, int(np.ceil(np.log2(n / threes))))
+            best = min(best, size)
+            threes *= 3
+        fives *= 5
+    return best
+
+
 def _correlate(values: np.ndarray, kernels: np.ndarray) -> list[np.ndarray]:
     """Each kernel (w,) slid over every column of ``values`` (N, c): the "valid" part, (N - w + 1, c) each.
 
@@ -158,7 +172,7 @@ def _correlate(values: np.ndarray, kernels: np.ndarray) -> list[np.ndarray]:
     kernel; the rounding error is ~1e-16 of the values' magnitude.
     """
     n, w = len(values), kernels.shape[1]
-    size = 1 << int(np.ceil(np.log2(n + w - 1)))
+    size = _fast_size(n + w - 1)
     spectrum = np.fft.rfft(values, size, axis=0)
     out = []
     for kernel in kernels:
