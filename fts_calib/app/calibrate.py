@@ -18,7 +18,7 @@ from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
-from ..pipeline.dynamic import nominal_c
+from ..pipeline.dynamic import DynamicFilter, nominal_c
 from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
@@ -305,6 +305,11 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
                 f"  note: beyond the ±{1e3 * bound:g} ms the budget assumes (robot file accuracy.latency_s): add "
                 f"{result.latency.latency_s:+.4f} s to live.latency_s of the pipeline file, or widen accuracy.latency_s"
             )
+    dynamic = result.session.filter
+    if isinstance(dynamic, DynamicFilter):  # what the dynamic filter applied: the latency it fitted with the calibration
+        lines.append(
+            f"dynamic filter: joint readings taken as {1e3 * dynamic.latency_s:.3f} ms late (filter.latency_s, or fitted when auto)"
+        )
     if output is not None:
         lines.append(f"wrote {output}")
     return "\n".join(lines)
