@@ -65,13 +65,21 @@ class ErrorSource:
         sensitivity: B, [N or N m per unit of u]. Shape (N, 6, r).
         covariance: Covariance U of each draw u. Shape (r, r).
         groups: Group of each sample (samples of a group share one draw), shape (N,) int;
-            None for a draw per sample (white).
+            None for a draw per sample (white). With ``time``: the stretch of each sample
+            (the derivatives are taken within a stretch).
+        time: Sample times [s], shape (N,), for white noise of readings estimated through
+            derivative filters (:func:`filtered_sensitivity`): ``sensitivity`` is then
+            (N, 6, 3r), the parts of the readings' value, rate and second rate, and
+            ``covariance`` (r, r) that of one reading; None otherwise.
+        period: Period of those readings [s] (with ``time``).
     """
 
     name: str
     sensitivity: np.ndarray
     covariance: np.ndarray
     groups: np.ndarray | None = None
+    time: np.ndarray | None = None
+    period: float = 0.0
 
 
 def wrench_noise(C: np.ndarray, noise_std) -> np.ndarray:
@@ -117,8 +125,44 @@ def range_moments(C_bar, D, full_scale) -> np.ndarray:
     return M
 
 
+def filtered_sensitivity(source: ErrorSource, A: np.ndarray) -> np.ndarray:
+    r"""Each planned sample's share of the error from white readings estimated through derivative filters.
+
+    A reading's noise ``n_t`` enters the value, rate and second-rate estimates through
+    kernels that take a value and two derivatives (exact on the smooth motion); the
+    least squares' error ``sum_i (B_q n + B_v K_v n + B_a K_a n)_i A_i`` is then, by parts,
+    ``sum_t n_t E_t`` with
+
+    .. math::
+
+        E = B_q A - \frac{d}{dt}(B_v A) + \frac{d^2}{dt^2}(B_a A),
+
+    so that the noise's differentiated parts average out over a smooth motion. Returns E
+    per planned sample, shape (N, 6, r, 7); the derivatives within each stretch of ``groups``.
+    """
+    B = np.asarray(source.sensitivity, dtype=float)
+    r = B.shape[2] // 3
+    P = np.einsum("njr,nk->njrk", B, A)
+    E = P[:, :, :r].copy()
+    time = np.asarray(source.time, dtype=float)
+    groups = np.zeros(len(time), dtype=np.int64) if source.groups is None else np.asarray(source.groups)
+    for g in np.unique(groups):
+        rows = np.nonzero(groups == g)[0]
+        if len(rows) < 3:
+            continue
+        t = time[rows]
+        E[rows] -= np.gradient(P[rows, :, r : 2 * r], t, axis=0)
+        E[rows] += np.gradient(np.gradient(P[rows, :, 2 * r :], t, axis=0), t, axis=0)
+    return E
+
+
 def propagate(
-    x: np.ndarray, sources: Sequence[ErrorSource], moments: np.ndarray, weight: float = 1.0, ridge: np.ndarray | None = None
+    x: np.ndarray,
+    sources: Sequence[ErrorSource],
+    moments: np.ndarray,
+    weight: float = 1.0,
+    ridge: np.ndarray | None = None,
+    row_weight: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Standard deviation of the wrench error over the range, per axis, of each named term.
 
@@ -130,19 +174,26 @@ def propagate(
             white sources average over them, the shared ones do not.
         ridge: The prior's term added to ``x^T x`` (a ridge on C_bar, :mod:`fts_calib.model.prior`),
             shape (7, 7), in the units of ``x^T x`` of these rows; None for plain least squares.
+        row_weight: The weight of each sample in a weighted least squares (``S = x^T diag(w) x``,
+            each sample's error enters as ``w_i x_i``), shape (N,); None for equal weights.
 
     Returns:
         Term name -> sigma per axis, [N, N, N, N m, N m, N m]. Shape (6,) each.
     """
     x = np.asarray(x, dtype=float)
-    S = x.T @ x if ridge is None else x.T @ x + ridge
+    wx = x if row_weight is None else np.asarray(row_weight, dtype=float)[:, None] * x
+    S = x.T @ wx if ridge is None else x.T @ wx + ridge
     scale = 1.0 / np.sqrt(np.diag(S))
     S_inv = np.linalg.pinv(S * scale[:, None] * scale[None, :], hermitian=True) * scale[:, None] * scale[None, :]
-    A = x @ S_inv  # (N, 7): the least-squares weight of each sample
+    A = wx @ S_inv  # (N, 7): the least-squares weight of each sample
     variance: dict[str, np.ndarray] = {}
     for source in sources:
         B, U = np.asarray(source.sensitivity, dtype=float), np.asarray(source.covariance, dtype=float)
-        if source.groups is None:
+        if source.time is not None:
+            E = filtered_sensitivity(source, A)
+            step = float(np.median(np.diff(source.time))) if len(source.time) > 1 else source.period
+            var = np.einsum("rs,njrk,kl,njsl->j", U, E, moments, E) * source.period / step
+        elif source.groups is None:
             per_axis = np.einsum("njr,rs,njs->nj", B, U, B)
             spread = np.einsum("nk,kl,nl->n", A, moments, A)
             var = per_axis.T @ spread / weight

@@ -1,0 +1,79 @@
+r"""The predicted accuracy budget of a continuous plan: every sample moves, and every sample calibrates.
+
+In the ``dynamic`` filter mode each sample enters the least squares with the Newton-Euler
+wrench of the moving tool, so a continuous plan's budget is that of all its samples
+(:func:`fts_calib.pipeline.budget.sample_budget`), the regressors from the moving wrench, with
+the dynamic terms (:mod:`fts_calib.robot.dynamic_sensitivities`: tool inertia, joint noise
+through the velocity and acceleration estimates, what remains of the stream latency, timing
+jitter) in place of the static latency and jitter terms. The static terms (tool mass and
+centre of mass, sensor mount, encoders) keep their static sensitivities: the tool's
+accelerations are a few % of gravity, so they change them by a few % of themselves.
+
+With dynamics one centre of mass no longer limits the estimator to rank 4 (paper eqs 19-20):
+the inertial torques ``-(I alpha + omega x I omega)`` are not ``c x F``. They are small (a few
+mN m on the UR5 at its limits) and known only to the inertia's tolerance, which is what one
+or two configurations then reach at best. Units: N, N m, % of each axis's full scale.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.budget import AccuracyBudget
+from ..pipeline.budget import sample_budget
+from ..robot.dynamic_sensitivities import MotionUncertainty, dynamic_error_sources, trust_weights
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool
+from ..robot.tool_wrench import tool_load
+from .motion import Plan
+
+
+def plan_jerk(plan: Plan) -> np.ndarray:
+    """Joint jerks along a plan [rad/s^3], from its accelerations (central differences). Shape (N, n_joints)."""
+    if len(plan.time) < 2:
+        return np.zeros_like(plan.qdd)
+    return np.gradient(plan.qdd, plan.time, axis=0)
+
+
+def dynamic_plan_budget(
+    kin: Kinematics,
+    tool: Tool,
+    plan: Plan,
+    C_bar,
+    D,
+    sigma_w,
+    full_scale,
+    sample_rate_hz: float | None = None,
+    uncertainty: MotionUncertainty | None = None,
+    weighted: bool = True,
+) -> AccuracyBudget:
+    """The predicted budget of a continuous plan: all its samples, the moving wrench, the dynamic terms.
+
+    Args:
+        kin: Kinematics.
+        tool: The tool (the same motion for each of its configurations).
+        plan: The sampled motion.
+        C_bar: Nominal modified calibration matrix. Shape (6, 6).
+        D: Nominal offsets [N, N m]. Shape (6,).
+        sigma_w: Strain noise through C, per axis [N, N m]. Shape (6,).
+        full_scale: Full scale per axis [N, N m]. Shape (6,).
+        sample_rate_hz: The channels' sample rate [Hz] (each planned sample stands for
+            ``sample_rate_hz / plan.rate`` of them); the plan's rate when None.
+        uncertainty: Inertia tolerance, joint noise, latency and jitter; the defaults of
+            :class:`MotionUncertainty` when None.
+        weighted: Weigh each sample by the trust rule (:func:`~fts_calib.robot.dynamic_sensitivities.trust_weights`:
+            fully where its expected wrench's error is below the strain noise); False: every sample alike.
+    """
+    uncertainty = MotionUncertainty() if uncertainty is None else uncertainty
+    n_conf, n = len(tool.configurations), len(plan.time)
+    tile = lambda a: np.tile(a, (n_conf, 1))  # noqa: E731
+    q, qd, qdd, jerk = tile(plan.q), tile(plan.qd), tile(plan.qdd), tile(plan_jerk(plan))
+    codes = np.repeat(np.arange(n_conf), n)
+    time = np.tile(plan.time, n_conf)
+    W = tool_load(kin, tool, q, codes, qd, qdd).w_sensor
+    x = np.hstack([np.linalg.solve(C_bar, (W - D).T).T, np.ones((len(W), 1))])
+    extra = dynamic_error_sources(kin, tool, time, q, qd, qdd, jerk, codes, uncertainty)
+    stop = np.arange(len(q))  # a moving joint's encoder error is a new draw at every sample
+    weight = (sample_rate_hz or plan.rate) / plan.rate
+    row_weight = trust_weights(extra, sigma_w, uncertainty) if weighted else None
+    return sample_budget(kin, tool, q, codes, qd, stop, x, sigma_w, C_bar, D, full_scale, weight=weight, extra=extra, row_weight=row_weight)
