@@ -68,10 +68,12 @@ class ErrorSource:
             None for a draw per sample (white). With ``time``: the stretch of each sample
             (the derivatives are taken within a stretch).
         time: Sample times [s], shape (N,), for white noise of readings estimated through
-            derivative filters (:func:`filtered_sensitivity`): ``sensitivity`` is then
-            (N, 6, 3r), the parts of the readings' value, rate and second rate, and
-            ``covariance`` (r, r) that of one reading; None otherwise.
+            linear filters (:func:`filtered_sensitivity`): ``sensitivity`` is then (N, 6, 3r),
+            the parts of the readings' value, rate and second rate, and ``covariance`` (r, r)
+            that of one reading; None otherwise.
         period: Period of those readings [s] (with ``time``).
+        kernels: The filters' kernels (value, rate, second rate) over a centred window of
+            readings, shape (3, 2h + 1) (with ``time``).
     """
 
     name: str
@@ -80,6 +82,7 @@ class ErrorSource:
     groups: np.ndarray | None = None
     time: np.ndarray | None = None
     period: float = 0.0
+    kernels: np.ndarray | None = None
 
 
 def wrench_noise(C: np.ndarray, noise_std) -> np.ndarray:
@@ -125,35 +128,52 @@ def range_moments(C_bar, D, full_scale) -> np.ndarray:
     return M
 
 
-def filtered_sensitivity(source: ErrorSource, A: np.ndarray) -> np.ndarray:
-    r"""Each planned sample's share of the error from white readings estimated through derivative filters.
+def filtered_sensitivity(source: ErrorSource, A: np.ndarray) -> list[np.ndarray]:
+    r"""Each reading's share of the error from white readings estimated through linear filters.
 
-    A reading's noise ``n_t`` enters the value, rate and second-rate estimates through
-    kernels that take a value and two derivatives (exact on the smooth motion); the
-    least squares' error ``sum_i (B_q n + B_v K_v n + B_a K_a n)_i A_i`` is then, by parts,
-    ``sum_t n_t E_t`` with
+    A sample's value, rate and second-rate estimates are ``sum_k K_d[k] q_{i+k}`` (kernels
+    ``K_d``, d = 0, 1, 2, of ``2h + 1`` taps at the readings' period); the least squares' error
+    ``sum_i sum_d (B_d A)_i (K_d * n)_i`` is then ``sum_t n_t E_t`` with
 
     .. math::
 
-        E = B_q A - \frac{d}{dt}(B_v A) + \frac{d^2}{dt^2}(B_a A),
+        E_t = \sum_d \sum_k K_d[k]\, (B_d A)_{t-k},
 
-    so that the noise's differentiated parts average out over a smooth motion. Returns E
-    per planned sample, shape (N, 6, r, 7); the derivatives within each stretch of ``groups``.
+    a convolution of each sample's share with the kernels: over a smooth motion the
+    differentiating kernels (they sum to zero) cancel the noise's share, except where the
+    samples begin and end. The planned samples are spread over the readings by linear
+    interpolation in time, each reading standing for ``period / step`` of a planned sample.
+
+    Returns:
+        One array per stretch of ``groups`` (its readings, half a window beyond each end
+        included), shape (T, 6, r, 7).
     """
     B = np.asarray(source.sensitivity, dtype=float)
     r = B.shape[2] // 3
-    P = np.einsum("njr,nk->njrk", B, A)
-    E = P[:, :, :r].copy()
+    kernels = np.asarray(source.kernels, dtype=float)
+    half = kernels.shape[1] // 2
     time = np.asarray(source.time, dtype=float)
     groups = np.zeros(len(time), dtype=np.int64) if source.groups is None else np.asarray(source.groups)
+    out = []
     for g in np.unique(groups):
         rows = np.nonzero(groups == g)[0]
-        if len(rows) < 3:
-            continue
         t = time[rows]
-        E[rows] -= np.gradient(P[rows, :, r : 2 * r], t, axis=0)
-        E[rows] += np.gradient(np.gradient(P[rows, :, 2 * r :], t, axis=0), t, axis=0)
-    return E
+        step = float(np.median(np.diff(t))) if len(t) > 1 else source.period
+        readings = np.arange(t[0], t[-1] + 0.5 * source.period, source.period)
+        P = np.einsum("njr,nk->njrk", B[rows], A[rows]).reshape(len(rows), -1) * (source.period / step)
+        index = np.clip(np.searchsorted(t, readings, side="right") - 1, 0, max(len(t) - 2, 0))
+        frac = np.clip((readings - t[index]) / step, 0.0, 1.0)[:, None] if len(t) > 1 else np.zeros((len(readings), 1))
+        upper = np.minimum(index + 1, len(t) - 1)
+        spread = (P[index] * (1 - frac) + P[upper] * frac).reshape(len(readings), 6, 3, r * 7)
+        length = len(readings) + 2 * half
+        size = 1 << int(np.ceil(np.log2(length)))  # FFT convolution of every column with its kernel
+        E_f = sum(
+            np.fft.rfft(spread[:, :, d].reshape(len(readings), -1), size, axis=0) * np.fft.rfft(kernels[d], size)[:, None]
+            for d in range(3)
+        )
+        E = np.fft.irfft(E_f, size, axis=0)[:length].reshape(length, 6, r, 7)
+        out.append(E)
+    return out
 
 
 def propagate(
@@ -190,17 +210,17 @@ def propagate(
     for source in sources:
         B, U = np.asarray(source.sensitivity, dtype=float), np.asarray(source.covariance, dtype=float)
         if source.time is not None:
-            E = filtered_sensitivity(source, A)
-            step = float(np.median(np.diff(source.time))) if len(source.time) > 1 else source.period
-            var = np.einsum("rs,njrk,kl,njsl->j", U, E, moments, E) * source.period / step
+            var = sum(np.einsum("rs,njrk,kl,njsl->j", U, E, moments, E) for E in filtered_sensitivity(source, A))
         elif source.groups is None:
             per_axis = np.einsum("njr,rs,njs->nj", B, U, B)
             spread = np.einsum("nk,kl,nl->n", A, moments, A)
             var = per_axis.T @ spread / weight
         else:
             _, groups = np.unique(source.groups, return_inverse=True)
-            G = np.zeros((int(groups.max()) + 1, 6, B.shape[2], 7))
-            np.add.at(G, groups, np.einsum("njr,nk->njrk", B, A))
+            order = np.argsort(groups, kind="stable")
+            starts = np.concatenate([[0], np.nonzero(np.diff(groups[order]))[0] + 1])
+            shares = np.einsum("njr,nk->njrk", B[order], A[order]).reshape(len(order), -1)
+            G = np.add.reduceat(shares, starts, axis=0).reshape(len(starts), 6, B.shape[2], 7)  # sum per group
             var = np.einsum("rs,gjrk,kl,gjsl->j", U, G, moments, G)
         variance[source.name] = variance.get(source.name, np.zeros(6)) + np.maximum(var, 0.0)
     return {name: np.sqrt(v) for name, v in variance.items()}

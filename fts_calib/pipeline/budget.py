@@ -46,7 +46,7 @@ def sample_budget(
     joints: np.ndarray,
     configuration: np.ndarray,
     joint_velocity: np.ndarray,
-    stop: np.ndarray,
+    stop: np.ndarray | None,
     x: np.ndarray,
     sigma_w: np.ndarray,
     C_bar: np.ndarray,
@@ -67,7 +67,7 @@ def sample_budget(
         joints: Joint readings of the samples [rad]. Shape (N, n_joints).
         configuration: Tool configuration index of each sample. Shape (N,) int.
         joint_velocity: Joint velocities at the samples [rad/s]. Shape (N, n_joints).
-        stop: Still stretch of each sample. Shape (N,) int.
+        stop: Still stretch of each sample, shape (N,) int; None when every sample moves.
         x: Regressors ``[P Delta; 1]`` (``[C_bar^-1 (W - D); 1]``). Shape (N, 7).
         sigma_w: Strain noise through C, per axis [N, N m]. Shape (6,).
         C_bar: Modified calibration matrix (nominal, or the result). Shape (6, 6).

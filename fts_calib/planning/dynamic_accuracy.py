@@ -73,7 +73,6 @@ def dynamic_plan_budget(
     W = tool_load(kin, tool, q, codes, qd, qdd).w_sensor
     x = np.hstack([np.linalg.solve(C_bar, (W - D).T).T, np.ones((len(W), 1))])
     extra = dynamic_error_sources(kin, tool, time, q, qd, qdd, jerk, codes, uncertainty)
-    stop = np.arange(len(q))  # a moving joint's encoder error is a new draw at every sample
     weight = (sample_rate_hz or plan.rate) / plan.rate
     row_weight = trust_weights(extra, sigma_w, uncertainty) if weighted else None
-    return sample_budget(kin, tool, q, codes, qd, stop, x, sigma_w, C_bar, D, full_scale, weight=weight, extra=extra, row_weight=row_weight)
+    return sample_budget(kin, tool, q, codes, qd, None, x, sigma_w, C_bar, D, full_scale, weight=weight, extra=extra, row_weight=row_weight)

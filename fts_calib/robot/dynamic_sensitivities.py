@@ -12,9 +12,9 @@ velocities and accelerations estimated from the joint readings. Beside the stati
 - **joint noise**: white noise of standard deviation ``sigma_q`` on each reading at
   ``joint_rate_hz``, through the zero-phase estimate of ``q, qdot, qddot`` the dynamic filter
   makes (a least-squares cubic through a centred window: kernels exact on the smooth motion);
-  ``B = [dW/dq, dW/dqdot, dW/dqddot]`` per moving joint, propagated by parts
+  ``B = [dW/dq, dW/dqdot, dW/dqddot]`` per moving joint, propagated through the kernels
   (:func:`fts_calib.model.budget.filtered_sensitivity`): over a smooth motion the noise of the
-  rate and acceleration estimates averages out, what it costs one sample is
+  rate and acceleration estimates averages out but where the samples begin and end; what it costs one sample is
   :meth:`MotionUncertainty.estimate_covariance` (for the trust rule);
 - **stream latency**: what remains of the latency after the estimated one is applied, one
   draw of standard deviation ``latency_s`` for the run: the state used is that of
@@ -74,17 +74,24 @@ class MotionUncertainty:
         for name, unit in (("joint_rate_hz", "Hz"), ("window_s", "s")):
             object.__setattr__(self, name, validation.positive(name, getattr(self, name), unit))
 
-    def estimate_covariance(self) -> np.ndarray:
-        """Covariance of the errors of one joint's ``(q, qdot, qddot)`` estimates, [rad, rad/s, rad/s^2]^2. Shape (3, 3).
+    def kernels(self) -> np.ndarray:
+        """The centred cubic's kernels of ``(q, qdot, qddot)`` at the window's middle, shape (3, 2h + 1).
 
-        ``sigma_q^2 K K^T`` with ``K`` the centred cubic's kernels at the window's middle.
+        ``estimate_i = sum_k K[k] q_{i+k}``, k = -h .. h, at the readings' period; [1, 1/s, 1/s^2].
         """
         dt = 1.0 / self.joint_rate_hz
         half = max(2, int(round(self.window_s / 2 / dt)))
         x = np.arange(-half, half + 1) / half  # offsets in units of the half window
         fit = np.linalg.pinv(np.column_stack([np.ones_like(x), x, x * x, x**3]))  # (4, w)
         scale = half * dt
-        K = np.stack([fit[0], fit[1] / scale, 2.0 * fit[2] / scale**2])
+        return np.stack([fit[0], fit[1] / scale, 2.0 * fit[2] / scale**2])
+
+    def estimate_covariance(self) -> np.ndarray:
+        """Covariance of the errors of one joint's ``(q, qdot, qddot)`` estimates, [rad, rad/s, rad/s^2]^2. Shape (3, 3).
+
+        ``sigma_q^2 K K^T`` with ``K`` the :meth:`kernels`.
+        """
+        K = self.kernels()
         return self.joint_noise**2 * K @ K.T
 
 
@@ -154,7 +161,8 @@ def dynamic_error_sources(kin: Kinematics, tool: Tool, time, q, qd, qdd, jerk, c
     derivative = wrench_derivatives(kin, tool, q, qd, qdd, codes, moving)  # (N, 6, 3, J)
     noise = np.eye(len(moving)) * uncertainty.joint_noise**2
     B = derivative.reshape(n, 6, 3 * len(moving))  # (value, rate, second rate) parts, each over the moving joints
-    sources.append(ErrorSource("joint noise", B, noise, codes, np.asarray(time, dtype=float), 1.0 / uncertainty.joint_rate_hz))
+    period = 1.0 / uncertainty.joint_rate_hz
+    sources.append(ErrorSource("joint noise", B, noise, codes, np.asarray(time, dtype=float), period, uncertainty.kernels()))
     rates = np.stack([qd[:, moving], qdd[:, moving], jerk[:, moving]], axis=1)  # (N, 3, J)
     dW_dt = np.einsum("njwk,nwk->nj", derivative, rates)[:, :, None]
     sources.append(ErrorSource("stream latency", -dW_dt, np.array([[uncertainty.latency_s**2]]), common))
