@@ -98,7 +98,8 @@ def test_tool_inertia_term_matches_monte_carlo(continuous, rng):
     codes, q, qd, qdd = tiled(plan, tool)
     motion = kin.sensor_motion(q, qd, qdd)
     known = wrench(kin, tool, codes, q, qd, qdd, motion=motion)
-    basis = [np.diag(e) for e in np.eye(3)] + [np.outer(a, b) + np.outer(b, a) for a, b in ((0, 1), (0, 2), (1, 2)) for a, b in [(np.eye(3)[a], np.eye(3)[b])]]
+    e = np.eye(3)
+    basis = [np.diag(v) for v in e] + [np.outer(e[i], e[j]) + np.outer(e[j], e[i]) for i, j in ((0, 1), (0, 2), (1, 2))]
     fit = fitter(known)
     errors = []
     for _ in range(2 * RUNS):
@@ -171,7 +172,7 @@ def test_noiseless_and_exact_inertia_give_no_dynamic_error(continuous):
 
 
 def test_one_configuration_is_rank_7_only_through_the_inertial_torques(continuous):
-    """One centre of mass: the static wrench leaves rank 4 (eqs 19-20); the moving one is finite, and grows as the inertia is known worse."""
+    """One centre of mass: the static wrench leaves rank 4 (eqs 19-20); the moving one is finite, growing as the inertia is known worse."""
     kin, tool, _ = continuous
     plan = plan_sweeps(kin, HOME, RANGES, SweepPattern(3, 2, 0.0, 0.02, 0.5, continuous=True), 25.0)
     one = dataclasses.replace(tool, configurations=tool.configurations[:1])
