@@ -13,7 +13,7 @@ from ..feeds.source import MIN_COVERAGE
 from .exit_codes import EXIT_CODES
 from .feed_arguments import add_recording, add_ur
 from .monitor_arguments import add_monitor
-from .offset_arguments import add_drift_demo, add_offsets, add_return_pass
+from .offset_arguments import add_drift_demo, add_filter_mode, add_offsets, add_return_pass
 from .parser import Parser, add_address, add_command, plot_path
 from .report_arguments import add_report, add_report_option
 from .sensor_arguments import add_prior, add_sensor
@@ -161,6 +161,7 @@ def _add_calibrate(commands) -> None:
         "encoders, timing, mount; in % of full scale and N or N·m) and the joint stream's latency from the moving samples "
         "(ms), both written into the file. Exits 1 when the data cannot determine C.",
         "fts-calib calibrate --robot ur5 --tool paper_tool recording.csv -o calibration.yaml\n"
+        "  fts-calib calibrate --robot ur5 --tool paper_tool --filter dynamic sweep.csv   # moving samples calibrate too\n"
         "  fts-calib calibrate --robot ur5 --tool paper_tool run_bag/ -o calibration.yaml   # a ROS 2 bag (MCAP or sqlite3)\n"
         "  fts-calib calibrate --robot ur5 --tool paper_tool --sensor factory_sensor wrench_run.csv   # a 6-axis wrench, strain_1..6",
     )
@@ -169,6 +170,7 @@ def _add_calibrate(commands) -> None:
     add_sensor(cal)
     cal.add_argument("-o", "--output", default="calibration.yaml", help="calibration file to write (default: calibration.yaml)")
     cal.add_argument("--no-filter", dest="use_filter", action="store_false", help="keep every valid sample, moving or not (for comparison)")
+    add_filter_mode(cal)
     cal.add_argument("--checkpoint", help="checkpoint file, written every few seconds")
     _resume_or_restart(cal, "continue from --checkpoint (it must be of this recording)")
     cal.add_argument("--joints-in-degrees", action="store_true", help="the joint columns are in degrees")
@@ -207,6 +209,7 @@ def _add_live(commands) -> None:
     )
     _robot_and_tool(live)
     add_sensor(live)
+    add_filter_mode(live)
     add_prior(live)
     live.add_argument(
         "--plan", help="plan.yaml of the sized trajectories being run: the status line shows the motion left and the next configuration"

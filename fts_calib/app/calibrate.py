@@ -18,6 +18,7 @@ from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..pipeline.calibrate import CalibrateResult, calibrate_recording
+from ..pipeline.dynamic import nominal_c
 from ..pipeline.fit import FitCheck
 from ..pipeline.session import CalibrationSession
 from .exit_codes import ExitCode, writing
@@ -52,6 +53,7 @@ def run(
     model: str | None = None,
     report: str | Path | None = None,
     mount_rpy: Sequence[float] | None = None,
+    filter_mode: str | None = None,
 ) -> int:
     """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -87,6 +89,8 @@ def run(
         prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
         model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
             (default auto: chosen with the offset model by held-out error) when None.
+        filter_mode: The sample filter's mode ('quasi-static', 'dynamic':
+            :mod:`fts_calib.pipeline.dynamic`); the pipeline file's (default quasi-static) when None.
         report: HTML report to write (:mod:`fts_calib.app.report_html`), also when the
             calibration is refused (its diagnosis first); None for none.
 
@@ -106,8 +110,8 @@ def run(
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
     check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
     kin, loaded, settings = load_setup(robot, tool, pipeline, mount_rpy)
-    settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
+    settings = settings.with_offsets(offsets).with_filter_mode(filter_mode).with_nominal_c(nominal_c(spec))
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)
     bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open

@@ -16,6 +16,7 @@ from ..feeds.udp import UdpReceiver, listen_host
 from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
 from ..pipeline.checkpoint import check_start, live_source
+from ..pipeline.dynamic import nominal_c
 from ..pipeline.live import LiveRunner, format_stats
 from ..pipeline.remaining import load_plan_progress
 from ..pipeline.session import CalibrationSession
@@ -52,6 +53,7 @@ def run(
     prior_weight: float = 1.0,
     model: str | None = None,
     report: str | Path | None = None,
+    filter_mode: str | None = None,
 ) -> int:
     """Calibrate from the live protocol until an 'end' message, Ctrl-C or the idle timeout (``fts-calib live``).
 
@@ -93,6 +95,8 @@ def run(
         prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
         model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
             (default auto: chosen with the offset model by held-out error) when None.
+        filter_mode: The sample filter's mode ('quasi-static', 'dynamic':
+            :mod:`fts_calib.pipeline.dynamic`); the pipeline file's (default quasi-static) when None.
 
         report: HTML report of the run to write, also when no calibration is written (its
             diagnosis first; :mod:`fts_calib.app.report_html`); None for none. A resumed run's
@@ -111,8 +115,8 @@ def run(
     check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
     check_start(checkpoint, resume, restart)
     kin, loaded, settings = load_setup(robot, tool, pipeline)
-    settings = settings.with_offsets(offsets)
     spec = load_sensor(sensor)
+    settings = settings.with_offsets(offsets).with_filter_mode(filter_mode).with_nominal_c(nominal_c(spec))
     settings = settings.with_limits(spec.limits)  # railed samples refused from the start, as the recording's
     layout = spec.layout
     shrink = load_prior(prior, prior_weight, layout)

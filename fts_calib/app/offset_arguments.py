@@ -10,6 +10,7 @@ import argparse
 
 from ..model.features import MODEL_SETTINGS
 from ..model.offset_basis import OFFSET_SETTINGS
+from ..pipeline.settings import FILTER_MODES
 
 
 def add_offsets(parser: argparse.ArgumentParser) -> None:
@@ -27,6 +28,18 @@ def add_offsets(parser: argparse.ArgumentParser) -> None:
         help="offset model: auto (default, from the pipeline file: the simplest the data support, by held-out error, or by "
         "BIC with --model linear), constant (the paper), per-configuration (one D per tool configuration), drift "
         "(per-configuration plus time and temperature)",
+    )
+
+
+def add_filter_mode(parser: argparse.ArgumentParser) -> None:
+    """--filter: the sample filter's mode (calibrate, live)."""
+    parser.add_argument(
+        "--filter",
+        dest="filter_mode",
+        choices=FILTER_MODES,
+        help="sample filter: quasi-static (default, from the pipeline file: still samples, the tool's weight) or dynamic "
+        "(every moving sample whose expected wrench is trusted, with the tool's Newton-Euler wrench, weighted by its "
+        "predicted error: docs/method.md#dynamic-mode)",
     )
 
 

@@ -10,6 +10,12 @@ Samples with a channel at its rail are refused when the rail is known (declared 
 sensor file). A rail the sensor file does not declare is detected on the way
 (:class:`fts_calib.model.channel_limits.RailWatch`), after its samples went in: the
 recording is then calibrated again, with the rail, and the result says what was detected.
+
+With ``filter.mode: dynamic`` and ``filter.latency_s: auto`` the first read applies no latency
+and leaves the latency out of the trust rule, while the latency is fitted with the
+calibration (:mod:`fts_calib.pipeline.latency_fit`); the recording is then read again with
+it applied and its standard error (at least :data:`MIN_LATENCY_SIGMA_S`) as the trust
+rule's latency uncertainty.
 """
 
 from __future__ import annotations
@@ -40,9 +46,10 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, load_tool
 from .checkpoint import check_start, recording_source
 from .clock import clock_checked
+from .dynamic import DynamicFilter, nominal_c
 from .latency import LatencyEstimate
 from .session import CalibrationSession
-from .settings import PipelineConfig, load_pipeline_config
+from .settings import DYNAMIC, PipelineConfig, load_pipeline_config
 
 
 class ProgressSink(Protocol):
@@ -155,10 +162,13 @@ def calibrate_recording(
     pending: list[tuple] = []  # the kept samples of a run that may be done again, for on_kept
     models = {"model": model, "full_channels": full_channels, "full_scale": full_scale}
     run = _Run(paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models)
-    session, problems, rows, lost = run.read(resume, settings, on_kept=None if on_kept is None else lambda *a: pending.append(a))
+    first = settings_for_first_read(settings, resume)  # latency_s auto: the latency is fitted on the way
+    session, problems, rows, lost = run.read(resume, first, on_kept=None if on_kept is None else lambda *a: pending.append(a))
     found = None if resume or session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
-    if found is not None:  # a rail nobody declared: its samples went in; calibrate again without them
-        session, problems, rows, lost = run.read(False, settings.with_limits(found), on_kept)
+    again = settings_with_latency(settings, session.filter) if first is not settings else None
+    if found is not None or again is not None:  # a rail nobody declared, or the latency: calibrate again with them
+        settings = (again or settings).with_limits(found) if found is not None else again or settings
+        session, problems, rows, lost = run.read(False, settings, on_kept)
     elif on_kept is not None:
         for kept in pending:
             on_kept(*kept)
@@ -172,6 +182,28 @@ def calibrate_recording(
         calibration, error = None, exc
     seconds, detected = time.perf_counter() - start, (() if found is None else found.detected)
     return CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency, detected=detected)
+
+
+#: The smallest latency uncertainty the second read of ``latency_s: auto`` assumes [s].
+MIN_LATENCY_SIGMA_S = 2e-5
+
+
+def settings_for_first_read(settings: PipelineConfig, resume: bool) -> PipelineConfig:
+    """The settings of a recording's first read: with ``latency_s: auto`` in dynamic mode, no latency and none of its uncertainty."""
+    f = settings.filter
+    if resume or f.mode != DYNAMIC or f.latency_s is not None:
+        return settings
+    return dataclasses.replace(settings, filter=dataclasses.replace(f, latency_s=0.0, latency_uncertainty_s=0.0))
+
+
+def settings_with_latency(settings: PipelineConfig, filter_) -> PipelineConfig | None:
+    """The settings of the second read: the latency fitted in the first applied (None: none was fitted)."""
+    fit = None if not isinstance(filter_, DynamicFilter) else filter_.latency_fit.solve()
+    if fit is None:
+        return None
+    tau, stderr = fit
+    f = dataclasses.replace(settings.filter, latency_s=filter_.latency_s + tau, latency_uncertainty_s=max(stderr, MIN_LATENCY_SIGMA_S))
+    return dataclasses.replace(settings, filter=f)
 
 
 def calibrate(
@@ -233,6 +265,7 @@ def calibrate(
     spec = sensor if isinstance(sensor, SensorSpec) else load_sensor_config(sensor)
     if not isinstance(settings, PipelineConfig):
         settings = load_pipeline_config(locate("pipeline" if settings is None else settings, "configs"))
+    settings = settings if settings.nominal_c is not None else settings.with_nominal_c(nominal_c(spec))
     if isinstance(recording_or_arrays, (str, Path)) or (
         isinstance(recording_or_arrays, Sequence) and all(isinstance(p, (str, Path)) for p in recording_or_arrays)
     ):

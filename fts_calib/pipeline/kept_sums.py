@@ -20,6 +20,7 @@ from ..model.least_squares import unexplained_strain
 from .advice import missing_words, refused_words
 from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .progress import Progress
+from .settings import DYNAMIC
 
 if TYPE_CHECKING:
     from .session import CalibrationSession
@@ -39,7 +40,9 @@ def empty_sums(n_configurations: int, n_drift: int) -> tuple[np.ndarray, np.ndar
     return np.zeros((n_configurations, 4, 4)), np.zeros((n_configurations, m, m))  # directions: sum of [u; 1][u; 1]^T, u = g / |g|
 
 
-def add_kept(session: CalibrationSession, g: np.ndarray, channels: np.ndarray, codes: np.ndarray, time, temperature) -> None:
+def add_kept(
+    session: CalibrationSession, g: np.ndarray, channels: np.ndarray, codes: np.ndarray, time, temperature, fit: np.ndarray | None = None
+) -> None:
     """Add kept samples to the session's counts, gravity directions and fit sums, per configuration.
 
     Args:
@@ -49,6 +52,8 @@ def add_kept(session: CalibrationSession, g: np.ndarray, channels: np.ndarray, c
         codes: Configuration indices in the tool's order, shape (N,).
         time: Times [s], shape (N,) (the estimator's drift columns).
         temperature: Sensor temperatures [°C], shape (N,), or None.
+        fit: Which samples enter the fit sums (whose wrench is the weight alone: the fit check's
+            model), shape (N,) bool; None: all.
     """
     session.kept += np.bincount(codes, minlength=len(session.kept))
     unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
@@ -57,7 +62,8 @@ def add_kept(session: CalibrationSession, g: np.ndarray, channels: np.ndarray, c
         mine = codes == c
         u = unit[mine]
         session._directions[c] += u.T @ u
-        session._fit_sums[c] += rows[mine].T @ rows[mine]
+        mine_fit = mine if fit is None else mine & fit
+        session._fit_sums[c] += rows[mine_fit].T @ rows[mine_fit]
 
 
 def session_progress(session: CalibrationSession) -> Progress:
@@ -101,7 +107,8 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
     noise = None if session.filter is None else session.filter.noise_floor
     in_sums = session._fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
     missing = int(session.kept.sum() - round(float(in_sums.sum())))
-    if missing > 0:  # resumed from a checkpoint of a version without fit sums: a part is not judged
+    # resumed from a checkpoint of a version without fit sums: a part is not judged (dynamic: only near-still samples are in them)
+    if missing > 0 and session.settings.filter.mode != DYNAMIC:
         reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason)
     chosen = session.estimator.model_in_use()[0]

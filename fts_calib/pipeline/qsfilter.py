@@ -49,7 +49,7 @@ import numpy as np
 from ..feeds.batch import SampleBatch
 from ..model.channel_limits import ChannelLimits, GridWatch
 from ..robot.tool import Tool
-from ..robot.tool_wrench import ToolLoad
+from ..robot.tool_wrench import ToolLoad, dynamic_fraction
 from .settings import FilterConfig
 
 #: The rules, in the order they are reported.
@@ -297,16 +297,8 @@ class QuasiStaticFilter:
         Returns:
             The samples that pass, shape (k,) bool (all of them without a moving wrench).
         """
-        fraction = np.zeros(len(configuration))
-        if load.moving is not None:
-            delta = load.moving - load.static
-            for c, tool_configuration in enumerate(tool.configurations):
-                mine = configuration == c
-                weight = tool_configuration.mass * tool.gravity
-                lever = max(float(np.linalg.norm(tool_configuration.p_sensor_com)), 1e-3)
-                fraction[mine] = np.maximum(
-                    np.linalg.norm(delta[mine, :3], axis=1) / weight, np.linalg.norm(delta[mine, 3:], axis=1) / (weight * lever)
-                )
+        moving = load.moving is not None
+        fraction = dynamic_fraction(tool, configuration, load.moving - load.static) if moving else np.zeros(len(configuration))
         ok = fraction <= self.settings.max_dynamic_fraction
         self.rejected["dynamic wrench"] += int((~ok).sum())
         return ok

@@ -46,16 +46,15 @@ from ..robot.tool_wrench import tool_load
 from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
+from .dynamic import filtered, near_static, sample_filter
 from .fit import FitCheck
 from .health import with_health
 from .kept_sums import add_kept, empty_sums, refusal, session_fit_check, session_progress
 from .latency import LatencyEstimate
 from .progress import Progress
 from .provenance import session_provenance
-from .qsfilter import QuasiStaticFilter
 from .resume import restore_session, session_state
 from .settings import PipelineConfig
-from .still import quasi_static
 from .tool_load import check_tool_load
 from .units import HeldOutUnits
 
@@ -144,7 +143,7 @@ class CalibrationSession:
             full_scale=full_scale,
         )
         self.units = HeldOutUnits()
-        self.filter = QuasiStaticFilter(self.settings.filter, kin.continuous, self.settings.checks.limits) if use_filter else None
+        self.filter = sample_filter(self.settings, kin, use_filter, self.full_scale, self.layout, n)  # filter.mode: quasi-static or dynamic
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
@@ -207,10 +206,14 @@ class CalibrationSession:
             raise ShapeError(f"add_batch: {counts}: expected one of each per sample")
         self.add_samples(SampleBatch(t, readings, channels, codes, temperature))
 
-    def add_samples(self, batch: SampleBatch) -> None:
-        """Add a batch from a feed (configuration indices in the tool's order), in time order."""
+    def add_samples(self, batch: SampleBatch, rates=None) -> None:
+        """Add a batch from a feed (configuration indices in the tool's order), in time order.
+
+        ``rates``: the joints' exact ``(velocity [rad/s], acceleration [rad/s^2])``, each (N, n_joints), for
+        ``filter.mode: dynamic`` (a controller that has them); None: estimated from the readings.
+        """
         self._flush_staged()
-        self._process(batch)
+        self._process(batch, rates)
 
     def note_skipped(self, reason: str, count: int) -> None:
         """Count samples skipped before reaching the session (e.g. malformed lines of a file)."""
@@ -225,7 +228,7 @@ class CalibrationSession:
             temperature = None if np.all(np.isnan(heat)) else np.array(heat)  # some missing: NaN, skipped by the checks
             self._process(SampleBatch(np.array(t), np.array(joints), np.array(strain), np.array(codes, dtype=np.int64), temperature))
 
-    def _process(self, batch: SampleBatch) -> None:
+    def _process(self, batch: SampleBatch, rates=None) -> None:
         check_channels(self.layout, batch.channels.shape[1], self.source or "the samples")
         self.seen += len(batch)
         ok = self.checks.accept(batch)
@@ -238,13 +241,15 @@ class CalibrationSession:
             )
             valid = batch.select(ok)
             self._moving.add(valid.time, valid.joints, valid.channels, valid.configuration)
-            self._accumulate(valid, final=False)
+            self._accumulate(valid, False, None if rates is None else (np.asarray(rates[0])[ok], np.asarray(rates[1])[ok]))
         self._maybe_checkpoint()
 
-    def _accumulate(self, batch: SampleBatch, final: bool) -> None:
+    def _accumulate(self, batch: SampleBatch, final: bool, rates=None) -> None:
+        weight = fit = None
         if self.filter is not None:
-            still = quasi_static(self.filter, self.kin, self.tool, batch, final=final)
-            kept, g, W = still.samples, still.g_sensor, still.w_sensor
+            still = filtered(self.filter, self.kin, self.tool, batch, final, rates)
+            kept, g, W, weight = still.samples, still.g_sensor, still.w_sensor, still.weight
+            fit = near_static(self.tool, still, kept.configuration, self.settings.filter.max_dynamic_fraction)
         else:
             load = tool_load(self.kin, self.tool, batch.joints, batch.configuration)
             kept, g, W = batch, load.g_sensor, load.static
@@ -252,11 +257,11 @@ class CalibrationSession:
             return
         codes = kept.configuration
         units = None if self.estimator.units is None else self.units.assign(kept.time, codes)
-        self.estimator.update_batch(W, kept.channels, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
+        self.estimator.update_batch(W, kept.channels, weight, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)
-        add_kept(self, g, kept.channels, codes, kept.time, kept.temperature)
+        add_kept(self, g, kept.channels, codes, kept.time, kept.temperature, fit)
 
     def flush(self) -> None:
         """Decide the samples the filter still holds (call when the stream ends)."""

@@ -8,6 +8,17 @@ stationary over ``strain_window_s`` [s] (standard deviation of every bridge at m
 measured on still samples), and when the dynamic part of the tool's wrench is at most
 ``max_dynamic_fraction`` of its weight (force) and of weight times lever (moment).
 
+``filter.mode``: ``quasi-static`` (default: the rules above) or ``dynamic``
+(:mod:`fts_calib.pipeline.dynamic`): every sample whose expected wrench is trusted enters the
+estimator with the tool's Newton-Euler wrench, joint rates from a centred local polynomial of degree
+``dynamic_order`` (3 or 5) over ``dynamic_window_s`` [s] evaluated ``latency_s`` [s] later (how late the joint readings are in
+the samples the session receives; ``auto``: 0, and ``calibrate`` reads the recording again with
+the latency it estimates when that is significant), weighted by the trust rule
+(:mod:`fts_calib.pipeline.trust`) with ``joint_noise`` [rad] (``auto``: measured),
+``latency_uncertainty_s`` [s] (``auto``: the robot file's ``accuracy.latency_s`` / sqrt(3) and
+``jitter_s``), ``inertia_tolerance`` (relative, of the tool's inertia) and
+``max_error_ratio`` (the largest predicted error of a kept sample, in units of the noise).
+
 ``live``: ``max_gap_s`` [s], the longest gap of the joint stream the synchronizer
 interpolates across; ``latency_s`` [s], added to joint times to align them with strain
 times; ``checkpoint_interval_s`` [s], how often the session's accumulators are saved.
@@ -36,6 +47,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..core import validation
 from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number
@@ -45,6 +58,12 @@ from ..model.offset_basis import AUTO, OffsetBasis, offset_setting
 #: Default of ``checks.max_abs_channel`` [raw units]: larger than any reading of a sensor
 #: delivering mV/V, N or 24-bit ADC counts (2^23 = 8.4e6), far below a corrupt cell (1e160).
 DEFAULT_MAX_ABS_CHANNEL = 1e9
+
+#: The sample filter's modes (``filter.mode``): still samples only, or every trusted moving one.
+QUASI_STATIC, DYNAMIC = "quasi-static", "dynamic"
+FILTER_MODES = (QUASI_STATIC, DYNAMIC)
+#: Filter keys that take ``auto`` (None).
+_AUTO_KEYS = ("max_strain_std", "latency_s", "joint_noise", "latency_uncertainty_s")
 
 #: The sections of a pipeline settings file.
 SECTIONS = ("filter", "live", "checks", "design", "offsets")
@@ -61,8 +80,28 @@ class FilterConfig:
     max_strain_std: float | None = None  # [raw units]; None = auto
     strain_std_factor: float = 4.0
     max_dynamic_fraction: float = 1e-3
+    mode: str = QUASI_STATIC
+    latency_s: float | None = None  # [s]; None = auto
+    joint_noise: float | None = None  # [rad]; None = auto (measured)
+    latency_uncertainty_s: float | None = None  # [s]; None = auto (the robot file's accuracy)
+    dynamic_window_s: float = 0.3  # [s]
+    dynamic_order: int = 5
+    inertia_tolerance: float = 0.01  # relative
+    max_error_ratio: float = 3.0
 
     def __post_init__(self):
+        if self.mode not in FILTER_MODES:
+            raise ConfigError("filter.mode", self.mode, " or ".join(FILTER_MODES))
+        if self.latency_s is not None:
+            object.__setattr__(self, "latency_s", validation.number("filter.latency_s", self.latency_s, "s"))
+        for name in ("joint_noise", "latency_uncertainty_s", "inertia_tolerance"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, validation.non_negative(f"filter.{name}", getattr(self, name)))
+        if self.dynamic_order not in (3, 5):
+            raise ConfigError("filter.dynamic_order", self.dynamic_order, "3 or 5 (the degree of the local polynomial)")
+        object.__setattr__(self, "dynamic_order", int(self.dynamic_order))
+        for name in ("max_error_ratio", "dynamic_window_s"):
+            object.__setattr__(self, name, validation.positive(f"filter.{name}", getattr(self, name)))
         for name in (
             "max_joint_speed",
             "max_joint_acceleration",
@@ -140,6 +179,8 @@ class PipelineConfig:
         offsets: The offset model of the estimator.
         noise_std: Strain noise per bridge for experiment design [raw units], or None for
             the sensor file's.
+        nominal_c: The sensor file's nominal C (6 x n, raw channels to [N, N m]) as rows, or
+            None: the dynamic filter's noise through C (:mod:`fts_calib.pipeline.dynamic`).
     """
 
     filter: FilterConfig = field(default_factory=FilterConfig)
@@ -147,6 +188,15 @@ class PipelineConfig:
     noise_std: float | None = None
     checks: ChecksConfig = field(default_factory=ChecksConfig)
     offsets: OffsetConfig = field(default_factory=OffsetConfig)
+    nominal_c: tuple[tuple[float, ...], ...] | None = None
+
+    def with_filter_mode(self, mode: str | None) -> PipelineConfig:
+        """These settings with another filter mode ('quasi-static', 'dynamic'); unchanged for None."""
+        return self if mode is None else replace(self, filter=replace(self.filter, mode=mode))
+
+    def with_nominal_c(self, C) -> PipelineConfig:
+        """These settings with a nominal C (6 x n, raw channels to [N, N m]; None: none)."""
+        return replace(self, nominal_c=None if C is None else tuple(tuple(float(v) for v in row) for row in np.asarray(C, dtype=float)))
 
     def with_limits(self, limits: ChannelLimits | None) -> PipelineConfig:
         """These settings with the channels' declared resolution and rails (:attr:`SensorSpec.limits`; None: none)."""
@@ -178,8 +228,8 @@ def load_pipeline_config(path: str | Path) -> PipelineConfig:
         check_keys(raw, cls.__dataclass_fields__, path, name)
         values: dict[str, float | str | None] = {}
         for key, value in raw.items():
-            auto = key == "max_strain_std" and value == "auto"
-            if key == "model":  # the one text value: offsets.model
+            auto = name == "filter" and key in _AUTO_KEYS and value == "auto"
+            if key in ("model", "mode"):  # the text values: offsets.model, filter.mode
                 values[key] = str(value)
                 continue
             values[key] = None if auto else read_number(value, path, f"{name}.{key}", "s" if key.endswith("_s") else "")

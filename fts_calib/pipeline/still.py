@@ -29,13 +29,19 @@ class StillSamples:
         keep: The quasi-static ones (all four rules passed). Shape (m,) bool, k of them true.
         g_sensor: Gravity in the sensor frame at each kept sample, in [m/s^2]. Shape (k, 3).
         w_sensor: The tool's static wrench at each kept sample (paper eqs 17-18), in
-            [N, N m], shape (k, 6); None for an unknown payload (no tool).
+            [N, N m], shape (k, 6); None for an unknown payload (no tool). The dynamic filter's:
+            the moving wrench (:mod:`fts_calib.pipeline.dynamic`).
+        weight: The estimator's weight of each kept sample, shape (k,), or None: all 1.
+        dynamic_part: The moving wrench less the static one at each kept sample [N, N m],
+            shape (k, 6), or None (quasi-static samples: none to speak of).
     """
 
     decided: SampleBatch
     keep: np.ndarray
     g_sensor: np.ndarray
     w_sensor: np.ndarray | None
+    weight: np.ndarray | None = None
+    dynamic_part: np.ndarray | None = None
 
     @property
     def samples(self) -> SampleBatch:

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core.exceptions import ShapeError
 from .kinematics import Kinematics
+from .motion import SensorMotion
 from .tool import Tool
 
 
@@ -30,11 +31,13 @@ class ToolLoad:
         static: The weight alone (eqs 17-18), ``[F, c x F]`` in [N, N m]. Shape (N, 6).
         moving: The Newton-Euler wrench of the moving tool in [N, N m], shape (N, 6), or
             None when no joint rates were given.
+        motion: The sensor's motion the moving wrench comes from (N rows), or None.
     """
 
     g_sensor: np.ndarray
     static: np.ndarray
     moving: np.ndarray | None = None
+    motion: SensorMotion | None = None
 
     @property
     def w_sensor(self) -> np.ndarray:
@@ -92,4 +95,27 @@ def tool_load(
         mine = codes == k
         if mine.any():
             moving[mine] = tool_configuration.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
-    return ToolLoad(g, static, moving)
+    return ToolLoad(g, static, moving, motion)
+
+
+def dynamic_fraction(tool: Tool, configuration: np.ndarray, dynamic_part: np.ndarray) -> np.ndarray:
+    """How large the dynamic part of the tool's wrench is, relative to its weight.
+
+    Args:
+        tool: The tool (the weight and lever of each configuration).
+        configuration: Configuration index of each sample, shape (N,).
+        dynamic_part: The moving wrench less the static one [N, N m], shape (N, 6).
+
+    Returns:
+        Per sample, the larger of ``|force part| / (m g)`` and ``|moment part| / (m g |c|)``
+        (``|c|`` at least 1 mm), shape (N,).
+    """
+    fraction = np.zeros(len(configuration))
+    for c, tool_configuration in enumerate(tool.configurations):
+        mine = configuration == c
+        weight = tool_configuration.mass * tool.gravity
+        lever = max(float(np.linalg.norm(tool_configuration.p_sensor_com)), 1e-3)
+        fraction[mine] = np.maximum(
+            np.linalg.norm(dynamic_part[mine, :3], axis=1) / weight, np.linalg.norm(dynamic_part[mine, 3:], axis=1) / (weight * lever)
+        )
+    return fraction
