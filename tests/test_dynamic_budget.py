@@ -139,7 +139,7 @@ def test_joint_noise_term_matches_monte_carlo(continuous, rng):
     """White noise on 1 kHz readings, rates from a 50 ms centred cubic: the differentiated noise averages out as predicted."""
     kin, tool, coarse = continuous
     sigma_q = 1e-3  # [rad] large: the term then dwarfs the linearisation's error
-    uncertainty = MotionUncertainty(inertia=0.0, joint_noise=sigma_q, joint_rate_hz=1000.0, window_s=0.05, latency_s=0.0, jitter_s=0.0)
+    uncertainty = MotionUncertainty(0.0, sigma_q, 1000.0, window_s=0.05, latency_s=0.0, jitter_s=0.0, order=3)
     budget = predicted(kin, tool, coarse, uncertainty)  # the budget from the 200 Hz rows
     plan = plan_sweeps(kin, HOME, RANGES, PATTERN, 1000.0)  # the fits from every reading
     codes, q, qd, qdd = tiled(plan, tool)
@@ -183,3 +183,13 @@ def test_one_configuration_is_rank_7_only_through_the_inertial_torques(continuou
     ratio = loose.terms["tool inertia"][3:] / tight.terms["tool inertia"][3:]
     assert np.allclose(ratio, 10.0, rtol=1e-6), ratio  # linear in the tolerance
     assert loose.dominant()[0] == "tool inertia"
+
+
+@pytest.mark.parametrize("order", [3, 5])
+def test_the_budget_filters_the_joints_as_the_dynamic_mode_does(order):
+    """The joint-noise term's kernels are those of the dynamic filter's derivative estimate (its noise gains)."""
+    from fts_calib.pipeline.derivatives import kernel_gains
+
+    uncertainty = MotionUncertainty(joint_noise=1.0, joint_rate_hz=1000.0, window_s=0.3, order=order)
+    gain_v, gain_a, _ = kernel_gains(0.3, 1e-3, order)
+    assert np.sqrt(np.diag(uncertainty.estimate_covariance()))[1:] == pytest.approx([gain_v, gain_a], rel=1e-9)

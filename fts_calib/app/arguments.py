@@ -132,16 +132,17 @@ def _add_trajectory(commands) -> None:
     traj.add_argument(
         "--inertia-tolerance",
         type=float,
-        default=0.1,
-        help="continuous: each inertia element known to this fraction of the largest principal moment (default: 0.1)",
+        help="continuous: each inertia element known to this fraction of the largest principal moment "
+        "(default: the pipeline's filter.inertia_tolerance)",
     )
-    traj.add_argument("--joint-noise", type=float, default=1e-5, help="continuous: noise of the joint readings in rad (default: 1e-5)")
+    traj.add_argument(
+        "--joint-noise", type=float, help="continuous: noise of the joint readings in rad (default: filter.joint_noise, auto: 1e-5)"
+    )
     traj.add_argument(
         "--latency-uncertainty",
         dest="latency_uncertainty_s",
         type=float,
-        default=1e-4,
-        help="continuous: standard deviation of the stream-latency estimate in s (default: 1e-4)",
+        help="continuous: standard deviation of the stream-latency estimate in s (default: filter.latency_uncertainty_s, auto: 1e-4)",
     )
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", dest="plot", action="store_false", help="do not write plan.png")

@@ -17,9 +17,8 @@ from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
 from ..planning.drift_excitation import DriftPrediction
 from ..planning.sweeps import SweepPattern
-from ..planning.trajectory import TrajectoryRun, plan_summary, plan_trajectories
+from ..planning.trajectory import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
 from ..planning.trajectory_io import save_trajectory
-from ..robot.dynamic_sensitivities import MotionUncertainty
 from ..robot.tool import ToolShape, load_tool
 from . import plots
 from .exit_codes import ExitCode, writing
@@ -50,9 +49,9 @@ def run(
     return_pass: bool = False,
     motion: str = "stop",
     configurations: int | None = None,
-    inertia_tolerance: float = 0.1,
-    joint_noise: float = 1e-5,
-    latency_uncertainty_s: float = 1e-4,
+    inertia_tolerance: float | None = None,
+    joint_noise: float | None = None,
+    latency_uncertainty_s: float | None = None,
 ) -> int:
     """Plan and check the calibration sweeps, write them and print the report (``fts-calib trajectory``).
 
@@ -87,9 +86,12 @@ def run(
         configurations: Plan for the tool's first this many configurations (continuous only;
             refused, naming what each number reaches, when the target is out of reach); None for all.
         inertia_tolerance: How well each configuration's inertia is known, a fraction of its
-            largest principal moment per element (continuous).
-        joint_noise: Standard deviation of the joint readings' noise, in [rad] (continuous).
-        latency_uncertainty_s: Standard deviation of the stream-latency estimate, in [s] (continuous).
+            largest principal moment per element (continuous); the pipeline's
+            ``filter.inertia_tolerance`` when None.
+        joint_noise: Standard deviation of the joint readings' noise, in [rad] (continuous);
+            the pipeline's ``filter.joint_noise`` when None (``auto``: 1e-5).
+        latency_uncertainty_s: Standard deviation of the stream-latency estimate, in [s]
+            (continuous); the pipeline's ``filter.latency_uncertainty_s`` when None (``auto``: 1e-4).
 
     Returns:
         0 when every check passed, 1 when one failed (the trajectory files are then not written).
@@ -128,7 +130,14 @@ def run(
         continuous=continuous,
     )
     uncertainty = (
-        MotionUncertainty(inertia_tolerance, joint_noise, spec.rate_hz, latency_s=latency_uncertainty_s, jitter_s=latency_uncertainty_s)
+        motion_uncertainty(
+            settings.filter,
+            spec.rate_hz,
+            inertia=inertia_tolerance,
+            joint_noise=joint_noise,
+            latency_s=latency_uncertainty_s,
+            jitter_s=latency_uncertainty_s,
+        )
         if continuous
         else None
     )
@@ -248,7 +257,8 @@ def format_report(
         u = run.uncertainty
         lines.append(
             f"dynamic terms: inertia known to {100 * u.inertia:g} % of its largest principal moment per element, joint noise "
-            f"{u.joint_noise:.2g} rad at {u.joint_rate_hz:g} Hz (rates from a {1e3 * u.window_s:g} ms centred cubic), latency "
+            f"{u.joint_noise:.2g} rad at {u.joint_rate_hz:g} Hz (rates from a {1e3 * u.window_s:g} ms centred polynomial of "
+            f"degree {u.order}), latency "
             f"estimate ±{1e3 * u.latency_s:.2g} ms (1σ), jitter {1e3 * u.jitter_s:.2g} ms"
         )
     lines.append(

@@ -168,8 +168,7 @@ def filtered_sensitivity(source: ErrorSource, A: np.ndarray) -> list[np.ndarray]
         length = len(readings) + 2 * half
         size = 1 << int(np.ceil(np.log2(length)))  # FFT convolution of every column with its kernel
         E_f = sum(
-            np.fft.rfft(spread[:, :, d].reshape(len(readings), -1), size, axis=0) * np.fft.rfft(kernels[d], size)[:, None]
-            for d in range(3)
+            np.fft.rfft(spread[:, :, d].reshape(len(readings), -1), size, axis=0) * np.fft.rfft(kernels[d], size)[:, None] for d in range(3)
         )
         E = np.fft.irfft(E_f, size, axis=0)[:length].reshape(length, 6, r, 7)
         out.append(E)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -129,7 +130,7 @@ def plan_trajectories(
     tool = with_configurations(tool, configurations)
     sized: SizedPlan | ContinuousSizing | None = None
     if pattern.continuous:
-        uncertainty = MotionUncertainty(joint_rate_hz=sensor.rate_hz) if uncertainty is None else uncertainty
+        uncertainty = motion_uncertainty(filter_config, sensor.rate_hz) if uncertainty is None else uncertainty
         if target_percent is None:
             result = plan_calibration(kin, checker, pattern, rate, min_clearance)
         else:
@@ -164,6 +165,37 @@ def plan_trajectories(
     return TrajectoryRun(result, excitation, still, g_all, tool, problems, [], sensor.strain_unit, budget, sized, uncertainty, n_full)
 
 
+#: The joint noise [rad] and latency uncertainty [s] a continuous plan's budget assumes when the
+#: pipeline settings leave them ``auto`` (measured from the stream, fitted with the calibration).
+DEFAULT_JOINT_NOISE, DEFAULT_LATENCY_STD_S = 1e-5, 1e-4
+
+
+def motion_uncertainty(filter_config: FilterConfig, joint_rate_hz: float, **overrides) -> MotionUncertainty:
+    """The dynamic terms' tolerances from the dynamic filter's settings (``filter.*``), some overridden.
+
+    Args:
+        filter_config: The filter settings: ``inertia_tolerance``, ``joint_noise``,
+            ``latency_uncertainty_s`` (``auto``: :data:`DEFAULT_JOINT_NOISE`,
+            :data:`DEFAULT_LATENCY_STD_S`), ``dynamic_window_s``, ``dynamic_order``, ``max_error_ratio``.
+        joint_rate_hz: Rate of the joint readings [Hz].
+        overrides: Fields of :class:`MotionUncertainty` to set instead (None: the setting's).
+    """
+    f = filter_config
+    latency = DEFAULT_LATENCY_STD_S if f.latency_uncertainty_s is None else f.latency_uncertainty_s
+    values: dict[str, Any] = {
+        "inertia": f.inertia_tolerance,
+        "joint_noise": DEFAULT_JOINT_NOISE if f.joint_noise is None else f.joint_noise,
+        "joint_rate_hz": joint_rate_hz,
+        "window_s": f.dynamic_window_s,
+        "latency_s": latency,
+        "jitter_s": latency,
+        "order": f.dynamic_order,
+        "max_error_ratio": f.max_error_ratio,
+    }
+    values.update({k: v for k, v in overrides.items() if v is not None})
+    return MotionUncertainty(**values)
+
+
 def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
     """What was planned and checked, as plain data (deterministic: no paths, no times)."""
     result, plan, ex = run.result, run.result.plan, run.excitation
@@ -190,6 +222,8 @@ def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
                     "joint_noise_rad": run.uncertainty.joint_noise,
                     "joint_rate_hz": run.uncertainty.joint_rate_hz,
                     "window_s": run.uncertainty.window_s,
+                    "polynomial_order": run.uncertainty.order,
+                    "max_error_ratio": run.uncertainty.max_error_ratio,
                     "latency_std_s": run.uncertainty.latency_s,
                     "jitter_std_s": run.uncertainty.jitter_s,
                 },

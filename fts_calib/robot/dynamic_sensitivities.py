@@ -57,39 +57,46 @@ class MotionUncertainty:
         joint_noise: Standard deviation of each joint reading's noise, [rad].
         joint_rate_hz: Rate of the joint readings, [Hz].
         window_s: Width of the centred window of the velocity and acceleration estimate, [s].
+        order: Degree of the local polynomial fitted over the window (3 or 5).
         latency_s: Standard deviation of the stream-latency estimate once applied, [s].
         jitter_s: Standard deviation of each sample's timing error, [s].
+        max_error_ratio: A sample whose systematic error (inertia, latency) exceeds this many
+            times the strain noise on some axis is dropped (the trust rule).
     """
 
     inertia: float = 0.1
     joint_noise: float = 1e-5
     joint_rate_hz: float = 1000.0
-    window_s: float = 0.05
+    window_s: float = 0.3
     latency_s: float = 1e-4
     jitter_s: float = 1e-4
+    order: int = 5
+    max_error_ratio: float = 3.0
 
     def __post_init__(self):
         for name, unit in (("inertia", ""), ("joint_noise", "rad"), ("latency_s", "s"), ("jitter_s", "s")):
             object.__setattr__(self, name, validation.non_negative(name, getattr(self, name), unit))
-        for name, unit in (("joint_rate_hz", "Hz"), ("window_s", "s")):
+        for name, unit in (("joint_rate_hz", "Hz"), ("window_s", "s"), ("max_error_ratio", "")):
             object.__setattr__(self, name, validation.positive(name, getattr(self, name), unit))
+        if self.order not in (3, 5):
+            raise ValueError(f"order={self.order} but expected 3 or 5 (the degree of the local polynomial)")
 
     def kernels(self) -> np.ndarray:
-        """The centred cubic's kernels of ``(q, qdot, qddot)`` at the window's middle, shape (3, 2h + 1).
+        """The centred polynomial's kernels of ``(q, qdot, qddot)`` at the window's middle, shape (3, 2h + 1).
 
         ``estimate_i = sum_k K[k] q_{i+k}``, k = -h .. h, at the readings' period; [1, 1/s, 1/s^2].
         """
         dt = 1.0 / self.joint_rate_hz
         half = max(2, int(round(self.window_s / 2 / dt)))
         x = np.arange(-half, half + 1) / half  # offsets in units of the half window
-        fit = np.linalg.pinv(np.column_stack([np.ones_like(x), x, x * x, x**3]))  # (4, w)
+        fit = np.linalg.pinv(np.column_stack([x**k for k in range(self.order + 1)]))  # (order + 1, w)
         scale = half * dt
         return np.stack([fit[0], fit[1] / scale, 2.0 * fit[2] / scale**2])
 
     def estimate_covariance(self) -> np.ndarray:
         """Covariance of the errors of one joint's ``(q, qdot, qddot)`` estimates, [rad, rad/s, rad/s^2]^2. Shape (3, 3).
 
-        ``sigma_q^2 K K^T`` with ``K`` the :meth:`kernels`.
+        ``sigma_q^2 K K^T`` with ``K`` the :meth:`kernels`; zero for ``q``-``qdot`` (odd and even kernels).
         """
         K = self.kernels()
         return self.joint_noise**2 * K @ K.T
@@ -186,12 +193,20 @@ def sample_variance(sources: list[ErrorSource], uncertainty: MotionUncertainty) 
     return np.zeros((0, 6)) if out is None else out
 
 
-def trust_weights(sources: list[ErrorSource], sigma_w, uncertainty: MotionUncertainty) -> np.ndarray:
-    """Weight of each moving sample: ``1 / (1 + max_j v_j / sigma_w,j^2)``, shape (N,).
+#: The dynamic sources that are systematic (a bias of the sample, not a noise that averages out).
+SYSTEMATIC_SOURCES = ("tool inertia", "stream latency")
 
-    ``v`` is :func:`sample_variance` of the dynamic sources: a sample counts fully where the
-    error of its expected wrench is below the strain noise ``sigma_w`` (per axis, [N, N m],
-    shape (6,)), and less, as the inverse of its total error, where it is not.
+
+def trust_weights(sources: list[ErrorSource], sigma_w, uncertainty: MotionUncertainty) -> np.ndarray:
+    """Weight of each moving sample by the dynamic filter's trust rule (:mod:`fts_calib.pipeline.trust`), shape (N,).
+
+    ``rho^2 = max_j v_j / sigma_w,j^2`` with ``v`` the :func:`sample_variance` of the dynamic
+    sources and ``sigma_w`` the strain noise per axis ([N, N m], shape (6,)): weight
+    ``1 / (1 + rho^2)``, and 0 (dropped) where the systematic part alone (inertia, latency)
+    exceeds ``uncertainty.max_error_ratio`` times the noise.
     """
-    ratio = sample_variance(sources, uncertainty) / np.maximum(np.asarray(sigma_w, dtype=float) ** 2, 1e-300)
-    return 1.0 / (1.0 + np.max(ratio, axis=1))
+    noise = np.maximum(np.asarray(sigma_w, dtype=float) ** 2, 1e-300)
+    rho2 = np.max(sample_variance(sources, uncertainty) / noise, axis=1)
+    systematic = [s for s in sources if s.name in SYSTEMATIC_SOURCES]
+    rho2_sys = np.max(sample_variance(systematic, uncertainty) / noise, axis=1) if systematic else np.zeros(len(rho2))
+    return np.where(rho2_sys <= uncertainty.max_error_ratio**2, 1.0 / (1.0 + rho2), 0.0)
