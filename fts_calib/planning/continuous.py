@@ -73,7 +73,7 @@ class ContinuousSizing:
             f"{self.configurations} configuration{'s' if self.configurations > 1 else ''} "
             f"(the shortest of {self.candidates} motions whose budget was computed, "
             f"screened at {_SCREEN_RATE_HZ:g} Hz): {self.budget.largest_percent:.4f} % on {axis} there, dominated by {term}; "
-            f"no plan goes below {self.floor_percent:.4f} % (tool tolerance and mount)"
+            f"the tool tolerance and mount alone give at least {self.floor_percent:.4f} % on the motions screened"
         )
 
 
@@ -154,28 +154,27 @@ def size_continuous(
         tried += 1
         if best is None or budget.largest_percent < best[1].largest_percent:
             best = (plan, budget)
-        if floor is None and np.isfinite(budget.largest_percent):
-            floor = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
-            if floor.largest_percent > target_percent and len(tool.configurations) == len(full_tool.configurations):
-                term, axis = floor.dominant()
-                raise TrajectoryError(
-                    f"no plan meets the target of {target_percent:g} % of full scale: {term} alone gives "
-                    f"{floor.largest_percent:.4f} % on {axis} (tool tolerance and sensor mount: {', '.join(SYSTEMATIC)}). "
-                    "State a larger --target-error, or know the tool and the mount better.",
-                    "target unreachable",
-                )
+        systematic = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
+        if floor is None or systematic.largest_percent < floor.largest_percent:
+            floor = systematic
         if budget.largest_percent > target_percent:
             continue
         result = plan_calibration(kin, checker, pattern, rate, min_clearance, base=base)
         if not result.problems:
-            sizing = ContinuousSizing(
-                target_percent, pattern, budget, tried, floor.largest_percent if floor else math.nan, len(tool.configurations)
-            )
+            sizing = ContinuousSizing(target_percent, pattern, budget, tried, floor.largest_percent, len(tool.configurations))
             return result, sizing
         finals += 1
         if finals >= _FINAL_TRIES:
             raise TrajectoryError(f"the shortest continuous plans that meet the target fail their checks: {result.problems[0]}", "checks")
-    assert best is not None  # the grids are not empty
+    assert best is not None and floor is not None  # the grids are not empty
+    if len(tool.configurations) == len(full_tool.configurations) and floor.largest_percent > target_percent:
+        term, axis = floor.dominant()
+        raise TrajectoryError(
+            f"no plan meets the target of {target_percent:g} % of full scale: {term} alone gives at least "
+            f"{floor.largest_percent:.4f} % on {axis} (tool tolerance and sensor mount: {', '.join(SYSTEMATIC)}). "
+            "State a larger --target-error, or know the tool and the mount better.",
+            "target unreachable",
+        )
     raise TrajectoryError(
         unreachable(kin, tool, full_tool, best, nominal, sample_rate_hz, uncertainty, target_percent), "target unreachable"
     )

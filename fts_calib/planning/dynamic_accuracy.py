@@ -21,7 +21,10 @@ import numpy as np
 
 from ..model.budget import AccuracyBudget
 from ..pipeline.budget import sample_budget
-from ..robot.dynamic_sensitivities import MotionUncertainty, dynamic_error_sources, trust_weights
+from ..pipeline.derivatives import kernel_gains
+from ..pipeline.dynamic import joint_levers
+from ..pipeline.trust import inertial_moment, predicted_error, snap_estimate, trust_weights
+from ..robot.dynamic_sensitivities import MotionUncertainty, dynamic_error_sources
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
@@ -61,8 +64,8 @@ def dynamic_plan_budget(
             ``sample_rate_hz / plan.rate`` of them); the plan's rate when None.
         uncertainty: Inertia tolerance, joint noise, latency and jitter; the defaults of
             :class:`MotionUncertainty` when None.
-        weighted: Weigh each sample by the trust rule (:func:`~fts_calib.robot.dynamic_sensitivities.trust_weights`:
-            fully where its expected wrench's error is below the strain noise); False: every sample alike.
+        weighted: Weigh each sample as the dynamic filter's trust rule does (:func:`filter_weights`);
+            False: every sample alike.
     """
     uncertainty = MotionUncertainty() if uncertainty is None else uncertainty
     n_conf, n = len(tool.configurations), len(plan.time)
@@ -74,5 +77,39 @@ def dynamic_plan_budget(
     x = np.hstack([np.linalg.solve(C_bar, (W - D).T).T, np.ones((len(W), 1))])
     extra = dynamic_error_sources(kin, tool, time, q, qd, qdd, jerk, codes, uncertainty)
     weight = (sample_rate_hz or plan.rate) / plan.rate
-    row_weight = trust_weights(extra, sigma_w, uncertainty) if weighted else None
+    row_weight = filter_weights(kin, tool, plan, sigma_w, uncertainty) if weighted else None
     return sample_budget(kin, tool, q, codes, qd, None, x, sigma_w, C_bar, D, full_scale, weight=weight, extra=extra, row_weight=row_weight)
+
+
+def filter_weights(kin: Kinematics, tool: Tool, plan: Plan, sigma_w, uncertainty: MotionUncertainty) -> np.ndarray:
+    """The weight the dynamic filter gives each sample of a plan, every configuration in turn, shape (n_conf N,).
+
+    The trust rule of :mod:`fts_calib.pipeline.trust` on the planned motion: the predicted error
+    of each sample's expected wrench (joint noise through the rate estimates, their bias where
+    the jerk changes, the latency's and the inertia's uncertainty) against the strain noise
+    ``sigma_w`` ([N, N m], shape (6,)); weight ``1 / (1 + rho^2)``, 0 where dropped.
+    """
+    n_conf = len(tool.configurations)
+    codes = np.repeat(np.arange(n_conf), len(plan.time))
+    q, qd, qdd = (np.tile(a, (n_conf, 1)) for a in (plan.q, plan.qd, plan.qdd))
+    load = tool_load(kin, tool, q, codes, qd, qdd)
+    motion = kin.sensor_motion(q, qd, qdd)
+    omega, alpha = motion.omega.reshape(len(q), 3), motion.alpha.reshape(len(q), 3)
+    half = max(1, int(round(uncertainty.window_s / 2 * plan.rate)))
+    snap = np.vstack([snap_estimate(plan.qdd, half, 1.0 / plan.rate)] * n_conf)
+    rate = np.vstack([np.gradient(load.w_sensor[codes == c], plan.time, axis=0) for c in range(n_conf)])
+    random, systematic = predicted_error(
+        tool,
+        codes,
+        omega,
+        snap,
+        rate,
+        inertial_moment(tool, codes, omega, alpha),
+        kernel_gains(uncertainty.window_s, 1.0 / uncertainty.joint_rate_hz, uncertainty.order),
+        np.full(kin.n_joints, uncertainty.joint_noise),
+        uncertainty.latency_s,
+        joint_levers(kin, plan.q[0]),
+        uncertainty.inertia,
+    )
+    weight, trusted = trust_weights(random, systematic, np.asarray(sigma_w, dtype=float), uncertainty.max_error_ratio)
+    return np.where(trusted, weight, 0.0)

@@ -15,7 +15,7 @@ velocities and accelerations estimated from the joint readings. Beside the stati
   ``B = [dW/dq, dW/dqdot, dW/dqddot]`` per moving joint, propagated through the kernels
   (:func:`fts_calib.model.budget.filtered_sensitivity`): over a smooth motion the noise of the
   rate and acceleration estimates averages out but where the samples begin and end; what it costs one sample is
-  :meth:`MotionUncertainty.estimate_covariance` (for the trust rule);
+  :meth:`MotionUncertainty.estimate_covariance`;
 - **stream latency**: what remains of the latency after the estimated one is applied, one
   draw of standard deviation ``latency_s`` for the run: the state used is that of
   ``t - dtau``, ``B = -dW/dt = -(dW/dq qdot + dW/dqdot qddot + dW/dqddot jerk)``;
@@ -175,38 +175,3 @@ def dynamic_error_sources(kin: Kinematics, tool: Tool, time, q, qd, qdd, jerk, c
     sources.append(ErrorSource("stream latency", -dW_dt, np.array([[uncertainty.latency_s**2]]), common))
     sources.append(ErrorSource("timing jitter", -dW_dt, np.array([[uncertainty.jitter_s**2]])))
     return sources
-
-
-def sample_variance(sources: list[ErrorSource], uncertainty: MotionUncertainty) -> np.ndarray:
-    """Variance of each sample's known-wrench error from some sources, per axis (no averaging), [N^2, (N m)^2]. Shape (N, 6).
-
-    A filtered source (joint noise) counts with the covariance of one sample's estimates
-    (:meth:`MotionUncertainty.estimate_covariance`).
-    """
-    out = None
-    for source in sources:
-        B, U = np.asarray(source.sensitivity, dtype=float), np.asarray(source.covariance, dtype=float)
-        if source.time is not None:
-            U = np.kron(uncertainty.estimate_covariance(), np.eye(B.shape[2] // 3))
-        var = np.einsum("njr,rs,njs->nj", B, U, B)
-        out = var if out is None else out + var
-    return np.zeros((0, 6)) if out is None else out
-
-
-#: The dynamic sources that are systematic (a bias of the sample, not a noise that averages out).
-SYSTEMATIC_SOURCES = ("tool inertia", "stream latency")
-
-
-def trust_weights(sources: list[ErrorSource], sigma_w, uncertainty: MotionUncertainty) -> np.ndarray:
-    """Weight of each moving sample by the dynamic filter's trust rule (:mod:`fts_calib.pipeline.trust`), shape (N,).
-
-    ``rho^2 = max_j v_j / sigma_w,j^2`` with ``v`` the :func:`sample_variance` of the dynamic
-    sources and ``sigma_w`` the strain noise per axis ([N, N m], shape (6,)): weight
-    ``1 / (1 + rho^2)``, and 0 (dropped) where the systematic part alone (inertia, latency)
-    exceeds ``uncertainty.max_error_ratio`` times the noise.
-    """
-    noise = np.maximum(np.asarray(sigma_w, dtype=float) ** 2, 1e-300)
-    rho2 = np.max(sample_variance(sources, uncertainty) / noise, axis=1)
-    systematic = [s for s in sources if s.name in SYSTEMATIC_SOURCES]
-    rho2_sys = np.max(sample_variance(systematic, uncertainty) / noise, axis=1) if systematic else np.zeros(len(rho2))
-    return np.where(rho2_sys <= uncertainty.max_error_ratio**2, 1.0 / (1.0 + rho2), 0.0)
