@@ -30,7 +30,7 @@ from ..robot.tool import Tool
 from .accuracy import plan_budget, predicted_still
 from .continuous import ContinuousSizing, size_continuous, with_configurations
 from .drift_excitation import TOOL_CHANGE_S
-from .dynamic_accuracy import dynamic_plan_budget
+from .dynamic_accuracy import dynamic_plan_budget, filter_weights
 from .excitation import ExcitationReport, predict_excitation
 from .planner import PlanResult, plan_calibration
 from .sizing import SizedPlan, size_plan
@@ -137,7 +137,8 @@ def plan_trajectories(
             result, sized = size_continuous(
                 kin, checker, tool, nominal, target_percent, rate, sensor.rate_hz, uncertainty, min_clearance, pattern.margin, full_tool
             )
-        still = np.ones(len(result.plan.time), dtype=bool)  # the dynamic mode calibrates with every sample
+        # the samples the dynamic filter's trust rule keeps
+        still = filter_weights(kin, tool, result.plan, nominal[2], uncertainty)[: len(result.plan.time)] > 0
         budget = dynamic_plan_budget(kin, tool, result.plan, *nominal, sample_rate_hz=sensor.rate_hz, uncertainty=uncertainty)
     else:
         uncertainty = None
