@@ -198,7 +198,7 @@ def unreachable(kin, tool: Tool, full_tool: Tool, best, nominal, sample_rate_hz,
     def words(n: int) -> str:
         value = others[n].largest_percent
         reach = f"{value:.3g} %" if math.isfinite(value) else "nothing (rank < 7)"
-        return f"{n} configuration{'s' if n > 1 else ''} reach{'es' if n == 1 else ''} {reach}"
+        return f"{n} configuration{'s' if n > 1 else ''} reach{'es' if n == 1 else ''} {reach}"  # predicted, k = 2
 
     term, axis = budget.dominant()
     enough = [n for n in sorted(others) if n > count and others[n].largest_percent <= target_percent]
@@ -206,7 +206,7 @@ def unreachable(kin, tool: Tool, full_tool: Tool, best, nominal, sample_rate_hz,
     mount = f" or mount {enough[0]} configurations (--configurations {enough[0]})" if enough else " or mount more configurations"
     return (
         f"no continuous plan of {count} configuration{'s' if count > 1 else ''} meets the target of {target_percent:g} % of full "
-        f"scale: {words(count)} at best ({plan.duration:.1f} s of motion, dominated by {term} on {axis}); on the same motion "
+        f"scale: by the predicted budget, {words(count)} at best ({plan.duration:.1f} s of motion, dominated by {term} on {axis}); on the same motion "
         + "; ".join(words(n) for n in sorted(others) if n != count)
         + f". {ask.capitalize()}{mount}."
     )

@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.budget import AccuracyBudget
+from ..model.budget import AccuracyBudget, ErrorSource
 from ..pipeline.budget import sample_budget
 from ..pipeline.derivatives import kernel_gains
 from ..pipeline.dynamic import joint_levers
 from ..pipeline.trust import inertial_moment, predicted_error, snap_estimate, trust_weights
-from ..robot.dynamic_sensitivities import MotionUncertainty, dynamic_error_sources
+from ..robot.dynamic_sensitivities import MotionUncertainty, dynamic_error_sources, wrench_derivatives
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
@@ -75,7 +75,7 @@ def dynamic_plan_budget(
     time = np.tile(plan.time, n_conf)
     W = tool_load(kin, tool, q, codes, qd, qdd).w_sensor
     x = np.hstack([np.linalg.solve(C_bar, (W - D).T).T, np.ones((len(W), 1))])
-    extra = dynamic_error_sources(kin, tool, time, q, qd, qdd, jerk, codes, uncertainty)
+    extra = [*dynamic_error_sources(kin, tool, time, q, qd, qdd, jerk, codes, uncertainty), rate_bias_source(kin, tool, plan, uncertainty)]
     weight = (sample_rate_hz or plan.rate) / plan.rate
     row_weight = filter_weights(kin, tool, plan, sigma_w, uncertainty) if weighted else None
     return sample_budget(kin, tool, q, codes, qd, None, x, sigma_w, C_bar, D, full_scale, weight=weight, extra=extra, row_weight=row_weight)
@@ -113,3 +113,26 @@ def filter_weights(kin: Kinematics, tool: Tool, plan: Plan, sigma_w, uncertainty
     )
     weight, trusted = trust_weights(random, systematic, np.asarray(sigma_w, dtype=float), uncertainty.max_error_ratio)
     return np.where(trusted, weight, 0.0)
+
+
+def rate_bias_source(kin: Kinematics, tool: Tool, plan: Plan, uncertainty: MotionUncertainty) -> ErrorSource:
+    """The 'rate-estimate bias' term: the acceleration the filter's polynomial misses where the jerk changes.
+
+    The bias of the acceleration estimate is about ``gain_s x snap`` (:func:`fts_calib.pipeline.derivatives.kernel_gains`,
+    the snap from the second difference of the planned acceleration over half a window, its sign
+    kept): a known error along the motion, entered as one draw of unit variance of
+    ``dW/dqddot x gain_s x snap`` (a deterministic error: its sign does not matter).
+    """
+    n_conf, n = len(tool.configurations), len(plan.time)
+    codes = np.repeat(np.arange(n_conf), n)
+    q, qd, qdd = (np.tile(a, (n_conf, 1)) for a in (plan.q, plan.qd, plan.qdd))
+    moving = np.nonzero(np.ptp(plan.q, axis=0) > 0)[0]
+    half = max(1, int(round(uncertainty.window_s / 2 * plan.rate)))
+    snap = np.zeros_like(plan.qdd)
+    if n > 2 * half:
+        step = half / plan.rate
+        snap[half : n - half] = (plan.qdd[2 * half :] - 2 * plan.qdd[half : n - half] + plan.qdd[: n - 2 * half]) / step**2
+    gain = kernel_gains(uncertainty.window_s, 1.0 / uncertainty.joint_rate_hz, uncertainty.order)[2]
+    derivative = wrench_derivatives(kin, tool, q, qd, qdd, codes, moving)[:, :, 2, :]  # dW/dqddot, (N, 6, J)
+    bias = np.einsum("njk,nk->nj", derivative, gain * np.tile(snap, (n_conf, 1))[:, moving])
+    return ErrorSource("rate-estimate bias", bias[:, :, None], np.ones((1, 1)), np.zeros(len(q), dtype=np.int64))
