@@ -207,9 +207,7 @@ def unreachable(kin, tool: Tool, full_tool: Tool, best, nominal, sample_rate_hz,
     return (
         f"no continuous plan of {count} configuration{'s' if count > 1 else ''} meets the target of {target_percent:g} % of full "
         f"scale: by the predicted budget, {words(count)} at best ({plan.duration:.1f} s of motion, dominated by {term} on {axis}); "
-        "on the same motion "
-        + "; ".join(words(n) for n in sorted(others) if n != count)
-        + f". {ask.capitalize()}{mount}."
+        "on the same motion " + "; ".join(words(n) for n in sorted(others) if n != count) + f". {ask.capitalize()}{mount}."
     )
 
 
