@@ -143,7 +143,8 @@ def run(
     )
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     count = len(loaded.configurations) if configurations is None else configurations
-    print(f"planning {robot_path.stem} {motion} sweeps for '{loaded.name}' ({count} configurations)...", flush=True)
+    kind = "continuous " if continuous else ""
+    print(f"planning {robot_path.stem} {kind}sweeps for '{loaded.name}' ({count} configurations)...", flush=True)
     planned = plan_trajectories(
         robot_path,
         loaded,
