@@ -87,7 +87,8 @@ def filter_weights(kin: Kinematics, tool: Tool, plan: Plan, sigma_w, uncertainty
     The trust rule of :mod:`fts_calib.pipeline.trust` on the planned motion: the predicted error
     of each sample's expected wrench (joint noise through the rate estimates, their bias where
     the jerk changes, the latency's and the inertia's uncertainty) against the strain noise
-    ``sigma_w`` ([N, N m], shape (6,)); weight ``1 / (1 + rho^2)``, 0 where dropped.
+    ``sigma_w`` ([N, N m], shape (6,)); weight ``1 / (1 + rho^2)``, 0 where dropped, and 0
+    within a window of either end of the motion (the filter's derivative and jerk windows are cut there).
     """
     n_conf = len(tool.configurations)
     codes = np.repeat(np.arange(n_conf), len(plan.time))
@@ -112,7 +113,9 @@ def filter_weights(kin: Kinematics, tool: Tool, plan: Plan, sigma_w, uncertainty
         uncertainty.inertia,
     )
     weight, trusted = trust_weights(random, systematic, np.asarray(sigma_w, dtype=float), uncertainty.max_error_ratio)
-    return np.where(trusted, weight, 0.0)
+    # the filter drops a sample whose derivative window, or the jerk window about it, is cut: a window from each end
+    whole = np.tile((plan.time >= plan.time[0] + uncertainty.window_s) & (plan.time <= plan.time[-1] - uncertainty.window_s), n_conf)
+    return np.where(trusted & whole, weight, 0.0)
 
 
 def rate_bias_source(kin: Kinematics, tool: Tool, plan: Plan, uncertainty: MotionUncertainty) -> ErrorSource:
