@@ -44,7 +44,7 @@ class TrajectoryRun:
     Attributes:
         result: The plan and its checks.
         excitation: The predicted quality of the calibration.
-        still: Samples the filter would keep, shape (N,) bool.
+        still: Samples the filter would keep (of a continuous plan: for some configuration), shape (N,) bool.
         g_sensor: Gravity in the sensor frame at every sample [m/s^2], shape (N, 3).
         tool: The tool.
         problems: Every failed check, in words (empty: safe to run).
@@ -138,7 +138,8 @@ def plan_trajectories(
                 kin, checker, tool, nominal, target_percent, rate, sensor.rate_hz, uncertainty, min_clearance, pattern.margin, full_tool
             )
         # the samples the dynamic filter's trust rule keeps
-        still = filter_weights(kin, tool, result.plan, nominal[2], uncertainty)[: len(result.plan.time)] > 0
+        kept = filter_weights(kin, tool, result.plan, nominal[2], uncertainty).reshape(len(tool.configurations), -1) > 0
+        still = np.asarray(kept.any(axis=0))
         budget = dynamic_plan_budget(kin, tool, result.plan, *nominal, sample_rate_hz=sensor.rate_hz, uncertainty=uncertainty)
     else:
         uncertainty = None
@@ -149,16 +150,17 @@ def plan_trajectories(
                 kin, checker, tool, nominal, filter_config, target_percent, rate, sensor.rate_hz, min_clearance, pattern.margin
             )
         still = predicted_still(result.plan, filter_config)
+        kept = np.repeat(still[None, :], len(tool.configurations), axis=0)
         budget = plan_budget(kin, tool, result.plan, still, *nominal, sample_rate_hz=sensor.rate_hz)
     g_all = kin.g_sensor(result.plan.q, tool.gravity)
     excitation = predict_excitation(
-        {c.name: g_all[still] for c in tool.configurations},
+        {c.name: g_all[kept[k]] for k, c in enumerate(tool.configurations)},
         tool,
         sensor.simulated.C_bar,
         sensor.simulated.D,
         noise_std,
         layout=sensor.layout,
-        time_s={c.name: result.plan.time[still] + k * (result.plan.duration + TOOL_CHANGE_S) for k, c in enumerate(tool.configurations)},
+        time_s={c.name: result.plan.time[kept[k]] + k * (result.plan.duration + TOOL_CHANGE_S) for k, c in enumerate(tool.configurations)},
     )
     problems = list(result.problems)
     if excitation.rank < 7 and not (pattern.continuous and np.isfinite(budget.largest_percent)):
