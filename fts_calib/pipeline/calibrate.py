@@ -46,7 +46,7 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, load_tool
 from .checkpoint import check_start, recording_source
 from .clock import clock_checked
-from .dynamic import DynamicFilter, nominal_c
+from .dynamic import LATENCY_SIGNIFICANT_S, DynamicFilter, nominal_c
 from .latency import LatencyEstimate
 from .session import CalibrationSession
 from .settings import DYNAMIC, PipelineConfig, load_pipeline_config
@@ -202,6 +202,8 @@ def settings_with_latency(settings: PipelineConfig, filter_) -> PipelineConfig |
     if fit is None:
         return None
     tau, stderr = fit
+    if abs(tau) <= max(3.0 * stderr, LATENCY_SIGNIFICANT_S):  # the first read stands: no latency to speak of
+        return None
     f = dataclasses.replace(settings.filter, latency_s=filter_.latency_s + tau, latency_uncertainty_s=max(stderr, MIN_LATENCY_SIGMA_S))
     return dataclasses.replace(settings, filter=f)
 

@@ -15,10 +15,12 @@ linear filter, symmetric, so without phase lag) is evaluated at the offset ``+ta
 Each is one kernel of ``2h + 1`` weights applied by a convolution (O(N w) per joint). A
 cubic is exact on the cubic pieces of a jerk-limited motion; where the jerk changes within
 the window (a snap ``s``) the acceleration is off by about ``gain_s s`` (a kernel property,
-:func:`kernel_gains`; ``gain_s = 7.2e-4 s^2`` for 200 ms). Joint noise ``sigma_q``
+:func:`kernel_gains`), and by more where the window spans several changes of the jerk (a
+jerk-limited ramp shorter than the window): the same polynomial over a window a third as wide
+(:attr:`JointMotion.check`) follows it closer, and their difference shows the bias. Joint noise ``sigma_q``
 (white) reaches the velocity as ``sigma_q |k_v|`` and the acceleration as ``sigma_q |k_a|``:
-at 1 kHz with a 200 ms window ``|k_v| = 3.0 s^-1`` and ``|k_a| = 47 s^-2``, so 1e-5 rad of
-noise gives 3e-5 rad/s and 4.7e-4 rad/s^2 (with 50 ms: 24 s^-1 and 1.4e3 s^-2).
+for the quintic over 300 ms at 1 kHz ``|k_v| = 2.9 s^-1`` and ``|k_a| = 60 s^-2``, so 1e-5 rad
+of noise gives 3e-5 rad/s and 6e-4 rad/s^2 (over 100 ms: 917 s^-2).
 
 Where the window is cut (a stream's edges, a gap, irregular sampling) the rates come from
 the local quadratic of :func:`fts_calib.pipeline.qsfilter.joint_rates` (its cut-window fit), moved to ``+tau``
@@ -44,12 +46,15 @@ class JointMotion:
         velocity: Velocities [rad/s], shape (N, n_joints).
         acceleration: Accelerations [rad/s^2], shape (N, n_joints).
         full: Which samples had a whole regular window (the others: the cut-window fit), shape (N,) bool.
+        check: The acceleration from a window a third as wide [rad/s^2], shape (N, n_joints) (zero
+            outside whole windows), or None: the wide window's bias shows in the difference.
     """
 
     joints: np.ndarray
     velocity: np.ndarray
     acceleration: np.ndarray
     full: np.ndarray
+    check: np.ndarray | None = None
 
 
 @lru_cache(maxsize=32)
@@ -67,7 +72,7 @@ def _kernels(half: int, dt: float, shift: float, order: int = 3) -> np.ndarray:
 
 
 @lru_cache(maxsize=32)
-def kernel_gains(window_s: float, dt: float, order: int = 3) -> tuple[float, float, float]:
+def kernel_gains(window_s: float, dt: float, order: int = 3) -> tuple[float, float, float, float]:
     """How the centred local polynomial of a window passes joint noise and jerk changes on.
 
     Args:
@@ -76,9 +81,10 @@ def kernel_gains(window_s: float, dt: float, order: int = 3) -> tuple[float, flo
         order: Degree of the polynomial (3 or 5).
 
     Returns:
-        ``(velocity gain [1/s], acceleration gain [1/s^2], snap gain [s^2])``: white joint noise
-        sigma_q [rad] gives velocity noise ``gain_v sigma_q`` and acceleration noise
-        ``gain_a sigma_q``; where the jerk changes, the acceleration is off by at most
+        ``(velocity gain [1/s], acceleration gain [1/s^2], snap gain [s^2], check gain [1/s^2])``:
+        white joint noise sigma_q [rad] gives velocity noise ``gain_v sigma_q`` and acceleration
+        noise ``gain_a sigma_q`` (``gain_c sigma_q`` for the window a third as wide of
+        :attr:`JointMotion.check`); where the jerk changes, the acceleration is off by at most
         ``gain_s`` times the snap estimate of :func:`fts_calib.pipeline.trust.snap_estimate` (twice the
         ratio of the largest error to the largest estimate along a jump of the jerk, computed here).
     """
@@ -89,7 +95,8 @@ def kernel_gains(window_s: float, dt: float, order: int = 3) -> tuple[float, flo
     estimate = np.convolve(jump**3 / 6.0, k[2][::-1], mode="same")
     error = np.abs(estimate - jump)[half:-half]
     snap = np.abs(estimate[2 * half :] - 2 * estimate[half:-half] + estimate[: -2 * half]) / (half * dt) ** 2
-    return float(np.linalg.norm(k[1])), float(np.linalg.norm(k[2])), float(2.0 * error.max() / snap.max())
+    narrow = _kernels(max(2, half // 3), dt, 0.0, order)[2]
+    return float(np.linalg.norm(k[1])), float(np.linalg.norm(k[2])), float(2.0 * error.max() / snap.max()), float(np.linalg.norm(narrow))
 
 
 def joint_motion(
@@ -119,16 +126,20 @@ def joint_motion(
     if continuous is not None and np.any(continuous) and len(q) > 1:
         q[:, continuous] = np.unwrap(q[:, continuous], axis=0)
     n = len(time)
-    position, velocity, acceleration = q.copy(), np.zeros_like(q), np.zeros_like(q)
+    position, velocity, acceleration, check = q.copy(), np.zeros_like(q), np.zeros_like(q), np.zeros_like(q)
     full = np.zeros(n, dtype=bool)
     half = int(round(window_s / 2 / dt)) if dt > 0 else 0
     if half >= 2 and n >= 2 * half + 1:
         kernels = _kernels(half, float(dt), float(shift_s), order)
         inner = slice(half, n - half)
-        for j in range(q.shape[1]):
-            column = q[:, j]
-            for out, kernel in zip((position, velocity, acceleration), kernels, strict=True):
-                out[inner, j] = np.convolve(column, kernel[::-1], mode="valid")
+        origin = q[half]  # the FFT's rounding is relative to the values: take the first window's out
+        narrow = np.zeros_like(kernels[2])
+        third = max(2, half // 3)
+        narrow[half - third : half + third + 1] = _kernels(third, float(dt), float(shift_s), order)[2]
+        fitted = _correlate(q - origin, np.vstack([kernels, narrow[None]]))
+        for out, values in zip((position, velocity, acceleration, check), fitted, strict=True):
+            out[inner] = values
+        position[inner] += origin
         span = time[2 * half :] - time[: n - 2 * half]
         full[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
     rest = np.nonzero(~full)[0]
@@ -137,7 +148,23 @@ def joint_motion(
         position[rest] = q[rest] + v * shift_s + 0.5 * a * shift_s**2
         velocity[rest] = v + a * shift_s
         acceleration[rest] = a
-    return JointMotion(position, velocity, acceleration, full)
+    return JointMotion(position, velocity, acceleration, full, check)
+
+
+def _correlate(values: np.ndarray, kernels: np.ndarray) -> list[np.ndarray]:
+    """Each kernel (w,) slid over every column of ``values`` (N, c): the "valid" part, (N - w + 1, c) each.
+
+    By FFT (O(N log N), not O(N w)): one transform per column, one product and inverse per
+    kernel; the rounding error is ~1e-16 of the values' magnitude.
+    """
+    n, w = len(values), kernels.shape[1]
+    size = 1 << int(np.ceil(np.log2(n + w - 1)))
+    spectrum = np.fft.rfft(values, size, axis=0)
+    out = []
+    for kernel in kernels:
+        product = spectrum * np.fft.rfft(kernel[::-1], size)[:, None]
+        out.append(np.fft.irfft(product, size, axis=0)[w - 1 : n])
+    return out
 
 
 def _rates_at(time: np.ndarray, q: np.ndarray, window_s: float, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -44,13 +44,13 @@ from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor_config import SensorSpec
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
-from ..robot.tool_wrench import dynamic_fraction, tool_load
+from ..robot.tool_wrench import tool_load
 from .derivatives import JointMotion, joint_motion, kernel_gains
 from .latency_fit import LatencyFit
 from .qsfilter import PERIOD_SAMPLES, QuasiStaticFilter, sample_period
 from .settings import DYNAMIC, FilterConfig, PipelineConfig
 from .still import StillSamples, quasi_static
-from .trust import inertial_moment, predicted_error, snap_estimate, trust_weights
+from .trust import acceleration_bias, inertial_moment, predicted_error, trust_weights
 
 #: The rules of the dynamic filter, in the order they are reported.
 DYNAMIC_RULES = ("derivative window cut", "expected wrench not trusted")
@@ -59,7 +59,7 @@ NOISE_SAMPLES = 1000
 #: Strain noise through C, per axis, in units of full scale, without a nominal C (the paper's sensor: 2 mN of 50 N).
 DEFAULT_NOISE_FS = 4e-5
 #: A significant latency for ``latency_s: auto`` [s] (``calibrate`` reads again beyond it and 3 standard errors).
-LATENCY_SIGNIFICANT_S = 2e-4
+LATENCY_SIGNIFICANT_S = 5e-5
 
 
 def third_difference_noise(values: np.ndarray) -> np.ndarray:
@@ -142,7 +142,7 @@ class DynamicFilter:
             "resolution": self.grid.state(),
             "rejected": dict(self.rejected),
             "latency_sums": self.latency_fit.sums.tolist(),
-            "latency_count": self.latency_fit.count,
+            "latency_counts": self.latency_fit.counts.tolist(),
         }
 
     def restore(self, state: dict) -> None:
@@ -155,8 +155,14 @@ class DynamicFilter:
         self.rejected.update({k: int(v) for k, v in state.get("rejected", {}).items() if k in self.rejected})
         if state.get("latency_sums") is not None:
             sums = np.asarray(state["latency_sums"], dtype=float)
-            if sums.shape == self.latency_fit.sums.shape:
-                self.latency_fit.sums, self.latency_fit.count = sums, int(state.get("latency_count", 0))
+            counts = np.asarray(state.get("latency_counts", []), dtype=np.int64)
+            if sums.shape == self.latency_fit.sums.shape and counts.shape == self.latency_fit.counts.shape:
+                self.latency_fit.sums, self.latency_fit.counts = sums, counts
+
+    def fit_residuals(self) -> tuple[dict[int, np.ndarray], np.ndarray] | None:
+        """The kept samples' residual per configuration and C_bar, of the fit with the latency fitted (:meth:`LatencyFit.residuals`)."""
+        fit = self.latency_fit.solve()
+        return self.latency_fit.residuals(0.0 if fit is None else fit[0])
 
     def samples(self, kin: Kinematics, tool: Tool, batch: SampleBatch, final: bool = False, rates=None) -> StillSamples:
         """Feed ``batch`` and return the samples that can now be decided, with the moving wrench and the weight of the kept ones.
@@ -209,12 +215,14 @@ class DynamicFilter:
         if exact is None:
             motion = joint_motion(buf.time, buf.joints, window, dt, self._continuous, self.latency_s, settings.dynamic_order)
             half = max(1, int(round(window / 2 / dt))) if dt > 0 else 1
-            snap = snap_estimate(motion.acceleration, half, dt)[start:end] if dt > 0 else np.zeros((end - start, buf.joints.shape[1]))
-            gains = kernel_gains(window, dt, settings.dynamic_order) if dt > 0 else (0.0, 0.0, 0.0)
+            gains = kernel_gains(window, dt, settings.dynamic_order) if dt > 0 else (0.0, 0.0, 0.0, 0.0)
+            check = motion.acceleration if motion.check is None else motion.check
+            bias = acceleration_bias(motion.acceleration, check, half, dt, gains, self._joint_noise(kin)) if dt > 0 else 0 * check
+            bias = bias[start:end]
             full = motion.full[start:end] & _whole(motion.full, half)[start:end]
         else:
             motion = JointMotion(buf.joints, exact[0], exact[1], np.ones(len(buf), dtype=bool))
-            snap, gains, full = np.zeros((end - start, buf.joints.shape[1])), (0.0, 0.0, 0.0), np.ones(end - start, dtype=bool)
+            bias, gains, full = np.zeros((end - start, buf.joints.shape[1])), (0.0, 0.0, 0.0, 0.0), np.ones(end - start, dtype=bool)
         keep = full.copy()
         self.rejected["derivative window cut"] += int((~full).sum())
         index = np.flatnonzero(full)
@@ -235,7 +243,7 @@ class DynamicFilter:
             tool,
             codes,
             omega,
-            snap[index],
+            bias[index],
             rate,
             inertial_moment(tool, codes, omega, alpha),
             gains,
@@ -244,12 +252,14 @@ class DynamicFilter:
             self._levers,
             settings.inertia_tolerance,
         )
-        weight, trusted = trust_weights(random, systematic, self.sigma_w(), settings.max_error_ratio)
+        sigma_w = self.sigma_w()
+        weight, trusted = trust_weights(random, systematic, sigma_w, settings.max_error_ratio)
         self.rejected["expected wrench not trusted"] += int((~trusted).sum())
         keep[index] = trusted
         mine = index[trusted]
         self.latency_fit.add(self.layout.project(rows.channels[mine]), codes[trusted], moving[trusted], rate[trusted], weight[trusted])
-        return StillSamples(rows, keep, load.g_sensor[trusted], moving[trusted], weight[trusted], (moving - load.static)[trusted])
+        static_model = np.all(np.abs(moving - load.static)[trusted] <= sigma_w, axis=1)  # the dynamic part below the noise
+        return StillSamples(rows, keep, load.g_sensor[trusted], moving[trusted], weight[trusted], static_model)
 
     def _joint_noise(self, kin: Kinematics) -> np.ndarray:
         if self.settings.joint_noise is not None:
@@ -311,10 +321,3 @@ def filtered(
     if rates is not None:
         raise ShapeError("exact joint rates are for filter.mode 'dynamic': the quasi-static filter estimates its own")
     return quasi_static(filter_, kin, tool, batch, final)
-
-
-def near_static(tool: Tool, still: StillSamples, codes: np.ndarray, fraction: float) -> np.ndarray | None:
-    """Which kept samples' dynamic part is at most ``fraction`` of the weight (the fit check's samples); None: all."""
-    if still.dynamic_part is None:
-        return None
-    return dynamic_fraction(tool, codes, still.dynamic_part) <= fraction

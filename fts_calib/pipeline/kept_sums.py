@@ -18,6 +18,7 @@ import numpy as np
 from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..model.least_squares import unexplained_strain
 from .advice import missing_words, refused_words
+from .dynamic import DynamicFilter
 from .fit import MAX_RATIO, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .progress import Progress
 from .settings import DYNAMIC
@@ -114,6 +115,10 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
     chosen = session.estimator.model_in_use()[0]
     sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
     linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration)  # noise: floored at step/sqrt(12)
+    dynamic = session.filter.fit_residuals() if isinstance(session.filter, DynamicFilter) else None
+    if dynamic is not None:  # the moving samples' residual, of the dynamic wrench (the static model's check gives the diagnosis)
+        named = {name: dynamic[0][k] for k, name in enumerate(session.tool.names) if k in dynamic[0]}
+        return check_model_fit(session.tool, named, dynamic[1], noise, session.layout, linear)
     residuals = session.estimator.model_residuals()
     if residuals is None:  # the linear model on P Delta: the check above is the model's
         return linear

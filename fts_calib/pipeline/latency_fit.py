@@ -42,8 +42,13 @@ class LatencyFit:
         self.k = int(n_configurations)
         self.full_scale = np.asarray(full_scale, dtype=float)
         width = 6 + self.k + 12
-        self.sums = np.zeros((width, width))
-        self.count = 0
+        self.sums = np.zeros((self.k, width, width))  # per configuration
+        self.counts = np.zeros(self.k, dtype=np.int64)
+
+    @property
+    def count(self) -> int:
+        """Samples added."""
+        return int(self.counts.sum())
 
     def add(self, projected: np.ndarray, codes: np.ndarray, wrench: np.ndarray, rate: np.ndarray, weight: np.ndarray) -> None:
         """Add kept samples.
@@ -59,20 +64,25 @@ class LatencyFit:
         n = int(finite.sum())
         if not n:
             return
-        z = np.zeros((n, self.sums.shape[0]))
+        z = np.zeros((n, self.sums.shape[1]))
         z[:, :6] = projected[finite]
         z[np.arange(n), 6 + codes[finite]] = 1.0
         z[:, 6 + self.k : 12 + self.k] = wrench[finite] / self.full_scale
         z[:, 12 + self.k :] = rate[finite] / self.full_scale
-        self.sums += (z * weight[finite, None]).T @ z
-        self.count += n
+        codes, weight = codes[finite], weight[finite]
+        single = bool(np.all(codes == codes[0]))
+        for c in np.unique(codes):
+            mine = slice(None) if single else codes == c  # one configuration (the usual chunk): no copies
+            part = z[mine]
+            self.sums[c] += (part * weight[mine, None]).T @ part
+            self.counts[c] += len(part)
 
     def solve(self) -> tuple[float, float] | None:
         """``(tau [s], standard error [s])``, or None with too few samples or no change of the wrench."""
         if self.count < MIN_SAMPLES:
             return None
         p = 6 + self.k
-        S = self.sums
+        S = self.sums.sum(axis=0)
         x, w, v = slice(0, p), slice(p, p + 6), slice(p + 6, p + 12)
         inverse = np.linalg.pinv(S[x, x])
 
@@ -86,3 +96,27 @@ class LatencyFit:
         rss = max(A + 2 * tau * B + tau * tau * E, 0.0)
         dof = max(self.count - p, 1)
         return tau, math.sqrt(rss / (6 * dof) / E)
+
+    def residuals(self, tau: float) -> tuple[dict[int, np.ndarray], np.ndarray] | None:
+        """The fit's residual per configuration at the latency ``tau`` [s] (the dynamic fit check), and its C_bar.
+
+        Returns:
+            ``({configuration index: weighted residual RMS per axis [N, N m], scaled by
+            sqrt(sum of weights / samples) so that samples of weight 1 / (1 + rho^2) show the strain
+            noise alone}, C_bar (6, 6))``, or None with too few samples.
+        """
+        if self.count < MIN_SAMPLES:
+            return None
+        p = 6 + self.k
+        S = self.sums.sum(axis=0)
+        x = slice(0, p)
+        target = S[p : p + 6, x] + tau * S[p + 6 : p + 12, x]
+        theta = target @ np.linalg.pinv(S[x, x])  # (6, p): scaled wrench from [P Delta; e_c]
+        L = np.hstack([-theta, np.eye(6), tau * np.eye(6)])
+        out = {}
+        for c in range(self.k):
+            weight = self.sums[c, 6 + c, 6 + c]  # the sum of the weights: the one-hot column's
+            if self.counts[c] and weight > 0:
+                rss = np.maximum(np.diag(L @ self.sums[c] @ L.T), 0.0)
+                out[c] = self.full_scale * np.sqrt(rss / weight) * math.sqrt(weight / self.counts[c])
+        return out, theta[:, :6] * self.full_scale[:, None]

@@ -46,7 +46,7 @@ from ..robot.tool_wrench import tool_load
 from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from .dynamic import filtered, near_static, sample_filter
+from .dynamic import filtered, sample_filter
 from .fit import FitCheck
 from .health import with_health
 from .kept_sums import add_kept, empty_sums, refusal, session_fit_check, session_progress
@@ -249,7 +249,7 @@ class CalibrationSession:
         if self.filter is not None:
             still = filtered(self.filter, self.kin, self.tool, batch, final, rates)
             kept, g, W, weight = still.samples, still.g_sensor, still.w_sensor, still.weight
-            fit = near_static(self.tool, still, kept.configuration, self.settings.filter.max_dynamic_fraction)
+            fit = still.static_model  # the dynamic filter's: the samples the fit check's static model holds for
         else:
             load = tool_load(self.kin, self.tool, batch.joints, batch.configuration)
             kept, g, W = batch, load.g_sensor, load.static

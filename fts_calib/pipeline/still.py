@@ -32,8 +32,8 @@ class StillSamples:
             [N, N m], shape (k, 6); None for an unknown payload (no tool). The dynamic filter's:
             the moving wrench (:mod:`fts_calib.pipeline.dynamic`).
         weight: The estimator's weight of each kept sample, shape (k,), or None: all 1.
-        dynamic_part: The moving wrench less the static one at each kept sample [N, N m],
-            shape (k, 6), or None (quasi-static samples: none to speak of).
+        static_model: Which kept samples the fit check's static model (eqs 17-18) holds for,
+            shape (k,) bool, or None: all (the quasi-static filter's).
     """
 
     decided: SampleBatch
@@ -41,7 +41,7 @@ class StillSamples:
     g_sensor: np.ndarray
     w_sensor: np.ndarray | None
     weight: np.ndarray | None = None
-    dynamic_part: np.ndarray | None = None
+    static_model: np.ndarray | None = None
 
     @property
     def samples(self) -> SampleBatch:

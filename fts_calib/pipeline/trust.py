@@ -16,8 +16,9 @@ lever ``R_i`` (the distance from joint i to the sensor), the errors of the joint
 
 where ``delta qdd_i`` combines the acceleration noise of the derivative filter
 (``gain_a sigma_q``, :func:`fts_calib.pipeline.derivatives.kernel_gains`, ``sigma_q`` the joint
-noise) and its bias where the jerk changes (``gain_s x snap``, the snap estimated from the
-second difference of the filtered acceleration over half a window), and
+noise) and its bias where the jerk changes (the larger of ``gain_s x snap``, the snap estimated
+from the second difference of the filtered acceleration over half a window, and the difference
+from the same polynomial over a window a third as wide beyond three of its noises), and
 ``delta qd_i = gain_v sigma_q``. Two more terms, per axis:
 
 - latency: ``sigma_tau |dW/dt|``, the uncertainty of the latency applied (``sigma_tau``) times
@@ -42,6 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.arrays import cross
 from ..robot.tool import Tool
 
 
@@ -52,7 +54,7 @@ def inertial_moment(tool: Tool, codes: np.ndarray, omega: np.ndarray, alpha: np.
         mine = codes == k
         if configuration.inertia_com is not None and mine.any():
             inertia = np.asarray(configuration.inertia_com)
-            out[mine] = alpha[mine] @ inertia.T + np.cross(omega[mine], omega[mine] @ inertia.T)
+            out[mine] = alpha[mine] @ inertia.T + cross(omega[mine], omega[mine] @ inertia.T)
     return out
 
 
@@ -66,14 +68,25 @@ def snap_estimate(acceleration: np.ndarray, half: int, dt: float) -> np.ndarray:
     return out
 
 
+def acceleration_bias(acceleration: np.ndarray, check: np.ndarray, half: int, dt: float, gains, joint_noise: np.ndarray) -> np.ndarray:
+    """The bias of the filtered acceleration per joint [rad/s^2] (see the module docstring), shape like ``acceleration``.
+
+    The larger of ``gain_s x snap`` and the difference from the narrower window's estimate
+    beyond three of its noises (``gain_c sigma_q``).
+    """
+    _, _, gain_s, gain_c = gains
+    beyond = np.maximum(np.abs(acceleration - check) - 3.0 * gain_c * joint_noise, 0.0)
+    return np.maximum(gain_s * snap_estimate(acceleration, half, dt), beyond)
+
+
 def predicted_error(
     tool: Tool,
     codes: np.ndarray,
     omega: np.ndarray,
-    snap: np.ndarray,
+    bias: np.ndarray,
     rate: np.ndarray,
     inertial: np.ndarray,
-    gains: tuple[float, float, float],
+    gains: tuple[float, float, float, float],
     joint_noise: np.ndarray,
     latency_sigma_s: float,
     levers: np.ndarray,
@@ -85,7 +98,7 @@ def predicted_error(
         tool: The tool.
         codes: Configuration index per sample, shape (N,).
         omega: Angular velocity of the sensor [rad/s], shape (N, 3).
-        snap: |snap| per joint [rad/s^4], shape (N, n_joints); zeros for exact rates.
+        bias: The acceleration's bias per joint [rad/s^2], shape (N, n_joints) (:func:`acceleration_bias`); zeros for exact rates.
         rate: Rate of change of the expected wrench [N/s, N m/s], shape (N, 6).
         inertial: :func:`inertial_moment` [N m], shape (N, 3).
         gains: ``kernel_gains`` of the derivative filter (zeros for exact rates).
@@ -99,7 +112,7 @@ def predicted_error(
         random: of the joint noise; systematic: the filter's bias where the jerk changes, the
         latency's uncertainty and the inertia's tolerance.
     """
-    gain_v, gain_a, gain_s = gains
+    gain_v, gain_a = gains[0], gains[1]
     masses = np.array([c.mass for c in tool.configurations])[codes]
     radii = np.array([float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations])[codes]
     inertias = np.array([0.0 if c.inertia_com is None else float(np.linalg.norm(c.inertia_com, 2)) for c in tool.configurations])[codes]
@@ -115,7 +128,7 @@ def predicted_error(
     n = len(codes)
     shape = (n, len(joint_noise))
     noise = through_tool(np.broadcast_to(gain_a * joint_noise, shape), np.broadcast_to(gain_v * joint_noise, shape))
-    bias = through_tool(gain_s * snap, np.zeros_like(snap))
+    bias = through_tool(bias, np.zeros_like(bias))
     latency = latency_sigma_s * np.abs(rate)
     inertia = inertia_tolerance * np.column_stack([np.zeros((n, 3)), np.abs(inertial)])
     return noise, np.sqrt(bias**2 + latency**2 + inertia**2)

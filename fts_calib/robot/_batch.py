@@ -30,6 +30,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from ..core.arrays import cross
 from .joints import JointInfo
 
 
@@ -162,23 +163,23 @@ class Chain:
         omega, al, v, a = (np.zeros((n, 3)) for _ in range(4))
         for link in self._links:
             r = _apply(cols, link.p_parent)  # offset of this joint from its parent, world frame
-            v += np.cross(omega, r)
-            a += np.cross(al, r) + np.cross(omega, np.cross(omega, r))
+            v += cross(omega, r)
+            a += cross(al, r) + cross(omega, cross(omega, r))
             cols = _compose(cols, link.R_parent)
             k = link.reading
             z = _apply(cols, link.axis)  # joint axis in the world (unchanged by the joint's own rotation)
             qd, qdd = dtheta[:, k, None], ddtheta[:, k, None]
             if link.kind == "prismatic":
                 d = z * theta[:, k, None]
-                a += np.cross(al, d) + np.cross(omega, np.cross(omega, d)) + 2.0 * np.cross(omega, z * qd) + z * qdd
-                v += np.cross(omega, d) + z * qd
+                a += cross(al, d) + cross(omega, cross(omega, d)) + 2.0 * cross(omega, z * qd) + z * qdd
+                v += cross(omega, d) + z * qd
             else:
                 cols = link.rotate(cols, theta[:, k])
-                al += np.cross(omega, z * qd) + z * qdd
+                al += cross(omega, z * qd) + z * qdd
                 omega = omega + z * qd
         r = _apply(cols, self._p_last_sensor)
-        v += np.cross(omega, r)
-        a += np.cross(al, r) + np.cross(omega, np.cross(omega, r))
+        v += cross(omega, r)
+        a += cross(al, r) + cross(omega, cross(omega, r))
         cols = _compose(cols, self._R_last_sensor)
         return (
             _transpose_apply(cols, omega),

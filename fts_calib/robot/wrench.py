@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.arrays import as_matrix, as_samples
+from ..core.arrays import as_matrix, as_samples, cross
 
 
 def wrench_matrix(mass: float, p_sensor_com) -> np.ndarray:
@@ -87,8 +87,8 @@ def dynamic_wrench(mass: float, p_sensor_com, inertia_com, g_sensor, omega_senso
     omega, _ = as_samples(omega_sensor, 3, "omega_sensor")
     al, _ = as_samples(alpha_sensor, 3, "alpha_sensor")
     a, _ = as_samples(a_sensor, 3, "a_sensor")
-    a_com = a + np.cross(al, c) + np.cross(omega, np.cross(omega, c))
+    a_com = a + cross(al, c) + cross(omega, cross(omega, c))
     force = mass * (g - a_com)
-    torque = np.cross(c, force) - (al @ inertia.T + np.cross(omega, omega @ inertia.T))
+    torque = cross(c, force) - (al @ inertia.T + cross(omega, omega @ inertia.T))
     out = np.concatenate([force, torque], axis=1)
     return out[0] if single and out.shape[0] == 1 else out
