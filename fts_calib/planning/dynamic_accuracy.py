@@ -23,7 +23,7 @@ from ..model.budget import AccuracyBudget, ErrorSource
 from ..pipeline.budget import sample_budget
 from ..pipeline.derivatives import kernel_gains
 from ..pipeline.dynamic import joint_levers
-from ..pipeline.trust import inertial_moment, predicted_error, snap_estimate, trust_weights
+from ..pipeline.trust import acceleration_bias, inertial_moment, predicted_error, trust_weights
 from ..robot.dynamic_sensitivities import MotionUncertainty, dynamic_error_sources, wrench_derivatives
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
@@ -97,17 +97,20 @@ def filter_weights(kin: Kinematics, tool: Tool, plan: Plan, sigma_w, uncertainty
     motion = kin.sensor_motion(q, qd, qdd)
     omega, alpha = motion.omega.reshape(len(q), 3), motion.alpha.reshape(len(q), 3)
     half = max(1, int(round(uncertainty.window_s / 2 * plan.rate)))
-    snap = np.vstack([snap_estimate(plan.qdd, half, 1.0 / plan.rate)] * n_conf)
+    gains = kernel_gains(uncertainty.window_s, 1.0 / uncertainty.joint_rate_hz, uncertainty.order)
+    noise = np.full(kin.n_joints, uncertainty.joint_noise)
+    # the planned acceleration is exact: the narrower window's check adds nothing, the snap's term stays
+    bias = np.vstack([acceleration_bias(plan.qdd, plan.qdd, half, 1.0 / plan.rate, gains, noise)] * n_conf)
     rate = np.vstack([np.gradient(load.w_sensor[codes == c], plan.time, axis=0) for c in range(n_conf)])
     random, systematic = predicted_error(
         tool,
         codes,
         omega,
-        snap,
+        bias,
         rate,
         inertial_moment(tool, codes, omega, alpha),
-        kernel_gains(uncertainty.window_s, 1.0 / uncertainty.joint_rate_hz, uncertainty.order),
-        np.full(kin.n_joints, uncertainty.joint_noise),
+        gains,
+        noise,
         uncertainty.latency_s,
         joint_levers(kin, plan.q[0]),
         uncertainty.inertia,
