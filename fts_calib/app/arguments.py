@@ -103,6 +103,34 @@ def _add_trajectory(commands) -> None:
         help="noise per channel for the excitation report, in the channels' raw unit (default: the sensor file's, else the pipeline's)",
     )
     add_return_pass(traj)
+    traj.add_argument(
+        "--motion",
+        choices=("stop", "continuous"),
+        default="stop",
+        help="stop: dwell at each stop (quasi-static samples); continuous: no dwell, every sample calibrates in the "
+        "dynamic filter mode, the budget with its dynamic terms (default: stop)",
+    )
+    traj.add_argument(
+        "--configurations",
+        type=int,
+        help="plan for the tool's first N configurations (1, 2, ...; continuous only): refused, naming what each number "
+        "reaches, when the target is out of reach (default: all)",
+    )
+    traj.add_argument(
+        "--inertia-tolerance",
+        type=float,
+        help="continuous: each inertia element known to this fraction of the largest principal moment "
+        "(default: the pipeline's filter.inertia_tolerance)",
+    )
+    traj.add_argument(
+        "--joint-noise", type=float, help="continuous: noise of the joint readings in rad (default: filter.joint_noise, auto: 1e-5)"
+    )
+    traj.add_argument(
+        "--latency-uncertainty",
+        dest="latency_uncertainty_s",
+        type=float,
+        help="continuous: standard deviation of the stream-latency estimate in s (default: filter.latency_uncertainty_s, auto: 1e-4)",
+    )
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", dest="plot", action="store_false", help="do not write plan.png")
 

@@ -17,7 +17,7 @@ from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
 from ..planning.drift_excitation import DriftPrediction
 from ..planning.sweeps import SweepPattern
-from ..planning.trajectory import TrajectoryRun, plan_summary, plan_trajectories
+from ..planning.trajectory import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
 from ..planning.trajectory_io import save_trajectory
 from ..robot.tool import ToolShape, load_tool
 from . import plots
@@ -47,6 +47,11 @@ def run(
     compress: bool = False,
     plot: bool = True,
     return_pass: bool = False,
+    motion: str = "stop",
+    configurations: int | None = None,
+    inertia_tolerance: float | None = None,
+    joint_noise: float | None = None,
+    latency_uncertainty_s: float | None = None,
 ) -> int:
     """Plan and check the calibration sweeps, write them and print the report (``fts-calib trajectory``).
 
@@ -76,6 +81,17 @@ def run(
         plot: Write plan.png.
         return_pass: Visit the raster's stops again in reverse order (drift separable from the
             orientation; about twice the time); fixes the raster (no sizing to the target).
+        motion: 'stop' (dwell at each stop: quasi-static samples) or 'continuous' (no dwell:
+            every sample calibrates in the ``dynamic`` filter mode, with the budget's dynamic terms).
+        configurations: Plan for the tool's first this many configurations (continuous only;
+            refused, naming what each number reaches, when the target is out of reach); None for all.
+        inertia_tolerance: How well each configuration's inertia is known, a fraction of its
+            largest principal moment per element (continuous); the pipeline's
+            ``filter.inertia_tolerance`` when None.
+        joint_noise: Standard deviation of the joint readings' noise, in [rad] (continuous);
+            the pipeline's ``filter.joint_noise`` when None (``auto``: 1e-5).
+        latency_uncertainty_s: Standard deviation of the stream-latency estimate, in [s]
+            (continuous); the pipeline's ``filter.latency_uncertainty_s`` when None (``auto``: 1e-4).
 
     Returns:
         0 when every check passed, 1 when one failed (the trajectory files are then not written).
@@ -103,18 +119,44 @@ def run(
         noise = 0.0
     fixed = any(v is not None for v in (levels, stops, dwell_s, span)) or return_pass
     default = SweepPattern()
+    continuous = motion == "continuous"
     pattern = SweepPattern(
         levels=default.levels if levels is None else levels,
         stops=default.stops if stops is None else stops,
-        dwell=default.dwell if dwell_s is None else dwell_s,
+        dwell=(0.0 if continuous else default.dwell) if dwell_s is None else dwell_s,
         margin=margin,
         span=default.span if span is None else span,
         return_pass=return_pass,
+        continuous=continuous,
+    )
+    uncertainty = (
+        motion_uncertainty(
+            settings.filter,
+            spec.rate_hz,
+            inertia=inertia_tolerance,
+            joint_noise=joint_noise,
+            latency_s=latency_uncertainty_s,
+            jitter_s=latency_uncertainty_s,
+        )
+        if continuous
+        else None
     )
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
-    print(f"planning {robot_path.stem} sweeps for '{loaded.name}' ({len(loaded.configurations)} configurations)...", flush=True)
+    count = len(loaded.configurations) if configurations is None else configurations
+    kind = "continuous " if continuous else ""
+    print(f"planning {robot_path.stem} {kind}sweeps for '{loaded.name}' ({count} configurations)...", flush=True)
     planned = plan_trajectories(
-        robot_path, loaded, spec, settings.filter, noise, pattern, rate_hz, min_clearance, None if fixed else target
+        robot_path,
+        loaded,
+        spec,
+        settings.filter,
+        noise,
+        pattern,
+        rate_hz,
+        min_clearance,
+        None if fixed else target,
+        configurations,
+        uncertainty,
     )
     with writing(out):
         planned = write_run(planned, out, compress=compress, plot=plot)
@@ -183,11 +225,16 @@ def format_report(
     lines.append(f"  axis of {plan.sweep_joints[0]} {home.axis_tilt_deg:.1f}° from horizontal; sweep axes {home.axes_angle_deg:.1f}° apart")
     a, b = plan.sweep_joints
     levels = np.unique(plan.waypoints[:, 0])
+    how_stops = (
+        f"passed without stopping (continuous: every sample calibrates in the dynamic filter mode) at each of {len(plan.waypoints)} stops"
+        if plan.pattern.continuous
+        else f"dwell {plan.pattern.dwell:.2f} s at each of {len(plan.waypoints)} stops"
+    )
     lines.append(
         f"sweep: {a} at {len(levels)} levels {', '.join(f'{v:+.1f}' for v in np.degrees(levels))}° (chosen in "
         f"[{np.degrees(plan.ranges[0, 0]):+.1f}°, {np.degrees(plan.ranges[0, 1]):+.1f}°] to spread gravity's latitude "
         f"about the axis of {b}); {b} over [{np.degrees(plan.ranges[1, 0]):+.1f}°, {np.degrees(plan.ranges[1, 1]):+.1f}°] "
-        f"in {plan.pattern.stops} stops per level; dwell {plan.pattern.dwell:.2f} s at each of {len(plan.waypoints)} stops"
+        f"in {plan.pattern.stops} stop{'s' if plan.pattern.stops > 1 else ''} per level; {how_stops}"
     )
     if result.ranges.note:
         lines.append(f"  note: {result.ranges.note}")
@@ -202,6 +249,19 @@ def format_report(
     lines.append("limits used, peak / limit:")
     lines.append(table(["joint", "velocity [rad/s]", "acceleration [rad/s²]", "jerk [rad/s³]"], rows))
     n_conf = len(run.tool.configurations)
+    if run.full_configurations and n_conf < run.full_configurations:
+        lines.append(
+            f"configurations: the first {n_conf} of the tool's {run.full_configurations} ({', '.join(run.tool.names)}): "
+            f"{run.full_configurations - n_conf} tool change{'s' if run.full_configurations - n_conf > 1 else ''} fewer"
+        )
+    if run.uncertainty is not None:
+        u = run.uncertainty
+        lines.append(
+            f"dynamic terms: inertia known to {100 * u.inertia:g} % of its largest principal moment per element, joint noise "
+            f"{u.joint_noise:.2g} rad at {u.joint_rate_hz:g} Hz (rates from a {1e3 * u.window_s:g} ms centred polynomial of "
+            f"degree {u.order}), latency "
+            f"estimate ±{1e3 * u.latency_s:.2g} ms (1σ), jitter {1e3 * u.jitter_s:.2g} ms"
+        )
     lines.append(
         f"duration: {plan.duration:.1f} s per configuration ({n_conf} configurations: {n_conf * plan.duration:.1f} s "
         f"of motion, plus the tool changes at home), sampled at {plan.rate:g} Hz"

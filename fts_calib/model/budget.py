@@ -65,13 +65,24 @@ class ErrorSource:
         sensitivity: B, [N or N m per unit of u]. Shape (N, 6, r).
         covariance: Covariance U of each draw u. Shape (r, r).
         groups: Group of each sample (samples of a group share one draw), shape (N,) int;
-            None for a draw per sample (white).
+            None for a draw per sample (white). With ``time``: the stretch of each sample
+            (the derivatives are taken within a stretch).
+        time: Sample times [s], shape (N,), for white noise of readings estimated through
+            linear filters (:func:`filtered_sensitivity`): ``sensitivity`` is then (N, 6, 3r),
+            the parts of the readings' value, rate and second rate, and ``covariance`` (r, r)
+            that of one reading; None otherwise.
+        period: Period of those readings [s] (with ``time``).
+        kernels: The filters' kernels (value, rate, second rate) over a centred window of
+            readings, shape (3, 2h + 1) (with ``time``).
     """
 
     name: str
     sensitivity: np.ndarray
     covariance: np.ndarray
     groups: np.ndarray | None = None
+    time: np.ndarray | None = None
+    period: float = 0.0
+    kernels: np.ndarray | None = None
 
 
 def wrench_noise(C: np.ndarray, noise_std) -> np.ndarray:
@@ -117,8 +128,60 @@ def range_moments(C_bar, D, full_scale) -> np.ndarray:
     return M
 
 
+def filtered_sensitivity(source: ErrorSource, A: np.ndarray) -> list[np.ndarray]:
+    r"""Each reading's share of the error from white readings estimated through linear filters.
+
+    A sample's value, rate and second-rate estimates are ``sum_k K_d[k] q_{i+k}`` (kernels
+    ``K_d``, d = 0, 1, 2, of ``2h + 1`` taps at the readings' period); the least squares' error
+    ``sum_i sum_d (B_d A)_i (K_d * n)_i`` is then ``sum_t n_t E_t`` with
+
+    .. math::
+
+        E_t = \sum_d \sum_k K_d[k]\, (B_d A)_{t-k},
+
+    a convolution of each sample's share with the kernels: over a smooth motion the
+    differentiating kernels (they sum to zero) cancel the noise's share, except where the
+    samples begin and end. The planned samples are spread over the readings by linear
+    interpolation in time, each reading standing for ``period / step`` of a planned sample.
+
+    Returns:
+        One array per stretch of ``groups`` (its readings, half a window beyond each end
+        included), shape (T, 6, r, 7).
+    """
+    B = np.asarray(source.sensitivity, dtype=float)
+    r = B.shape[2] // 3
+    kernels = np.asarray(source.kernels, dtype=float)
+    half = kernels.shape[1] // 2
+    time = np.asarray(source.time, dtype=float)
+    groups = np.zeros(len(time), dtype=np.int64) if source.groups is None else np.asarray(source.groups)
+    out = []
+    for g in np.unique(groups):
+        rows = np.nonzero(groups == g)[0]
+        t = time[rows]
+        step = float(np.median(np.diff(t))) if len(t) > 1 else source.period
+        readings = np.arange(t[0], t[-1] + 0.5 * source.period, source.period)
+        P = np.einsum("njr,nk->njrk", B[rows], A[rows]).reshape(len(rows), -1) * (source.period / step)
+        index = np.clip(np.searchsorted(t, readings, side="right") - 1, 0, max(len(t) - 2, 0))
+        frac = np.clip((readings - t[index]) / step, 0.0, 1.0)[:, None] if len(t) > 1 else np.zeros((len(readings), 1))
+        upper = np.minimum(index + 1, len(t) - 1)
+        spread = (P[index] * (1 - frac) + P[upper] * frac).reshape(len(readings), 6, 3, r * 7)
+        length = len(readings) + 2 * half
+        size = 1 << int(np.ceil(np.log2(length)))  # FFT convolution of every column with its kernel
+        E_f = sum(
+            np.fft.rfft(spread[:, :, d].reshape(len(readings), -1), size, axis=0) * np.fft.rfft(kernels[d], size)[:, None] for d in range(3)
+        )
+        E = np.fft.irfft(E_f, size, axis=0)[:length].reshape(length, 6, r, 7)
+        out.append(E)
+    return out
+
+
 def propagate(
-    x: np.ndarray, sources: Sequence[ErrorSource], moments: np.ndarray, weight: float = 1.0, ridge: np.ndarray | None = None
+    x: np.ndarray,
+    sources: Sequence[ErrorSource],
+    moments: np.ndarray,
+    weight: float = 1.0,
+    ridge: np.ndarray | None = None,
+    row_weight: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Standard deviation of the wrench error over the range, per axis, of each named term.
 
@@ -130,26 +193,33 @@ def propagate(
             white sources average over them, the shared ones do not.
         ridge: The prior's term added to ``x^T x`` (a ridge on C_bar, :mod:`fts_calib.model.prior`),
             shape (7, 7), in the units of ``x^T x`` of these rows; None for plain least squares.
+        row_weight: The weight of each sample in a weighted least squares (``S = x^T diag(w) x``,
+            each sample's error enters as ``w_i x_i``), shape (N,); None for equal weights.
 
     Returns:
         Term name -> sigma per axis, [N, N, N, N m, N m, N m]. Shape (6,) each.
     """
     x = np.asarray(x, dtype=float)
-    S = x.T @ x if ridge is None else x.T @ x + ridge
+    wx = x if row_weight is None else np.asarray(row_weight, dtype=float)[:, None] * x
+    S = x.T @ wx if ridge is None else x.T @ wx + ridge
     scale = 1.0 / np.sqrt(np.diag(S))
     S_inv = np.linalg.pinv(S * scale[:, None] * scale[None, :], hermitian=True) * scale[:, None] * scale[None, :]
-    A = x @ S_inv  # (N, 7): the least-squares weight of each sample
+    A = wx @ S_inv  # (N, 7): the least-squares weight of each sample
     variance: dict[str, np.ndarray] = {}
     for source in sources:
         B, U = np.asarray(source.sensitivity, dtype=float), np.asarray(source.covariance, dtype=float)
-        if source.groups is None:
+        if source.time is not None:
+            var = sum(np.einsum("rs,njrk,kl,njsl->j", U, E, moments, E) for E in filtered_sensitivity(source, A))
+        elif source.groups is None:
             per_axis = np.einsum("njr,rs,njs->nj", B, U, B)
             spread = np.einsum("nk,kl,nl->n", A, moments, A)
             var = per_axis.T @ spread / weight
         else:
             _, groups = np.unique(source.groups, return_inverse=True)
-            G = np.zeros((int(groups.max()) + 1, 6, B.shape[2], 7))
-            np.add.at(G, groups, np.einsum("njr,nk->njrk", B, A))
+            order = np.argsort(groups, kind="stable")
+            starts = np.concatenate([[0], np.nonzero(np.diff(groups[order]))[0] + 1])
+            shares = np.einsum("njr,nk->njrk", B[order], A[order]).reshape(len(order), -1)
+            G = np.add.reduceat(shares, starts, axis=0).reshape(len(starts), 6, B.shape[2], 7)  # sum per group
             var = np.einsum("rs,gjrk,kl,gjsl->j", U, G, moments, G)
         variance[source.name] = variance.get(source.name, np.zeros(6)) + np.maximum(var, 0.0)
     return {name: np.sqrt(v) for name, v in variance.items()}

@@ -22,6 +22,7 @@ N m, and % of each axis's full scale.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -45,7 +46,7 @@ def sample_budget(
     joints: np.ndarray,
     configuration: np.ndarray,
     joint_velocity: np.ndarray,
-    stop: np.ndarray,
+    stop: np.ndarray | None,
     x: np.ndarray,
     sigma_w: np.ndarray,
     C_bar: np.ndarray,
@@ -55,6 +56,8 @@ def sample_budget(
     weight: float = 1.0,
     accuracy: RobotAccuracy | None = None,
     prior_weight: float | None = None,
+    extra: Sequence[ErrorSource] = (),
+    row_weight: np.ndarray | None = None,
 ) -> AccuracyBudget:
     """The budget of a calibration from its samples (every term inf when they do not determine C, rank < 7).
 
@@ -64,7 +67,7 @@ def sample_budget(
         joints: Joint readings of the samples [rad]. Shape (N, n_joints).
         configuration: Tool configuration index of each sample. Shape (N,) int.
         joint_velocity: Joint velocities at the samples [rad/s]. Shape (N, n_joints).
-        stop: Still stretch of each sample. Shape (N,) int.
+        stop: Still stretch of each sample, shape (N,) int; None when every sample moves.
         x: Regressors ``[P Delta; 1]`` (``[C_bar^-1 (W - D); 1]``). Shape (N, 7).
         sigma_w: Strain noise through C, per axis [N, N m]. Shape (6,).
         C_bar: Modified calibration matrix (nominal, or the result). Shape (6, 6).
@@ -75,6 +78,9 @@ def sample_budget(
         accuracy: Encoder resolution, timing and mount tolerance; the robot definition's when None.
         prior_weight: The weight lambda of a prior C_bar was shrunk toward (:mod:`fts_calib.model.prior`): the
             errors propagate through the shrunk least squares, so every term is finite; None for none.
+        extra: More sources (e.g. the moving tool's, :mod:`fts_calib.robot.dynamic_sensitivities`);
+            a static source of the same name as one of them is left out (they replace it).
+        row_weight: Weight of each sample in a weighted least squares, shape (N,); None for equal weights.
     """
     accuracy = kin.robot.accuracy if accuracy is None else accuracy
     n = len(joints)
@@ -82,12 +88,14 @@ def sample_budget(
     if prior_weight is not None and n:
         ridge = np.zeros((7, 7))
         ridge[:6, :6] = prior_weight * np.diag(np.einsum("ni,ni->i", x[:, :6], x[:, :6]))
-    if n == 0 or (ridge is None and information_rank(x.T @ x)[0] < 7):
+    wx = x if row_weight is None else np.asarray(row_weight, dtype=float)[:, None] * x
+    if n == 0 or (ridge is None and information_rank(x.T @ wx)[0] < 7):
         names = [name for name in ("strain noise", *SOURCE_NAMES) if tool.tolerance is not None or not name.startswith("tool")]
         return AccuracyBudget({name: np.full(6, np.inf) for name in names}, full_scale, kind=kind)
-    sources = load_error_sources(kin, tool, joints, configuration, joint_velocity, stop, accuracy)
+    replaced = {source.name for source in extra}
+    sources = [s for s in load_error_sources(kin, tool, joints, configuration, joint_velocity, stop, accuracy) if s.name not in replaced]
     noise = ErrorSource("strain noise", np.broadcast_to(np.eye(6), (n, 6, 6)), np.diag(np.asarray(sigma_w, dtype=float) ** 2))
-    terms = propagate(x, [noise, *sources], range_moments(C_bar, D, full_scale), weight, ridge)
+    terms = propagate(x, [noise, *sources, *extra], range_moments(C_bar, D, full_scale), weight, ridge, row_weight)
     return AccuracyBudget(terms, full_scale, kind=kind)
 
 

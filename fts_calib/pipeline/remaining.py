@@ -1,7 +1,8 @@
 """How far a live run is through its sized plan: the motion still to run and the configuration to mount next.
 
 A plan sized to an accuracy target (``fts-calib trajectory``, its ``plan.yaml``) says how
-many quasi-static samples each tool configuration gives and how long its motion takes.
+many quasi-static samples each tool configuration gives (a continuous plan: how many moving
+samples the dynamic filter keeps, ``excitation.dynamic_samples``) and how long its motion takes.
 During ``live`` the session's kept samples per configuration, against those, tell a person
 how much robot time is left before the target is reached and which configuration to mount
 next. Times in [s].
@@ -108,12 +109,12 @@ def load_plan_progress(path: str | Path, rate_hz: float) -> PlanProgress:
     duration = read_positive(require(data, "duration_s", path), path, "duration_s", "s")
     plan_rate = read_positive(require(data, "rate_hz", path), path, "rate_hz", "Hz")  # divides the counts below
     excitation = require(data, "excitation", path)
-    counts = excitation.get("quasi_static_samples") if isinstance(excitation, Mapping) else None
+    # a continuous plan (no dwell) counts the moving samples the dynamic filter keeps instead
+    key = "dynamic_samples" if isinstance(excitation, Mapping) and "dynamic_samples" in excitation else "quasi_static_samples"
+    counts = excitation.get(key) if isinstance(excitation, Mapping) else None
     if not isinstance(counts, Mapping) or not counts:
-        raise FileFormatError(path, "excitation.quasi_static_samples", "expected a mapping configuration -> samples")
-    expected = {
-        str(name): read_number(n, path, f"excitation.quasi_static_samples.{name}") * rate_hz / plan_rate for name, n in counts.items()
-    }
+        raise FileFormatError(path, f"excitation.{key}", "expected a mapping configuration -> samples")
+    expected = {str(name): read_number(n, path, f"excitation.{key}.{name}") * rate_hz / plan_rate for name, n in counts.items()}
     target = data.get("target_error_percent_fs")
     target_percent = None if target is None else read_number(target, path, "target_error_percent_fs", "%")
     return PlanProgress(duration, expected, target_percent, None if data.get("robot") is None else str(data["robot"]), rate_hz)

@@ -97,13 +97,14 @@ def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: 
     """
     home = np.asarray(home, dtype=float)
     stops = raster(kin, home, ranges, pattern)
-    time, q, qd, qdd = sample_motion(kin, home, kin.sweep_joints, stops, pattern.dwell, rate)
+    passing = passing_velocities(kin, home, kin.sweep_joints, stops) if pattern.continuous else None
+    time, q, qd, qdd = sample_motion(kin, home, kin.sweep_joints, stops, pattern.dwell, rate, passing)
     first, second = kin.sweep_joints  # two of them: raster has already unpacked them the same way
     return Plan(kin.robot.name, kin.joint_names, (first, second), home, ranges, stops, pattern, kin.limits, rate, time, q, qd, qdd)
 
 
-def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, dwell: float, rate: float):
-    """Rest-to-rest ruckig segments of some joints from home, through stops, back to home.
+def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, dwell: float, rate: float, velocities=None):
+    """Ruckig segments of some joints from home, through stops, back to home (rest to rest unless ``velocities``).
 
     Args:
         kin: Kinematics (limits).
@@ -112,6 +113,8 @@ def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, 
         stops: Their positions at each stop [rad], shape (W, len(joints)).
         dwell: Time still at each stop [s].
         rate: Sample rate [Hz], > 0.
+        velocities: Velocity of the joints as they pass each stop [rad/s], shape (W, len(joints));
+            None to stop at each (the motion starts and ends at rest at home either way).
 
     Returns:
         ``(time (N,), q, qd, qdd (N, n_joints))`` in [s, rad, rad/s, rad/s^2].
@@ -127,12 +130,13 @@ def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, 
     # (start time, duration, trajectory or None for a hold, held position)
     pieces: list[tuple[float, float, ruckig.Trajectory | None, np.ndarray]] = []
     t = 0.0
-    position = start
-    for target in [*stops, start]:
-        segment = _segment(position, target, kin.limits, index)
+    position, speed = start, np.zeros(len(index))
+    passing = np.zeros((len(stops), len(index))) if velocities is None else np.asarray(velocities, dtype=float)
+    for target, target_speed in zip([*stops, start], [*passing, np.zeros(len(index))], strict=True):
+        segment = _segment(position, target, kin.limits, index, speed, target_speed)
         pieces.append((t, segment.duration, segment, target))
         t += segment.duration
-        position = target
+        position, speed = target, target_speed
         if dwell > 0 and target is not start:
             pieces.append((t, dwell, None, target))
             t += dwell
@@ -154,22 +158,50 @@ def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, 
     return time, q, qd, qdd
 
 
-def segment_durations(kin: Kinematics, home: np.ndarray, stops: np.ndarray) -> list[float]:
-    """Durations [s] of the ruckig segments of the sweep joints from home, through ``stops`` (W, 2), back home (no sampling)."""
+def segment_durations(kin: Kinematics, home: np.ndarray, stops: np.ndarray, continuous: bool = False) -> list[float]:
+    """Durations [s] of the ruckig segments of the sweep joints from home, through ``stops`` (W, 2), back home (no sampling).
+
+    With ``continuous`` the stops are passed at :func:`passing_velocities`, else at rest.
+    """
     index = [kin.joint_names.index(name) for name in kin.sweep_joints]
     start = np.asarray(home, dtype=float)[index]
     points = [start, *np.asarray(stops, dtype=float), start]
-    return [_segment(a, b, kin.limits, index).duration for a, b in zip(points[:-1], points[1:], strict=True)]
+    rest = np.zeros(len(index))
+    speeds = [rest, *(passing_velocities(kin, home, kin.sweep_joints, stops) if continuous else [rest] * len(stops)), rest]
+    pairs = zip(points[:-1], points[1:], speeds[:-1], speeds[1:], strict=True)
+    return [_segment(a, b, kin.limits, index, va, vb).duration for a, b, va, vb in pairs]
 
 
-def _segment(start: np.ndarray, target: np.ndarray, limits: JointLimits, index: list[int]) -> ruckig.Trajectory:
+#: Fraction of the speed a joint could reach in the shorter of its two moves that it passes a stop at.
+PASSING_FRACTION = 0.8
+
+
+def passing_velocities(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray) -> np.ndarray:
+    """Velocities [rad/s] at which a continuous motion passes its stops, shape (W, len(joints)).
+
+    A joint that moves on in the same direction passes the stop at :data:`PASSING_FRACTION` of
+    the speed it could reach over the shorter of its moves in and out (``sqrt(a d)`` for an
+    acceleration limit a and a distance d, within its velocity limit); one that turns back or
+    holds passes it at rest. The motion starts and ends at rest at home.
+    """
+    index = [kin.joint_names.index(name) for name in joints]
+    points = np.vstack([np.asarray(home, dtype=float)[index], np.asarray(stops, dtype=float), np.asarray(home, dtype=float)[index]])
+    before, after = np.diff(points, axis=0)[:-1], np.diff(points, axis=0)[1:]
+    same = np.sign(before) * np.sign(after) > 0
+    reach = np.sqrt(kin.limits.acceleration[index] * np.minimum(np.abs(before), np.abs(after)))
+    speed = PASSING_FRACTION * np.minimum(kin.limits.velocity[index], reach)
+    return np.where(same, np.sign(after) * speed, 0.0)
+
+
+def _segment(start: np.ndarray, target: np.ndarray, limits: JointLimits, index: list[int], v0=None, v1=None) -> ruckig.Trajectory:
+    """One ruckig segment from ``start`` at velocity ``v0`` to ``target`` at ``v1`` (at rest when None), zero acceleration at both."""
     dofs = len(index)
     inp = ruckig.InputParameter(dofs)
     inp.current_position = [float(v) for v in start]
-    inp.current_velocity = [0.0] * dofs
+    inp.current_velocity = [0.0] * dofs if v0 is None else [float(v) for v in v0]
     inp.current_acceleration = [0.0] * dofs
     inp.target_position = [float(v) for v in target]
-    inp.target_velocity = [0.0] * dofs
+    inp.target_velocity = [0.0] * dofs if v1 is None else [float(v) for v in v1]
     inp.target_acceleration = [0.0] * dofs
     inp.max_velocity = [float(limits.velocity[k]) for k in index]
     inp.max_acceleration = [float(limits.acceleration[k]) for k in index]

@@ -37,7 +37,9 @@ class SweepPattern:
 
     Attributes:
         levels: Positions of the first sweep joint across its range (>= 2).
-        stops: Positions of the second sweep joint per level (>= 2).
+        stops: Positions of the second sweep joint per level (>= 2; a continuous motion may
+            have 1: the second joint crosses its span, end to end, as the first moves to the
+            next level, both at once).
         dwell: Time held still at each stop, in [s] (>= 0).
         margin: Distance kept from the position limits, in [rad] (>= 0).
         span: Fraction of the second sweep joint's range its stops cover, about the
@@ -47,6 +49,9 @@ class SweepPattern:
             middle of the sweep, so a drift of the offsets linear or quadratic in time is
             separable from the orientation (the drift model then costs no precision of C);
             the sweep takes about twice as long.
+        continuous: Pass through the stops without stopping (``dwell`` must be 0): a joint
+            that keeps its direction through a stop passes it at speed, one that turns back
+            stops there for an instant; every sample moves, for the ``dynamic`` filter mode.
     """
 
     levels: int = 4
@@ -55,16 +60,20 @@ class SweepPattern:
     margin: float = 0.02
     span: float = 1.0
     return_pass: bool = False
+    continuous: bool = False
 
     def __post_init__(self):
-        if self.levels < 2 or self.stops < 2:
-            raise TrajectoryError(f"levels={self.levels} and stops={self.stops} but expected at least 2 each", "invalid pattern")
+        if self.levels < 2 or self.stops < (1 if self.continuous else 2):
+            least = "at least 2 levels and 1 stop (continuous)" if self.continuous else "at least 2 each"
+            raise TrajectoryError(f"levels={self.levels} and stops={self.stops} but expected {least}", "invalid pattern")
         if not (math.isfinite(self.dwell) and self.dwell >= 0):
             raise TrajectoryError(f"dwell={self.dwell} s but expected a finite value >= 0", "invalid pattern")
         if not (math.isfinite(self.margin) and self.margin >= 0):
             raise TrajectoryError(f"margin={self.margin} rad but expected a finite value >= 0", "invalid pattern")
         if not (math.isfinite(self.span) and 0 < self.span <= 1):
             raise TrajectoryError(f"span={self.span} but expected a fraction of the range in (0, 1]", "invalid pattern")
+        if self.continuous and self.dwell > 0:
+            raise TrajectoryError(f"dwell={self.dwell} s but a continuous motion does not stop: expected 0", "invalid pattern")
 
 
 @dataclass(frozen=True)
@@ -205,6 +214,9 @@ def raster(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: Sweep
     visited again in reverse order, back to the first.
     """
     first = latitude_levels(kin, home, ranges[0], pattern.levels)
+    if pattern.stops == 1:  # continuous, both joints at once: the second joint from one end to the other at each level
+        rows = [(level, ranges[1, i % 2]) for i, level in enumerate(first)]
+        return np.array(rows + (rows[-2::-1] if pattern.return_pass else []))
     second = _positions(ranges[1, 0], ranges[1, 1], pattern.stops)
     full_turn = ranges[1, 1] - ranges[1, 0] >= 2.0 * math.pi - 1e-9
     half = (second[1] - second[0]) / 2 if full_turn else 0.0

@@ -66,7 +66,7 @@ def load_error_sources(
     joints: np.ndarray,
     configuration: np.ndarray,
     joint_velocity: np.ndarray,
-    stop: np.ndarray,
+    stop: np.ndarray | None,
     accuracy: RobotAccuracy,
 ) -> list[ErrorSource]:
     """The sources of the budget that perturb the known wrench (see the module docstring).
@@ -77,7 +77,8 @@ def load_error_sources(
         joints: Joint readings of the calibration's samples [rad]. Shape (N, n_joints).
         configuration: Tool configuration index of each sample. Shape (N,) int.
         joint_velocity: Joint velocities at those samples [rad/s]. Shape (N, n_joints).
-        stop: Still stretch of each sample (:func:`stops`). Shape (N,) int.
+        stop: Still stretch of each sample (:func:`stops`), shape (N,) int; None when every
+            sample moves (a moving joint's encoder error is then a new draw at every reading).
         accuracy: The robot's encoder resolution, timing and mount tolerance.
 
     Returns:

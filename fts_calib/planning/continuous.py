@@ -1,0 +1,219 @@
+"""Continuous plans sized to a stated accuracy: no dwell, every sample calibrates (the ``dynamic`` filter mode).
+
+:func:`size_continuous` is :func:`fts_calib.planning.sizing.size_plan` for continuous motions
+(:attr:`~fts_calib.planning.sweeps.SweepPattern.continuous`): it searches the levels, stops
+and span of the raster, in order of the motion's duration, and keeps the first whose
+predicted budget (:func:`fts_calib.planning.dynamic_accuracy.dynamic_plan_budget`, all
+samples with the moving tool's wrench and the dynamic terms) meets the target on every axis.
+The joints move at the robot definition's limits (velocity, acceleration, jerk).
+
+With fewer than three configurations the target may be out of reach whatever the motion:
+with one centre of mass only the inertial torques separate the two directions eqs 19-20
+leave unseen (two with one configuration, one with two), and those are known only to the
+inertia's tolerance. The search then refuses and names what each number of configurations
+reaches at best. Durations in [s], errors in % of full scale.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..core.exceptions import TrajectoryError
+from ..model.budget import AccuracyBudget
+from ..robot.collision import CollisionChecker
+from ..robot.dynamic_sensitivities import MotionUncertainty
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool
+from .accuracy import SYSTEMATIC
+from .dynamic_accuracy import dynamic_plan_budget
+from .motion import Plan, plan_sweeps, segment_durations
+from .planner import PlanResult, plan_base, plan_calibration
+from .sweeps import MIN_CLEARANCE, SweepPattern, raster, spanned
+
+#: The continuous rasters searched: levels, stops and span, every combination.
+LEVELS = (2, 3, 4, 5)
+STOPS = (1, 2, 3)
+SPANS = (0.2, 0.35, 0.5, 0.75, 1.0)
+
+_SCREEN_RATE_HZ = 25.0  # [Hz] rate of the candidate motions (their budget, not their files)
+_FINAL_TRIES = 4  # candidates checked for limits and collisions before giving up
+
+
+@dataclass(frozen=True)
+class ContinuousSizing:
+    """The outcome of sizing a continuous plan to a target.
+
+    Attributes:
+        target_percent: The target, [% of full scale].
+        pattern: The raster chosen.
+        budget: Its predicted budget.
+        candidates: Patterns whose budget was computed before this one was found.
+        floor_percent: The largest total of the terms no plan can shrink, [% FS].
+        configurations: The number of tool configurations planned for.
+    """
+
+    target_percent: float
+    pattern: SweepPattern
+    budget: AccuracyBudget
+    candidates: int
+    floor_percent: float
+    configurations: int
+
+    def summary(self) -> str:
+        """One line: what was chosen, how it meets the target, what dominates."""
+        term, axis = self.budget.dominant()
+        p = self.pattern
+        return (
+            f"sized to the target {self.target_percent:g} % of full scale: continuous, {p.levels} levels × {p.stops} "
+            f"stop{'s' if p.stops > 1 else ''} passed without stopping, span {p.span:g} of the second joint's range, "
+            f"{self.configurations} configuration{'s' if self.configurations > 1 else ''} "
+            f"(the shortest of {self.candidates} motions whose budget was computed, "
+            f"screened at {_SCREEN_RATE_HZ:g} Hz): {self.budget.largest_percent:.4f} % on {axis} there, dominated by {term}; "
+            f"the tool tolerance and mount alone give at least {self.floor_percent:.4f} % on the motions screened"
+        )
+
+
+def with_configurations(tool: Tool, count: int | None) -> Tool:
+    """The tool with its first ``count`` configurations (all when None).
+
+    Raises:
+        TrajectoryError: ``count`` outside 1 .. the number the tool file has.
+    """
+    if count is None:
+        return tool
+    if not 1 <= count <= len(tool.configurations):
+        raise TrajectoryError(
+            f"--configurations {count} but tool '{tool.name}' has {len(tool.configurations)} "
+            f"({', '.join(tool.names)}): expected 1 to {len(tool.configurations)}",
+            "invalid configurations",
+        )
+    return replace(tool, configurations=tool.configurations[:count])
+
+
+def _budget(kin, tool, plan: Plan, nominal, sample_rate_hz, uncertainty) -> AccuracyBudget:
+    C_bar, D, sigma_w, full_scale = nominal
+    return dynamic_plan_budget(kin, tool, plan, C_bar, D, sigma_w, full_scale, sample_rate_hz, uncertainty)
+
+
+def size_continuous(
+    kin: Kinematics,
+    checker: CollisionChecker,
+    tool: Tool,
+    nominal: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    target_percent: float,
+    rate: float,
+    sample_rate_hz: float,
+    uncertainty: MotionUncertainty | None = None,
+    min_clearance: float = MIN_CLEARANCE,
+    margin: float = 0.02,
+    full_tool: Tool | None = None,
+) -> tuple[PlanResult, ContinuousSizing]:
+    """The shortest checked continuous plan whose predicted budget meets ``target_percent`` on every axis.
+
+    Args:
+        kin: Kinematics.
+        checker: Collision checker with the tool's envelope.
+        tool: The tool, with the configurations to plan for.
+        nominal: ``(C_bar (6, 6), D (6,), sigma_w (6,), full_scale (6,))``: the nominal
+            sensor, its strain noise through C [N, N m] and its full scale.
+        target_percent: Largest budget total allowed, [% of full scale], > 0.
+        rate: Sample rate of the plan returned [Hz].
+        sample_rate_hz: The channels' sample rate [Hz].
+        uncertainty: Inertia tolerance, joint noise, latency and jitter (defaults when None).
+        min_clearance: Required clearance [m].
+        margin: Distance kept from the position limits [rad].
+        full_tool: The tool with all its configurations, to name what other numbers of
+            configurations reach when the target is out of reach; ``tool`` when None.
+
+    Raises:
+        TrajectoryError: A target <= 0, a target below what the tool and mount allow, or
+            one no continuous plan meets with these configurations (the message names what
+            one, two, ... configurations reach at best).
+    """
+    if not (math.isfinite(target_percent) and target_percent > 0):
+        raise TrajectoryError(
+            f"target error {target_percent} % of full scale (--target-error) but expected a finite value > 0", "invalid target"
+        )
+    full_tool = tool if full_tool is None else full_tool
+    base = plan_base(kin, checker, SweepPattern(2, 2, 0.0, margin, continuous=True), min_clearance)
+    home, ranges = base[0].home, base[1].ranges
+    order = []
+    for levels, stops, span in itertools.product(LEVELS, STOPS, SPANS):
+        pattern = SweepPattern(levels, stops, 0.0, margin, span, continuous=True)
+        order.append((sum(segment_durations(kin, home, raster(kin, home, spanned(ranges, span), pattern), True)), pattern))
+    order.sort(key=lambda item: item[0])
+    floor, best = None, None
+    tried, finals = 0, 0
+    for _, pattern in order:
+        plan = plan_sweeps(kin, home, spanned(ranges, pattern.span), pattern, _SCREEN_RATE_HZ)
+        budget = _budget(kin, tool, plan, nominal, sample_rate_hz, uncertainty)
+        tried += 1
+        if best is None or budget.largest_percent < best[1].largest_percent:
+            best = (plan, budget)
+        systematic = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
+        if floor is None or systematic.largest_percent < floor.largest_percent:
+            floor = systematic
+        if budget.largest_percent > target_percent:
+            continue
+        result = plan_calibration(kin, checker, pattern, rate, min_clearance, base=base)
+        if not result.problems:
+            sizing = ContinuousSizing(target_percent, pattern, budget, tried, floor.largest_percent, len(tool.configurations))
+            return result, sizing
+        finals += 1
+        if finals >= _FINAL_TRIES:
+            raise TrajectoryError(f"the shortest continuous plans that meet the target fail their checks: {result.problems[0]}", "checks")
+    assert best is not None and floor is not None  # the grids are not empty
+    if len(tool.configurations) == len(full_tool.configurations) and floor.largest_percent > target_percent:
+        term, axis = floor.dominant()
+        raise TrajectoryError(
+            f"no plan meets the target of {target_percent:g} % of full scale: {term} alone gives at least "
+            f"{floor.largest_percent:.4f} % on {axis} (tool tolerance and sensor mount: {', '.join(SYSTEMATIC)}). "
+            "State a larger --target-error, or know the tool and the mount better.",
+            "target unreachable",
+        )
+    raise TrajectoryError(
+        unreachable(kin, tool, full_tool, best, nominal, sample_rate_hz, uncertainty, target_percent), "target unreachable"
+    )
+
+
+def reachable(kin: Kinematics, full_tool: Tool, plan: Plan, nominal, sample_rate_hz: float, uncertainty) -> dict[int, AccuracyBudget]:
+    """The predicted budget of ``plan`` with the first 1, 2, ... configurations of the tool: count -> budget."""
+    return {
+        n: _budget(kin, with_configurations(full_tool, n), plan, nominal, sample_rate_hz, uncertainty)
+        for n in range(1, len(full_tool.configurations) + 1)
+    }
+
+
+def unreachable(kin, tool: Tool, full_tool: Tool, best, nominal, sample_rate_hz, uncertainty, target_percent: float) -> str:
+    """The refusal: what this number of configurations reaches at best, what the others reach on the same motion."""
+    plan, budget = best
+    count = len(tool.configurations)
+    others = reachable(kin, full_tool, plan, nominal, sample_rate_hz, uncertainty)
+    others[count] = budget
+
+    def words(n: int) -> str:
+        value = others[n].largest_percent
+        reach = f"{value:.3g} %" if math.isfinite(value) else "nothing (rank < 7)"
+        return f"{n} configuration{'s' if n > 1 else ''} reach{'es' if n == 1 else ''} {reach}"  # predicted, k = 2
+
+    term, axis = budget.dominant()
+    enough = [n for n in sorted(others) if n > count and others[n].largest_percent <= target_percent]
+    ask = f"ask --target-error {_round_up(budget.largest_percent):g}" if math.isfinite(budget.largest_percent) else "plan more"
+    mount = f" or mount {enough[0]} configurations (--configurations {enough[0]})" if enough else " or mount more configurations"
+    return (
+        f"no continuous plan of {count} configuration{'s' if count > 1 else ''} meets the target of {target_percent:g} % of full "
+        f"scale: by the predicted budget, {words(count)} at best ({plan.duration:.1f} s of motion, dominated by {term} on {axis}); "
+        "on the same motion " + "; ".join(words(n) for n in sorted(others) if n != count) + f". {ask.capitalize()}{mount}."
+    )
+
+
+def _round_up(value: float) -> float:
+    """``value`` rounded up to two significant digits (a target that the plan then meets)."""
+    if value <= 0:
+        return value
+    digits = 1 - int(math.floor(math.log10(value)))
+    return math.ceil(value * 10**digits) / 10**digits
