@@ -200,7 +200,8 @@ def consistent_fit(pi_hat, normal, iterations: int = 200) -> tuple[np.ndarray, b
             pi, jac = from_log_cholesky(th)
             r = (pi - pi_hat) / scale
             value = float(r @ Ns @ r)
-        return (value if np.isfinite(value) and np.all(np.isfinite(jac)) else np.inf), r, jac / scale[:, None]
+            jac = jac / scale[:, None]
+        return (value if np.isfinite(value) and np.all(np.isfinite(jac)) else np.inf), r, jac
 
     value, r, jac = cost(theta)
     damping = 1e-3

@@ -59,7 +59,8 @@ MAX_STDERR_INERTIA = 0.25
 _INERTIA_FLOOR_M = 0.03  # [m] the inertia's scale is at least m times this squared (a body a few cm across)
 _INERTIA_CEILING_M = 0.05  # [m] and at most m times this squared (an estimate the data do not support sets no scale)
 _SIZE_M = 0.1  # [m] a payload's size: scales the parameters to compare what the data see of each
-_UNSEEN = 1e-12  # eigenvalue of the scaled normal matrix, relative to the largest: a direction the data do not see
+_UNSEEN = 1e-20  # eigenvalue of the scaled normal matrix, relative to the largest: a direction the data do not see
+# (rounding leaves about 1e-30; weakly seen directions, 1e-13 and up, are judged by their standard errors)
 #: Names of the derived parameters, in the order of :attr:`MotionPayloadEstimate.stderr`.
 NAMES = ("mass", "com x", "com y", "com z", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 _PAIRS = ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))

@@ -8,7 +8,7 @@ aligned by the stream latency, give the sensor frame's motion (joint rates by
 the pipeline's ``live.latency_s`` and is then estimated with the payload just identified
 (:func:`fts_calib.pipeline.latency.estimate_latency`, axes weighted by the fit's residual
 spread), the joints re-aligned and the payload fitted again, until the latency moves by less
-than 10 us. Samples within half a derivative window of the recording's ends are left out
+than 20 us. Samples within half a derivative window of the recording's ends are left out
 (their rates come from a cut window). Times in [s].
 """
 
@@ -31,7 +31,7 @@ from ..robot.kinematics import Kinematics
 from .payload_motion import MotionPayloadEstimate, fit_payload_regressor
 from .payload_recording import read_payload_samples
 
-_LATENCY_TOLERANCE_S = 1e-5  # [s] a latency step below this ends the alternation
+_LATENCY_TOLERANCE_S = 2e-5  # [s] a latency step below this ends the alternation (the estimate's own error: tests/test_latency.py)
 _ROUNDS = 5  # fits at most
 
 
