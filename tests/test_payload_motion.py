@@ -1,6 +1,8 @@
 """Payload from a continuous motion: the ten inertial parameters exact without noise, within the
 targets on a realistic UR5 recording, physically consistent, and refusals that name what is missing."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -138,11 +140,11 @@ def test_a_turn_of_the_last_joint_only_is_refused_naming_the_inertia_it_misses(t
     """The last joint turns the sensor about its x axis only: Iyy, Iyz and Izz are not seen."""
     turn = sample_motion(ur5_module, HOME, ["wrist_3_joint"], np.array([[1.0], [-1.0], [1.0]]), 0.0, 1000.0)
     path, calibration = _recording(tmp_path, ur5_module, payload, turn, rng, "turn.csv")
-    missing = r"does not determine the payload's the inertia about the centre of mass Iyy .*, Iyz .*, Izz"
+    missing = r"does not determine the payload: the inertia about the centre of mass Iyy .*, Iyz .*, Izz"
     with pytest.raises(PayloadError, match=missing) as error:
         identify_payload_from_motion(path, ur5_module, calibration)
-    assert "the inertia about y and z is not excited: turn the sensor about its y and z axes" in str(error.value)
-    assert "Ixx" not in str(error.value) and "payload's mass" not in str(error.value) and "com " not in str(error.value)
+    assert ". The inertia about y and z is not excited: turn the sensor about its y and z axes" in str(error.value)
+    assert "Ixx" not in str(error.value) and "mass (" not in str(error.value) and "com " not in str(error.value)
     g, omega, alpha, a = _moving(ur5_module, turn)  # noiseless: not seen at all
     with pytest.raises(PayloadError, match=r"Iyy \(not seen at all\), Iyz \(not seen at all\), Izz \(not seen at all\)"):
         fit_payload_motion(payload.dynamic_wrench(g, omega, alpha, a), g, omega, alpha, a)
@@ -153,3 +155,26 @@ def test_a_small_motion_is_refused_naming_the_joint_to_move(tmp_path, ur5_module
     path, calibration = _recording(tmp_path, ur5_module, payload, small, rng, "small.csv")
     with pytest.raises(PayloadError, match=r"Iyy \(± .* kg·m², above .*\).*turn the sensor about its y axis.*rotate shoulder_pan_joint"):
         identify_payload_from_motion(path, ur5_module, calibration)
+
+
+def test_cli_payload_from_motion_writes_the_inertia_and_refuses_a_turn_of_one_joint(tmp_path, ur5_module, payload, motion, rng, capsys):
+    from fts_calib.app.cli import main
+    from fts_calib.app.exit_codes import ExitCode
+    from fts_calib.model.calibration import save_calibration
+
+    path, calibration = _recording(tmp_path, ur5_module, payload, motion, rng)
+    cal = save_calibration(calibration, tmp_path / "cal.yaml")
+    out = tmp_path / "gripper.yaml"
+    assert main(["payload", "--motion", "--calibration", str(cal), "--robot", "ur5", str(path), "-o", str(out), "--name", "gripper"]) == 0
+    text = capsys.readouterr().out
+    assert "samples of motion (9.6 s;" in text and re.search(r"joints (7\.99\d|8\.00\d) ± ", text), text
+    assert "mass 1.4000 ±" in text and re.search(r"Izz \+0\.001(39|40)\d ± ", text), text
+    written = load_tool(out).configuration("gripper")
+    assert written.mass == pytest.approx(payload.mass, rel=1e-3)
+    assert np.linalg.norm(written.inertia_com - payload.inertia_com, 2) <= 0.1 * np.linalg.norm(payload.inertia_com, 2)
+    assert main(["payload", "--motion", "--mount", "--calibration", str(cal), "--robot", "ur5", str(path), "-o", str(out)]) != 0
+    assert "--mount is for still poses" in capsys.readouterr().err
+    turn = sample_motion(ur5_module, HOME, ["wrist_3_joint"], np.array([[1.0], [-1.0]]), 0.0, 1000.0)
+    one, _ = _recording(tmp_path, ur5_module, payload, turn, rng, "turn.csv")
+    assert main(["payload", "--motion", "--calibration", str(cal), "--robot", "ur5", str(one), "-o", str(out)]) == ExitCode.PAYLOAD
+    assert "The inertia about y and z is not excited" in capsys.readouterr().err

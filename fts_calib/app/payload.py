@@ -6,11 +6,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.exceptions import ConfigError
 from ..core.paths import check_outputs
 from ..model.calibration import load_calibration
 from ..robot.tool import save_tool
 from ..service.payload import MIN_SPREAD_DEG, PayloadEstimate, identify_payload_from_recording
 from .exit_codes import ExitCode, writing
+from .payload_motion import motion_payload
 from .setup import load_kinematics, load_settings
 
 
@@ -50,8 +52,12 @@ def run(
     mount: bool = False,
     min_spread_deg: float = MIN_SPREAD_DEG,
     pipeline: str | Path = "pipeline",
+    motion: bool = False,
 ) -> int:
     """Identify a payload held still in several orientations and write it as a tool file (``fts-calib payload``).
+
+    With ``motion``, from a continuous motion instead: mass, centre of mass and inertia
+    (:func:`fts_calib.app.payload_motion.motion_payload`).
 
     Args:
         recording: Recording of the payload still in orientations that tilt gravity about two axes.
@@ -62,18 +68,24 @@ def run(
         mount: Also estimate a small rotation of the sensor mount.
         min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes, in [deg].
         pipeline: Pipeline settings (filter thresholds).
+        motion: The recording is a continuous motion: identify the inertia too.
 
     Returns:
         0.
 
     Raises:
-        ConfigError: ``output`` is one of the inputs (the recording, the calibration).
+        ConfigError: ``output`` is one of the inputs (the recording, the calibration), or
+            ``mount`` with ``motion``.
         OSError: ``output`` cannot be written (a folder); checked before any work.
     """
     inputs = {"the recording": recording, "the calibration": calibration, "the robot file": robot, "the pipeline file": pipeline}
     check_outputs({"-o": output}, inputs)
     kin = load_kinematics(robot)
     settings = load_settings(pipeline)
+    if motion:
+        if mount:
+            raise ConfigError("--mount", True, "not with --motion", message="--mount is for still poses: leave it out with --motion")
+        return motion_payload(recording, kin, load_calibration(calibration), settings, output, name)
     found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_spread_deg)
     estimate = found.estimate
     print(format_payload(estimate, found.rows))

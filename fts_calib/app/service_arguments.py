@@ -50,6 +50,11 @@ def add_payload(commands) -> None:
     pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
     pay.add_argument("--mount", action="store_true", help="also estimate a small rotation of the sensor mount")
     pay.add_argument(
+        "--motion",
+        action="store_true",
+        help="the recording is a continuous motion (no still poses): identify the inertia too, physically consistent",
+    )
+    pay.add_argument(
         "--min-spread",
         dest="min_spread_deg",
         type=float,

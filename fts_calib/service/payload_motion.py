@@ -350,7 +350,9 @@ def _refuse(names: list[str], weak: Mapping[str, tuple[float, float]], where: st
         if joint_axes:
             hint += " (" + "; ".join(_joint_for(k, joint_axes) for k in axes) + ")"
         advice.append(hint)
-    raise PayloadError(f"{where} does not determine the payload's {'; '.join(parts)}: " + "; ".join(advice))
+    raise PayloadError(
+        f"{where} does not determine the payload: {'; '.join(parts)}. " + "; ".join(advice)[0].upper() + "; ".join(advice)[1:]
+    )
 
 
 def _joint_for(axis: int, joint_axes: Mapping[str, np.ndarray]) -> str:
