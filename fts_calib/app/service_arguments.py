@@ -40,7 +40,8 @@ def add_payload(commands) -> None:
         "From a recording of the payload held still in orientations that tilt gravity about two axes: its mass, "
         "centre of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for "
         "gravity compensation. Judges the whole set (the spread of the gravity directions, the fit's conditioning) "
-        "and refuses one that cannot determine the payload, saying what is missing.",
+        "and refuses one that cannot determine the payload, saying what is missing. With --motion, from a short "
+        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated.",
         "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml",
     )
     pay.add_argument("recording", help="recording of the payload in several still orientations")

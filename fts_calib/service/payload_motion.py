@@ -34,7 +34,8 @@ inertia about an axis needs angular acceleration about it (the joint turning abo
 named); the mass and centre of mass need gravity from several directions. A parameter is
 undetermined when the data do not see it at all, or its standard error exceeds
 :data:`MAX_STDERR_MASS` of the mass, :data:`MAX_STDERR_COM`, or :data:`MAX_STDERR_INERTIA` of
-the inertia's scale (its largest principal moment, within ``m (3 cm)^2`` and ``m (5 cm)^2``).
+the inertia's scale (its largest principal moment, within ``m (3 cm)^2`` and ``m (5 cm)^2``):
+two standard errors within 0.5 % of the mass, 1 mm and 10 % of the inertia.
 """
 
 from __future__ import annotations
@@ -50,12 +51,12 @@ from ..core.exceptions import PayloadError, ShapeError
 from ..robot import inertial
 from ..robot.tool import STANDARD_GRAVITY, Tool, ToolConfiguration
 
-#: Largest standard error of the mass, relative to it, that counts as determined.
-MAX_STDERR_MASS = 0.01
-#: Largest standard error of each coordinate of the centre of mass that counts as determined [m].
-MAX_STDERR_COM = 0.002
-#: Largest standard error of an element of the inertia, relative to its scale, that counts as determined.
-MAX_STDERR_INERTIA = 0.25
+#: Largest standard error of the mass, relative to it, that counts as determined (two of them: 0.5 %).
+MAX_STDERR_MASS = 0.0025
+#: Largest standard error of each coordinate of the centre of mass that counts as determined [m] (two: 1 mm).
+MAX_STDERR_COM = 0.0005
+#: Largest standard error of an element of the inertia, relative to its scale, that counts as determined (two: 10 %).
+MAX_STDERR_INERTIA = 0.05
 _INERTIA_FLOOR_M = 0.03  # [m] the inertia's scale is at least m times this squared (a body a few cm across)
 _INERTIA_CEILING_M = 0.05  # [m] and at most m times this squared (an estimate the data do not support sets no scale)
 _SIZE_M = 0.1  # [m] a payload's size: scales the parameters to compare what the data see of each
