@@ -179,3 +179,13 @@ def test_cli_payload_from_motion_writes_the_inertia_and_refuses_a_turn_of_one_jo
     one, _ = _recording(tmp_path, ur5_module, payload, turn, rng, "turn.csv")
     assert main(["payload", "--motion", "--calibration", str(cal), "--robot", "ur5", str(one), "-o", str(out)]) == ExitCode.PAYLOAD
     assert "The inertia about y and z is not excited" in capsys.readouterr().err
+
+
+def test_one_still_orientation_is_refused_naming_mass_centre_of_mass_and_inertia(payload, rng):
+    """Gravity along one direction and no motion: the weight and its moment are the offsets' too."""
+    g = np.tile([0.0, 0.0, -9.81], (500, 1))
+    zero = np.zeros_like(g)
+    W = payload.static_wrench(g) + OFFSETS + rng.normal(0.0, 1e-3, (500, 6))
+    with pytest.raises(PayloadError, match=r"mass \(not seen at all\), com x \(not seen at all\), com y \(not seen at all\)") as error:
+        fit_payload_motion(W, g, zero, zero, zero)
+    assert "tilt the payload about two axes" in str(error.value) and "Izz (not seen at all)" in str(error.value)

@@ -60,8 +60,7 @@ MAX_STDERR_INERTIA = 0.05
 _INERTIA_FLOOR_M = 0.03  # [m] the inertia's scale is at least m times this squared (a body a few cm across)
 _INERTIA_CEILING_M = 0.05  # [m] and at most m times this squared (an estimate the data do not support sets no scale)
 _SIZE_M = 0.1  # [m] a payload's size: scales the parameters to compare what the data see of each
-_UNSEEN = 1e-20  # eigenvalue of the scaled normal matrix, relative to the largest: a direction the data do not see
-# (rounding leaves about 1e-30; weakly seen directions, 1e-13 and up, are judged by their standard errors)
+_UNSEEN = 1e-10  # singular value of the scaled design, relative to the largest: a direction the data do not see
 #: Names of the derived parameters, in the order of :attr:`MotionPayloadEstimate.stderr`.
 NAMES = ("mass", "com x", "com y", "com z", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 _PAIRS = ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))
@@ -237,7 +236,7 @@ def fit_payload_regressor(
     Npp, Npd, Ndd = normal[:10, :10], normal[:10, 10:], normal[10:, 10:]
     schur = Npp - Npd @ np.linalg.solve(Ndd, Npd.T)
     pi_hat = x[:10]
-    _refuse_unseen(schur, pi_hat, where, joint_axes)
+    _refuse_unseen(Aw, pi_hat, where, joint_axes)
     full_cov = _block_covariance(A * w[None, :, None], residual * w, normal, block_samples)
     cov = full_cov[:10, :10]
     stderr = np.sqrt(np.maximum(np.diag((G := _derived_jacobian(pi_hat)) @ cov @ G.T), 0.0))
@@ -294,19 +293,23 @@ def _block_covariance(Aw: np.ndarray, rw: np.ndarray, normal: np.ndarray, block_
     return inverse @ meat @ inverse
 
 
-def _refuse_unseen(schur: np.ndarray, pi_hat: np.ndarray, where: str, joint_axes) -> None:
-    """Refuse directions of the parameters the data do not see at all (of ``schur``, (10, 10)), named.
+def _refuse_unseen(Aw: np.ndarray, pi_hat: np.ndarray, where: str, joint_axes) -> None:
+    """Refuse directions of the parameters the data do not see at all, named.
 
-    The parameters are scaled by their physical size (mass, mass times 10 cm, mass times
-    (10 cm)^2) so that a direction's eigenvalue compares what the data see of each.
+    The singular values of the weighted design ``Aw`` (6N, 16), its columns scaled by their
+    physical size (mass, mass times 10 cm, mass times (10 cm)^2, the weight and its moment at
+    10 cm for the offsets): a direction below 1e-10 of the largest is not seen (rounding leaves
+    about 1e-16; a weakly seen one is judged by its standard error), and a parameter more than
+    half in those directions is named.
     """
     mass = max(abs(float(pi_hat[0])), 1e-9)
-    scale = mass * np.array([1.0, *[_SIZE_M] * 3, *[_SIZE_M**2] * 6])
-    values, vectors = np.linalg.eigh(schur * scale[:, None] * scale[None, :])
-    unseen = values <= _UNSEEN * max(float(values[-1]), 1e-300)
+    weight = mass * STANDARD_GRAVITY
+    scale = np.array([mass, *[mass * _SIZE_M] * 3, *[mass * _SIZE_M**2] * 6, *[weight] * 3, *[weight * _SIZE_M] * 3])
+    _, values, vt = np.linalg.svd(Aw * scale[None, :], full_matrices=False)
+    unseen = values <= _UNSEEN * values[0]
     if np.any(unseen):
-        weight = np.max(np.abs(vectors[:, unseen]), axis=1)
-        _refuse([NAMES[k] for k in np.nonzero(weight > 0.3)[0]], {}, where, joint_axes)
+        share = np.linalg.norm(vt[unseen, :10], axis=0)  # how much of each parameter lies in the unseen space (any basis of it)
+        _refuse([NAMES[k] for k in np.nonzero(share > 0.5)[0]], {}, where, joint_axes)
 
 
 def _check_determined(derived: np.ndarray, stderr: np.ndarray, where: str, joint_axes) -> None:
@@ -350,6 +353,8 @@ def _refuse(names: list[str], weak: Mapping[str, tuple[float, float]], where: st
         hint = f"the inertia about {about} is not excited: turn the sensor about its {about} {plural} with more angular acceleration"
         if joint_axes:
             hint += " (" + "; ".join(_joint_for(k, joint_axes) for k in axes) + ")"
+        if len(inertia) == 6 and not others:
+            hint += " (held still, the payload's mass and centre of mass come from the still poses: leave out --motion)"
         advice.append(hint)
     raise PayloadError(
         f"{where} does not determine the payload: {'; '.join(parts)}. " + "; ".join(advice)[0].upper() + "; ".join(advice)[1:]
