@@ -130,7 +130,7 @@ class MotionPayloadEstimate:
         of the other two) can miss it by rounding; its principal moments are put back on it.
         """
         values, vectors = np.linalg.eigh((self.inertia_com + self.inertia_com.T) / 2)
-        values = np.maximum(values, 0.0)
+        values = np.maximum(values, 1e-9 * max(float(values[2]), 0.0))  # a moment of zero would come back as -1e-20
         values[2] = min(values[2], values[0] + values[1])
         inertia = (vectors * values) @ vectors.T
         return Tool(name=name, gravity=gravity, configurations=(ToolConfiguration(name, self.mass, self.com, inertia),))
