@@ -3,7 +3,8 @@
 The shipped 1.4 kg validation payload moved by the wrist motion of
 :func:`fts_calib.planning.payload_excitation.payload_excitation` (jerk-limited, no dwell),
 joints 8 ms late with 1e-5 rad of noise on a 20-bit encoder, the simulated sensor's noise
-and 24-bit ADC; identified by :func:`identify_payload_from_motion` (latency estimated).
+and 24-bit ADC, offsets drifting as a sensor warming up (:meth:`OffsetDrift.typical`);
+identified by :func:`identify_payload_from_motion` (latency estimated).
 Prints, per motion length: the largest error over the seeds of mass [%], centre of mass [mm],
 inertia [% of its largest principal moment: the error's largest singular value], the
 scatter of the seeds over the reported standard errors (per parameter: min-max), and the
@@ -26,6 +27,7 @@ from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
 from fts_calib.service.payload_motion import NAMES
 from fts_calib.service.payload_motion_recording import identify_payload_from_motion
+from fts_calib.sim.drift import OffsetDrift
 from fts_calib.sim.payload_motion import simulate_payload_motion
 from fts_calib.sim.sensor import load_simulated_sensor
 
@@ -38,6 +40,7 @@ def main(seeds: int) -> None:
     sensor = load_simulated_sensor(resolve("sensor", "configs"))
     calibration = Calibration(sensor.C_bar, sensor.D)
     payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    drift = OffsetDrift.typical()  # a sensor warming up: forces 1 N/min at the start, moments a 20th
     truth = np.concatenate([[payload.mass], payload.p_sensor_com, [payload.inertia_com[i, j] for i, j in PAIRS]])
     with tempfile.TemporaryDirectory() as folder:
         for seconds in (5.0, 7.0, 10.0):
@@ -45,7 +48,7 @@ def main(seeds: int) -> None:
             errors, stderrs, inertia, latency, took, refused = [], [], [], [], [], []
             for seed in range(seeds):
                 rng = np.random.default_rng(seed)
-                path = simulate_payload_motion(Path(folder) / "run.csv", kin, payload, sensor, motion, rng, 0.008, 1e-5)
+                path = simulate_payload_motion(Path(folder) / "run.csv", kin, payload, sensor, motion, rng, 0.008, 1e-5, drift=drift)
                 t0 = time.perf_counter()
                 try:
                     est = identify_payload_from_motion(path, kin, calibration).estimate

@@ -32,7 +32,11 @@ def format_motion_payload(found: RecordedMotionPayload) -> str:
             for name, e in zip(NAMES[4:], est.stderr[4:], strict=True)
         )
         + " kg·m²",
-        "  offsets " + ", ".join(f"{v:+.4f}" for v in est.offsets) + " [N, N, N, N·m, N·m, N·m] (add to D to re-tare)",
+        "  offsets "
+        + ", ".join(f"{v:+.4f}" for v in est.offsets)
+        + " [N, N, N, N·m, N·m, N·m] at the middle of the motion, drifting "
+        + ", ".join(f"{v:+.2g}" for v in est.offset_rate)
+        + " per s",
         "  residual RMS " + ", ".join(f"{v:.2g}" for v in est.residual_rms) + " [N, N·m]",
     ]
     if est.constrained:

@@ -11,7 +11,9 @@ the origin of S), and the calibrated measurement adds the unknown wrench offsets
 with the sensor frame's motion from the joint readings (velocities and accelerations by
 :func:`fts_calib.pipeline.qsfilter.joint_rates`, a least-squares quadratic over the filter's
 ``derivative_window_s``: no phase lag) and the kinematics. The offsets are estimated with the
-payload (16 unknowns), not taken from a tare: the motion turns gravity about the sensor, which
+payload (16 unknowns; 22 with a linear drift of the offsets along the motion, when the sample
+times are given, as from a recording: a sensor warming up moves its moments by 1e-3 N m in
+seconds, the size of the inertial torques), not taken from a tare: the motion turns gravity about the sensor, which
 separates them from the weight as the still-pose identification does, and a tare would have
 to be taken with nothing mounted just before.
 
@@ -76,8 +78,10 @@ class MotionPayloadEstimate:
         inertia_com: Inertia about the centre of mass, axes of S [kg m^2]. Shape (3, 3).
         stderr: Standard errors of :data:`NAMES` (mass [kg], com [m], inertia elements
             [kg m^2]). Shape (10,).
-        offsets: Wrench offsets [N, N, N, N m, N m, N m]. Shape (6,).
+        offsets: Wrench offsets [N, N, N, N m, N m, N m] (at the middle of the motion when they
+            drift). Shape (6,).
         stderr_offsets: Same units. Shape (6,).
+        offset_rate: How fast the offsets drift [N/s, N m/s] (zeros when not estimated). Shape (6,).
         parameters: The ten inertial parameters (:mod:`fts_calib.robot.inertial`). Shape (10,).
         unconstrained: The unconstrained least-squares parameters. Shape (10,).
         constrained: Whether the consistency constraint moved the estimate.
@@ -93,6 +97,7 @@ class MotionPayloadEstimate:
     stderr: np.ndarray
     offsets: np.ndarray
     stderr_offsets: np.ndarray
+    offset_rate: np.ndarray
     parameters: np.ndarray
     unconstrained: np.ndarray
     constrained: bool
@@ -102,7 +107,8 @@ class MotionPayloadEstimate:
     stderr_latency_s: float = math.inf
 
     def __post_init__(self):
-        for name in ("com", "inertia_com", "stderr", "offsets", "stderr_offsets", "parameters", "unconstrained", "residual_rms"):
+        names = ("com", "inertia_com", "stderr", "offsets", "stderr_offsets", "offset_rate", "parameters", "unconstrained", "residual_rms")
+        for name in names:
             object.__setattr__(self, name, frozen(getattr(self, name)))
 
     @property
@@ -159,6 +165,7 @@ def fit_payload_motion(
     where: str = "the motion",
     check: bool = True,
     block_samples: int = 400,
+    time=None,
 ) -> MotionPayloadEstimate:
     """Identify a payload's ten inertial parameters and the offsets from samples of a motion (module docstring).
 
@@ -175,6 +182,8 @@ def fit_payload_motion(
             fit that a later one refines; what the data do not see at all is always refused).
         block_samples: Consecutive samples per block of the standard errors (longer than the
             residuals' correlation: a few joint-rate windows).
+        time: Sample times [s], shape (N,): the offsets drift linearly along the motion (six
+            more unknowns, their rates); None: constant offsets.
 
     Raises:
         PayloadError: The motion does not determine a parameter; the message names it and what to add.
@@ -188,7 +197,7 @@ def fit_payload_motion(
     ok = np.all([np.all(np.isfinite(v), axis=1) for v in arrays], axis=0)
     Y = np.full((len(W), 6, 10), np.nan)
     Y[ok] = inertial.body_regressor(*[v[ok] for v in arrays])
-    return fit_payload_regressor(W, Y, joint_axes, where, check, block_samples)
+    return fit_payload_regressor(W, Y, joint_axes, where, check, block_samples, time)
 
 
 def fit_payload_regressor(
@@ -198,6 +207,7 @@ def fit_payload_regressor(
     where: str = "the motion",
     check: bool = True,
     block_samples: int = 400,
+    time=None,
 ) -> MotionPayloadEstimate:
     """:func:`fit_payload_motion` from the regressor itself (e.g. filtered like the measurement).
 
@@ -208,6 +218,7 @@ def fit_payload_regressor(
         where: See :func:`fit_payload_motion`.
         check: See :func:`fit_payload_motion`.
         block_samples: See :func:`fit_payload_motion`.
+        time: See :func:`fit_payload_motion`.
 
     Raises:
         PayloadError: The motion does not determine a parameter; the message names it and what to add.
@@ -218,14 +229,24 @@ def fit_payload_regressor(
     if Y.shape != (len(W), 6, 10):
         raise ShapeError(f"regressor has shape {Y.shape} but expected ({len(W)}, 6, 10), one (6, 10) per row of w_measured")
     ok = np.all(np.isfinite(W), axis=1) & np.all(np.isfinite(Y), axis=(1, 2))
-    W, Y = W[ok], Y[ok]
-    if len(W) < 16:
-        raise PayloadError(f"{where}: {len(W)} usable samples, but the payload and offsets are 16 unknowns")
-    A = np.concatenate([Y, np.broadcast_to(np.eye(6), (len(W), 6, 6))], axis=2)
+    columns = [Y[ok], np.broadcast_to(np.eye(6), (int(ok.sum()), 6, 6))]
+    half_s = 0.0
+    if time is not None:
+        t = np.asarray(time, dtype=float)
+        if t.shape != (len(W),):
+            raise ShapeError(f"time has shape {t.shape} but expected ({len(W)},), one per row of w_measured")
+        t = t[ok]
+        middle, half_s = (t[0] + t[-1]) / 2 if len(t) else 0.0, (t[-1] - t[0]) / 2 if len(t) > 1 else 0.0
+        columns.append(np.eye(6)[None] * ((t - middle) / max(half_s, 1e-9))[:, None, None])  # within [-1, 1]
+    W = W[ok]
+    A = np.concatenate(columns, axis=2)
+    p = A.shape[2]
+    if len(W) < p:
+        raise PayloadError(f"{where}: {len(W)} usable samples, but the payload and offsets are {p} unknowns")
     sigma = np.ones(6)
     for _ in range(2):  # unweighted, then weighted by each axis's residual spread
         w = 1.0 / sigma
-        Aw = (A * w[None, :, None]).reshape(-1, 16)
+        Aw = (A * w[None, :, None]).reshape(-1, p)
         normal = Aw.T @ Aw
         rhs = Aw.T @ (W * w).reshape(-1)
         scale = 1.0 / np.sqrt(np.maximum(np.diag(normal), 1e-300))
@@ -245,6 +266,7 @@ def fit_payload_regressor(
     pi, constrained = inertial.consistent_fit(pi_hat, schur)
     offsets = x[10:] - np.linalg.solve(Ndd, Npd.T @ (pi - pi_hat))  # the offsets' best fit for these parameters
     residual = W - np.einsum("nij,j->ni", A, np.concatenate([pi, offsets]))
+    rate = offsets[6:] / half_s if len(offsets) > 6 and half_s > 0 else np.zeros(6)
     mass, com, inertia = inertial.body(pi)
     stderr = np.sqrt(np.maximum(np.diag((G := _derived_jacobian(pi)) @ cov @ G.T), 0.0))
     return MotionPayloadEstimate(
@@ -252,8 +274,9 @@ def fit_payload_regressor(
         com=com,
         inertia_com=inertia,
         stderr=stderr,
-        offsets=offsets,
-        stderr_offsets=np.sqrt(np.maximum(np.diag(full_cov)[10:], 0.0)),
+        offsets=offsets[:6],
+        stderr_offsets=np.sqrt(np.maximum(np.diag(full_cov)[10:16], 0.0)),
+        offset_rate=rate,
         parameters=pi,
         unconstrained=pi_hat,
         constrained=constrained,
@@ -296,7 +319,7 @@ def _block_covariance(Aw: np.ndarray, rw: np.ndarray, normal: np.ndarray, block_
 def _refuse_unseen(Aw: np.ndarray, pi_hat: np.ndarray, where: str, joint_axes) -> None:
     """Refuse directions of the parameters the data do not see at all, named.
 
-    The singular values of the weighted design ``Aw`` (6N, 16), its columns scaled by their
+    The singular values of the weighted design ``Aw`` (6N, 16 or 22), its columns scaled by their
     physical size (mass, mass times 10 cm, mass times (10 cm)^2, the weight and its moment at
     10 cm for the offsets): a direction below 1e-10 of the largest is not seen (rounding leaves
     about 1e-16; a weakly seen one is judged by its standard error), and a parameter more than
@@ -305,6 +328,7 @@ def _refuse_unseen(Aw: np.ndarray, pi_hat: np.ndarray, where: str, joint_axes) -
     mass = max(abs(float(pi_hat[0])), 1e-9)
     weight = mass * STANDARD_GRAVITY
     scale = np.array([mass, *[mass * _SIZE_M] * 3, *[mass * _SIZE_M**2] * 6, *[weight] * 3, *[weight * _SIZE_M] * 3])
+    scale = np.concatenate([scale, scale[10:]])[: Aw.shape[1]]  # the offsets' drift: its size over the motion like theirs
     _, values, vt = np.linalg.svd(Aw * scale[None, :], full_matrices=False)
     unseen = values <= _UNSEEN * values[0]
     if np.any(unseen):

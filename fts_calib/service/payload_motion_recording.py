@@ -5,10 +5,10 @@ payload, bad rows and railed channels refused) give the calibrated wrench; the j
 aligned by the stream latency, give the sensor frame's motion (joint rates by
 :func:`fts_calib.pipeline.qsfilter.joint_rates`, then :meth:`Kinematics.sensor_motion`), and
 :func:`fts_calib.service.payload_motion.fit_payload_motion` the payload. The latency starts at
-the pipeline's ``live.latency_s`` and is then estimated with the payload just identified
-(:func:`fts_calib.pipeline.latency.estimate_latency`, axes weighted by the fit's residual
-spread), the joints re-aligned and the payload fitted again, until the latency moves by less
-than 20 us. Samples within half a derivative window of the recording's ends are left out
+the pipeline's ``live.latency_s`` and is then estimated from the residuals of the payload just
+identified (:func:`latency_step`: the regression of :mod:`fts_calib.pipeline.latency` with the
+offsets' drift left out), the joints re-aligned and the payload fitted again, until the
+latency moves by less than 20 us. Samples within half a derivative window of the recording's ends are left out
 (their rates come from a cut window). Times in [s].
 """
 
@@ -24,7 +24,6 @@ import numpy as np
 from ..core.exceptions import PayloadError
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits
-from ..pipeline.latency import estimate_latency
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
 from ..robot import inertial
 from ..robot.kinematics import Kinematics
@@ -123,6 +122,49 @@ def _regressor(time, g, omega, alpha, a, window_s: float, dt: float) -> np.ndarr
     return smoothed.reshape(rest.shape) + inertial.body_regressor(zero, zero, alpha, a)
 
 
+def latency_step(
+    time: np.ndarray, measured: np.ndarray, regressor: np.ndarray, estimate: MotionPayloadEstimate, block_samples: int
+) -> tuple[float, float]:
+    """How much later the joints still are than the fit assumed, from its residuals.
+
+    The regression of :mod:`fts_calib.pipeline.latency` (``W_meas - W_pred ~ tau dW_pred/dt``,
+    each axis weighted by its residual spread) on the fit's own residuals, which leave out the
+    offsets' drift (``estimate_latency`` takes constant offsets: a sensor warming up moved its
+    estimate by 0.15 ms); its standard error from the spread of the estimates of blocks of
+    ``block_samples``.
+
+    Args:
+        time: Sample times [s]. Shape (N,).
+        measured: Measured wrenches [N, N m]. Shape (N, 6).
+        regressor: The fit's regressor. Shape (N, 6, 10).
+        estimate: The fit.
+        block_samples: Samples per block.
+
+    Returns:
+        ``(latency step [s], its standard error [s])`` (0 and inf when the motion shows none).
+    """
+    predicted = regressor @ estimate.parameters
+    middle = (time[0] + time[-1]) / 2
+    residual = measured - predicted - estimate.offsets - np.outer(time - middle, estimate.offset_rate)
+    with np.errstate(divide="ignore", invalid="ignore"):  # repeated time stamps: no slope there
+        rate = np.gradient(predicted, time, axis=0)
+    ok = np.all(np.isfinite(rate), axis=1)
+    weight = 1.0 / np.maximum(estimate.residual_rms, 1e-15) ** 2
+    num = np.sum(residual[ok] * rate[ok] * weight, axis=1)
+    den = np.sum(rate[ok] ** 2 * weight, axis=1)
+    if not len(den) or np.sum(den) <= 0:
+        return 0.0, math.inf
+    step = float(np.sum(num) / np.sum(den))
+    blocks = max(len(den) // max(block_samples, 1), 1)
+    edges = np.linspace(0, len(den), blocks + 1).astype(int)[:-1]
+    block_num, block_den = np.add.reduceat(num, edges), np.add.reduceat(den, edges)
+    good = block_den > 0
+    if good.sum() < 2:
+        return step, math.inf
+    each, w = block_num[good] / block_den[good], block_den[good]
+    return step, math.sqrt(float(np.sum(w * (each - step) ** 2) / np.sum(w)) / (good.sum() - 1))
+
+
 def identify_payload_from_motion(
     path: str | Path,
     kin: Kinematics,
@@ -156,7 +198,6 @@ def identify_payload_from_motion(
     dt = sample_period(time) if len(time) > PERIOD_SAMPLES else float(np.median(np.diff(time)))
     wrench, smooth = smoothed_like_rates(time, calibration.wrench(samples.channels), window_s, dt)
     g_world = kin.g_world()
-    gravity = float(np.linalg.norm(g_world))
     middle = len(time) // 2
     block = max(int(round(8 * window_s / dt)), 40)  # samples per block of the standard errors: eight joint-rate windows
     lag, stderr_lag = float(latency_s), math.inf
@@ -171,25 +212,13 @@ def identify_payload_from_motion(
         keep &= (time + lag >= time[0]) & (time + lag <= time[-1])
         axes = {name: R[middle].T @ kin.joint_axis_world(joints[middle], name) for name in kin.joint_names}
         regressor = _regressor(time, g, motion.omega, motion.alpha, motion.a, window_s, dt)
-        estimate = fit_payload_regressor(wrench[keep], regressor[keep], axes, str(path), final, block)
+        estimate = fit_payload_regressor(wrench[keep], regressor[keep], axes, str(path), final, block, time[keep])
         if final:
             break
-        found = estimate_latency(
-            kin,
-            estimate.tool(gravity=gravity),
-            dataclasses.replace(calibration, D=calibration.D - estimate.offsets),
-            time[keep],
-            joints[keep],
-            samples.channels[keep],
-            np.zeros(int(keep.sum()), dtype=np.int64),
-            estimate.residual_rms,
-            window_s,
-        )
-        if found is not None:
-            stderr_lag = found.stderr_s
-            lag += found.latency_s
+        step, stderr_lag = latency_step(time[keep], wrench[keep], regressor[keep], estimate, block)
+        lag += step
         # the last fit is the one checked: with the joints aligned (what is left is below the tolerance)
-        final = found is None or abs(found.latency_s) < _LATENCY_TOLERANCE_S or round_ == _ROUNDS - 2
+        final = abs(step) < _LATENCY_TOLERANCE_S or round_ == _ROUNDS - 2
     estimate = dataclasses.replace(estimate, latency_s=lag, stderr_latency_s=stderr_lag)
     used = time[keep]
     return RecordedMotionPayload(estimate, read.rows, float(used[-1] - used[0]) if len(used) else 0.0, read.rails)
