@@ -99,7 +99,8 @@ def test_a_realistic_recording_meets_the_targets_with_consistent_standard_errors
     principal moment). Seen over 20 seeds (bench/bench_payload_motion.py): mass 0.0023 %, centre of mass
     0.0019 mm, inertia 0.75 %, the latency to 10 us; the errors at most 4.8 reported standard errors (the
     joint-rate window's model error, the same in every run, is not in them) and the seeds' scatter
-    0.18-0.58 of them. Bounds: 8 standard errors, and a scatter between 0.05 and 2 of them."""
+    0.18-0.58 of them. Bounds: 8 standard errors, a scatter below 2 of them for each parameter and,
+    pooled over the ten, above 0.05."""
     errors, stderrs = [], []
     for child in np.random.SeedSequence(seed).spawn(3):
         path, calibration = _recording(tmp_path, ur5_module, payload, motion, np.random.default_rng(child), drift=OffsetDrift.typical())
@@ -115,8 +116,9 @@ def test_a_realistic_recording_meets_the_targets_with_consistent_standard_errors
         stderrs.append(est.stderr)
     errors, stderrs = np.array(errors), np.array(stderrs)
     assert np.all(np.abs(errors) <= 8 * stderrs), np.abs(errors) / stderrs
-    scatter = errors.std(axis=0, ddof=1) / stderrs.mean(axis=0)
-    assert np.all((scatter > 0.05) & (scatter < 2.0)), scatter
+    scatter = errors.std(axis=0, ddof=1) / stderrs.mean(axis=0)  # each from 3 seeds (2 degrees of freedom): noisy
+    pooled = np.sqrt(np.mean(scatter**2))  # 20 degrees of freedom: within about 30 % of its 0.35
+    assert np.all(scatter < 2.0) and pooled > 0.05, scatter
 
 
 def test_a_fit_that_leaves_the_physical_set_is_brought_back_to_it(ur5_module, motion, rng):
@@ -155,7 +157,8 @@ def test_a_turn_of_the_last_joint_only_is_refused_naming_the_inertia_it_misses(t
 def test_a_small_motion_is_refused_naming_the_joint_to_move(tmp_path, ur5_module, payload, rng):
     small = payload_excitation(ur5_module, HOME, seconds=10.0, amplitude=0.05)
     path, calibration = _recording(tmp_path, ur5_module, payload, small, rng, "small.csv")
-    with pytest.raises(PayloadError, match=r"Iyy \(± .* kg·m², above .*\).*turn the sensor about its y axis.*rotate shoulder_pan_joint"):
+    advice = r"Iyy \(± .* kg·m², above .*\).*turn the sensor about its y (and z )?ax.*y: rotate shoulder_pan_joint"
+    with pytest.raises(PayloadError, match=advice):
         identify_payload_from_motion(path, ur5_module, calibration)
 
 
