@@ -228,7 +228,7 @@ def test_live_feeds_calibrate_in_dynamic_mode(ur5, paper_tool, seed, tmp_path):
     thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=10.0)))
     thread.start()
     try:
-        replay(path, *receiver.address, ReplayOptions(speed=20.0))
+        replay(path, *receiver.address, ReplayOptions(speed=4.0))  # the session keeps up: at 20x a loaded machine drops datagrams
         thread.join(timeout=60)
     finally:
         receiver.close()

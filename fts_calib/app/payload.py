@@ -7,11 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.exceptions import ConfigError
 from ..core.paths import check_outputs
 from ..model.calibration import load_calibration
 from ..robot.tool import save_tool
 from ..service.payload import MIN_SPREAD_DEG, PayloadEstimate, identify_payload_from_recording
 from .exit_codes import ExitCode, writing
+from .payload_motion import motion_payload
 from .setup import load_robot_or_orientation, load_settings
 
 
@@ -52,8 +54,12 @@ def run(
     min_spread_deg: float = MIN_SPREAD_DEG,
     pipeline: str | Path = "pipeline",
     mount_rpy: Sequence[float] | None = None,
+    motion: bool = False,
 ) -> int:
     """Identify a payload held still in several orientations and write it as a tool file (``fts-calib payload``).
+
+    With ``motion``, from a continuous motion instead: mass, centre of mass and inertia
+    (:func:`fts_calib.app.payload_motion.motion_payload`).
 
     Args:
         recording: Recording of the payload still in orientations that tilt gravity about two axes.
@@ -67,18 +73,25 @@ def run(
         pipeline: Pipeline settings (filter thresholds).
         mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
             orientation gives to the sensor; None for none (``--mount R P Y``).
+        motion: The recording is a continuous motion: identify the inertia too.
 
     Returns:
         0.
 
     Raises:
-        ConfigError: ``output`` is one of the inputs (the recording, the calibration), or ``mount_rpy`` with a robot.
+        ConfigError: ``output`` is one of the inputs (the recording, the calibration), ``mount_rpy`` with a robot, or
+            ``mount`` (``--estimate-mount``) with ``motion``.
         OSError: ``output`` cannot be written (a folder); checked before any work.
     """
     inputs = {"the recording": recording, "the calibration": calibration, "the robot file": robot, "the pipeline file": pipeline}
     check_outputs({"-o": output}, inputs)
     kin = load_robot_or_orientation(robot, mount_rpy)
     settings = load_settings(pipeline)
+    if motion:
+        if mount:
+            message = "--estimate-mount is for still poses: leave it out with --motion"
+            raise ConfigError("--estimate-mount", True, "not with --motion", message=message)
+        return motion_payload(recording, kin, load_calibration(calibration), settings, output, name)
     found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_spread_deg)
     estimate = found.estimate
     print(format_payload(estimate, found.rows))

@@ -42,7 +42,8 @@ def add_payload(commands) -> None:
         "From a recording of the payload held still in orientations that tilt gravity about two axes: its mass, "
         "centre of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for "
         "gravity compensation. Judges the whole set (the spread of the gravity directions, the fit's conditioning) "
-        "and refuses one that cannot determine the payload, saying what is missing.",
+        "and refuses one that cannot determine the payload, saying what is missing. With --motion, from a short "
+        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated.",
         "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml\n"
         "  fts-calib payload --calibration calibration.yaml gripper_tcp.csv --mount 0 0 0.785 -o gripper.yaml   # tcp_rx,tcp_ry,tcp_rz",
     )
@@ -53,6 +54,11 @@ def add_payload(commands) -> None:
     pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
     pay.add_argument(
         "--estimate-mount", dest="mount", action="store_true", help="also estimate a small rotation of the sensor mount (beyond --mount's)"
+    )
+    pay.add_argument(
+        "--motion",
+        action="store_true",
+        help="the recording is a continuous motion (no still poses): identify the inertia too, physically consistent",
     )
     pay.add_argument(
         "--min-spread",

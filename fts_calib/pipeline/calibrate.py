@@ -14,7 +14,7 @@ recording is then calibrated again, with the rail, and the result says what was 
 With ``filter.mode: dynamic`` and ``filter.latency_s: auto`` the first read applies no latency
 and leaves the latency out of the trust rule, while the latency is fitted with the
 calibration (:mod:`fts_calib.pipeline.latency_fit`); the recording is then read again with
-it applied and its standard error (at least :data:`MIN_LATENCY_SIGMA_S`) as the trust
+it applied and its standard error (at least :data:`fts_calib.pipeline.dynamic.MIN_LATENCY_SIGMA_S`) as the trust
 rule's latency uncertainty.
 """
 
@@ -47,10 +47,10 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, load_tool
 from .checkpoint import check_start, recording_source
 from .clock import clock_checked
-from .dynamic import LATENCY_SIGNIFICANT_S, DynamicFilter, nominal_c
+from .dynamic import nominal_c, settings_for_first_read, settings_with_latency
 from .latency import LatencyEstimate
 from .session import CalibrationSession
-from .settings import DYNAMIC, PipelineConfig, load_pipeline_config
+from .settings import PipelineConfig, load_pipeline_config
 
 
 class ProgressSink(Protocol):
@@ -184,30 +184,6 @@ def calibrate_recording(
         calibration, error = None, exc
     seconds, detected = time.perf_counter() - start, (() if found is None else found.detected)
     return CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency, detected=detected)
-
-
-#: The smallest latency uncertainty the second read of ``latency_s: auto`` assumes [s].
-MIN_LATENCY_SIGMA_S = 2e-5
-
-
-def settings_for_first_read(settings: PipelineConfig, resume: bool) -> PipelineConfig:
-    """The settings of a recording's first read: with ``latency_s: auto`` in dynamic mode, no latency and none of its uncertainty."""
-    f = settings.filter
-    if resume or f.mode != DYNAMIC or f.latency_s is not None:
-        return settings
-    return dataclasses.replace(settings, filter=dataclasses.replace(f, latency_s=0.0, latency_uncertainty_s=0.0))
-
-
-def settings_with_latency(settings: PipelineConfig, filter_) -> PipelineConfig | None:
-    """The settings of the second read: the latency fitted in the first applied (None: none was fitted)."""
-    fit = None if not isinstance(filter_, DynamicFilter) else filter_.latency_fit.solve()
-    if fit is None:
-        return None
-    tau, stderr = fit
-    if abs(tau) <= max(3.0 * stderr, LATENCY_SIGNIFICANT_S):  # the first read stands: no latency to speak of
-        return None
-    f = dataclasses.replace(settings.filter, latency_s=filter_.latency_s + tau, latency_uncertainty_s=max(stderr, MIN_LATENCY_SIGMA_S))
-    return dataclasses.replace(settings, filter=f)
 
 
 def calibrate(

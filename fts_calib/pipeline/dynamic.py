@@ -33,6 +33,7 @@ with the next, so the result does not depend on where chunks end.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -337,3 +338,27 @@ def filtered(
     if rates is not None:
         raise ShapeError("exact joint rates are for filter.mode 'dynamic': the quasi-static filter estimates its own")
     return quasi_static(filter_, kin, tool, batch, final)
+
+
+#: The smallest latency uncertainty the second read of ``latency_s: auto`` assumes [s].
+MIN_LATENCY_SIGMA_S = 2e-5
+
+
+def settings_for_first_read(settings: PipelineConfig, resume: bool) -> PipelineConfig:
+    """The settings of a recording's first read: with ``latency_s: auto`` in dynamic mode, no latency and none of its uncertainty."""
+    f = settings.filter
+    if resume or f.mode != DYNAMIC or f.latency_s is not None:
+        return settings
+    return dataclasses.replace(settings, filter=dataclasses.replace(f, latency_s=0.0, latency_uncertainty_s=0.0))
+
+
+def settings_with_latency(settings: PipelineConfig, filter_) -> PipelineConfig | None:
+    """The settings of the second read: the latency fitted in the first applied (None: none was fitted)."""
+    fit = None if not isinstance(filter_, DynamicFilter) else filter_.latency_fit.solve()
+    if fit is None:
+        return None
+    tau, stderr = fit
+    if abs(tau) <= max(3.0 * stderr, LATENCY_SIGNIFICANT_S):  # the first read stands: no latency to speak of
+        return None
+    f = dataclasses.replace(settings.filter, latency_s=filter_.latency_s + tau, latency_uncertainty_s=max(stderr, MIN_LATENCY_SIGMA_S))
+    return dataclasses.replace(settings, filter=f)

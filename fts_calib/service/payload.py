@@ -35,17 +35,14 @@ import numpy as np
 
 from ..core.arrays import as_samples, frozen
 from ..core.exceptions import PayloadError, ShapeError
-from ..feeds.batch import SampleBatch
-from ..feeds.source import open_recording
 from ..model.calibration import Calibration
-from ..model.channel_limits import ChannelLimits, detect_limits
-from ..model.channels import CALIBRATION_HINT, check_channels
-from ..pipeline.checks import SampleChecks
+from ..model.channel_limits import ChannelLimits
 from ..pipeline.qsfilter import QuasiStaticFilter
 from ..pipeline.settings import FilterConfig
 from ..pipeline.still import quasi_static
 from ..robot.kinematics import Kinematics
 from ..robot.tool import STANDARD_GRAVITY, Tool, ToolConfiguration
+from .payload_recording import read_payload_samples
 
 _SAME_POSE_DEG = 5.0  # gravity directions closer than this are one orientation
 #: Smallest RMS spread of the gravity directions along each of two axes [deg] (``--min-spread``).
@@ -326,25 +323,8 @@ def identify_payload_from_recording(
         PayloadError: No usable row, more than one configuration name, or orientations that
             cannot determine the payload.
     """
-    with open_recording(path, kin.joint_names, None) as reader:
-        chunks = list(reader)
-        names = list(reader.tool_names)
-    if not chunks:
-        raise PayloadError(f"{path}: no usable row")
-    samples = SampleBatch.concatenate(chunks)
-    check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
-    held = [names[k] for k in np.unique(samples.configuration) if 0 <= k < len(names)]
-    if len(held) > 1:  # one fit of one payload would mix their weights
-        raise PayloadError(
-            f"{path} holds {len(held)} tool configurations ({', '.join(held)}): a payload recording holds one payload; "
-            "record each alone (or keep only its rows) and identify them one by one"
-        )
-    samples = dataclasses.replace(samples, configuration=np.zeros(len(samples), dtype=np.int64))
-    finite = np.all(np.isfinite(samples.channels), axis=1)
-    found = detect_limits(samples.channels[finite], limits)
-    checks = SampleChecks(kin, limits=found)
-    samples = samples.select(checks.accept(samples))  # a NaN, a railed channel or a row out of order never poisons a window
-    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, found), kin, None, samples, final=True)
+    read = read_payload_samples(path, kin, calibration, limits)
+    samples = read.samples
+    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, read.limits), kin, None, samples, final=True)
     estimate = identify_payload(calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_spread_deg=min_spread_deg)
-    rails = () if checks.rails is None else tuple(checks.rails.lines(held or ["payload"]))
-    return RecordedPayload(estimate, len(samples), rails)
+    return RecordedPayload(estimate, len(samples), read.rails)
