@@ -96,6 +96,18 @@ def test_each_orientation_form_gives_the_joints_calibration(still_run, form):
     np.testing.assert_allclose(found.calibration.D, reference.calibration.D, rtol=1e-9, atol=1e-9 * np.abs(reference.calibration.D).max())
 
 
+def test_a_quaternion_that_is_not_a_unit_one_is_skipped_and_noted_with_its_line(still_run):
+    """A quaternion of norm 5 (another quantity, not a rotation with few digits) is skipped, not normalised; 1 + 5e-4 is read."""
+    kin, tool, folder, table, R, joints_path = still_run
+    q = _quaternions(R)
+    q[10] *= 5.0
+    q[11] *= 1.0 + 5e-4  # a quaternion written with four digits: kept
+    path = _write(folder, table, "scaled", {"qw": q[:, 0], "qx": q[:, 1], "qy": q[:, 2], "qz": q[:, 3]})
+    result = calibrate_recording(path, orientation_kinematics(), tool)
+    assert result.session.skipped["non-finite value"] == 1
+    assert any("line 12: columns 'qw,qx,qy,qz': the quaternion's norm is 5," in note for note in result.problems), result.problems
+
+
 def test_a_recording_without_orientation_names_the_forms(still_run):
     kin, tool, folder, table, R, joints_path = still_run
     with pytest.raises(

@@ -11,10 +11,19 @@ import numpy as np
 from ..robot.orientation import GIMBAL_JOINTS, ORIENTATION_FORMS, missing_orientation, orientation_form, orientation_joints
 from .batch import SampleBatch
 from .recording import RecordingReader
+from .row_notes import MAX_NOTES
+
+
+#: Largest accepted departure of a recorded quaternion's norm from 1 (as for bags and datagrams): a row beyond it is skipped.
+MAX_QUATERNION_NORM_ERROR = 1e-3
 
 
 class OrientationReader(RecordingReader):
     """A CSV reader whose joints are the gimbal's ``[yaw, pitch, roll]`` [rad], from a quaternion or a TCP rotation vector.
+
+    A quaternion whose norm is more than :data:`MAX_QUATERNION_NORM_ERROR` from 1 is not a rotation
+    written with a few digits but another quantity: its row is skipped (counted with the
+    non-finite values) and the first such rows are noted with their line.
 
     Args:
         path: The CSV recording.
@@ -34,6 +43,20 @@ class OrientationReader(RecordingReader):
             finite[finite] = np.linalg.norm(chunk.joints[finite], axis=1) > 0  # a zero quaternion too
             joints[finite] = orientation_joints(self.form, chunk.joints[finite])
             yield dataclasses.replace(chunk, joints=joints)
+
+    def _note_values(self, table: np.ndarray, numbers: np.ndarray) -> None:
+        """Note the rows the checks will skip, and blank (NaN) the quaternions that are not unit ones, noting them."""
+        super()._note_values(table, numbers)
+        if self.form != "quaternion" or not len(table):
+            return
+        q = table[:, 1 : 1 + len(self.joint_names)]
+        norm = np.linalg.norm(q, axis=1)
+        bad = np.isfinite(norm) & (np.abs(norm - 1.0) > MAX_QUATERNION_NORM_ERROR)
+        for row in np.nonzero(bad)[0][:MAX_NOTES]:
+            detail = f"columns 'qw,qx,qy,qz': the quaternion's norm is {norm[row]:.6g}, expected 1 (within {MAX_QUATERNION_NORM_ERROR:g})"
+            self._notes.note(int(numbers[row]), detail + ": the sample is skipped", "orientation")
+        self._notes.count(max(int(bad.sum()) - MAX_NOTES, 0), "orientation")
+        q[bad] = np.nan  # in place: the checks skip and count the row
 
 
 def open_orientation_recording(path: Path, tool_names: Sequence[str] | None, max_abs_channel: float | None = None) -> RecordingReader:
