@@ -13,7 +13,6 @@ from .batch import SampleBatch
 from .recording import RecordingReader
 from .row_notes import MAX_NOTES
 
-
 #: Largest accepted departure of a recorded quaternion's norm from 1 (as for bags and datagrams): a row beyond it is skipped.
 MAX_QUATERNION_NORM_ERROR = 1e-3
 
