@@ -72,6 +72,8 @@ class MotionProgress:
 
     def line(self) -> str:
         """One status line: seconds, samples, turning about each axis, bad and lost datagrams, what is not yet turned about."""
+        if not self.samples:
+            return f"waiting for the motion: {self.stats.received:,} datagrams, no strain sample paired with the joints yet"
         turned = " ".join(f"{a} {v:.1f}" for a, v in zip("xyz", self.turned_rad, strict=True))
         text = f"motion {self.seconds:6.1f} s | {self.samples:,} samples | turned about the sensor's {turned} rad"
         bad = self.stats.malformed + self.stats.oversized
@@ -80,7 +82,7 @@ class MotionProgress:
         if self.stats.gaps:
             text += f" | lost datagrams {self.stats.gaps}"
         little = [a for a, v in zip("xyz", self.turned_rad, strict=True) if v < LITTLE_TURN * max(float(np.max(self.turned_rad)), 1e-9)]
-        if self.samples and little:
+        if little:
             text += f" | not yet turned about {', '.join(little)} (its inertia is not seen)"
         return text
 
