@@ -132,8 +132,10 @@ def test_samples_lost_on_the_way_leave_their_windows_out(ur5, moving):
     assert np.all(np.abs(_derived(est.mass, est.com, est.inertia_com) - truth) <= 8 * est.stderr)
 
 
-def test_seconds_of_motion_end_the_collection(ur5, moving):
-    """``--seconds 1``: the samples span 1 s of the feed's clock (to a 20 ms placement), the sender still sending."""
+@pytest.mark.parametrize("end", ["seconds", "ctrl-c"])
+def test_seconds_of_motion_or_ctrl_c_end_the_collection(ur5, moving, end):
+    """``--seconds 1``: the samples span 1 s of the feed's clock (to a 20 ms placement); Ctrl-C (raised in the
+    progress once 1 s is collected): what was collected is kept. The sender is still sending in both."""
     from fts_calib.pipeline.settings import PipelineConfig
     from fts_calib.service.payload_live import collect_motion
 
@@ -144,17 +146,24 @@ def test_seconds_of_motion_end_the_collection(ur5, moving):
         bound.append(address)
         listening.set()
 
+    pressed = []
+
+    def on_progress(progress):
+        if end == "ctrl-c" and progress.seconds >= 1.0 and not pressed:
+            pressed.append(progress.seconds)
+            raise KeyboardInterrupt
+
+    seconds = 1.0 if end == "seconds" else None
     sender = threading.Thread(target=lambda: listening.wait(60.0) and bound and replay(path, *bound[0], ReplayOptions(speed=4.0)))
     sender.start()
     try:
-        motion = collect_motion(
-            "127.0.0.1", 0, ur5, PipelineConfig(), calibration.layout.n_channels, seconds=1.0, on_listening=on_listening
-        )
+        n = calibration.layout.n_channels
+        motion = collect_motion("127.0.0.1", 0, ur5, PipelineConfig(), n, seconds, 20.0, on_listening, on_progress)
     finally:
         listening.set()
         sender.join(timeout=60.0)
     span = motion.samples.time[-1] - motion.samples.time[0]
-    assert 1.0 <= span <= 1.2 and not motion.stats.ended, span
+    assert 1.0 <= span <= (1.2 if end == "seconds" else 8.0) and not motion.stats.ended, span
     assert motion.address == f"udp://127.0.0.1:{bound[0][1]}"
 
 
