@@ -116,7 +116,7 @@ def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_p
 
 def test_samples_lost_on_the_way_leave_their_windows_out(ur5, moving):
     """0.2 % of the samples lost (as datagrams are): the joint-rate windows that miss one are left out (their
-    kernels take the samples as evenly spaced: one missing shifts half the window by a period, 1.6 rad/s² at
+    kernels take the samples as evenly spaced: one missing shifts half the window by a period, up to 2.2 rad/s² at
     1 rad/s). Before, the motion was refused (the inertia's standard errors 30 times larger); now it is within
     the targets and 8 standard errors of the truth (11 seeds: mass 0.003 %, centre of mass 0.003 mm, inertia
     1.6 %, at most 3.4 standard errors; the payload moved by at most 4.2 of them from the whole recording's)."""

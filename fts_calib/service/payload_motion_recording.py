@@ -8,8 +8,9 @@ aligned by the stream latency, give the sensor frame's motion (joint rates by
 the pipeline's ``live.latency_s`` and is then estimated from the residuals of the payload just
 identified (:func:`latency_step`: the regression of :mod:`fts_calib.pipeline.latency` with the
 offsets' drift left out), the joints re-aligned and the payload fitted again, until the
-latency moves by less than 20 us. Samples within half a derivative window of the recording's ends are left out
-(their rates come from a cut window). Times in [s].
+latency moves by less than 20 us. Samples within half a derivative window of the recording's ends, or of a
+sample missing (a row refused, a datagram lost), are left out (their rates come from a cut or uneven window).
+Times in [s].
 """
 
 from __future__ import annotations
@@ -104,7 +105,7 @@ def smoothed_like_rates(time: np.ndarray, values: np.ndarray, window_s: float, d
     whole = np.zeros(n, dtype=bool)
     span = time[2 * half :] - time[: n - 2 * half]
     # no sample missing in the window either (a datagram lost, a row refused): the kernels take the samples as evenly
-    # spaced, and one missing shifts half the window by a period: 1.6 rad/s^2 of acceleration at 1 rad/s, 1 kHz, 50 ms
+    # spaced, and one missing shifts half the window by a period: up to 2.2 rad/s^2 of acceleration at 1 rad/s, 1 kHz, 50 ms
     missing = np.concatenate([[0], np.cumsum(np.diff(time) > _MISSING * dt)])
     whole[inner] = (np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt) & (missing[2 * half :] == missing[: n - 2 * half])
     return out, whole
