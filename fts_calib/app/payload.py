@@ -12,8 +12,9 @@ from ..core.paths import check_outputs
 from ..model.calibration import load_calibration
 from ..robot.tool import save_tool
 from ..service.payload import MIN_SPREAD_DEG, PayloadEstimate, identify_payload_from_recording
+from ..service.payload_live import IDLE_TIMEOUT_S
 from .exit_codes import ExitCode, writing
-from .payload_motion import motion_payload
+from .payload_motion import live_motion_payload, motion_payload
 from .setup import load_robot_or_orientation, load_settings
 
 
@@ -45,7 +46,7 @@ def format_payload(estimate: PayloadEstimate, rows: int) -> str:
 
 def run(
     *,
-    recording: str | Path,
+    recording: str | Path | None = None,
     calibration: str | Path,
     robot: str | Path | None = None,
     output: str | Path,
@@ -55,14 +56,19 @@ def run(
     pipeline: str | Path = "pipeline",
     mount_rpy: Sequence[float] | None = None,
     motion: bool = False,
+    listen: tuple[str, int] | None = None,
+    seconds: float | None = None,
+    idle_timeout_s: float = IDLE_TIMEOUT_S,
 ) -> int:
     """Identify a payload held still in several orientations and write it as a tool file (``fts-calib payload``).
 
     With ``motion``, from a continuous motion instead: mass, centre of mass and inertia
-    (:func:`fts_calib.app.payload_motion.motion_payload`).
+    (:func:`fts_calib.app.payload_motion.motion_payload`), from a recording or, with ``listen``,
+    from the live feeds (:func:`fts_calib.app.payload_motion.live_motion_payload`).
 
     Args:
-        recording: Recording of the payload still in orientations that tilt gravity about two axes.
+        recording: Recording of the payload still in orientations that tilt gravity about two axes
+            (with ``motion``: moving); None with ``listen``.
         calibration: The sensor's calibration file.
         robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
             recording that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
@@ -74,15 +80,21 @@ def run(
         mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
             orientation gives to the sensor; None for none (``--mount R P Y``).
         motion: The recording is a continuous motion: identify the inertia too.
+        listen: With ``motion``: (host, port) to collect the motion from the live feeds instead of a recording.
+        seconds: With ``listen``: end after this much motion [s]; None at the sender's ``end`` or Ctrl-C.
+        idle_timeout_s: With ``listen``: the longest wait for a datagram [s] (none at all: a timeout).
 
     Returns:
         0.
 
     Raises:
-        ConfigError: ``output`` is one of the inputs (the recording, the calibration), ``mount_rpy`` with a robot, or
-            ``mount`` (``--estimate-mount``) with ``motion``.
+        ConfigError: ``output`` is one of the inputs (the recording, the calibration), ``mount_rpy`` with a robot,
+            ``mount`` (``--estimate-mount``) with ``motion``, ``listen`` without ``motion`` or with a recording,
+            neither a recording nor ``listen``, or ``seconds`` without ``listen``.
+        FeedTimeout: With ``listen``: no datagram within ``idle_timeout_s``.
         OSError: ``output`` cannot be written (a folder); checked before any work.
     """
+    _check_source(recording, motion, listen, seconds)
     inputs = {"the recording": recording, "the calibration": calibration, "the robot file": robot, "the pipeline file": pipeline}
     check_outputs({"-o": output}, inputs)
     kin = load_robot_or_orientation(robot, mount_rpy)
@@ -91,7 +103,11 @@ def run(
         if mount:
             message = "--estimate-mount is for still poses: leave it out with --motion"
             raise ConfigError("--estimate-mount", True, "not with --motion", message=message)
+        if listen is not None:
+            return live_motion_payload(listen, seconds, idle_timeout_s, kin, load_calibration(calibration), settings, output, name)
+        assert recording is not None  # _check_source
         return motion_payload(recording, kin, load_calibration(calibration), settings, output, name)
+    assert recording is not None  # _check_source
     found = identify_payload_from_recording(recording, kin, load_calibration(calibration), settings.filter, mount, min_spread_deg)
     estimate = found.estimate
     print(format_payload(estimate, found.rows))
@@ -107,3 +123,19 @@ def run(
         path = save_tool(estimate.tool(name, gravity), output, header)
     print(f"wrote {path}")
     return ExitCode.OK
+
+
+def _check_source(recording: str | Path | None, motion: bool, listen: tuple[str, int] | None, seconds: float | None) -> None:
+    """One source: a recording, or ``--listen`` with ``--motion``; ``--seconds`` only with ``--listen``."""
+    if listen is not None and not motion:
+        message = "--listen collects a continuous motion: add --motion (still poses are identified from a recording)"
+        raise ConfigError("--listen", f"{listen[0]}:{listen[1]}", "with --motion", message=message)
+    if listen is not None and recording is not None:
+        message = f"give a recording or --listen HOST:PORT, not both (got {recording} and --listen {listen[0]}:{listen[1]})"
+        raise ConfigError("recording", str(recording), "a recording or --listen", message=message)
+    if listen is None and recording is None:
+        message = "give a recording, or --motion --listen HOST:PORT to identify the payload from a live motion"
+        raise ConfigError("recording", None, "a recording or --listen", message=message)
+    if seconds is not None and listen is None:
+        message = "--seconds is the length of a live motion: it goes with --listen (a recording is used whole)"
+        raise ConfigError("--seconds", seconds, "with --listen", message=message)

@@ -8,6 +8,8 @@ from .parser import add_address, add_command
 #: fts_calib.service.payload.MIN_SPREAD_DEG [deg], written here: importing it would load the
 #: kinematics into the parser (tests/test_app.py checks the two defaults agree).
 MIN_SPREAD_DEG = 3.0
+#: fts_calib.service.payload_live.IDLE_TIMEOUT_S [s], written here for the same reason (checked alike).
+IDLE_TIMEOUT_S = 10.0
 
 
 def add_tare(commands) -> None:
@@ -43,11 +45,13 @@ def add_payload(commands) -> None:
         "centre of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for "
         "gravity compensation. Judges the whole set (the spread of the gravity directions, the fit's conditioning) "
         "and refuses one that cannot determine the payload, saying what is missing. With --motion, from a short "
-        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated.",
+        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated; "
+        "with --motion --listen, from the live feeds (joints and strain datagrams) until the sender's end, --seconds or Ctrl-C.",
         "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml\n"
-        "  fts-calib payload --calibration calibration.yaml gripper_tcp.csv --mount 0 0 0.785 -o gripper.yaml   # tcp_rx,tcp_ry,tcp_rz",
+        "  fts-calib payload --calibration calibration.yaml gripper_tcp.csv --mount 0 0 0.785 -o gripper.yaml   # tcp_rx,tcp_ry,tcp_rz\n"
+        "  fts-calib payload --motion --listen 5005 --seconds 10 --calibration calibration.yaml --robot ur5 -o gripper.yaml",
     )
-    pay.add_argument("recording", help="recording of the payload in several still orientations")
+    pay.add_argument("recording", nargs="?", help="recording of the payload in several still orientations (or moving, with --motion)")
     pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
     add_robot_or_orientation(pay, note="; to estimate a small mount rotation: --estimate-mount")
     pay.add_argument("-o", "--output", required=True, help="tool file to write")
@@ -59,6 +63,19 @@ def add_payload(commands) -> None:
         "--motion",
         action="store_true",
         help="the recording is a continuous motion (no still poses): identify the inertia too, physically consistent",
+    )
+    pay.add_argument(
+        "--listen", type=add_address, metavar="HOST:PORT", help="with --motion: collect the motion from a live feed on this address instead"
+    )
+    pay.add_argument(
+        "--seconds", type=float, help="with --listen: end after this many seconds of motion (default: the sender's end or Ctrl-C)"
+    )
+    pay.add_argument(
+        "--idle-timeout",
+        dest="idle_timeout_s",
+        type=float,
+        default=IDLE_TIMEOUT_S,
+        help=f"with --listen: the longest wait for a datagram in s; none at all is a timeout (default {IDLE_TIMEOUT_S:g})",
     )
     pay.add_argument(
         "--min-spread",

@@ -8,8 +8,9 @@ aligned by the stream latency, give the sensor frame's motion (joint rates by
 the pipeline's ``live.latency_s`` and is then estimated from the residuals of the payload just
 identified (:func:`latency_step`: the regression of :mod:`fts_calib.pipeline.latency` with the
 offsets' drift left out), the joints re-aligned and the payload fitted again, until the
-latency moves by less than 20 us. Samples within half a derivative window of the recording's ends are left out
-(their rates come from a cut window). Times in [s].
+latency moves by less than 20 us. Samples within half a derivative window of the recording's ends, or of a
+sample missing (a row refused, a datagram lost), are left out (their rates come from a cut or uneven window).
+Times in [s].
 """
 
 from __future__ import annotations
@@ -28,10 +29,11 @@ from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
 from ..robot import inertial
 from ..robot.kinematics import Kinematics
 from .payload_motion import MotionPayloadEstimate, fit_payload_regressor
-from .payload_recording import read_payload_samples
+from .payload_recording import PayloadSamples, read_payload_samples
 
 _LATENCY_TOLERANCE_S = 2e-5  # [s] a latency step below this ends the alternation (the estimate's own error: tests/test_latency.py)
 _ROUNDS = 5  # fits at most
+_MISSING = 1.5  # an interval above this many sample periods has a sample missing
 
 
 @dataclass(frozen=True)
@@ -86,8 +88,8 @@ def smoothed_like_rates(time: np.ndarray, values: np.ndarray, window_s: float, d
         dt: The sample period [s].
 
     Returns:
-        ``(smoothed (N, k), whether each sample's window is whole and evenly sampled (N,))``;
-        the others keep their value.
+        ``(smoothed (N, k), whether each sample's window is whole and evenly sampled, no
+        interval in it above 1.5 periods (N,))``; the others keep their value.
     """
     half = int(round(window_s / 2 / dt)) if dt > 0 else 0
     n = len(values)
@@ -102,7 +104,10 @@ def smoothed_like_rates(time: np.ndarray, values: np.ndarray, window_s: float, d
     out[inner] = windows @ kernel
     whole = np.zeros(n, dtype=bool)
     span = time[2 * half :] - time[: n - 2 * half]
-    whole[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
+    # no sample missing in the window either (a datagram lost, a row refused): the kernels take the samples as evenly
+    # spaced, and one missing shifts half the window by a period: up to 2.2 rad/s^2 of acceleration at 1 rad/s, 1 kHz, 50 ms
+    missing = np.concatenate([[0], np.cumsum(np.diff(time) > _MISSING * dt)])
+    whole[inner] = (np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt) & (missing[2 * half :] == missing[: n - 2 * half])
     return out, whole
 
 
@@ -190,10 +195,41 @@ def identify_payload_from_motion(
         PayloadError: No usable row, more than one configuration, or a motion that does not
             determine the payload (the message names what is missing).
     """
-    read = read_payload_samples(path, kin, calibration, limits)
+    return identify_payload_from_samples(
+        read_payload_samples(path, kin, calibration, limits), str(path), kin, calibration, window_s, latency_s, fit_latency
+    )
+
+
+def identify_payload_from_samples(
+    read: PayloadSamples,
+    where: str,
+    kin: Kinematics,
+    calibration: Calibration,
+    window_s: float = 0.05,
+    latency_s: float = 0.0,
+    fit_latency: bool = True,
+) -> RecordedMotionPayload:
+    """Identify mass, centre of mass, inertia and offsets from the samples of a continuous motion (module docstring).
+
+    The arrays' form of :func:`identify_payload_from_motion`: the samples of a recording, or
+    of a live feed (:mod:`fts_calib.service.payload_live`), checked by
+    :func:`fts_calib.service.payload_recording.check_payload_samples`.
+
+    Args:
+        read: The accepted samples (time [s], joints [rad], channels), in time order.
+        where: Where they come from, for the messages (a path, ``udp://HOST:PORT``).
+        kin: Kinematics of the robot (its model's gravity is used).
+        calibration: The sensor's calibration.
+        window_s: Window of the joint-rate estimates [s].
+        latency_s: How late the joint readings still are [s]: the start.
+        fit_latency: Estimate the remaining latency (else ``latency_s`` is used as is).
+
+    Raises:
+        PayloadError: Too few samples, or a motion that does not determine the payload.
+    """
     samples = read.samples
     if len(samples) < 3:
-        raise PayloadError(f"{path}: {len(samples)} usable rows, too few for a motion")
+        raise PayloadError(f"{where}: {len(samples)} usable rows, too few for a motion")
     time = samples.time
     dt = sample_period(time) if len(time) > PERIOD_SAMPLES else float(np.median(np.diff(time)))
     wrench, smooth = smoothed_like_rates(time, calibration.wrench(samples.channels), window_s, dt)
@@ -212,7 +248,7 @@ def identify_payload_from_motion(
         keep &= (time + lag >= time[0]) & (time + lag <= time[-1])
         axes = {name: R[middle].T @ kin.joint_axis_world(joints[middle], name) for name in kin.joint_names}
         regressor = _regressor(time, g, motion.omega, motion.alpha, motion.a, window_s, dt)
-        estimate = fit_payload_regressor(wrench[keep], regressor[keep], axes, str(path), final, block, time[keep])
+        estimate = fit_payload_regressor(wrench[keep], regressor[keep], axes, where, final, block, time[keep])
         if final:
             break
         step, stderr_lag = latency_step(time[keep], wrench[keep], regressor[keep], estimate, block)

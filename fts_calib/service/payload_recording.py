@@ -60,12 +60,37 @@ def read_payload_samples(
         names = list(reader.tool_names)
     if not chunks:
         raise PayloadError(f"{path}: no usable row")
-    samples = SampleBatch.concatenate(chunks)
-    check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
+    return check_payload_samples(SampleBatch.concatenate(chunks), names, str(path), kin, calibration, limits)
+
+
+def check_payload_samples(
+    samples: SampleBatch,
+    names: list[str],
+    where: str,
+    kin: Kinematics,
+    calibration: Calibration,
+    limits: ChannelLimits | None = None,
+) -> PayloadSamples:
+    """Keep the rows of one payload's samples (a recording's, or a live feed's) that the session's checks accept.
+
+    Args:
+        samples: The samples read, in time order; ``configuration`` indexes ``names``.
+        names: The tool configuration names the samples may hold (one payload: more than one held is refused).
+        where: Where they come from, for the messages (a path, ``udp://HOST:PORT``).
+        kin: Kinematics of the robot.
+        calibration: The sensor's calibration (its channel layout is checked).
+        limits: The channels' declared resolution and rails; what is not declared is detected.
+
+    Raises:
+        PayloadError: No sample, or more than one configuration name.
+    """
+    if not len(samples):
+        raise PayloadError(f"{where}: no usable row")
+    check_channels(calibration.layout, samples.channels.shape[1], where, CALIBRATION_HINT)
     held = [names[k] for k in np.unique(samples.configuration) if 0 <= k < len(names)]
     if len(held) > 1:  # one fit of one payload would mix their weights
         raise PayloadError(
-            f"{path} holds {len(held)} tool configurations ({', '.join(held)}): a payload recording holds one payload; "
+            f"{where} holds {len(held)} tool configurations ({', '.join(held)}): a payload recording holds one payload; "
             "record each alone (or keep only its rows) and identify them one by one"
         )
     rows = len(samples)

@@ -1,0 +1,205 @@
+"""``payload --motion --listen``: a simulated motion replayed as datagrams gives the payload of the
+recording; a silent feed times out (exit 18) naming the address; the options are checked."""
+
+import dataclasses
+import re
+import socket
+import threading
+
+import numpy as np
+import pytest
+
+from fts_calib.app import payload_motion
+from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
+from fts_calib.core.resources import resolve
+from fts_calib.feeds.replay import ReplayOptions, replay
+from fts_calib.model.calibration import Calibration, save_calibration
+from fts_calib.planning.payload_excitation import payload_excitation
+from fts_calib.robot.tool import load_tool
+from fts_calib.service.payload_motion_recording import identify_payload_from_motion, identify_payload_from_samples
+from fts_calib.service.payload_recording import read_payload_samples
+from fts_calib.sim.drift import OffsetDrift
+from fts_calib.sim.payload_motion import simulate_payload_motion
+from fts_calib.sim.sensor import load_simulated_sensor
+
+HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] tests/test_payload_motion.py's pose
+LATENCY_S, JOINT_NOISE = 0.008, 1e-5  # [s], [rad] joints late and noisy (issue 22's)
+PAIRS = ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))
+
+
+def _derived(mass, com, inertia):
+    return np.concatenate([[mass], com, [inertia[i, j] for i, j in PAIRS]])
+
+
+@pytest.fixture(scope="module")
+def moving(tmp_path_factory, seed):
+    """The 1.4 kg validation payload turned by the wrist for 9.7 s at 1 kHz: joints 8 ms late with 1e-5 rad of
+    noise on a 20-bit encoder, the sensor's noise and 24-bit ADC, offsets drifting; its calibration; the payload."""
+    from fts_calib.robot.definition import load_robot
+    from fts_calib.robot.kinematics import Kinematics
+
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    motion = payload_excitation(kin, HOME, seconds=10.0, amplitude=1.0)
+    rng = np.random.default_rng(seed)
+    folder = tmp_path_factory.mktemp("moving")
+    path = simulate_payload_motion(
+        folder / "moving.csv", kin, payload, sensor, motion, rng, LATENCY_S, JOINT_NOISE, drift=OffsetDrift.typical()
+    )
+    return path, Calibration(sensor.C_bar, sensor.D), payload
+
+
+def _within_targets(mass, com, inertia, payload):
+    """Issue 22's targets: mass within 0.5 %, centre of mass within 1 mm, inertia within 10 %."""
+    assert abs(mass - payload.mass) <= 0.005 * payload.mass, mass
+    assert np.max(np.abs(com - payload.p_sensor_com)) <= 1e-3, com
+    assert np.linalg.norm(inertia - payload.inertia_com, 2) <= 0.1 * np.linalg.norm(payload.inertia_com, 2), inertia
+
+
+def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_path, ur5, moving, monkeypatch, capsys):
+    """The motion replayed at 4x as datagrams, after two malformed ones: the synchronizer pairs every strain
+    sample with the joints of its own stamp (interpolation with weight 0), so the live payload is the
+    recording's to 0.01 of its standard errors (seen: identical; JSON carries the floats exactly), and within
+    the issue's targets. The progress and the summary are shown; the tool file is written."""
+    path, calibration, payload = moving
+    reference = identify_payload_from_motion(path, ur5, calibration).estimate
+    cal = save_calibration(calibration, tmp_path / "cal.yaml")
+
+    bound, listening = [], threading.Event()
+    original = payload_motion.collect_motion
+
+    def collect(*args):  # the CLI's collection, telling the sender the port it bound
+        shown = args[7]
+
+        def on_listening(address):
+            shown(address)
+            bound.append(address)
+            listening.set()
+
+        return original(*args[:7], on_listening, *args[8:])
+
+    monkeypatch.setattr(payload_motion, "collect_motion", collect)
+    sent = {}
+
+    def send():
+        if listening.wait(60.0) and bound:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:  # a sender's mistakes: counted, skipped
+                for bad in (b"not json", b'{"type": "strain", "t": "soon"}'):
+                    sock.sendto(bad, bound[0])
+            sent["stats"] = replay(path, *bound[0], ReplayOptions(speed=4.0))
+
+    sender = threading.Thread(target=send)
+    sender.start()
+    out = tmp_path / "gripper.yaml"
+    try:
+        args = ["payload", "--motion", "--listen", "127.0.0.1:0", "--idle-timeout", "20", "--calibration", str(cal), "--robot", "ur5"]
+        code = main([*args, "-o", str(out), "--name", "gripper"])
+    finally:
+        listening.set()
+        sender.join(timeout=60.0)
+    captured = capsys.readouterr()
+    assert code == ExitCode.OK, captured.err
+    assert f"listening on udp://127.0.0.1:{bound[0][1]} until the sender's end or Ctrl-C" in captured.out and bound[0][1] != 0
+    assert "ended by the sender" in captured.out and "2 malformed and 0 oversized skipped" in captured.out, captured.out
+    assert "motion " in captured.err and "turned about the sensor's x" in captured.err, captured.err
+    written = load_tool(out).configuration("gripper")
+    live = _derived(written.mass, written.p_sensor_com, written.inertia_com)
+    recorded = _derived(reference.mass, reference.com, reference.inertia_com)
+    lost = int(re.search(r"([\d,]+) lost on the way", captured.out).group(1).replace(",", ""))
+    # a loaded machine may drop datagrams even at 4x: their windows are then left out (the test below: 4.2 seen)
+    bound = 0.01 if lost == 0 else 8.0
+    assert np.all(np.abs(live - recorded) <= bound * reference.stderr), (lost, (live - recorded) / reference.stderr)
+    _within_targets(written.mass, written.p_sensor_com, written.inertia_com, payload)
+
+
+def test_samples_lost_on_the_way_leave_their_windows_out(ur5, moving):
+    """0.2 % of the samples lost (as datagrams are): the joint-rate windows that miss one are left out (their
+    kernels take the samples as evenly spaced: one missing shifts half the window by a period, up to 2.2 rad/s² at
+    1 rad/s). Before, the motion was refused (the inertia's standard errors 30 times larger); now it is within
+    the targets and 8 standard errors of the truth (11 seeds: mass 0.003 %, centre of mass 0.003 mm, inertia
+    1.6 %, at most 3.4 standard errors; the payload moved by at most 4.2 of them from the whole recording's)."""
+    path, calibration, payload = moving
+    read = read_payload_samples(path, ur5, calibration)
+    kept = np.random.default_rng(7).random(len(read.samples)) > 0.002
+    lost = dataclasses.replace(read, samples=read.samples.select(kept))
+    found = identify_payload_from_samples(lost, "lost", ur5, calibration)
+    est = found.estimate
+    assert 0.8 * len(read.samples) <= est.samples <= 0.95 * len(read.samples)  # about 20 windows of 51 samples left out
+    _within_targets(est.mass, est.com, est.inertia_com, payload)
+    truth = _derived(payload.mass, payload.p_sensor_com, payload.inertia_com)
+    assert np.all(np.abs(_derived(est.mass, est.com, est.inertia_com) - truth) <= 8 * est.stderr)
+
+
+@pytest.mark.parametrize("end", ["seconds", "ctrl-c"])
+def test_seconds_of_motion_or_ctrl_c_end_the_collection(ur5, moving, end):
+    """``--seconds 1``: the samples span 1 s of the feed's clock (to a 20 ms placement); Ctrl-C (raised in the
+    progress once 1 s is collected): what was collected is kept. The sender is still sending in both."""
+    from fts_calib.pipeline.settings import PipelineConfig
+    from fts_calib.service.payload_live import collect_motion
+
+    path, calibration, _ = moving
+    bound, listening = [], threading.Event()
+
+    def on_listening(address):
+        bound.append(address)
+        listening.set()
+
+    pressed = []
+
+    def on_progress(progress):
+        if end == "ctrl-c" and progress.seconds >= 1.0 and not pressed:
+            pressed.append(progress.seconds)
+            raise KeyboardInterrupt
+
+    seconds = 1.0 if end == "seconds" else None
+    sender = threading.Thread(target=lambda: listening.wait(60.0) and bound and replay(path, *bound[0], ReplayOptions(speed=4.0)))
+    sender.start()
+    try:
+        n = calibration.layout.n_channels
+        motion = collect_motion("127.0.0.1", 0, ur5, PipelineConfig(), n, seconds, 20.0, on_listening, on_progress)
+    finally:
+        listening.set()
+        sender.join(timeout=60.0)
+    span = motion.samples.time[-1] - motion.samples.time[0]
+    assert 1.0 <= span <= (1.2 if end == "seconds" else 8.0) and not motion.stats.ended, span
+    assert motion.address == f"udp://127.0.0.1:{bound[0][1]}"
+
+
+def test_the_parser_defaults_are_the_services():
+    from fts_calib.app import service_arguments
+    from fts_calib.service import payload, payload_live
+
+    assert service_arguments.IDLE_TIMEOUT_S == payload_live.IDLE_TIMEOUT_S
+    assert service_arguments.MIN_SPREAD_DEG == payload.MIN_SPREAD_DEG
+
+
+def test_a_silent_feed_times_out_with_exit_18_naming_the_address(tmp_path, capsys):
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
+    out = tmp_path / "gripper.yaml"
+    args = ["payload", "--motion", "--listen", "127.0.0.1:0", "--idle-timeout", "0.3", "--calibration", str(cal), "--robot", "ur5"]
+    assert main([*args, "-o", str(out)]) == ExitCode.TIMEOUT == 18
+    captured = capsys.readouterr()
+    port = captured.out.split("listening on udp://127.0.0.1:")[1].split(" ")[0]
+    assert int(port) != 0
+    expected = f"no answer within 0.3 s: waited for the first datagram on udp://127.0.0.1:{port}; check that the sender runs"
+    assert expected in captured.err and "Traceback" not in captured.err, captured.err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "says"),
+    [
+        (["--listen", "5005"], "--listen collects a continuous motion: add --motion"),
+        (["--motion", "--listen", "5005", "rec.csv"], "give a recording or --listen HOST:PORT, not both"),
+        (["--motion"], "give a recording, or --motion --listen HOST:PORT"),
+        (["--motion", "rec.csv", "--seconds", "5"], "--seconds is the length of a live motion: it goes with --listen"),
+    ],
+)
+def test_the_source_options_are_checked_before_any_waiting(tmp_path, capsys, extra, says):
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
+    assert main(["payload", "--calibration", str(cal), "--robot", "ur5", "-o", str(tmp_path / "p.yaml"), *extra]) == ExitCode.CONFIG
+    assert says in capsys.readouterr().err
