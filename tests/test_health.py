@@ -19,6 +19,7 @@ from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
+from fts_calib.robot.tool_wrench import tool_load
 from fts_calib.service.health import HealthMonitor
 from fts_calib.sim.sensor import load_simulated_sensor
 from fts_calib.sim.service import inject_fault, service_wrenches
@@ -283,6 +284,46 @@ def test_cli_monitor_tracks_the_offset_and_retares(calibrated, ur5_recording, tm
     # the still windows' means: noise 2 mN / sqrt(10) per window, the calibration's own fit error ~ 1 mN: 0.02 N is > 5 sigma
     np.testing.assert_allclose(tared.D, calibrated.D - shift, atol=0.02)
     assert json.loads((tmp_path / "m.json").read_text())["offset"]["tares_s"]
+
+
+def test_monitor_offsets_do_not_depend_on_how_the_feed_is_batched(calibrated, ur5_recording, tmp_path):
+    """The recording shifted 0.8 N on Fx and drifting 1 N/min on Fy, fed in batches of 1, 7, 100, 1000 samples or all:
+    the same windows, the same re-tares at the same times, the same tracked offset as one batch."""
+    from fts_calib.app.monitor_offsets import OffsetFeed
+    from fts_calib.app.setup import load_sensor, load_setup
+    from fts_calib.feeds.source import open_recording
+    from fts_calib.service.offset_watch import OffsetWatch
+
+    kin, payload, _ = load_setup("ur5", "paper_tool")
+    with open_recording([ur5_recording], kin.joint_names, payload.names) as reader:
+        chunks = list(reader)
+    t, q, s, codes = (np.concatenate([getattr(c, k) for c in chunks]) for k in ("time", "joints", "channels", "configuration"))
+    drift = np.array([0.8, 0.0, 0.0, 0.0, 0.0, 0.0]) + np.outer(t - t[0], [0.0, 1.0 / 60, 0.0, 0.0, 0.0, 0.0])  # [N]
+    s = s + drift @ np.linalg.pinv(calibrated.C).T  # channels that read the drift as a wrench
+    parity, full_scale = ParityModel.from_dict(calibrated.health), load_sensor("sensor").full_scale
+    results = {}
+    for auto_tare in (False, True):
+        for size in (1, 7, 100, 1000, len(t)):
+            feed = OffsetFeed(calibrated, tmp_path / f"{size}.yaml", parity, kin, payload, None, full_scale, auto_tare, 1.0)
+            for start in range(0, len(t), size):
+                feed.add(t[start : start + size], q[start : start + size], s[start : start + size], codes[start : start + size])
+            feed.finish()
+            w = feed.watch
+            results[auto_tare, size] = (w.block, w.updates, w.contacts, feed.tares, w.last_time, w.offset, feed.calibration.D)
+        reference = results[auto_tare, len(t)]
+        for size in (1, 7, 100, 1000):
+            assert results[auto_tare, size][:5] == reference[:5], (auto_tare, size, results[auto_tare, size][:5], reference[:5])
+            for k in (5, 6):  # equal to rounding (a matrix product over another number of rows sums in another order)
+                np.testing.assert_allclose(results[auto_tare, size][k], reference[k], rtol=1e-9, atol=1e-12)
+    # one batch is the watch's own windows of 0.1 s (10 samples at 100 Hz) over the whole recording
+    block, updates, contacts, *_ = results[False, len(t)]
+    watch = OffsetWatch(feed.watch.noise, feed.watch.allowance, block=10)
+    watch.update_batch(t, calibrated.wrench(s), tool_load(kin, payload, q, codes).static)
+    assert (block, updates, contacts) == (10, watch.updates, watch.contacts) and updates > 100, (block, updates, contacts)
+    # re-tared 0.5 N (1 % FS) at a time: what the re-tares took off plus what is tracked is the drift at the last update
+    _, _, _, tares, last, offset, D = results[True, len(t)]
+    assert len(tares) >= 3, tares
+    np.testing.assert_allclose(calibrated.D - D + offset, drift[np.searchsorted(t, last)], atol=0.02)
 
 
 def test_cli_monitor_listens_with_joints_and_tracks_the_offset(calibrated, ur5_recording, tmp_path):

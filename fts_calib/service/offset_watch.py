@@ -123,6 +123,11 @@ class OffsetWatch:
         self.updates += 1
 
     @property
+    def pending(self) -> int:
+        """Samples waiting for a full block (the next window is judged when ``block - pending`` more arrive)."""
+        return len(self._left_time)
+
+    @property
     def last_time(self) -> float:
         """Time of the last update [s] (nan before the first window)."""
         return math.nan if self._time is None else self._time
