@@ -315,11 +315,15 @@ def test_monitor_offsets_do_not_depend_on_how_the_feed_is_batched(calibrated, ur
             assert results[auto_tare, size][:5] == reference[:5], (auto_tare, size, results[auto_tare, size][:5], reference[:5])
             for k in (5, 6):  # equal to rounding (a matrix product over another number of rows sums in another order)
                 np.testing.assert_allclose(results[auto_tare, size][k], reference[k], rtol=1e-9, atol=1e-12)
-    # one batch is the watch's own windows of 0.1 s (10 samples at 100 Hz) over the whole recording
+    # one batch is the watch's own windows of 0.1 s (10 samples at 100 Hz) over the whole recording, the still ones
     block, updates, contacts, *_ = results[False, len(t)]
     watch = OffsetWatch(feed.watch.noise, feed.watch.allowance, block=10)
-    watch.update_batch(t, calibrated.wrench(s), tool_load(kin, payload, q, codes).static)
+    watch.update_batch(t, calibrated.wrench(s), tool_load(kin, payload, q, codes).static, q)
     assert (block, updates, contacts) == (10, watch.updates, watch.contacts) and updates > 100, (block, updates, contacts)
+    # windows of a moving arm are refused (its dynamics, steady at a constant speed, put 0.07 N to 0.3 N in the mean):
+    # what is tracked is the drift at the last update to the calibration's own error (~1 mN) and the tracker's noise
+    _, _, _, _, last, offset, _ = results[False, len(t)]
+    np.testing.assert_allclose(offset, drift[np.searchsorted(t, last)], atol=0.005)
     # re-tared 0.5 N (1 % FS) at a time: what the re-tares took off plus what is tracked is the drift at the last update
     _, _, _, tares, last, offset, D = results[True, len(t)]
     assert len(tares) >= 3, tares
@@ -365,7 +369,15 @@ def test_cli_monitor_listens_with_joints_and_tracks_the_offset(calibrated, ur5_r
     data = json.loads((tmp_path / "m.json").read_text())
     assert data["events"] == [] and data["samples"] > 8000, data["samples"]
     # the recording the calibration came from: its still windows read the payload to the calibration's own error.
-    # How many windows the live path accepts depends on how the datagrams were batched on arrival (3, or more than 20):
-    # at least one, and every accepted one within the calibration's own error.
-    assert data["offset"]["windows_without_contact"] >= 1, data["offset"]
+    # However the datagrams were batched on arrival, the live path judges the windows the recording's file gives
+    # (130 accepted, 770 refused) when every datagram arrived. A lost strain datagram re-phases the windows after
+    # it: a loss re-phases them: then only more than half.
+    assert main(["monitor", "--calibration", str(cal), str(ur5_recording), "--robot", "ur5", "--json", str(tmp_path / "f.json")]) == 0
+    recorded = json.loads((tmp_path / "f.json").read_text())
+    assert recorded["offset"]["windows_without_contact"] > 100, recorded["offset"]
+    if data["samples"] == recorded["samples"] and data["skipped"] == 0:
+        assert data["offset"]["windows_without_contact"] == recorded["offset"]["windows_without_contact"], (data, recorded)
+        assert data["offset"]["windows_refused"] == recorded["offset"]["windows_refused"], (data, recorded)
+    else:
+        assert data["offset"]["windows_without_contact"] > recorded["offset"]["windows_without_contact"] // 2, (data, recorded)
     assert np.all(np.abs(data["offset"]["error"][:3]) < 0.02) and np.all(np.abs(data["offset"]["error"][3:]) < 0.002), data["offset"]

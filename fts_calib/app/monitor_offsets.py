@@ -105,14 +105,14 @@ class OffsetFeed:
         known = codes >= 0
         if not known.any():
             return
-        time, channels = time[known], channels[known]
-        payload = tool_load(self.kin, self.tool, joints[known], codes[known]).static
+        time, joints, channels = time[known], joints[known], channels[known]
+        payload = tool_load(self.kin, self.tool, joints, codes[known]).static
         wrench = self.calibration.wrench(channels)
         start = 0
         while start < len(time):
             # with --auto-tare, up to the end of the next window: a re-tare is judged after each one
             stop = min(len(time), start + self.watch.block - self.watch.pending) if self.auto_tare else len(time)
-            self.watch.update_batch(time[start:stop], wrench[start:stop], payload[start:stop])
+            self.watch.update_batch(time[start:stop], wrench[start:stop], payload[start:stop], joints[start:stop])
             self.last_time, start = float(time[stop - 1]), stop
             learnt = self.watch.updates >= MIN_UPDATES  # never re-tare on the first windows' estimate
             if self.auto_tare and learnt and self.watch.pending == 0 and np.any(np.abs(self.watch.offset) > self.threshold):
