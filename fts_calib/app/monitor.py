@@ -140,6 +140,8 @@ def _report(
     offsets: OffsetFeed | None = None,
 ) -> int:
     """Print what the monitor found, write the JSON; the exit status (1 on a fault)."""
+    if offsets is not None:
+        offsets.finish()
     samples = 0 if monitor is None else monitor.samples
     events = [] if monitor is None else monitor.events
     noise = ", ".join(f"{v:.3g}" for v in np.sqrt(np.diag(parity.covariance)))

@@ -19,6 +19,8 @@ from .exit_codes import writing
 
 #: Windows without contact before an automatic re-tare is trusted.
 MIN_UPDATES = 10
+#: Samples whose median time step sizes the windows (0.1 s), whatever batches they arrive in.
+SIZING_SAMPLES = 20
 
 
 class OffsetFeed:
@@ -63,33 +65,67 @@ class OffsetFeed:
             allowance[:3] = tool.gravity * tool.tolerance.mass
             allowance[3:] = tool.gravity * (heaviest * tool.tolerance.com + tool.tolerance.mass * farthest)
         self._noise, self._allowance = noise, allowance
-        self.watch = OffsetWatch(noise, allowance)  # replaced at the first batch by one with 0.1 s windows
+        self.watch = OffsetWatch(noise, allowance)  # replaced by one with 0.1 s windows once the rate is known
         self._sized = False
+        self._waiting: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         self.tares: list[float] = []
         self.last_time = math.nan
 
     def add(self, time: np.ndarray, joints: np.ndarray, channels: np.ndarray, configuration: np.ndarray) -> None:
-        """Add a batch: times [s] (N,), joints [rad] (N, n_joints), raw channels (N, n), configuration indices (N,) (-1: unknown)."""
+        """Add a batch: times [s] (N,), joints [rad] (N, n_joints), raw channels (N, n), configuration indices (N,) (-1: unknown).
+
+        The windows, the updates and the re-tares do not depend on how a feed is cut into
+        batches: the window length comes from the first :data:`SIZING_SAMPLES` samples (held
+        until they have all arrived), and a re-tare is judged after each window.
+        """
         codes = np.full(len(time), self.index) if self.index is not None else np.asarray(configuration)
+        if not self._sized:
+            self._waiting.append((np.asarray(time, dtype=float), np.asarray(joints), np.asarray(channels), codes))
+            if sum(len(w[0]) for w in self._waiting) < SIZING_SAMPLES:
+                return
+            self._size_and_judge()
+            return
+        self._judge(time, joints, channels, codes)
+
+    def finish(self) -> None:
+        """End of the feed: a feed shorter than :data:`SIZING_SAMPLES` samples is sized from what arrived and judged."""
+        if not self._sized and self._waiting:
+            self._size_and_judge()
+
+    def _size_and_judge(self) -> None:
+        time, joints, channels, codes = (np.concatenate([w[k] for w in self._waiting]) for k in range(4))
+        self._waiting = []
+        steps = np.diff(time[:SIZING_SAMPLES])
+        steps = steps[steps > 0]
+        block = max(10, int(round(0.1 / float(np.median(steps))))) if len(steps) else 100  # windows of 0.1 s
+        self.watch, self._sized = OffsetWatch(self._noise, self._allowance, block=block), True
+        self._judge(time, joints, channels, codes)
+
+    def _judge(self, time: np.ndarray, joints: np.ndarray, channels: np.ndarray, codes: np.ndarray) -> None:
         known = codes >= 0
         if not known.any():
             return
-        if not self._sized:  # windows of 0.1 s at the recording's rate
-            steps = np.diff(time)
-            steps = steps[steps > 0]
-            block = max(10, int(round(0.1 / float(np.median(steps))))) if len(steps) else 100
-            self.watch, self._sized = OffsetWatch(self._noise, self._allowance, block=block), True
-        payload = tool_load(self.kin, self.tool, joints[known], codes[known]).static
-        self.watch.update_batch(time[known], self.calibration.wrench(channels[known]), payload)
-        self.last_time = float(time[known][-1])
-        learnt = self.watch.updates >= MIN_UPDATES  # never re-tare on the first windows' estimate
-        if self.auto_tare and learnt and np.any(np.abs(self.watch.offset) > self.threshold):
-            self.calibration = self.watch.retare(
-                self.calibration, f"re-tared by monitor at {self.last_time:.3f} s: offset drift without contact"
-            )
-            with writing(self.path):
-                save_calibration(self.calibration, self.path)
-            self.tares.append(self.last_time)
+        time, joints, channels = time[known], joints[known], channels[known]
+        payload = tool_load(self.kin, self.tool, joints, codes[known]).static
+        wrench = self.calibration.wrench(channels)
+        start = 0
+        while start < len(time):
+            # with --auto-tare, up to the end of the next window: a re-tare is judged after each one
+            stop = min(len(time), start + self.watch.block - self.watch.pending) if self.auto_tare else len(time)
+            self.watch.update_batch(time[start:stop], wrench[start:stop], payload[start:stop], joints[start:stop])
+            self.last_time, start = float(time[stop - 1]), stop
+            learnt = self.watch.updates >= MIN_UPDATES  # never re-tare on the first windows' estimate
+            if self.auto_tare and learnt and self.watch.pending == 0 and np.any(np.abs(self.watch.offset) > self.threshold):
+                self._retare()
+                wrench[start:] = self.calibration.wrench(channels[start:])
+
+    def _retare(self) -> None:
+        self.calibration = self.watch.retare(
+            self.calibration, f"re-tared by monitor at {self.last_time:.3f} s: offset drift without contact"
+        )
+        with writing(self.path):
+            save_calibration(self.calibration, self.path)
+        self.tares.append(self.last_time)
 
     def lines(self) -> list[str]:
         """The offset state in words: error, rate, windows, forecast, re-tares."""

@@ -10,7 +10,8 @@ block mean ``m`` and the tracked offset error predicted to the block ``delta^``:
 
     |m_i - \hat\delta_i| \le k\,\sigma_i / \sqrt{B} + a_i \quad\text{for every axis } i
 
-and a scatter of its samples within twice the noise, is a window without contact (``sigma``:
+and a scatter of its samples within twice the noise (and, when the joints are given, no joint
+travelling more than ``STILL_RAD`` in it: a constant speed's steady dynamics), is a window without contact (``sigma``:
 the wrench noise per sample; ``a``: the payload's allowance, what the payload known to a
 tolerance adds, plus the fastest drift believed times the time since the last update, at most
 10 s of it). Only
@@ -36,6 +37,8 @@ from ..model.calibration import Calibration
 MAX_GAP_S = 10.0
 #: Largest share of a window's error the tracker takes (however long since the last update).
 MAX_ALPHA = 0.5
+#: Largest joint travel within a window of a still robot [rad] (beyond it the window is motion: refused).
+STILL_RAD = 1e-3
 
 
 class OffsetWatch:
@@ -70,29 +73,42 @@ class OffsetWatch:
         self.offset, self.rate = np.zeros(6), np.zeros(6)
         self._time: float | None = None
         self._left_time, self._left_rho = np.zeros(0), np.zeros((0, 6))  # samples waiting for a full block
+        self._left_q = np.zeros((0, 0))  # their joints (no column: none given)
         self._started = False
         self.updates = self.contacts = 0
         self.in_contact = False
 
-    def update_batch(self, time, w_measured, w_payload) -> None:
-        """Add samples: times [s] (N,), the measured wrench (N, 6) and the payload's own (N, 6); judged per block.
+    def update_batch(self, time, w_measured, w_payload, joints=None) -> None:
+        """Add samples, judged per block of ``block`` samples.
 
-        Samples that do not fill a block wait for the next call (a live feed's batches are small).
+        Samples that do not fill a block wait for the next call (a live feed's batches are small):
+        the windows are the same however the samples are batched.
+
+        Args:
+            time: Sample times [s], shape (N,).
+            w_measured: The measured wrench, [N, N, N, N m, N m, N m], shape (N, 6).
+            w_payload: The payload's own wrench on the sensor, same units, shape (N, 6).
+            joints: The joints [rad], shape (N, n_joints), or None: a window in which a joint travels
+                more than :data:`STILL_RAD` is motion (the payload's static wrench leaves out its
+                dynamics, steady at a constant speed), refused. None: no joints, only the spread tells.
         """
         time = np.asarray(time, dtype=float).reshape(-1)
         rho = np.asarray(w_measured, dtype=float) - np.asarray(w_payload, dtype=float)
         if rho.shape != (len(time), 6):
             raise ShapeError(f"wrenches of shape {rho.shape} but expected ({len(time)}, 6)")
+        q = np.zeros((len(time), 0)) if joints is None else np.asarray(joints, dtype=float).reshape(len(time), -1)
         if len(self._left_time):
             time, rho = np.concatenate([self._left_time, time]), np.vstack([self._left_rho, rho])
+            q = np.vstack([self._left_q, q]) if self._left_q.shape[1] == q.shape[1] else np.zeros((len(time), 0))
         full = len(time) - len(time) % self.block
         for start in range(0, full, self.block):
-            window = rho[start : start + self.block]
-            self._window(float(time[start : start + self.block].mean()), window.mean(axis=0), window.std(axis=0))
-        self._left_time, self._left_rho = time[full:].copy(), rho[full:].copy()
+            window, travel = rho[start : start + self.block], np.ptp(q[start : start + self.block], axis=0)
+            moving = bool(np.any(travel > STILL_RAD))
+            self._window(float(time[start : start + self.block].mean()), window.mean(axis=0), window.std(axis=0), moving)
+        self._left_time, self._left_rho, self._left_q = time[full:].copy(), rho[full:].copy(), q[full:].copy()
 
-    def _window(self, t: float, mean: np.ndarray, spread: np.ndarray) -> None:
-        varying = np.any(spread > 2.0 * self.noise + self.allowance)
+    def _window(self, t: float, mean: np.ndarray, spread: np.ndarray, moving: bool = False) -> None:
+        varying = moving or np.any(spread > 2.0 * self.noise + self.allowance)
         if not self._started:  # the first still window sets the offset error (nothing to compare it with)
             if varying:
                 self.contacts += 1
@@ -121,6 +137,11 @@ class OffsetWatch:
             self.rate = self.rate + beta * error / max(dt, 1e-9)
         self._time = t
         self.updates += 1
+
+    @property
+    def pending(self) -> int:
+        """Samples waiting for a full block (the next window is judged when ``block - pending`` more arrive)."""
+        return len(self._left_time)
 
     @property
     def last_time(self) -> float:
