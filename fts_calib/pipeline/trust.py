@@ -49,6 +49,12 @@ from ..robot.tool import Tool
 
 def inertial_moment(tool: Tool, codes: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """``I alpha + omega x I omega`` per sample [N m], shape (N, 3) (zero for a tool without inertia)."""
+    if len(codes) and codes[0] == codes[-1] and np.all(codes == codes[0]):  # one configuration (the usual block): no copies
+        inertia_com = tool.configurations[int(codes[0])].inertia_com
+        if inertia_com is None:
+            return np.zeros((len(codes), 3))
+        inertia = np.asarray(inertia_com)
+        return alpha @ inertia.T + cross(omega, omega @ inertia.T)
     out = np.zeros((len(codes), 3))
     for k, configuration in enumerate(tool.configurations):
         mine = codes == k
