@@ -7,9 +7,14 @@ bench_calibrate.py interpolates them linearly, a motion whose accelerations are 
 runs `fts-calib calibrate --filter dynamic` on it in a child process: every sample goes through
 the derivative filter, the kinematics, the tool's Newton-Euler wrench and the trust rule; with
 the pipeline's `latency_s: auto` the latency is fitted on the way (the recording has none: no
-second read). Prints rows/s of wall-clock time and of the child's CPU time (which the machine's
-load does not change), the load and the child's peak memory. Asserts nothing.
-Run: .venv/bin/python bench/bench_dynamic.py [ROWS]
+second read; the printed "dynamic filter:" line shows the latency applied, and a recording whose
+joints are late would be read twice). Prints rows/s of wall-clock time and of the child's CPU
+time (which the machine's load changes much less), the load and the child's peak memory. The
+child is the `fts-calib` command, with its one BLAS thread (`OPENBLAS_NUM_THREADS` of the
+environment, if set, wins). Asserts nothing.
+With LATE_MS the joint readings are that late (the positions of t - LATE_MS at time t): `latency_s:
+auto` then fits the latency in a first read and reads the recording again with it applied.
+Run: .venv/bin/python bench/bench_dynamic.py [ROWS [LATE_MS]]
 """
 
 import os
@@ -51,7 +56,7 @@ def hermite(t: np.ndarray, knots: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd
     return pos, vel, acc
 
 
-def write_recording(path: Path, rows: int) -> None:
+def write_recording(path: Path, rows: int, late_s: float = 0.0) -> None:
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))
     sensor = load_simulated_sensor(resolve("sensor", "configs"))
@@ -61,7 +66,8 @@ def write_recording(path: Path, rows: int) -> None:
         traj = read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz")
         t = np.arange(0, traj.time[-1], 0.001)
         q, qd, qdd = hermite(t, traj.time, traj.q, traj.qd, traj.qdd)
-        parts.append((name, t, q, tool_wrenches(kin, tool, name, q, qd, qdd)))
+        read = q if late_s == 0 else hermite(np.maximum(t - late_s, 0.0), traj.time, traj.q, traj.qd, traj.qdd)[0]
+        parts.append((name, t, read, tool_wrenches(kin, tool, name, q, qd, qdd)))
     written, offset = 0, 0.0
     with RecordingWriter(path, kin.joint_names) as writer:
         while written < rows:
@@ -76,11 +82,13 @@ def write_recording(path: Path, rows: int) -> None:
 
 def main():
     rows = int(sys.argv[1]) if len(sys.argv) > 1 else 3_600_000
+    late_s = float(sys.argv[2]) / 1000 if len(sys.argv) > 2 else 0.0
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "long.csv"
         start = time.perf_counter()
-        write_recording(path, rows)
-        print(f"wrote {rows:,} rows ({path.stat().st_size / 1e6:.0f} MB) in {time.perf_counter() - start:.1f} s")
+        write_recording(path, rows, late_s)
+        late = f", joints {late_s * 1000:g} ms late" if late_s else ""
+        print(f"wrote {rows:,} rows ({path.stat().st_size / 1e6:.0f} MB{late}) in {time.perf_counter() - start:.1f} s")
         child = (
             "import sys; from fts_calib.app.cli import main; code = main(sys.argv[1:]); "
             "print([l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].strip()); sys.exit(code)"
@@ -95,7 +103,8 @@ def main():
             if result.returncode != 0:
                 print(result.stdout, result.stderr)
             peak = float(result.stdout.strip().splitlines()[-1].split()[1]) / 1024  # kB
-            print("\n".join(result.stdout.splitlines()[:2]))
+            lines = result.stdout.splitlines()
+            print("\n".join(lines[:2] + [line for line in lines if line.startswith("dynamic filter:")]))
             print(
                 f"calibrate --filter dynamic ({what}), end to end (process start included): {rows / seconds:,.0f} rows/s "
                 f"(target >= 150,000), {seconds:.1f} s; {rows / cpu:,.0f} rows per CPU-second ({cpu:.1f} s of CPU); "

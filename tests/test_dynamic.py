@@ -153,6 +153,12 @@ def test_the_derivative_filter_is_exact_on_a_quintic_and_shifts_by_the_latency()
     np.testing.assert_allclose(out.joints[inner, 0], np.polynomial.polynomial.polyval(later[inner], coefficients), atol=1e-10)
     np.testing.assert_allclose(out.velocity[inner, 0], np.polynomial.polynomial.polyval(later[inner], d1), atol=1e-9)
     np.testing.assert_allclose(out.acceleration[inner, 0], np.polynomial.polynomial.polyval(later[inner], d2), atol=1e-8)
+    # without the cut-window fit (the dynamic filter drops those samples): the same whole windows, the readings and no rates elsewhere
+    bare = joint_motion(t, q, 0.3, 0.001, None, shift_s=0.008, order=5, cut=False)
+    for name in ("joints", "velocity", "acceleration"):
+        np.testing.assert_array_equal(getattr(bare, name)[inner], getattr(out, name)[inner])
+    np.testing.assert_array_equal(bare.joints[~inner], q[~inner])
+    assert not bare.velocity[~inner].any() and not bare.acceleration[~inner].any() and out.acceleration[~inner].all()
 
 
 def test_noise_gains_are_those_of_the_kernels(rng):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 import io
+import os
 import sys
 import warnings
 from typing import TYPE_CHECKING, Any
@@ -22,6 +23,13 @@ if TYPE_CHECKING:
     import argparse
 
 __all__ = ["build_parser", "main", "run_command"]
+
+#: Threads of the BLAS numpy loads, unless the environment says otherwise. The stages multiply tall
+#: thin arrays block by block (N x 3 by 3 x 3, N x 8 by 8 x 6, ...): a second thread only waits
+#: for the first, and on a busy machine its waiting costs more CPU than the product (one thread:
+#: `calibrate --filter dynamic` 22 s of CPU for 3.6 M rows instead of 26-31 s, the same C;
+#: docs/benchmarks.md).
+BLAS_THREADS = "1"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,7 +66,12 @@ def _printable_output() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``fts-calib`` command; returns the exit status (:mod:`fts_calib.app.exit_codes`)."""
+    """Entry point of the ``fts-calib`` command; returns the exit status (:mod:`fts_calib.app.exit_codes`).
+
+    Sets ``OPENBLAS_NUM_THREADS`` to :data:`BLAS_THREADS` when the environment does not set it (it
+    takes effect when numpy is first imported: in this process, after this call).
+    """
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", BLAS_THREADS)
     try:
         return _main(argv)
     except KeyboardInterrupt:  # while the modules load or the options are read: one line, as during a command

@@ -107,6 +107,7 @@ def joint_motion(
     continuous: np.ndarray | None = None,
     shift_s: float = 0.0,
     order: int = 3,
+    cut: bool = True,
 ) -> JointMotion:
     """Joint positions, velocities and accelerations at ``time + shift_s`` of the readings (see the module docstring).
 
@@ -118,6 +119,9 @@ def joint_motion(
         continuous: Which joints are continuous (unwrapped first). Shape (n_joints,) bool.
         shift_s: The latency of the readings [s]: the motion is that of the readings this much later.
         order: Degree of the local polynomial (3 or 5).
+        cut: Fit the cut windows too; False: a sample without a whole window keeps its reading
+            as position and zero rates (for a caller that drops those samples anyway: the
+            dynamic filter).
 
     Returns:
         :class:`JointMotion` with N rows.
@@ -142,7 +146,7 @@ def joint_motion(
         position[inner] += origin
         span = time[2 * half :] - time[: n - 2 * half]
         full[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
-    rest = np.nonzero(~full)[0]
+    rest = np.nonzero(~full)[0] if cut else np.zeros(0, dtype=np.int64)
     if len(rest):  # cut windows: the local quadratic at the sample, moved by its Taylor terms
         v, a = _rates_at(time, q, window_s, rest)
         position[rest] = q[rest] + v * shift_s + 0.5 * a * shift_s**2

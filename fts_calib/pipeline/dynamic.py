@@ -237,7 +237,8 @@ class DynamicFilter:
             return self._none(buf)
         window, dt = settings.dynamic_window_s, self._dt or 0.0
         if exact is None:
-            motion = joint_motion(buf.time, buf.joints, window, dt, self._continuous, self.latency_s, settings.dynamic_order)
+            # a sample without a whole window is dropped, and so is one whose jerk window reaches one: their rates are never used
+            motion = joint_motion(buf.time, buf.joints, window, dt, self._continuous, self.latency_s, settings.dynamic_order, cut=False)
             half = max(1, int(round(window / 2 / dt))) if dt > 0 else 1
             gains = kernel_gains(window, dt, settings.dynamic_order) if dt > 0 else (0.0, 0.0, 0.0, 0.0)
             check = motion.acceleration if motion.check is None else motion.check

@@ -49,6 +49,12 @@ from ..robot.tool import Tool
 
 def inertial_moment(tool: Tool, codes: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """``I alpha + omega x I omega`` per sample [N m], shape (N, 3) (zero for a tool without inertia)."""
+    if len(codes) and codes[0] == codes[-1] and np.all(codes == codes[0]):  # one configuration (the usual block): no copies
+        inertia_com = tool.configurations[int(codes[0])].inertia_com
+        if inertia_com is None:
+            return np.zeros((len(codes), 3))
+        inertia = np.asarray(inertia_com)
+        return alpha @ inertia.T + cross(omega, omega @ inertia.T)
     out = np.zeros((len(codes), 3))
     for k, configuration in enumerate(tool.configurations):
         mine = codes == k
@@ -118,17 +124,20 @@ def predicted_error(
     inertias = np.array([0.0 if c.inertia_com is None else float(np.linalg.norm(c.inertia_com, 2)) for c in tool.configurations])[codes]
     spin = 2.0 * np.linalg.norm(omega, axis=1)
 
-    def through_tool(d_acc: np.ndarray, d_vel: np.ndarray) -> np.ndarray:  # joint-rate errors -> wrench error (N, 6)
-        angular = np.linalg.norm(d_acc, axis=1) + spin * np.linalg.norm(d_vel, axis=1)
-        linear = np.linalg.norm(d_acc * levers, axis=1) + spin * np.linalg.norm(d_vel * levers, axis=1)
+    def norms(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # |d| and |R d| per row of joint-rate errors
+        return np.linalg.norm(d, axis=1), np.linalg.norm(d * levers, axis=1)
+
+    def through_tool(d_acc, d_vel) -> np.ndarray:  # the norms of joint-rate errors -> wrench error (N, 6)
+        angular = d_acc[0] + spin * d_vel[0]
+        linear = d_acc[1] + spin * d_vel[1]
         force = masses * (linear + radii * angular)
         moment = radii * force + inertias * angular
         return np.column_stack([np.repeat(force[:, None], 3, axis=1), np.repeat(moment[:, None], 3, axis=1)])
 
     n = len(codes)
-    shape = (n, len(joint_noise))
-    noise = through_tool(np.broadcast_to(gain_a * joint_noise, shape), np.broadcast_to(gain_v * joint_noise, shape))
-    bias = through_tool(bias, np.zeros_like(bias))
+    # the noise is the same for every sample: its norms once (one row), not per sample
+    noise = through_tool(norms((gain_a * joint_noise)[None]), norms((gain_v * joint_noise)[None]))
+    bias = through_tool(norms(bias), (0.0, 0.0))
     latency = latency_sigma_s * np.abs(rate)
     inertia = inertia_tolerance * np.column_stack([np.zeros((n, 3)), np.abs(inertial)])
     return noise, np.sqrt(bias**2 + latency**2 + inertia**2)

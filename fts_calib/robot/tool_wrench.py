@@ -90,6 +90,9 @@ def tool_load(
     motion = kin.sensor_motion(joints, joint_velocity, joint_acceleration)
     g = np.einsum("nji,j->ni", motion.R_world_sensor.reshape(n, 3, 3), kin.g_world(tool.gravity))
     static = np.einsum("nij,nj->ni", matrices[codes], g)
+    if codes[0] == codes[-1] and np.all(codes == codes[0]):  # one configuration (the usual block): no copies
+        moving = tool.configurations[int(codes[0])].dynamic_wrench(g, motion.omega, motion.alpha, motion.a)
+        return ToolLoad(g, static, moving, motion)
     moving = np.zeros((n, 6))
     for k, tool_configuration in enumerate(tool.configurations):
         mine = codes == k
