@@ -100,7 +100,14 @@ def smooth_motion(kin: Kinematics, home: np.ndarray, amp: np.ndarray, duration: 
     omega = np.minimum(cap, nominal)
     # the ramp: the speed A omega reached within the acceleration and jerk limits
     speed = a * omega
-    ramp = float(np.max(np.maximum(_SMOOTH_PEAKS[0] * speed / (LIMIT_FRACTION * lim.acceleration), np.sqrt(_SMOOTH_PEAKS[1] * speed / (LIMIT_FRACTION * lim.jerk)))))
+    ramp = float(
+        np.max(
+            np.maximum(
+                _SMOOTH_PEAKS[0] * speed / (LIMIT_FRACTION * lim.acceleration),
+                np.sqrt(_SMOOTH_PEAKS[1] * speed / (LIMIT_FRACTION * lim.jerk)),
+            )
+        )
+    )
     ramp = max(ramp, 0.5)
     steady = duration - ramp
     if not (math.isfinite(duration) and steady > ramp):
@@ -151,4 +158,6 @@ def smooth_plan(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, duration:
     time, q, qd, qdd = smooth_motion(kin, home, amp, duration, rate)
     pattern = SweepPattern(2, 1, 0.0, margin, 1.0, continuous=True, smooth=True)
     first, second = kin.sweep_joints
-    return Plan(kin.robot.name, kin.joint_names, (first, second), home, ranges, np.empty((0, 2)), pattern, kin.limits, rate, time, q, qd, qdd)
+    return Plan(
+        kin.robot.name, kin.joint_names, (first, second), home, ranges, np.empty((0, 2)), pattern, kin.limits, rate, time, q, qd, qdd
+    )

@@ -1,0 +1,79 @@
+"""Smooth continuous plans: limits (by differences) and clearance kept, at rest at home at both ends, most samples trusted."""
+
+import numpy as np
+import pytest
+
+from fts_calib import TrajectoryError
+from fts_calib.core.resources import resolve
+from fts_calib.model.budget import wrench_noise
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.planning.dynamic_accuracy import filter_weights
+from fts_calib.planning.motion import plan_sweeps
+from fts_calib.planning.planner import check_plan, plan_base
+from fts_calib.planning.smooth import smooth_plan
+from fts_calib.planning.sweeps import SweepPattern, spanned
+from fts_calib.robot.collision import CollisionChecker
+from fts_calib.robot.dynamic_sensitivities import MotionUncertainty
+
+BASE = SweepPattern(2, 2, 0.0, 0.02, continuous=True)
+
+
+def _plan(kin, tool, seconds, rate):
+    checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])
+    base = plan_base(kin, checker, BASE)
+    return checker, base, smooth_plan(kin, base[0].home, base[1].ranges, seconds, rate)
+
+
+@pytest.mark.parametrize(("robot", "seconds"), [("ur5", 5.0), ("kinova", 10.0), ("xarm7", 5.0)])
+def test_a_smooth_plan_keeps_its_limits_and_clearance_and_starts_and_ends_at_rest_at_home(robot, seconds, robot_kinematics, paper_tool):
+    """Independent of the closed form: velocity, acceleration, jerk from differences of the positions; clearance on every 10th sample."""
+    kin = robot_kinematics(robot)
+    checker, base, plan = _plan(kin, paper_tool, seconds, 200.0)
+    h, lim = 1 / 200.0, kin.limits
+    result = check_plan(checker, plan, base)
+    assert not result.problems, result.problems
+    assert np.all(plan.q >= lim.lower - 1e-9) and np.all(plan.q <= lim.upper + 1e-9)
+    for order, name in ((1, "velocity"), (2, "acceleration"), (3, "jerk")):
+        peak = np.max(np.abs(np.diff(plan.q, n=order, axis=0)) / h**order, axis=0)
+        assert np.all(peak <= getattr(lim, name) * (1 + 1e-6) + 1e-9), f"{name}: {peak} above {getattr(lim, name)}"
+    # the closed-form rates are the positions' (central differences, to O(h^2))
+    np.testing.assert_allclose(np.gradient(plan.q, h, axis=0)[1:-1], plan.qd[1:-1], atol=1e-3)
+    np.testing.assert_allclose(np.gradient(plan.qd, h, axis=0)[1:-1], plan.qdd[1:-1], atol=1e-2)
+    # at rest at home at both ends: position, velocity, acceleration, and the jerk (differences) ~ 0
+    for end in (0, -1):
+        np.testing.assert_allclose(plan.q[end], base[0].home, atol=1e-9)
+        np.testing.assert_allclose(plan.qd[end], 0.0, atol=1e-9)
+        np.testing.assert_allclose(plan.qdd[end], 0.0, atol=1e-9)
+    assert np.max(np.abs(np.diff(plan.qdd[:3], axis=0))) / h < 0.02 * lim.jerk.min()  # the jerk grows from 0 (a ruckig start: at its limit)
+    # every joint moves, both sweep joints widely; never still after the first instants of the ramp
+    assert np.all(np.ptp(plan.q, axis=0) > 0.1)
+    assert all(np.ptp(plan.q[:, kin.joint_names.index(j)]) > 0.8 for j in kin.sweep_joints)
+    inside = (plan.time > 0.1) & (plan.time < plan.duration - 0.1)  # the ramps start as t^4
+    assert np.all(np.any(np.abs(plan.qd[inside]) > 1e-6, axis=1))
+    assert checker.clearance(plan.q[::10], "all").distance >= result.min_clearance
+
+
+def test_the_dynamic_filter_trusts_most_of_a_smooth_plan_and_few_of_a_raster_as_long(robot_kinematics, paper_tool):
+    """The reason for the smooth motion: its snap is small, so the trust rule keeps most samples (a raster of the same length: ~10 %)."""
+    kin = robot_kinematics("ur5")
+    _, base, plan = _plan(kin, paper_tool, 6.6, 50.0)
+    raster = SweepPattern(3, 1, 0.0, 0.02, 0.2, continuous=True)  # 6.6 s too
+    sweeps = plan_sweeps(kin, base[0].home, spanned(base[1].ranges, 0.2), raster, 50.0)
+    sim = load_sensor_config(resolve("sensor", "configs")).simulated
+    sigma_w = wrench_noise(sim.C, sim.noise_std)  # the shipped sensor's strain noise [N, N m]
+    uncertainty = MotionUncertainty(inertia=0.01, joint_noise=1e-5, latency_s=1e-4, jitter_s=1e-4)
+    smooth_kept = np.mean(filter_weights(kin, paper_tool, plan, sigma_w, uncertainty) > 0)
+    raster_kept = np.mean(filter_weights(kin, paper_tool, sweeps, sigma_w, uncertainty) > 0)
+    assert abs(sweeps.duration - plan.duration) < 0.2
+    assert smooth_kept > 0.4 and smooth_kept > 3 * raster_kept, (smooth_kept, raster_kept)
+
+
+def test_a_smooth_motion_too_short_for_its_ramps_is_refused(robot_kinematics, paper_tool):
+    kin = robot_kinematics("ur5")
+    with pytest.raises(TrajectoryError, match="ramps in and out take"):
+        _plan(kin, paper_tool, 0.8, 50.0)  # each ramp takes at least 0.5 s
+
+
+def test_smooth_needs_a_continuous_pattern():
+    with pytest.raises(TrajectoryError, match="continuous=True"):
+        SweepPattern(2, 2, 0.0, smooth=True)
