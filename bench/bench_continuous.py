@@ -11,8 +11,10 @@ configuration's inertia drawn within the tolerance (uniform, each element within
 noise, calibrated with ``filter.mode: dynamic``; the error is the calibration's against the
 true sensor, RMS over loads uniform in the full-scale box, largest axis, % FS (the budget's
 figure before the coverage factor: compare with the predicted sigma, k = 1, and total, k = 2).
-Prints the table of docs/accuracy.md; asserts nothing.
-Run: .venv/bin/python bench/bench_continuous.py [--seeds N] [--quick]
+With ``--smooth`` the motions are the smooth excitation of :mod:`fts_calib.planning.smooth`
+(``trajectory --motion smooth``) of :data:`SMOOTH_S` seconds instead of the rasters.
+Prints the tables of docs/accuracy.md; asserts nothing.
+Run: .venv/bin/python bench/bench_continuous.py [--seeds N] [--quick] [--smooth] [--configurations 1,2,3]
 """
 
 import argparse
