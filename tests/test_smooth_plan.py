@@ -1,19 +1,30 @@
 """Smooth continuous plans: limits (by differences) and clearance kept, at rest at home at both ends, most samples trusted."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from fts_calib import TrajectoryError
 from fts_calib.core.resources import resolve
+from fts_calib.feeds.recording_writer import RecordingWriter
 from fts_calib.model.budget import wrench_noise
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.planning.dynamic_accuracy import filter_weights
+from fts_calib.pipeline.calibrate import calibrate_recording
+from fts_calib.pipeline.dynamic import nominal_c
+from fts_calib.pipeline.settings import FilterConfig, PipelineConfig
+from fts_calib.planning.accuracy import SYSTEMATIC
+from fts_calib.planning.dynamic_accuracy import dynamic_plan_budget, filter_weights
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.planner import check_plan, plan_base
 from fts_calib.planning.smooth import smooth_plan
 from fts_calib.planning.sweeps import SweepPattern, spanned
+from fts_calib.planning.trajectory import motion_uncertainty
 from fts_calib.robot.collision import CollisionChecker
 from fts_calib.robot.dynamic_sensitivities import MotionUncertainty
+from fts_calib.sim.rnea import rnea_tool_wrench
+from fts_calib.sim.sensor import SimulatedSensor
+from tests.dynamic_motion import error_percent_fs
 
 BASE = SweepPattern(2, 2, 0.0, 0.02, continuous=True)
 
@@ -77,3 +88,42 @@ def test_a_smooth_motion_too_short_for_its_ramps_is_refused(robot_kinematics, pa
 def test_smooth_needs_a_continuous_pattern():
     with pytest.raises(TrajectoryError, match="continuous=True"):
         SweepPattern(2, 2, 0.0, smooth=True)
+
+
+def test_five_seconds_of_the_sized_ur5_smooth_motion_calibrate_within_the_budget(ur5, paper_tool, seed, tmp_path):
+    """The issue's case: 5 s per configuration, the wrench by Pinocchio's RNEA with inertias off by up to 1 %, joints 8 ms late and noisy.
+
+    Calibrated with ``filter.mode: dynamic`` (latency fitted); the error over the full-scale box
+    stays within the issue's 0.01 % FS and the plan's predicted budget (the terms a plan shrinks:
+    the simulation knows the tool's mass, centre of mass and the mount). Seen over seeds 0-4:
+    0.0034-0.0050 % FS against a predicted 0.067 %, 7,626 to 7,772 of 15,003 samples kept.
+    """
+    rng = np.random.default_rng(seed)
+    spec = load_sensor_config(resolve("sensor", "configs"))
+    sim = spec.simulated
+    checker = CollisionChecker(ur5, paper_tool.shape, ur5.sweep_joints[0])
+    home, ranges = plan_base(ur5, checker, BASE)
+    plan = smooth_plan(ur5, home.home, ranges.ranges, 5.0, spec.rate_hz)
+    coarse = smooth_plan(ur5, home.home, ranges.ranges, 5.0, 50.0)
+    filter_config = dataclasses.replace(FilterConfig(mode="dynamic"), joint_noise=1e-5, latency_uncertainty_s=1e-4, inertia_tolerance=0.01)
+    settings = PipelineConfig(filter=filter_config).with_nominal_c(nominal_c(spec)).with_offsets("constant")
+    uncertainty = motion_uncertainty(settings.filter, spec.rate_hz)
+    nominal = (sim.C_bar, sim.D, wrench_noise(sim.C, sim.noise_std), spec.full_scale)
+    predicted = dynamic_plan_budget(ur5, paper_tool, coarse, *nominal, sample_rate_hz=spec.rate_hz, uncertainty=uncertainty)
+    predicted = predicted.without(list(SYSTEMATIC))
+    sensor = SimulatedSensor.from_spec(sim)
+    path = tmp_path / "smooth.csv"
+    with RecordingWriter(path, ur5.joint_names) as writer:
+        for k, c in enumerate(paper_tool.configurations):
+            bound = 0.01 * np.linalg.eigvalsh(c.inertia_com).max()
+            inertia = c.inertia_com + np.diag(rng.uniform(-bound, bound, 3))  # diagonal: stays physical
+            true = dataclasses.replace(paper_tool, configurations=(dataclasses.replace(c, inertia_com=inertia),))
+            W = rnea_tool_wrench(ur5, true, c.name, plan.q, plan.qd, plan.qdd)
+            t = plan.time + k * (plan.duration + 2.0)
+            late = np.column_stack([np.interp(plan.time - 0.008, plan.time, plan.q[:, j]) for j in range(ur5.n_joints)])
+            writer.write(t, late + rng.normal(0.0, 1e-5, late.shape), sensor.channels(W, rng=rng), c.name)
+    result = calibrate_recording(path, ur5, paper_tool, settings, layout=spec.layout, full_scale=spec.full_scale, model="linear")
+    assert result.calibration is not None, result.error
+    error = error_percent_fs(result.calibration, sim, spec.full_scale)
+    assert np.max(error) <= min(0.01, predicted.largest_percent), (error, predicted.largest_percent)
+    assert result.session.progress().kept >= 0.4 * 3 * len(plan.time)
