@@ -4,8 +4,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+import yaml
 
 from fts_calib import TrajectoryError
+from fts_calib.app.cli import main
 from fts_calib.core.resources import resolve
 from fts_calib.feeds.recording_writer import RecordingWriter
 from fts_calib.model.budget import wrench_noise
@@ -13,6 +15,7 @@ from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.pipeline.dynamic import nominal_c
 from fts_calib.pipeline.settings import FilterConfig, PipelineConfig
+from fts_calib.planning import smooth_sizing
 from fts_calib.planning.accuracy import SYSTEMATIC
 from fts_calib.planning.dynamic_accuracy import dynamic_plan_budget, filter_weights
 from fts_calib.planning.motion import plan_sweeps
@@ -127,3 +130,20 @@ def test_five_seconds_of_the_sized_ur5_smooth_motion_calibrate_within_the_budget
     error = error_percent_fs(result.calibration, sim, spec.full_scale)
     assert np.max(error) <= min(0.01, predicted.largest_percent), (error, predicted.largest_percent)
     assert result.session.progress().kept >= 0.4 * 3 * len(plan.time)
+
+
+def test_trajectory_motion_smooth_writes_a_sized_plan_and_refuses_too_few_configurations(tmp_path, capsys, monkeypatch):
+    """The command: sized to the target, plan.yaml states a smooth continuous motion; 2 configurations refused naming what each reaches."""
+    monkeypatch.setattr(smooth_sizing, "DURATIONS_S", (5.0,))  # one of the 13 the command tries: the same refusal, sooner
+    out = tmp_path / "plan"
+    common = ["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--rate", "50", "--no-plot", "--motion", "smooth"]
+    assert main([*common, "--target-error", "0.08"]) == 0, capsys.readouterr()
+    plan = yaml.safe_load((out / "plan.yaml").read_text())
+    assert plan["motion"] == "continuous" and plan["pattern"]["smooth"] is True and plan["pattern"]["continuous"] is True
+    assert plan["duration_s"] == 5.0  # predicted 0.067 % on the 5 s motion: within 0.08
+    assert 0.4 * 251 < np.mean(list(plan["excitation"]["dynamic_samples"].values())) < 251  # most samples trusted
+    assert "smooth excitation" in capsys.readouterr().out
+    code = main([*common, "--configurations", "2", "--target-error", "0.05", "-o", str(tmp_path / "two")])
+    err = capsys.readouterr().err
+    assert code != 0 and "no smooth plan of 2 configurations" in err and "3 configurations reach" in err, err
+    assert not (tmp_path / "two" / "A.csv").exists()

@@ -2,9 +2,10 @@
 
 :func:`size_smooth` is :func:`fts_calib.planning.continuous.size_continuous` for the smooth
 excitation of :mod:`fts_calib.planning.smooth`: it tries the durations of :data:`DURATIONS_S`,
-shortest first, and keeps the first whose predicted budget
-(:func:`fts_calib.planning.dynamic_accuracy.dynamic_plan_budget`: the samples the dynamic
-filter's trust rule keeps, weighed as it weighs them, with the dynamic terms) meets the target
+shortest first (until the budget stops falling: less than 5 % twice running), and keeps the
+first whose predicted budget (:func:`fts_calib.planning.dynamic_accuracy.dynamic_plan_budget`:
+the samples the dynamic filter's trust rule keeps, weighed as it weighs them, with the dynamic
+terms) meets the target
 on every axis and whose samples pass the checks of every plan (limits, clearance). With fewer
 configurations than the target needs it refuses, naming what each number reaches.
 Durations in [s], errors in % of full scale.
@@ -29,6 +30,7 @@ from .sweeps import MIN_CLEARANCE, SweepPattern
 
 #: Motion per configuration tried [s], shortest first.
 DURATIONS_S = (4.0, 5.0, 6.0, 7.0, 8.0, 10.0, 13.0, 16.0, 20.0, 25.0, 30.0, 40.0, 60.0)
+_STALL = 0.05  # a budget less than this fraction below the best so far, twice running, ends the search
 
 
 def size_smooth(
@@ -61,19 +63,23 @@ def size_smooth(
     full_tool = tool if full_tool is None else full_tool
     base = plan_base(kin, checker, SweepPattern(2, 2, 0.0, margin, continuous=True), min_clearance)
     home, ranges = base[0].home, base[1].ranges
-    floor, best, problem = None, None, None
+    floor, best, problem, stalled = None, None, None, 0
     for tried, duration in enumerate(DURATIONS_S, start=1):
         try:
             plan = smooth_plan(kin, home, ranges, duration, _SCREEN_RATE_HZ, margin)
         except TrajectoryError:
             continue  # too short for the ramps within this robot's limits
         budget = _budget(kin, tool, plan, nominal, sample_rate_hz, uncertainty)
+        improving = best is None or budget.largest_percent < (1 - _STALL) * best[1].largest_percent
+        stalled = 0 if improving else stalled + 1
         if best is None or budget.largest_percent < best[1].largest_percent:
             best = (plan, budget)
         systematic = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
         if floor is None or systematic.largest_percent < floor.largest_percent:
             floor = systematic
         if budget.largest_percent > target_percent:
+            if stalled >= 2:
+                break  # the budget has stopped falling: longer motions would not meet it either
             continue
         result = check_plan(checker, smooth_plan(kin, home, ranges, duration, rate, margin), base, min_clearance)
         if not result.problems:
