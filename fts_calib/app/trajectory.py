@@ -180,6 +180,11 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
     files.append(atomic_write_text(out / "plan.yaml", dump_yaml(plan_summary(run, [f.name for f in files]))))
     if plot:
         index = [plan.joint_names.index(j) for j in plan.sweep_joints]
+        labels = {}
+        if plan.pattern.continuous:  # the shaded samples: those the dynamic filter's trust rule keeps
+            labels["kept"] = "samples the dynamic filter trusts"
+        if plan.pattern.smooth:
+            labels["motion"] = "planned smooth motion (sinusoids ramped in and out)"
         files.append(
             plots.plot_plan(
                 out / "plan.png",
@@ -189,6 +194,7 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
                 run.still,
                 run.g_sensor,
                 f"{plan.robot}: calibration sweep, {plan.duration:.1f} s per tool configuration",
+                **labels,
             )
         )
     return dataclasses.replace(run, files=files)
