@@ -99,7 +99,7 @@ def test_five_seconds_of_the_sized_ur5_smooth_motion_calibrate_within_the_budget
     Calibrated with ``filter.mode: dynamic`` (latency fitted); the error over the full-scale box
     stays within the issue's 0.01 % FS and the plan's predicted budget (the terms a plan shrinks:
     the simulation knows the tool's mass, centre of mass and the mount). Seen over seeds 0-4:
-    0.0034-0.0050 % FS against a predicted 0.067 %, 7,626 to 7,772 of 15,003 samples kept.
+    0.0028-0.0066 % FS against a predicted 0.037 %, 7,419 to 7,574 of 15,003 samples kept.
     """
     rng = np.random.default_rng(seed)
     spec = load_sensor_config(resolve("sensor", "configs"))
@@ -141,7 +141,8 @@ def test_trajectory_motion_smooth_writes_a_sized_plan_and_refuses_too_few_config
     plan = yaml.safe_load((out / "plan.yaml").read_text())
     assert plan["motion"] == "continuous" and plan["pattern"]["smooth"] is True and plan["pattern"]["continuous"] is True
     assert plan["duration_s"] == 5.0  # predicted 0.067 % on the 5 s motion: within 0.08
-    assert 0.4 * 251 < np.mean(list(plan["excitation"]["dynamic_samples"].values())) < 251  # most samples trusted
+    # the trust rule's prediction on the 50 Hz plan: 25-33 % (the filter at 1 kHz keeps half: the test above)
+    assert 0.2 * 251 < np.mean(list(plan["excitation"]["dynamic_samples"].values())) < 251
     assert "smooth excitation" in capsys.readouterr().out
     code = main([*common, "--configurations", "2", "--target-error", "0.05", "-o", str(tmp_path / "two")])
     err = capsys.readouterr().err

@@ -12,7 +12,8 @@ rises from 0 to 1 over the ramp (a 7th-degree smoothstep: its first three deriva
 at both ends), holds 1, and falls back to 0 at the end. The motion therefore starts and ends at
 rest (velocity, acceleration and jerk 0) at home, and each joint stays within ``home +- A_j``.
 The two sweep joints swing widely (their range about home, at most :data:`SWEEP_AMPLITUDE`),
-with half-cycle counts one apart (a Lissajous figure: gravity crosses the sensor frame's
+with half-cycle counts one apart, the first joint's the larger when the limits allow only one
+(it then swings to both sides of home; a Lissajous figure: gravity crosses the sensor frame's
 sphere); the other joints swing by :data:`ARM_AMPLITUDE` (the arm's accelerations add
 inertial excitation). Frequencies and the ramp are set within :data:`LIMIT_FRACTION` of the
 velocity, acceleration and jerk limits, then checked on the samples.
@@ -112,13 +113,14 @@ def smooth_motion(kin: Kinematics, home: np.ndarray, amp: np.ndarray, duration: 
     steady = duration - ramp
     if not (math.isfinite(duration) and steady > ramp):
         raise TrajectoryError(f"duration {duration:g} s but the ramps in and out take {2 * ramp:.2f} s: expected more", "too short")
-    # whole half cycles: the sweep joints one apart, the others 1, 2, ...
+    # whole half cycles: the sweep joints one apart (one fewer for the second, or one more for the first), the others as fit
     half = np.maximum(1, np.floor(omega * steady / np.pi)).astype(int)
     order = [k for k in range(kin.n_joints) if sweep[k] and moving[k]]
     if len(order) == 2 and half[order[0]] == half[order[1]]:
-        half[order[0]] = max(1, half[order[0]] - 1) if half[order[0]] > 1 else half[order[0]]
-        if half[order[0]] == half[order[1]]:
-            half[order[1]] += 1
+        if half[order[1]] > 1:
+            half[order[1]] -= 1
+        else:
+            half[order[0]] += 1
     omega = half * np.pi / steady
     n = int(math.floor(duration * rate + 1e-9)) + 1
     time = np.arange(n) / rate
