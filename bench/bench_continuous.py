@@ -11,8 +11,10 @@ configuration's inertia drawn within the tolerance (uniform, each element within
 noise, calibrated with ``filter.mode: dynamic``; the error is the calibration's against the
 true sensor, RMS over loads uniform in the full-scale box, largest axis, % FS (the budget's
 figure before the coverage factor: compare with the predicted sigma, k = 1, and total, k = 2).
-Prints the table of docs/accuracy.md; asserts nothing.
-Run: .venv/bin/python bench/bench_continuous.py [--seeds N] [--quick]
+With ``--smooth`` the motions are the smooth excitation of :mod:`fts_calib.planning.smooth`
+(``trajectory --motion smooth``) of :data:`SMOOTH_S` seconds instead of the rasters.
+Prints the tables of docs/accuracy.md; asserts nothing.
+Run: .venv/bin/python bench/bench_continuous.py [--seeds N] [--quick] [--smooth] [--configurations 1,2,3]
 """
 
 import argparse
@@ -35,6 +37,7 @@ from fts_calib.planning.continuous import with_configurations
 from fts_calib.planning.dynamic_accuracy import dynamic_plan_budget
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.planner import plan_base
+from fts_calib.planning.smooth import smooth_plan
 from fts_calib.planning.sweeps import SweepPattern, spanned
 from fts_calib.planning.trajectory import motion_uncertainty
 from fts_calib.robot.collision import CollisionChecker
@@ -49,6 +52,8 @@ JOINT_NOISE = 1e-5  # [rad] white noise of each joint reading
 LATENCY_STD_S = 1e-4  # [s] uncertainty of the latency once fitted (filter.latency_uncertainty_s)
 #: Continuous rasters (levels, stops, span), shortest first.
 PATTERNS = ((2, 1, 0.2), (3, 1, 0.2), (3, 2, 0.35), (4, 3, 0.75))
+#: Smooth excitations (fts_calib/planning/smooth.py): motion per configuration [s].
+SMOOTH_S = (4.0, 5.0, 6.0, 8.0)
 
 
 def drawn_inertia(tool, tolerance, rng):
@@ -92,6 +97,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=2, help="simulated runs per cell (default: 2)")
     parser.add_argument("--quick", action="store_true", help="the two shortest motions only")
+    parser.add_argument("--smooth", action="store_true", help="the smooth excitation (planning/smooth.py) instead of the rasters")
+    parser.add_argument("--configurations", default="1,2,3", help="numbers of configurations, comma separated (default: 1,2,3)")
     args = parser.parse_args()
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))
@@ -115,13 +122,21 @@ def main():
     )
     print("| configurations | motion per configuration [s] | predicted σ / total (k=2), % FS | measured, % FS (largest axis) | kept |")
     print("|---|---|---|---|---|")
-    patterns = PATTERNS[:2] if args.quick else PATTERNS
-    for count in (1, 2, 3):
+    motions = list(SMOOTH_S if args.smooth else PATTERNS)
+    motions = motions[:2] if args.quick else motions
+    for count in map(int, args.configurations.split(",")):
         part = with_configurations(tool, count)
-        for levels, stops, span in patterns:
-            pattern = SweepPattern(levels, stops, 0.0, 0.02, span, continuous=True)
-            plan = plan_sweeps(kin, home.home, spanned(ranges.ranges, span), pattern, spec.rate_hz)
-            coarse = plan_sweeps(kin, home.home, spanned(ranges.ranges, span), pattern, 50.0)
+        for motion in motions:
+            if args.smooth:
+                plan = smooth_plan(kin, home.home, ranges.ranges, motion, spec.rate_hz)
+                coarse = smooth_plan(kin, home.home, ranges.ranges, motion, 50.0)
+                label = "smooth"
+            else:
+                levels, stops, span = motion
+                pattern = SweepPattern(levels, stops, 0.0, 0.02, span, continuous=True)
+                plan = plan_sweeps(kin, home.home, spanned(ranges.ranges, span), pattern, spec.rate_hz)
+                coarse = plan_sweeps(kin, home.home, spanned(ranges.ranges, span), pattern, 50.0)
+                label = f"{levels}×{stops}, span {span:g}"
             budget = dynamic_plan_budget(kin, part, coarse, *nominal, sample_rate_hz=spec.rate_hz, uncertainty=uncertainty)
             shrinkable = budget.without(list(SYSTEMATIC))
             sigma = float(np.max(100 * shrinkable.sigma / spec.full_scale))
@@ -148,7 +163,7 @@ def main():
             predicted = f"{sigma:.3g} / {total:.3g}" if np.isfinite(total) else "rank < 7"
             shown = ", ".join("not solved" if np.isnan(m) else f"{m:.3g}" for m in measured)
             print(
-                f"| {count} | {plan.duration:.1f} ({levels}×{stops}, span {span:g}) | {predicted} | {shown} | "
+                f"| {count} | {plan.duration:.1f} ({label}) | {predicted} | {shown} | "
                 f"{int(np.mean(kept)) if kept else 0} of {count * len(plan.time)} | ({time.perf_counter() - t0:.0f} s)"
             )
 

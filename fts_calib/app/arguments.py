@@ -105,10 +105,11 @@ def _add_trajectory(commands) -> None:
     add_return_pass(traj)
     traj.add_argument(
         "--motion",
-        choices=("stop", "continuous"),
+        choices=("stop", "continuous", "smooth"),
         default="stop",
         help="stop: dwell at each stop (quasi-static samples); continuous: no dwell, every sample calibrates in the "
-        "dynamic filter mode, the budget with its dynamic terms (default: stop)",
+        "dynamic filter mode, the budget with its dynamic terms; smooth: continuous, every joint on a sinusoid ramped in and "
+        "out at home, sized by --target-error (the raster options unused): the dynamic filter trusts most of its samples (default: stop)",
     )
     traj.add_argument(
         "--configurations",

@@ -27,7 +27,15 @@ def _save(fig, path: str | Path) -> Path:
 
 
 def plot_plan(
-    path: str | Path, time: np.ndarray, sweep: np.ndarray, sweep_names: tuple[str, str], still: np.ndarray, g_sensor: np.ndarray, title: str
+    path: str | Path,
+    time: np.ndarray,
+    sweep: np.ndarray,
+    sweep_names: tuple[str, str],
+    still: np.ndarray,
+    g_sensor: np.ndarray,
+    title: str,
+    motion: str = "planned sweep (ruckig, jerk-limited)",
+    kept: str = "quasi-static samples",
 ) -> Path:
     """Planned sweep-joint motion and gravity directions on the unit sphere in the sensor frame.
 
@@ -39,17 +47,19 @@ def plot_plan(
         still: Quasi-static samples (kept by the filter), shape (N,) bool.
         g_sensor: Gravity in the sensor frame [m/s^2], shape (N, 3).
         title: Figure title.
+        motion: Title of the joint panel.
+        kept: Label of the samples shaded (``still``).
     """
     fig = plt.figure(figsize=(13, 5.2))
     ax = fig.add_subplot(1, 2, 1)
     for k, name in enumerate(sweep_names):
         ax.plot(time, np.degrees(sweep[:, k]), lw=1.2, label=name)
     ymin, ymax = ax.get_ylim()
-    ax.fill_between(time, ymin, ymax, where=still, color="tab:green", alpha=0.15, lw=0, label="quasi-static samples")
+    ax.fill_between(time, ymin, ymax, where=still, color="tab:green", alpha=0.15, lw=0, label=kept)
     ax.set_ylim(ymin, ymax)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("joint position [deg]")
-    ax.set_title("planned sweep (ruckig, jerk-limited)")
+    ax.set_title(motion)
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)
 
@@ -59,8 +69,8 @@ def plot_plan(
     unit = g_sensor / np.linalg.norm(g_sensor, axis=1, keepdims=True)
     step = max(1, len(unit) // 4000)
     moving = ~still
-    ax3.plot(*unit[moving][::step].T, ".", ms=1.0, color="0.55", label="while moving")
-    ax3.plot(*unit[still].T, "o", ms=3.0, color="tab:green", label="quasi-static")
+    ax3.plot(*unit[moving][::step].T, ".", ms=1.0, color="0.55", label="while moving" if kept.startswith("quasi") else "not trusted")
+    ax3.plot(*unit[still].T, "o", ms=3.0, color="tab:green", label=kept.removesuffix(" samples"))
     # a unit vector: three ticks per axis keep the labels apart
     for axis in (ax3.xaxis, ax3.yaxis, ax3.zaxis):
         axis.set_ticks([-1.0, 0.0, 1.0])

@@ -82,7 +82,8 @@ def run(
         return_pass: Visit the raster's stops again in reverse order (drift separable from the
             orientation; about twice the time); fixes the raster (no sizing to the target).
         motion: 'stop' (dwell at each stop: quasi-static samples) or 'continuous' (no dwell:
-            every sample calibrates in the ``dynamic`` filter mode, with the budget's dynamic terms).
+            every sample calibrates in the ``dynamic`` filter mode, with the budget's dynamic terms) or
+            'smooth' (continuous: every joint on a sinusoid ramped in and out at home, always sized to the target).
         configurations: Plan for the tool's first this many configurations (continuous only;
             refused, naming what each number reaches, when the target is out of reach); None for all.
         inertia_tolerance: How well each configuration's inertia is known, a fraction of its
@@ -119,7 +120,9 @@ def run(
         noise = 0.0
     fixed = any(v is not None for v in (levels, stops, dwell_s, span)) or return_pass
     default = SweepPattern()
-    continuous = motion == "continuous"
+    continuous = motion in ("continuous", "smooth")
+    smooth = motion == "smooth"
+    fixed = fixed and not smooth  # a smooth plan is always sized
     pattern = SweepPattern(
         levels=default.levels if levels is None else levels,
         stops=default.stops if stops is None else stops,
@@ -128,6 +131,7 @@ def run(
         span=default.span if span is None else span,
         return_pass=return_pass,
         continuous=continuous,
+        smooth=smooth,
     )
     uncertainty = (
         motion_uncertainty(
@@ -143,7 +147,7 @@ def run(
     )
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     count = len(loaded.configurations) if configurations is None else configurations
-    kind = "continuous " if continuous else ""
+    kind = "smooth continuous " if smooth else "continuous " if continuous else ""
     print(f"planning {robot_path.stem} {kind}sweeps for '{loaded.name}' ({count} configurations)...", flush=True)
     planned = plan_trajectories(
         robot_path,
@@ -176,6 +180,11 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
     files.append(atomic_write_text(out / "plan.yaml", dump_yaml(plan_summary(run, [f.name for f in files]))))
     if plot:
         index = [plan.joint_names.index(j) for j in plan.sweep_joints]
+        labels = {}
+        if plan.pattern.continuous:  # the shaded samples: those the dynamic filter's trust rule keeps
+            labels["kept"] = "samples the dynamic filter trusts"
+        if plan.pattern.smooth:
+            labels["motion"] = "planned smooth motion (sinusoids ramped in and out)"
         files.append(
             plots.plot_plan(
                 out / "plan.png",
@@ -185,6 +194,7 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
                 run.still,
                 run.g_sensor,
                 f"{plan.robot}: calibration sweep, {plan.duration:.1f} s per tool configuration",
+                **labels,
             )
         )
     return dataclasses.replace(run, files=files)

@@ -54,6 +54,7 @@ class ContinuousSizing:
         candidates: Patterns whose budget was computed before this one was found.
         floor_percent: The largest total of the terms no plan can shrink, [% FS].
         configurations: The number of tool configurations planned for.
+        duration_s: Motion per configuration of a smooth plan [s] (0 for a raster).
     """
 
     target_percent: float
@@ -62,11 +63,21 @@ class ContinuousSizing:
     candidates: int
     floor_percent: float
     configurations: int
+    duration_s: float = 0.0
 
     def summary(self) -> str:
         """One line: what was chosen, how it meets the target, what dominates."""
         term, axis = self.budget.dominant()
         p = self.pattern
+        if p.smooth:
+            return (
+                f"sized to the target {self.target_percent:g} % of full scale: smooth excitation (every joint on a sinusoid, "
+                f"ramped in and out at home), {self.duration_s:g} s, {self.configurations} "
+                f"configuration{'s' if self.configurations > 1 else ''} "
+                f"(the shortest of {self.candidates} durations whose budget was computed, screened at {_SCREEN_RATE_HZ:g} Hz): "
+                f"{self.budget.largest_percent:.4f} % on {axis} there, dominated by {term}; "
+                f"the tool tolerance and mount alone give at least {self.floor_percent:.4f} % on the motions screened"
+            )
         return (
             f"sized to the target {self.target_percent:g} % of full scale: continuous, {p.levels} levels × {p.stops} "
             f"stop{'s' if p.stops > 1 else ''} passed without stopping, span {p.span:g} of the second joint's range, "

@@ -50,10 +50,11 @@ class LimitCheck:
 
 
 def check_limits(plan: Plan) -> LimitCheck:
-    """Peaks of velocity, acceleration and jerk of every sweep joint against the limits."""
+    """Peaks of velocity, acceleration and jerk of every sweep joint (and any other joint that moves) against the limits."""
     lim = plan.limits
     peaks, ratios = {}, {}
-    for name in plan.sweep_joints:
+    moving = [n for k, n in enumerate(plan.joint_names) if n not in plan.sweep_joints and np.ptp(plan.q[:, k]) > 0]
+    for name in (*plan.sweep_joints, *moving):
         k = plan.joint_names.index(name)
         jerk = np.abs(np.diff(plan.qdd[:, k])) * plan.rate if len(plan.time) > 1 else np.zeros(1)
         peak = {
@@ -153,6 +154,14 @@ def plan_calibration(
         raise TrajectoryError(f"rate={rate} Hz but expected a finite rate > 0", "invalid rate")
     report, ranges = base if base is not None else plan_base(kin, checker, pattern, min_clearance)
     plan = plan_sweeps(kin, report.home, spanned(ranges.ranges, pattern.span), pattern, rate)
+    return check_plan(checker, plan, (report, ranges), min_clearance)
+
+
+def check_plan(
+    checker: CollisionChecker, plan: Plan, base: tuple[HomeReport, RangeReport], min_clearance: float = MIN_CLEARANCE
+) -> PlanResult:
+    """The checks made before the robot moves: every sample within the limits, the clearance along the motion and at home."""
+    report, ranges = base
     limits = check_limits(plan)
     samples = collision_samples(plan)
     clearance = checker.clearance(plan.q[samples], "all")

@@ -52,6 +52,9 @@ class SweepPattern:
         continuous: Pass through the stops without stopping (``dwell`` must be 0): a joint
             that keeps its direction through a stop passes it at speed, one that turns back
             stops there for an instant; every sample moves, for the ``dynamic`` filter mode.
+        smooth: With ``continuous``: no raster, the smooth excitation of
+            :mod:`fts_calib.planning.smooth` instead (every joint on a sinusoid, ramped in and
+            out at home); levels, stops and span are then unused.
     """
 
     levels: int = 4
@@ -61,6 +64,7 @@ class SweepPattern:
     span: float = 1.0
     return_pass: bool = False
     continuous: bool = False
+    smooth: bool = False
 
     def __post_init__(self):
         if self.levels < 2 or self.stops < (1 if self.continuous else 2):
@@ -72,6 +76,8 @@ class SweepPattern:
             raise TrajectoryError(f"margin={self.margin} rad but expected a finite value >= 0", "invalid pattern")
         if not (math.isfinite(self.span) and 0 < self.span <= 1):
             raise TrajectoryError(f"span={self.span} but expected a fraction of the range in (0, 1]", "invalid pattern")
+        if self.smooth and not self.continuous:
+            raise TrajectoryError("a smooth motion is continuous: expected continuous=True with smooth=True", "invalid pattern")
         if self.continuous and self.dwell > 0:
             raise TrajectoryError(f"dwell={self.dwell} s but a continuous motion does not stop: expected 0", "invalid pattern")
 

@@ -34,6 +34,7 @@ from .dynamic_accuracy import dynamic_plan_budget, filter_weights
 from .excitation import ExcitationReport, predict_excitation
 from .planner import PlanResult, plan_calibration
 from .sizing import SizedPlan, size_plan
+from .smooth_sizing import size_smooth
 from .sweeps import MIN_CLEARANCE, SweepPattern
 
 
@@ -131,7 +132,24 @@ def plan_trajectories(
     sized: SizedPlan | ContinuousSizing | None = None
     if pattern.continuous:
         uncertainty = motion_uncertainty(filter_config, sensor.rate_hz) if uncertainty is None else uncertainty
-        if target_percent is None:
+        if pattern.smooth:
+            if target_percent is None:
+                raise TrajectoryError("a smooth plan is sized to a target: expected --target-error, not a raster", "invalid target")
+            args = (
+                kin,
+                checker,
+                tool,
+                nominal,
+                target_percent,
+                rate,
+                sensor.rate_hz,
+                uncertainty,
+                min_clearance,
+                pattern.margin,
+                full_tool,
+            )
+            result, sized = size_smooth(*args)
+        elif target_percent is None:
             result = plan_calibration(kin, checker, pattern, rate, min_clearance)
         else:
             result, sized = size_continuous(
@@ -215,6 +233,7 @@ def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
             "span": plan.pattern.span,
             **({"return_pass": True} if plan.pattern.return_pass else {}),
             **({"continuous": True} if plan.pattern.continuous else {}),
+            **({"smooth": True} if plan.pattern.smooth else {}),
         },
         **(
             {
