@@ -148,7 +148,7 @@ def run(
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     count = len(loaded.configurations) if configurations is None else configurations
     kind = "smooth continuous " if smooth else "continuous " if continuous else ""
-    print(f"planning {robot_path.stem} {kind}sweeps for '{loaded.name}' ({count} configurations)...", flush=True)
+    print(f"planning {robot_path.stem} {kind}sweeps for '{loaded.name}' ({count} configuration{'' if count == 1 else 's'})...", flush=True)
     planned = plan_trajectories(
         robot_path,
         loaded,

@@ -92,6 +92,32 @@ def _listed(names: Sequence[str]) -> str:
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
+#: Share of the samples the quasi-static filter refused for moving above which a continuous motion may be named.
+MOVING_SHARE = 0.9
+#: Still stretches per configuration up to which the motion is continuous (at rest before and after it only);
+#: a stop-and-go sweep has one at every stop, and refuses as large a share of a 1 kHz recording.
+MAX_CONTINUOUS_STILLS = 2.0
+
+
+def moving_words(rejected: Mapping[str, int], seen: int, kept: int, stills_per_configuration: float) -> str:
+    """The quasi-static filter's advice for a recording that moves without stopping ('' otherwise).
+
+    Args:
+        rejected: Samples the quasi-static filter refused, by rule ('joint speed', ...).
+        seen: Samples given.
+        kept: Samples kept.
+        stills_per_configuration: Still stretches of the kept samples (apart by more than a gap),
+            per configuration that has any.
+    """
+    moving = max(rejected.get("joint speed", 0), rejected.get("joint acceleration", 0))
+    if not seen or moving < MOVING_SHARE * seen or stills_per_configuration > MAX_CONTINUOUS_STILLS:
+        return ""
+    return (
+        f"the arm moves without stopping ({moving / seen:.0%} of the samples refused for joint speed or acceleration, "
+        f"{kept:,} kept): calibrate it with --filter dynamic (moving samples with the tool's dynamics), or record stops"
+    )
+
+
 def refused_words(skipped: Mapping[str, int], seen: int, kept: int) -> str:
     """Why nothing was kept when the checks refused most samples, in words: their largest counts ('' otherwise).
 

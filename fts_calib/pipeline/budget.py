@@ -133,6 +133,7 @@ def measured_budget(
     gap_s: float = _STOP_GAP_S,
     residual_rms=None,
     prior_weight: float | None = None,
+    accuracy: RobotAccuracy | None = None,
 ) -> AccuracyBudget:
     """The budget of a calibration from the samples it was solved from, with its model error.
 
@@ -149,6 +150,8 @@ def measured_budget(
             (6,): what exceeds ``sigma_w`` is the budget's "model error" term
             (:func:`fts_calib.model.budget.model_error`); None for no such term.
         prior_weight: The weight of the prior C_bar was shrunk toward, or None (see :func:`sample_budget`).
+        accuracy: Encoders, timing and mount; the robot definition's when None (the dynamic mode
+            gives the latency it fitted and applied, :meth:`fts_calib.pipeline.dynamic.DynamicFilter.budget_accuracy`).
     """
     time, _, channels, codes, joints = kept.arrays()
     stride = max(1, int(math.ceil(len(time) / _MAX_BUDGET_SAMPLES)))  # bounded memory: white terms weigh the rest
@@ -176,6 +179,7 @@ def measured_budget(
         "measured",
         weight=stride,
         prior_weight=prior_weight,
+        accuracy=accuracy,
     )
     if residual_rms is None:
         return budget
@@ -228,6 +232,7 @@ def with_measured_budget(
     noise_floor,
     moving: MovingSamples,
     full_scale,
+    accuracy: RobotAccuracy | None = None,
 ) -> tuple[Calibration, AccuracyBudget | None, LatencyEstimate | None]:
     """The calibration with its measured accuracy budget and stream-latency estimate in ``quality``.
 
@@ -248,6 +253,7 @@ def with_measured_budget(
         noise_floor: The filter's channel noise floor, shape (n,), or None.
         moving: The first valid samples, for the latency.
         full_scale: Full scale per axis [N, N m], shape (6,).
+        accuracy: Encoders, timing and mount for the budget; the robot definition's when None.
 
     Returns:
         ``(calibration, budget, latency)``; the calibration unchanged and None, None when
@@ -262,7 +268,9 @@ def with_measured_budget(
     chosen = [c for c in selection["candidates"] if c["chosen"]] if selection else []
     residual = np.asarray(chosen[0]["heldout_rms"]) if chosen else quality.residual_rms  # held out when chosen so
     prior_weight = None if quality.prior is None else float(quality.prior["weight"])
-    budget = measured_budget(kin, tool, kept, calibration, sigma_w, full_scale, residual_rms=residual, prior_weight=prior_weight)
+    budget = measured_budget(
+        kin, tool, kept, calibration, sigma_w, full_scale, residual_rms=residual, prior_weight=prior_weight, accuracy=accuracy
+    )
     record = budget.to_dict()
     latency = None
     if len(moving):

@@ -43,6 +43,7 @@ from ..feeds.batch import SampleBatch
 from ..model.channel_limits import ChannelLimits, GridWatch
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor_config import SensorSpec
+from ..robot.definition import RobotAccuracy
 from ..robot.kinematics import Kinematics
 from ..robot.motion import SensorMotion
 from ..robot.tool import Tool
@@ -284,6 +285,17 @@ class DynamicFilter:
             return np.full(kin.n_joints, self.settings.joint_noise)
         measured = np.zeros(kin.n_joints) if self.joint_noise is None else self.joint_noise
         return np.maximum(measured, kin.robot.accuracy.encoder_resolution / math.sqrt(12.0))
+
+    def budget_accuracy(self, kin: Kinematics) -> RobotAccuracy:
+        """The robot's accuracy with the latency this filter leaves: the bound of the accuracy budget's latency term.
+
+        The latency is fitted with the calibration and applied (:mod:`fts_calib.pipeline.latency_fit`): what is
+        left is the fit's remaining latency and its standard error, ``sqrt(3) * hypot(tau, stderr)`` as the bound of
+        a uniform error [s]; without a fit, the trust rule's latency uncertainty.
+        """
+        fit = self.latency_fit.solve()
+        sigma = self._latency_sigma(kin) if fit is None else math.hypot(*fit)
+        return dataclasses.replace(kin.robot.accuracy, latency_s=math.sqrt(3.0) * sigma)
 
     def _latency_sigma(self, kin: Kinematics) -> float:
         if self.settings.latency_uncertainty_s is not None:

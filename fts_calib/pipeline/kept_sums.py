@@ -18,12 +18,13 @@ import numpy as np
 
 from ..core.exceptions import InsufficientExcitation, PoorFit
 from ..model.least_squares import unexplained_strain
-from .advice import missing_words, refused_words
+from .advice import missing_words, moving_words, refused_words
 from .diagnosis import RECORDING_KINDS, Cause, cause, missing_centres, session_allowance, weak_excitation
 from .dynamic import DynamicFilter
 from .fit import MAX_RATIO, UNEXPLAINED, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .progress import Progress
 from .settings import DYNAMIC
+from .units import UNIT_GAP_S
 
 if TYPE_CHECKING:
     from .session import CalibrationSession
@@ -143,6 +144,19 @@ def _checked(session: CalibrationSession, hint: str) -> tuple[FitCheck, Cause | 
     return replace(final, diagnosis=found.text), found
 
 
+def _moving_words(session: CalibrationSession) -> str:
+    """The quasi-static filter's advice for a recording without stops (:func:`fts_calib.pipeline.advice.moving_words`)."""
+    still, kept = session.filter, int(session.kept.sum())
+    if still is None or isinstance(still, DynamicFilter):
+        return ""
+    time, _, _, codes, _ = session._kept_samples.arrays()
+    if len(time) != kept:  # resumed: the kept samples are not all at hand
+        return ""
+    starts = 1 + int(np.count_nonzero((np.diff(codes) != 0) | (np.diff(time) > UNIT_GAP_S))) if kept else 0
+    per_configuration = starts / max(len(np.unique(codes)), 1)
+    return moving_words(still.rejected, session.seen, kept, per_configuration)
+
+
 def strains_unexplained(session: CalibrationSession) -> bool:
     """Whether the strains carry a signal the tool file's loads cannot produce (:func:`unexplained_strain`).
 
@@ -183,6 +197,7 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
     weak = None if short else weak_excitation(session)
     refused = refused_words(session.checks.skipped, session.seen, int(session.kept.sum()))
     undetermined = session.estimator.undetermined(session.tool.names)
-    said = "; ".join(w for w in (hint, "" if weak is None else weak.text) if w)
+    moving = _moving_words(session)
+    said = "; ".join(w for w in (hint, moving, "" if weak is None else weak.text) if w)
     words = missing_words(session.tool, session.kept, session._directions, undetermined, said, refused)
     return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)

@@ -46,7 +46,7 @@ from ..robot.tool_wrench import tool_load
 from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from .dynamic import filtered, sample_filter
+from .dynamic import DynamicFilter, filtered, sample_filter
 from .fit import FitCheck
 from .health import with_health
 from .kept_sums import add_kept, empty_sums, refusal, session_fit_check, session_progress
@@ -327,8 +327,10 @@ class CalibrationSession:
         if not check.ok and not accept_poor_fit:
             raise PoorFit(check, calibration)
         noise_floor = None if self.filter is None else self.filter.noise_floor
+        accuracy = self.filter.budget_accuracy(self.kin) if isinstance(self.filter, DynamicFilter) else None  # the latency it fitted
+        kept, n_kept = self._kept_samples, int(self.kept.sum())
         calibration, self.budget, self.latency = with_measured_budget(
-            calibration, self.kin, self.tool, self._kept_samples, int(self.kept.sum()), noise_floor, self._moving, self.full_scale
+            calibration, self.kin, self.tool, kept, n_kept, noise_floor, self._moving, self.full_scale, accuracy
         )
         return with_health(self, calibration, noise_floor)
 

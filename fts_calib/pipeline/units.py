@@ -7,7 +7,9 @@ stretch of time), so a unit must be a whole static pose, or a block of still win
 - a new unit starts when the tool configuration changes;
 - or after a gap of more than :data:`UNIT_GAP_S` between kept samples (the arm moved: the
   next pose of a static-pose dataset, or the next still stretch of a sweep);
-- or when a unit has lasted :data:`UNIT_SPAN_S` (a long slow sweep is cut into blocks in time),
+- or when a unit has lasted :data:`UNIT_SPAN_S` (a long slow sweep, or the moving samples of the
+  dynamic mode, are cut into blocks in time: one unit per configuration would leave the others
+  rank 6 when one is left out),
   once the joints have moved more than :data:`UNIT_STILL_RAD` from the stretch's first
   sample: a static pose held for longer (13 s, say) stays one unit, since its blocks
   would share one orientation and leaving one out would test nothing. (Without joints,
@@ -23,8 +25,8 @@ import numpy as np
 
 #: A gap between kept samples longer than this starts a new unit, [s].
 UNIT_GAP_S = 0.5
-#: A unit lasts at most this long, [s]: a sweep's still stretches are cut into blocks.
-UNIT_SPAN_S = 10.0
+#: A unit lasts at most this long, [s]: a sweep's still stretches and a continuous motion are cut into blocks.
+UNIT_SPAN_S = 2.0
 #: Joints within this of a stretch's first sample hold one pose, [rad]: its stretch is not cut in time.
 UNIT_STILL_RAD = 1e-3
 
