@@ -32,6 +32,7 @@ from .accuracy import SYSTEMATIC
 from .dynamic_accuracy import dynamic_plan_budget
 from .motion import Plan, plan_sweeps, segment_durations
 from .planner import PlanResult, plan_base, plan_calibration
+from .sizing import check_target, floor_refusal
 from .sweeps import MIN_CLEARANCE, SweepPattern, raster, spanned
 
 #: The continuous rasters searched: levels, stops and span, every combination.
@@ -145,10 +146,7 @@ def size_continuous(
             one no continuous plan meets with these configurations (the message names what
             one, two, ... configurations reach at best).
     """
-    if not (math.isfinite(target_percent) and target_percent > 0):
-        raise TrajectoryError(
-            f"target error {target_percent} % of full scale (--target-error) but expected a finite value > 0", "invalid target"
-        )
+    check_target(target_percent)
     full_tool = tool if full_tool is None else full_tool
     base = plan_base(kin, checker, SweepPattern(2, 2, 0.0, margin, continuous=True), min_clearance)
     home, ranges = base[0].home, base[1].ranges
@@ -157,38 +155,53 @@ def size_continuous(
         pattern = SweepPattern(levels, stops, 0.0, margin, span, continuous=True)
         order.append((sum(segment_durations(kin, home, raster(kin, home, spanned(ranges, span), pattern), True)), pattern))
     order.sort(key=lambda item: item[0])
-    floor, best = None, None
-    tried, finals = 0, 0
+    screened = Screened()
+    finals = 0
     for _, pattern in order:
         plan = plan_sweeps(kin, home, spanned(ranges, pattern.span), pattern, _SCREEN_RATE_HZ)
-        budget = _budget(kin, tool, plan, nominal, sample_rate_hz, uncertainty)
-        tried += 1
-        if best is None or budget.largest_percent < best[1].largest_percent:
-            best = (plan, budget)
-        systematic = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
-        if floor is None or systematic.largest_percent < floor.largest_percent:
-            floor = systematic
+        budget = screened.add(plan, _budget(kin, tool, plan, nominal, sample_rate_hz, uncertainty))
         if budget.largest_percent > target_percent:
             continue
         result = plan_calibration(kin, checker, pattern, rate, min_clearance, base=base)
         if not result.problems:
-            sizing = ContinuousSizing(target_percent, pattern, budget, tried, floor.largest_percent, len(tool.configurations))
+            sizing = ContinuousSizing(target_percent, pattern, budget, screened.tried, screened.floor_percent, len(tool.configurations))
             return result, sizing
         finals += 1
         if finals >= _FINAL_TRIES:
             raise TrajectoryError(f"the shortest continuous plans that meet the target fail their checks: {result.problems[0]}", "checks")
-    assert best is not None and floor is not None  # the grids are not empty
-    if len(tool.configurations) == len(full_tool.configurations) and floor.largest_percent > target_percent:
-        term, axis = floor.dominant()
-        raise TrajectoryError(
-            f"no plan meets the target of {target_percent:g} % of full scale: {term} alone gives at least "
-            f"{floor.largest_percent:.4f} % on {axis} (tool tolerance and sensor mount: {', '.join(SYSTEMATIC)}). "
-            "State a larger --target-error, or know the tool and the mount better.",
-            "target unreachable",
-        )
-    raise TrajectoryError(
-        unreachable(kin, tool, full_tool, best, nominal, sample_rate_hz, uncertainty, target_percent), "target unreachable"
-    )
+    raise screened.refusal(kin, tool, full_tool, nominal, sample_rate_hz, uncertainty, target_percent, "continuous")
+
+
+class Screened:
+    """The candidate motions screened so far: the best budget, and the smallest total of the terms no plan shrinks."""
+
+    def __init__(self) -> None:
+        self.tried = 0
+        self.best: tuple[Plan, AccuracyBudget] | None = None
+        self.floor: AccuracyBudget | None = None
+
+    @property
+    def floor_percent(self) -> float:
+        """The floor's largest total [% FS] (NaN before any candidate)."""
+        return math.nan if self.floor is None else self.floor.largest_percent
+
+    def add(self, plan: Plan, budget: AccuracyBudget) -> AccuracyBudget:
+        """Count a candidate and its budget; returns the budget."""
+        self.tried += 1
+        if self.best is None or budget.largest_percent < self.best[1].largest_percent:
+            self.best = (plan, budget)
+        systematic = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
+        if self.floor is None or systematic.largest_percent < self.floor.largest_percent:
+            self.floor = systematic
+        return budget
+
+    def refusal(self, kin, tool: Tool, full_tool: Tool, nominal, sample_rate_hz, uncertainty, target_percent, kind) -> TrajectoryError:
+        """No candidate met the target: the tool and mount alone (all configurations), or what each number reaches."""
+        assert self.best is not None and self.floor is not None  # at least one candidate was screened
+        if len(tool.configurations) == len(full_tool.configurations) and self.floor.largest_percent > target_percent:
+            return floor_refusal(self.floor, target_percent, screened=True)
+        message = unreachable(kin, tool, full_tool, self.best, nominal, sample_rate_hz, uncertainty, target_percent, kind)
+        return TrajectoryError(message, "target unreachable")
 
 
 def reachable(kin: Kinematics, full_tool: Tool, plan: Plan, nominal, sample_rate_hz: float, uncertainty) -> dict[int, AccuracyBudget]:
@@ -199,8 +212,13 @@ def reachable(kin: Kinematics, full_tool: Tool, plan: Plan, nominal, sample_rate
     }
 
 
-def unreachable(kin, tool: Tool, full_tool: Tool, best, nominal, sample_rate_hz, uncertainty, target_percent: float) -> str:
-    """The refusal: what this number of configurations reaches at best, what the others reach on the same motion."""
+def unreachable(
+    kin, tool: Tool, full_tool: Tool, best, nominal, sample_rate_hz, uncertainty, target_percent: float, kind: str = "continuous"
+) -> str:
+    """The refusal: what this number of configurations reaches at best, what the others reach on the same motion.
+
+    ``kind`` names the plans searched ('continuous', 'smooth').
+    """
     plan, budget = best
     count = len(tool.configurations)
     others = reachable(kin, full_tool, plan, nominal, sample_rate_hz, uncertainty)
@@ -216,7 +234,7 @@ def unreachable(kin, tool: Tool, full_tool: Tool, best, nominal, sample_rate_hz,
     ask = f"ask --target-error {_round_up(budget.largest_percent):g}" if math.isfinite(budget.largest_percent) else "plan more"
     mount = f" or mount {enough[0]} configurations (--configurations {enough[0]})" if enough else " or mount more configurations"
     return (
-        f"no continuous plan of {count} configuration{'s' if count > 1 else ''} meets the target of {target_percent:g} % of full "
+        f"no {kind} plan of {count} configuration{'s' if count > 1 else ''} meets the target of {target_percent:g} % of full "
         f"scale: by the predicted budget, {words(count)} at best ({plan.duration:.1f} s of motion, dominated by {term} on {axis}); "
         "on the same motion " + "; ".join(words(n) for n in sorted(others) if n != count) + f". {ask.capitalize()}{mount}."
     )

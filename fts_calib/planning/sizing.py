@@ -72,6 +72,36 @@ class SizedPlan:
         )
 
 
+def check_target(target_percent: float) -> None:
+    """Refuse a target that is not a finite value > 0 [% of full scale] (inf would size to a plan that meets nothing).
+
+    Raises:
+        TrajectoryError: The target is not finite or not > 0.
+    """
+    if not (math.isfinite(target_percent) and target_percent > 0):
+        raise TrajectoryError(
+            f"target error {target_percent} % of full scale (--target-error) but expected a finite value > 0", "invalid target"
+        )
+
+
+def floor_refusal(floor: AccuracyBudget, target_percent: float, screened: bool = False) -> TrajectoryError:
+    """The refusal of a target below what the terms no plan shrinks give (tool tolerance and mount).
+
+    Args:
+        floor: The budget's systematic terms (:data:`fts_calib.planning.accuracy.SYSTEMATIC`) on a plan.
+        target_percent: The target [% of full scale].
+        screened: ``floor`` is the smallest over the motions screened (the message says "at least").
+    """
+    term, axis = floor.dominant()
+    least = "at least " if screened else ""
+    return TrajectoryError(
+        f"no plan meets the target of {target_percent:g} % of full scale: {term} alone gives {least}"
+        f"{floor.largest_percent:.4f} % on {axis} (tool tolerance and sensor mount: {', '.join(SYSTEMATIC)}). "
+        "State a larger --target-error, or know the tool and the mount better.",
+        "target unreachable",
+    )
+
+
 def size_plan(
     kin: Kinematics,
     checker: CollisionChecker,
@@ -103,10 +133,7 @@ def size_plan(
         TrajectoryError: A target <= 0, a target below what the tool and mount allow (names
             the dominant term), or no raster that meets it.
     """
-    if not (math.isfinite(target_percent) and target_percent > 0):  # inf would size to a plan that meets nothing
-        raise TrajectoryError(
-            f"target error {target_percent} % of full scale (--target-error) but expected a finite value > 0", "invalid target"
-        )
+    check_target(target_percent)
     C_bar, D, sigma_w, full_scale = nominal
     base = plan_base(kin, checker, SweepPattern(2, 2, DWELLS_S[0], margin), min_clearance)
     home, ranges = base[0], base[1].ranges
@@ -130,13 +157,7 @@ def size_plan(
         if floor is None and np.isfinite(budget.largest_percent):
             floor = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
             if floor.largest_percent > target_percent:
-                term, axis = floor.dominant()
-                raise TrajectoryError(
-                    f"no plan meets the target of {target_percent:g} % of full scale: {term} alone gives "
-                    f"{floor.largest_percent:.4f} % on {axis} (tool tolerance and sensor mount: {', '.join(SYSTEMATIC)}). "
-                    "State a larger --target-error, or know the tool and the mount better.",
-                    "target unreachable",
-                )
+                raise floor_refusal(floor, target_percent)
         if budget.largest_percent > target_percent:
             continue
         result = plan_calibration(kin, checker, pattern, rate, min_clearance, base=base)

@@ -13,8 +13,6 @@ Durations in [s], errors in % of full scale.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..core.exceptions import TrajectoryError
@@ -22,9 +20,9 @@ from ..robot.collision import CollisionChecker
 from ..robot.dynamic_sensitivities import MotionUncertainty
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
-from .accuracy import SYSTEMATIC
-from .continuous import _SCREEN_RATE_HZ, ContinuousSizing, _budget, unreachable
+from .continuous import _SCREEN_RATE_HZ, ContinuousSizing, Screened, _budget
 from .planner import PlanResult, check_plan, plan_base
+from .sizing import check_target
 from .smooth import smooth_plan
 from .sweeps import MIN_CLEARANCE, SweepPattern
 
@@ -56,27 +54,21 @@ def size_smooth(
             plan meets with these configurations (naming what each number reaches), or the
             plans that meet it failing their checks.
     """
-    if not (math.isfinite(target_percent) and target_percent > 0):
-        raise TrajectoryError(
-            f"target error {target_percent} % of full scale (--target-error) but expected a finite value > 0", "invalid target"
-        )
+    check_target(target_percent)
     full_tool = tool if full_tool is None else full_tool
     base = plan_base(kin, checker, SweepPattern(2, 2, 0.0, margin, continuous=True), min_clearance)
     home, ranges = base[0].home, base[1].ranges
-    floor, best, problem, stalled = None, None, None, 0
+    screened, problem, stalled = Screened(), None, 0
     for tried, duration in enumerate(DURATIONS_S, start=1):
         try:
             plan = smooth_plan(kin, home, ranges, duration, _SCREEN_RATE_HZ, margin)
         except TrajectoryError:
             continue  # too short for the ramps within this robot's limits
         budget = _budget(kin, tool, plan, nominal, sample_rate_hz, uncertainty)
+        best = screened.best
         improving = best is None or budget.largest_percent < (1 - _STALL) * best[1].largest_percent
         stalled = 0 if improving else stalled + 1
-        if best is None or budget.largest_percent < best[1].largest_percent:
-            best = (plan, budget)
-        systematic = budget.without([k for k in budget.terms if k not in SYSTEMATIC])
-        if floor is None or systematic.largest_percent < floor.largest_percent:
-            floor = systematic
+        screened.add(plan, budget)
         if budget.largest_percent > target_percent:
             if stalled >= 2:
                 break  # the budget has stopped falling: longer motions would not meet it either
@@ -84,20 +76,11 @@ def size_smooth(
         result = check_plan(checker, smooth_plan(kin, home, ranges, duration, rate, margin), base, min_clearance)
         if not result.problems:
             count = len(tool.configurations)
-            return result, ContinuousSizing(target_percent, plan.pattern, budget, tried, floor.largest_percent, count, duration)
+            return result, ContinuousSizing(target_percent, plan.pattern, budget, tried, screened.floor_percent, count, duration)
         problem = result.problems[0]
         break  # a longer smooth motion swings the same joints as far: its checks fail alike
     if problem is not None:
         raise TrajectoryError(f"the shortest smooth plan that meets the target fails its checks: {problem}", "checks")
-    if best is None or floor is None:
+    if screened.best is None:
         raise TrajectoryError(f"no smooth motion of at most {DURATIONS_S[-1]:g} s fits {kin.robot.name}'s limits", "too short")
-    if len(tool.configurations) == len(full_tool.configurations) and floor.largest_percent > target_percent:
-        term, axis = floor.dominant()
-        raise TrajectoryError(
-            f"no plan meets the target of {target_percent:g} % of full scale: {term} alone gives at least "
-            f"{floor.largest_percent:.4f} % on {axis} (tool tolerance and sensor mount: {', '.join(SYSTEMATIC)}). "
-            "State a larger --target-error, or know the tool and the mount better.",
-            "target unreachable",
-        )
-    message = unreachable(kin, tool, full_tool, best, nominal, sample_rate_hz, uncertainty, target_percent)
-    raise TrajectoryError(message.replace("no continuous plan", "no smooth plan"), "target unreachable")
+    raise screened.refusal(kin, tool, full_tool, nominal, sample_rate_hz, uncertainty, target_percent, "smooth")
