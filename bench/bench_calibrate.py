@@ -36,11 +36,19 @@ def write_recording(path: Path, rows: int) -> None:
         traj = read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz")
         t = np.arange(0, traj.time[-1], 0.001)
         interp = [np.column_stack([np.interp(t, traj.time, x[:, k]) for k in range(x.shape[1])]) for x in (traj.q, traj.qd, traj.qdd)]
-        parts.append((name, t, *interp, tool_wrenches(kin, tool, name, *interp)))
+        parts.append((name, t, interp[0], tool_wrenches(kin, tool, name, *interp)))
+    write_repeated(path, kin.joint_names, parts, rows, sensor, rng)
+
+
+def write_repeated(path: Path, joint_names, parts, rows: int, sensor, rng) -> None:
+    """Write ``parts`` again and again, 2 s apart, up to ``rows`` rows; channels drawn by ``sensor`` with ``rng``.
+
+    Each part is ``(configuration, time [s] (N,), joints read [rad] (N, n), wrench [N, N m] (N, 6))``.
+    """
     written, offset = 0, 0.0
-    with RecordingWriter(path, kin.joint_names) as writer:
+    with RecordingWriter(path, joint_names) as writer:
         while written < rows:
-            for name, t, q, _, _, W in parts:
+            for name, t, q, W in parts:
                 n = min(len(t), rows - written)
                 if n <= 0:
                     break

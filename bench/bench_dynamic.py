@@ -26,9 +26,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_calibrate import write_repeated
 
 from fts_calib.core.resources import data_dir, resolve
-from fts_calib.feeds.recording import RecordingWriter
 from fts_calib.planning.trajectory_io import read_trajectory
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
@@ -68,16 +68,7 @@ def write_recording(path: Path, rows: int, late_s: float = 0.0) -> None:
         q, qd, qdd = hermite(t, traj.time, traj.q, traj.qd, traj.qdd)
         read = q if late_s == 0 else hermite(np.maximum(t - late_s, 0.0), traj.time, traj.q, traj.qd, traj.qdd)[0]
         parts.append((name, t, read, tool_wrenches(kin, tool, name, q, qd, qdd)))
-    written, offset = 0, 0.0
-    with RecordingWriter(path, kin.joint_names) as writer:
-        while written < rows:
-            for name, t, q, W in parts:
-                n = min(len(t), rows - written)
-                if n <= 0:
-                    break
-                writer.write(t[:n] + offset, q[:n], sensor.channels(W[:n], rng=rng), name)
-                written += n
-                offset += t[-1] + 2.0
+    write_repeated(path, kin.joint_names, parts, rows, sensor, rng)
 
 
 def main():
