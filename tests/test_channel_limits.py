@@ -151,7 +151,7 @@ IDENTITY = "[[1,0,0,0,0,0],[0,1,0,0,0,0],[0,0,1,0,0,0],[0,0,0,1,0,0],[0,0,0,0,1,
     [
         ("adc: {bits: 10, range: [0, 1023], gain: 128}", r"simulation.adc.*either range or gain and reference"),
         ("adc: {bits: 10, range: [5, 1]}", r"simulation.adc.range.*\[5.0, 1.0\] but expected \[low, high\] with low < high"),
-        ("nonlinearity: 0.03", r"simulation.nonlinearity.*expected \{quadratic: fraction, cubic: fraction\}"),
+        ("nonlinearity: 0.03", r"simulation.nonlinearity.*expected \{quadratic: fraction, cubic: fraction, odd: fraction\}"),
         ("nonlinearity: {quadratic: 0.03, cubc: 0.01}", r"simulation.nonlinearity.*did you mean 'cubic'"),
         ("nonlinearity: {quadratic: .nan}", r"simulation.nonlinearity.quadratic.*finite"),
         ("channel_offset: [1, 2]", r"simulation.channel_offset.*one number or 8"),

@@ -15,7 +15,7 @@ number or n, raw units), ``null_coupling`` ((n - 6) x 6), ``null_offset`` (n - 6
 2 full scale / 2^bits) or ``{bits, range: [low, high]}`` (codes from low to high in steps
 of (high - low) / (2^bits - 1): ``{bits: 10, range: [0, 1023]}`` reads integer counts),
 ``channel_offset`` (one number or n, raw units: the reading at zero load, e.g. mid-range
-of an unsigned ADC) and ``nonlinearity`` ``{quadratic, cubic}`` (each a fraction of full
+of an unsigned ADC) and ``nonlinearity`` ``{quadratic, cubic, odd}`` (each a fraction of full
 scale at full load, see :class:`SimulationSpec`). An unknown key (a typo) is refused with
 the known keys listed.
 
@@ -70,7 +70,7 @@ SIMULATION_KEYS = (
     "nonlinearity",
 )
 ADC_KEYS = ("bits", "gain", "reference", "range")
-NONLINEARITY_KEYS = ("quadratic", "cubic")
+NONLINEARITY_KEYS = ("quadratic", "cubic", "odd")
 #: The paper's full scale, [N, N, N, N m, N m, N m]: the default of a sensor file's.
 DEFAULT_FULL_SCALE = (50.0, 50.0, 50.0, 5.0, 5.0, 5.0)
 
@@ -103,6 +103,8 @@ class SimulationSpec:
         quadratic: Quadratic nonlinearity, a fraction of full scale at full load: each axis
             reads ``W_i + quadratic FS_i (W_i / FS_i)^2`` (0.03: 3 % of full scale at full load).
         cubic: Cubic nonlinearity, the same with ``(W_i / FS_i)^3``.
+        odd: A bend odd in the load, the same with ``|W_i / FS_i| (W_i / FS_i)``: no polynomial of
+            the channels represents it (a sensor whose two load directions bend alike, outwards).
         full_scale: Full scale per axis the nonlinearity is relative to, [N, N, N, N m, N m,
             N m]. Shape (6,) (the sensor file's ``full_scale``).
         layout: The sensor's channel layout (n channels); the paper's 8 bridges by default.
@@ -120,6 +122,7 @@ class SimulationSpec:
     channel_offset: np.ndarray = field(default_factory=lambda: np.zeros(()))
     quadratic: float = 0.0
     cubic: float = 0.0
+    odd: float = 0.0
     full_scale: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_FULL_SCALE))
     layout: ChannelLayout = MALTESE_CROSS_8
 
@@ -149,7 +152,7 @@ class SimulationSpec:
             if not (math.isfinite(low) and math.isfinite(high) and low < high):
                 raise ConfigError("adc_range", [low, high], "[low, high] with low < high, finite")
             object.__setattr__(self, "adc_range", (low, high))
-        for name in ("quadratic", "cubic"):
+        for name in NONLINEARITY_KEYS:
             object.__setattr__(self, name, validation.number(name, getattr(self, name)))  # either sign: the direction of the bend
         full_scale = as_matrix(self.full_scale, (6,), "full_scale")
         if not np.all(np.isfinite(full_scale) & (full_scale > 0)):
@@ -317,11 +320,12 @@ def _read_simulation(raw, path: Path, layout: ChannelLayout, sensor_full_scale: 
     )
     nonlinearity = raw.get("nonlinearity") or {}
     if not isinstance(nonlinearity, dict):
-        raise FileFormatError(path, "simulation.nonlinearity", "expected {quadratic: fraction, cubic: fraction} of full scale at full load")
+        expected = "expected {quadratic: fraction, cubic: fraction, odd: fraction} of full scale at full load"
+        raise FileFormatError(path, "simulation.nonlinearity", expected)
     check_keys(nonlinearity, NONLINEARITY_KEYS, path, "simulation.nonlinearity")
     n, n_null = layout.n_channels, layout.n_channels - 6
     names = {"adc_bits": "adc.bits", "adc_full_scale": "adc", "adc_range": "adc.range"}
-    with fields_of(path, "simulation.", {**names, "quadratic": "nonlinearity.quadratic", "cubic": "nonlinearity.cubic"}):
+    with fields_of(path, "simulation.", {**names, **{k: f"nonlinearity.{k}" for k in NONLINEARITY_KEYS}}):
         return SimulationSpec(
             C_bar=C_bar,
             D=read_array(raw.get("D", [0.0] * 6), (6,), path, "simulation.D"),
@@ -335,6 +339,7 @@ def _read_simulation(raw, path: Path, layout: ChannelLayout, sensor_full_scale: 
             channel_offset=_per_channel(raw.get("channel_offset", 0.0), path, "simulation.channel_offset", n),
             quadratic=read_number(nonlinearity.get("quadratic", 0.0), path, "simulation.nonlinearity.quadratic"),
             cubic=read_number(nonlinearity.get("cubic", 0.0), path, "simulation.nonlinearity.cubic"),
+            odd=read_number(nonlinearity.get("odd", 0.0), path, "simulation.nonlinearity.odd"),
             full_scale=sensor_full_scale,
             layout=layout,
         )

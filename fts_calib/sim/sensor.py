@@ -9,9 +9,10 @@ offset drift, and the quantization of the acquisition chain (the paper's: x128 g
 load near mid-range, railed where the load drives a channel past the converter's range).
 
 A smooth nonlinearity bends the wrench the channels see before eq 22: axis ``i`` reads
-``W_i + FS_i (quadratic u_i^2 + cubic u_i^3)`` with ``u_i = W_i / FS_i`` (``FS``: the
-sensor file's full scale), so that ``quadratic: 0.03`` is 3 % of full scale at full load on
-that axis; a polynomial of the same degree in the channels undoes it.
+``W_i + FS_i (quadratic u_i^2 + cubic u_i^3 + odd |u_i| u_i)`` with ``u_i = W_i / FS_i``
+(``FS``: the sensor file's full scale), so that ``quadratic: 0.03`` is 3 % of full scale at full
+load on that axis; a polynomial of the same degree in the channels undoes the first two, none
+the odd bend.
 
 A factory-calibrated sensor (layout ``wrench-6``, ``configs/factory_sensor.yaml``) is the
 same model with P = I: its channels are the wrench its factory calibration reports, and
@@ -80,10 +81,10 @@ class SimulatedSensor(SimulationSpec):
             Shape (N, 6), same units (``w_sensor`` itself when the sensor is linear).
         """
         W = np.asarray(w_sensor, dtype=float)
-        if not (self.quadratic or self.cubic):
+        if not (self.quadratic or self.cubic or self.odd):
             return W
         u = W / self.full_scale
-        return W + self.full_scale * (self.quadratic * u**2 + self.cubic * u**3)
+        return W + self.full_scale * (self.quadratic * u**2 + self.cubic * u**3 + self.odd * np.abs(u) * u)
 
 
 def load_simulated_sensor(path: str | Path) -> SimulatedSensor:
