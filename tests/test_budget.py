@@ -152,3 +152,42 @@ def test_the_plan_budget_of_the_shipped_sensor_is_dominated_by_what_no_plan_can_
     assert budget.percent("stream latency").max() < 1e-6 and budget.percent("timing jitter").max() < 1e-6
     rank_deficient = plan_budget(ur5, paper_tool, short_plan, np.zeros_like(still), sim.C_bar, sim.D, np.ones(6), sensor_spec.full_scale)
     assert np.isinf(rank_deficient.largest_percent)
+
+
+@pytest.mark.parametrize("odd", [0.1, 0.02])
+def test_a_bent_sensor_is_refused_naming_the_bend_or_its_budget_covers_another_tool(tmp_path, short_plan, ur5, paper_tool, seed, odd):
+    """A sensor bent as ``W + odd FS |W/FS| W/FS`` on every axis (no polynomial of the channels undoes it), a 1.2 kg tool.
+
+    The loads of one mass hide a bend that grows with the force in the force's gain; it shows on another tool. The
+    defaults refuse it, naming the nonlinearity and the jig that would determine a model of it, or write a calibration
+    whose budget covers its error on another tool (1.4 kg, noiseless readings) on every axis; a calibration accepted
+    despite its fit, too (the model-error term is the largest axis's, on every axis).
+    """
+    from fts_calib.pipeline.calibrate import calibrate_recording
+    from fts_calib.planning.trajectory_io import TrajectoryFile
+    from fts_calib.robot.wrench import wrench_matrix
+    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.sim.sensor import load_simulated_sensor
+
+    coms = [(0.08, 0.0, 0.0), (0.05, 0.06, 0.0), (0.05, 0.0, 0.06)]
+    configurations = (
+        dataclasses.replace(c, mass=1.2, p_sensor_com=np.array(p)) for c, p in zip(paper_tool.configurations, coms, strict=True)
+    )
+    tool = dataclasses.replace(paper_tool, configurations=tuple(configurations))
+    sensor = dataclasses.replace(load_simulated_sensor(resolve("sensor", "configs")), odd=odd)
+    p = short_plan
+    trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, name) for name in tool.names]
+    path = simulate_recording(tmp_path / "bent.csv", ur5, tool, trajectories, sensor, np.random.default_rng(seed))
+    g = np.random.default_rng(seed + 1).normal(size=(2000, 3))
+    W = (9.81 * g / np.linalg.norm(g, axis=1, keepdims=True)) @ wrench_matrix(1.4, [0.07, 0.015, -0.025]).T
+    channels = sensor.channels(W)  # noiseless: the calibration's error alone
+    full_scale = sensor.full_scale
+    result = calibrate_recording(path, ur5, tool)
+    if result.calibration is None:  # the short plan's 36 orientations show no quadratic: the bend is named among the causes
+        diagnosis = result.error.check.diagnosis
+        assert "bends with the load" in diagnosis and "a jig of 2 masses, each at 5 centres of mass" in diagnosis, diagnosis
+        result = calibrate_recording(path, ur5, tool, accept_poor_fit=True)
+    calibration = result.calibration
+    rms = 100 * np.sqrt(np.mean((calibration.wrench(channels) - W) ** 2, axis=0)) / full_scale
+    budget = np.array(list(calibration.quality.budget["total_percent_fs"].values()))
+    assert np.all(rms <= budget), (odd, rms, budget)  # seen (seed 20261122): 0.1 refused, 0.02 written

@@ -1,6 +1,7 @@
 """The choice of the sensor model and offset model by held-out error, the held-out units, the model-error budget.
 
-The choice is checked on a few seeds here; ``tests/model_choice_sweep.py`` runs 100 per kind.
+The choice is checked on a few seeds here, each validated on another tool and made again on the
+recording given twice; ``tests/model_choice_sweep.py`` runs 100 per kind.
 """
 
 from __future__ import annotations
@@ -8,38 +9,89 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fts_calib.core.exceptions import ConfigError
+from fts_calib.core.exceptions import ConfigError, ModelNotDetermined
 from fts_calib.model.budget import MODEL_ERROR, model_error
 from fts_calib.model.estimator import OnlineEstimator
-from fts_calib.model.offset_basis import OffsetBasis
-from fts_calib.pipeline.units import UNIT_GAP_S, UNIT_SPAN_S, HeldOutUnits
+from fts_calib.pipeline.units import CELL_DEG, N_CELLS, held_out_units, orientation_cells
 
-from .model_choice_sweep import KINDS
-from .nonlinear import TOOL, pose_data
+from .model_choice_sweep import KINDS, judge
+from .model_choice_sweep import estimator as _estimator
+from .nonlinear import JIG, PAPER_JIG, pose_data, repeated
 
-
-def _estimator(data, model: str = "auto") -> OnlineEstimator:
-    est = OnlineEstimator(offsets="auto", basis=OffsetBasis(len(TOOL), 2, 600.0, False), model=model)
-    est.update_batch(data.W, data.channels, time=data.time, configuration=data.configuration, unit=data.unit)
-    return est
+#: Largest error on another tool (noiseless readings) of a model the data determine, % of full scale. The estimate's own
+#: error: 0.5 counts of noise over 120 poses of 150 samples; seen 0.0015-0.0042 % over seeds 1-3 of every kind.
+OTHER_TOOL_PERCENT = 0.02
 
 
-@pytest.mark.parametrize("name", list(KINDS))
-def test_auto_picks_the_true_model_and_offsets(name):
+@pytest.mark.parametrize("name", [k for k in KINDS if "misfit" not in k and "paper" not in k])
+def test_auto_picks_the_true_model_and_offsets_which_hold_on_another_tool_and_on_repeats(name):
     kind, truth = KINDS[name]
     for seed in (1, 2):
-        selection = _estimator(pose_data(seed, **kind)).selection()
-        assert selection is not None
-        chosen = (selection.chosen.family, selection.chosen.offsets.model)
-        assert chosen == truth, (
-            f"{name}, seed {seed}: chose {chosen}; table {[(s.family, s.offsets.columns, s.error) for s in selection.scores]}"
-        )
+        chosen, worst, same = judge(seed, repeats=(2,), **kind)
+        assert chosen == truth, f"{name}, seed {seed}: chose {chosen}"
+        assert worst <= OTHER_TOOL_PERCENT, f"{name}, seed {seed}: {worst:.3g} % FS on another tool"
+        assert same, f"{name}, seed {seed}: another choice on the recording given twice"
+
+
+def test_a_misfit_or_a_jig_that_cannot_determine_a_quadratic_model_keeps_the_linear_one():
+    """A CoM 0.5 mm off leaves a residual no quadratic model removes; the paper's jig cannot determine one (rank 20 of 26)."""
+    for name in ("misfit: CoM 0.5 mm off", "quadratic 2 % FS, paper's jig"):
+        kind, truth = KINDS[name]
+        chosen, _, same = judge(1, repeats=(2,), **kind)
+        assert chosen == truth == ("linear", "constant") and same, (name, chosen)
+
+
+def test_the_same_recording_given_1_2_5_and_25_times_scores_exactly_alike():
+    """A unit is a configuration and an orientation cell: copies add to the units they share, so nothing is held out anew."""
+    data = pose_data(7, quadratic=0.02)
+    first = _estimator(data).selection()
+    assert first is not None
+    for times in (2, 5, 25):
+        again = _estimator(repeated(data, times)).selection()
+        assert again is not None and again.units == first.units
+        assert (again.chosen.family, again.chosen.offsets.model) == (first.chosen.family, first.chosen.offsets.model)
+        for a, b in zip(again.scores, first.scores, strict=True):  # the printed held-out error does not fall with repeats
+            if a.offsets.model != "drift":  # the time columns of a drift see the copies as a longer run
+                np.testing.assert_allclose(a.heldout_rms, b.heldout_rms, rtol=0, atol=1e-7 * b.heldout_rms.max())  # round-off
+
+
+def test_the_paper_jig_refuses_a_quadratic_or_cubic_model_naming_what_it_lacks():
+    data = pose_data(8, quadratic=0.02, tool=PAPER_JIG)
+    for family, needs in (("quadratic", "2 masses, each at 5 centres"), ("cubic", "2 masses, each at 8 centres")):
+        est = _estimator(data, model=family)
+        with pytest.raises(ModelNotDetermined, match=needs) as caught:
+            est.solve(configurations=list("ABC"))
+        assert "1 mass at 3 centres of mass" in str(caught.value) and caught.value.family == family
+    # the jig of two masses at five centres determines the quadratic model, not the cubic one (it needs eight)
+    jig = _estimator(pose_data(8, quadratic=0.02), model="quadratic").solve(configurations=[str(k) for k in range(len(JIG))])
+    assert jig.family == "quadratic"
+    with pytest.raises(ModelNotDetermined, match="each at 8 centres"):
+        _estimator(pose_data(8, quadratic=0.02), model="cubic").solve()
+
+
+def test_orientation_cells_are_a_fixed_function_of_gravity_s_direction():
+    rng = np.random.default_rng(0)
+    g = rng.normal(size=(5000, 3))
+    cells = orientation_cells(g)
+    assert cells.min() >= 0 and cells.max() < N_CELLS
+    np.testing.assert_array_equal(orientation_cells(3.7 * g), cells)  # the length does not matter
+    # within a cell the directions lie within a cell's width (its diagonal) of each other
+    unit = g / np.linalg.norm(g, axis=1, keepdims=True)
+    for cell in np.unique(cells)[:50]:
+        mine = unit[cells == cell]
+        spread = np.degrees(np.arccos(np.clip(mine @ mine.T, -1.0, 1.0))).max()
+        assert spread <= np.sqrt(2) * CELL_DEG * 1.05, (cell, spread)
+    codes = rng.integers(0, 3, len(g))
+    units = held_out_units(codes, g)
+    np.testing.assert_array_equal(units // N_CELLS, codes)
+    np.testing.assert_array_equal(held_out_units(codes[::-1], g[::-1]), units[::-1])  # any order, any batching
 
 
 def test_the_chosen_model_fits_a_nonlinear_sensor_to_its_noise_and_the_linear_one_does_not():
     """2 % FS quadratic: the quadratic model's held-out RMS is that of the linear model on a linear sensor, within 30 %."""
-    cal = _estimator(pose_data(3, quadratic=0.02)).solve(configurations=list("ABCDE"))
-    ideal = _estimator(pose_data(3)).solve(configurations=list("ABCDE"))
+    names = [str(k) for k in range(len(JIG))]
+    cal = _estimator(pose_data(3, quadratic=0.02)).solve(configurations=names)
+    ideal = _estimator(pose_data(3)).solve(configurations=names)
     rows = {(c["model"], c["offsets"]): np.array(c["heldout_rms"]) for c in cal.model_selection["candidates"]}
     noise = np.array([c for c in ideal.model_selection["candidates"] if c["chosen"]][0]["heldout_rms"])
     assert cal.family == "quadratic" and cal.model_selection["chosen"] == "quadratic + constant"
@@ -50,7 +102,7 @@ def test_the_chosen_model_fits_a_nonlinear_sensor_to_its_noise_and_the_linear_on
 def test_a_linear_model_keeps_the_paper_path_and_its_bic():
     est = _estimator(pose_data(4), model="linear")
     assert est.units is None and est.selection() is None
-    cal = est.solve(configurations=list("ABCDE"))
+    cal = est.solve()
     assert cal.model is None and cal.model_selection is None and cal.offset_model["criterion"].startswith("BIC")
 
 
@@ -61,7 +113,7 @@ def test_held_out_sums_survive_a_checkpoint_and_a_merge_equals_one_pass():
     a, b = OnlineEstimator(offsets="auto", basis=one.basis, model="auto"), OnlineEstimator(offsets="auto", basis=one.basis, model="auto")
     for est, part in ((a, slice(0, half)), (b, slice(half, None))):
         est.update_batch(
-            data.W[part], data.channels[part], time=data.time[part], configuration=data.configuration[part], unit=data.unit[part]
+            data.W[part], data.channels[part], time=data.time[part], configuration=data.configuration[part], unit=data.units[part]
         )
     merged = a.merge(b)
     resumed = OnlineEstimator.from_state(one.state())
@@ -76,24 +128,6 @@ def test_held_out_sums_survive_a_checkpoint_and_a_merge_equals_one_pass():
 def test_held_out_sums_cannot_forget():
     with pytest.raises(ConfigError, match="forgetting"):
         OnlineEstimator(forgetting=0.99, model="auto")
-
-
-def test_units_are_poses_separated_by_gaps_configurations_and_blocks_of_a_long_stretch():
-    rng = np.random.default_rng(0)
-    # two poses of configuration 0 (a gap between them), then one long still stretch of configuration 1
-    time = np.r_[
-        np.arange(0.0, 2.0, 0.01), 2.0 + 2 * UNIT_GAP_S + np.arange(0.0, 2.0, 0.01), 10.0 + np.arange(0.0, 2.5 * UNIT_SPAN_S, 0.01)
-    ]
-    codes = np.r_[np.zeros(400, dtype=int), np.ones(len(time) - 400, dtype=int)]
-    codes[200:400] = 0
-    whole = HeldOutUnits().assign(time, codes)
-    assert list(np.unique(whole)) == [0, 1, 2, 3, 4]  # two poses, three blocks of the stretch
-    assert np.all(whole[:200] == 0) and np.all(whole[200:400] == 1)
-    # online: any split into batches gives the same units
-    cuts = np.sort(rng.choice(np.arange(1, len(time)), 7, replace=False))
-    units = HeldOutUnits()
-    parts = [units.assign(t, c) for t, c in zip(np.split(time, cuts), np.split(codes, cuts), strict=True)]
-    np.testing.assert_array_equal(np.concatenate(parts), whole)
 
 
 def test_the_model_error_is_the_residual_beyond_the_noise():
@@ -141,7 +175,7 @@ def test_the_fit_check_of_a_nonlinear_model_judges_its_own_residual(paper_tool):
     residuals = est.model_residuals()
     assert residuals is not None
     rms, C_bar = residuals
-    assert sorted(rms) == list(range(len(TOOL)))
+    assert sorted(rms) == list(range(len(JIG)))
     noise = np.sqrt(0.5**2 + 1 / 12)  # [counts] white noise and rounding
     named = {f"c{k}": v for k, v in rms.items()}
     linear = FitCheck("poor", 40.0, {}, np.ones(6), "the linear model's diagnosis")
@@ -165,7 +199,10 @@ def test_calibrate_prints_the_table_of_candidates_and_the_file_records_it(tmp_pa
     assert cal.model is None and cal.model_selection is not None
     chosen = [c for c in cal.model_selection["candidates"] if c["chosen"]]
     assert len(chosen) == 1 and chosen[0]["model"] == "linear"
-    assert {c["model"] for c in cal.model_selection["candidates"]} == {"linear", "quadratic"}
+    assert {c["model"] for c in cal.model_selection["candidates"]} == {"linear"}  # the paper's jig: no quadratic candidate
+    quadratic = cal.model_selection["determination"]["quadratic"]
+    assert not quadratic["determined"] and quadratic["needs"] == {"masses": 2, "centres_of_mass": 5}
+    assert "quadratic: not a candidate: a quadratic model needs loads of at least 2 masses" in printed
     assert "model error" in cal.quality.budget["terms_percent_fs"]
     assert (
         main(

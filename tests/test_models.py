@@ -19,7 +19,7 @@ from fts_calib.robot.tool import ToolConfiguration
 from fts_calib.service.export import c_header, export, json_text
 from fts_calib.service.reader import WrenchReader
 
-from .nonlinear import FULL_SCALE, TOOL, pose_data
+from .nonlinear import FULL_SCALE, JIG, OTHER_TOOL, pose_data
 
 #: Noiseless fits in double precision: coefficients and wrenches to about 1e-9 of their size.
 RTOL_NOISELESS = 1e-9
@@ -69,25 +69,26 @@ def test_noiseless_loads_over_the_range_recover_every_coefficient(degree, family
     np.testing.assert_allclose(cal.wrench(channels), W, rtol=0, atol=RTOL_NOISELESS * np.abs(W).max() * 10)
 
 
-def test_on_the_gravity_sphere_a_quadratic_model_holds_what_no_load_excites_and_still_predicts_new_poses():
-    """A linear sensor on the gravity sphere: |g| is constant per configuration, so quadratic forms alias with the offsets."""
+def test_on_gravity_spheres_a_quadratic_model_holds_what_no_weight_excites_and_predicts_new_poses_and_another_tool():
+    """A linear sensor under weights: F . M = 0 on every weight's load (paper eq 20), a direction no jig excites, held at zero."""
     data = pose_data(3, noise_counts=0.0, rounding=False, poses=16)
     train = np.isin(data.unit % 16, np.arange(12))
-    est = OnlineEstimator(offsets="constant", basis=OffsetBasis(len(TOOL), 0, temperature=False), model="quadratic")
-    est.update_batch(data.W[train], data.channels[train], configuration=data.configuration[train], unit=data.unit[train])
+    est = OnlineEstimator(offsets="constant", basis=OffsetBasis(len(JIG), 0, temperature=False), model="quadratic")
+    est.update_batch(data.W[train], data.channels[train], configuration=data.configuration[train], unit=data.units[train])
     cal = est.solve()
     held = cal.quality.held_directions["count"]
-    assert 0 < held < 27, f"{held} directions held of 28"
-    new = ~train
+    assert 1 <= held < 27, f"{held} directions held of 28"
+    other = pose_data(4, noise_counts=0.0, rounding=False, tool=OTHER_TOOL, sensor_seed=3)
     atol = 1e-7 * np.abs(data.W).max()  # noiseless: round-off of the minimum-norm solve
-    np.testing.assert_allclose(cal.wrench(data.channels[new]), data.W[new], rtol=0, atol=atol)
+    np.testing.assert_allclose(cal.wrench(data.channels[~train]), data.W[~train], rtol=0, atol=atol)
+    np.testing.assert_allclose(cal.wrench(other.channels), other.W, rtol=0, atol=atol)
 
 
 def test_a_free_matrix_over_the_raw_channels_holds_the_two_load_free_patterns():
     """``channels: full`` on the 8-bridge sensor: the null patterns of P carry a constant only."""
     data = pose_data(4, noise_counts=0.0, rounding=False)
-    est = OnlineEstimator(offsets="constant", basis=OffsetBasis(len(TOOL), 0, temperature=False), model="linear", full_channels=True)
-    est.update_batch(data.W, data.channels, configuration=data.configuration, unit=data.unit)
+    est = OnlineEstimator(offsets="constant", basis=OffsetBasis(len(JIG), 0, temperature=False), model="linear", full_channels=True)
+    est.update_batch(data.W, data.channels, configuration=data.configuration, unit=data.units)
     cal = est.solve()
     assert cal.model is not None and cal.model.full and cal.quality.held_directions["count"] == 2
     np.testing.assert_allclose(cal.wrench(data.channels), data.W, rtol=0, atol=1e-8 * np.abs(data.W).max())
@@ -96,8 +97,8 @@ def test_a_free_matrix_over_the_raw_channels_holds_the_two_load_free_patterns():
 @pytest.fixture(scope="module")
 def quadratic_calibration():
     data = pose_data(5, quadratic=0.03)
-    est = OnlineEstimator(offsets="constant", basis=OffsetBasis(len(TOOL), 0, temperature=False), model="quadratic")
-    est.update_batch(data.W, data.channels, configuration=data.configuration, unit=data.unit)
+    est = OnlineEstimator(offsets="constant", basis=OffsetBasis(len(JIG), 0, temperature=False), model="quadratic")
+    est.update_batch(data.W, data.channels, configuration=data.configuration, unit=data.units)
     return est.solve(), data
 
 

@@ -22,7 +22,7 @@ from fts_calib.core.resources import resolve
 from fts_calib.feeds.recording_set import FILE_GAP_S, natural_key
 from fts_calib.feeds.source import open_recording
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.units import UNIT_SPAN_S, UNIT_STILL_RAD, HeldOutUnits
+from fts_calib.pipeline.units import held_out_units
 from fts_calib.planning.trajectory_io import TrajectoryFile
 from fts_calib.robot.tool_wrench import tool_load
 from fts_calib.sim.pose_files import simulate_pose_files
@@ -240,24 +240,18 @@ def test_bad_inputs_are_refused_naming_the_file(dataset, tmp_path):
         open_recording([files[0], warm], None, None)
 
 
-def test_a_pose_held_longer_than_a_unit_span_stays_one_unit_and_a_slow_sweep_is_cut():
-    time = np.arange(0.0, 2.5 * UNIT_SPAN_S, 0.01)  # one still stretch of 25 s
-    codes = np.zeros(len(time), dtype=int)
-    still = np.tile(HOME, (len(time), 1)) + np.random.default_rng(0).normal(0.0, 0.1 * UNIT_STILL_RAD, (len(time), 6))
-    assert list(np.unique(HeldOutUnits().assign(time, codes, still))) == [0]  # a 13 s pose of the issue is one unit
-    sweep = still.copy()
-    sweep[:, 5] += 0.01 * time  # 0.01 rad/s: slow enough for the filter, a new orientation every few seconds
-    whole = HeldOutUnits().assign(time, codes, sweep)
-    assert list(np.unique(whole)) == [0, 1, 2]
-    # online: any split into batches gives the same units
-    units, cuts = HeldOutUnits(), [700, 1200, 1900]
-    parts = [units.assign(t, c, q) for t, c, q in zip(np.split(time, cuts), np.split(codes, cuts), np.split(sweep, cuts), strict=True)]
-    np.testing.assert_array_equal(np.concatenate(parts), whole)
-    restored = HeldOutUnits()  # through a checkpoint's state
-    units2 = HeldOutUnits()
-    first = units2.assign(time[:1000], codes[:1000], sweep[:1000])
-    restored.restore(units2.state())
-    np.testing.assert_array_equal(np.r_[first, restored.assign(time[1000:], codes[1000:], sweep[1000:])], whole)
+def test_a_pose_held_long_is_one_unit_a_slow_sweep_is_cut_by_orientation_and_a_revisit_joins_its_unit():
+    rng = np.random.default_rng(0)
+    g_pose = np.array([0.3, -0.5, -0.81])
+    still = g_pose + rng.normal(0.0, 1e-5, (2500, 3))  # 25 s held, joint noise: one orientation
+    assert len(np.unique(held_out_units(np.zeros(len(still), dtype=int), still))) == 1
+    angle = np.radians(np.linspace(0.0, 35.0, 2500))  # a slow sweep of 35 degrees about x
+    sweep = np.stack([np.zeros_like(angle), np.sin(angle), -np.cos(angle)], axis=1) * 9.81
+    units = held_out_units(np.zeros(len(sweep), dtype=int), sweep)
+    assert 4 <= len(np.unique(units)) <= 5  # cells of 10 degrees
+    # the same pose an hour later, or in another file, is the same unit; another configuration is another
+    again = held_out_units(np.array([0, 1]), np.array([g_pose, g_pose]))
+    assert again[0] == held_out_units(np.array([0]), still[:1])[0] and again[1] != again[0]
 
 
 def test_simulate_pose_files_writes_one_file_per_pose_and_never_mixes_two_datasets(ur5, tmp_path, capsys):

@@ -132,6 +132,14 @@ def _add_trajectory(commands) -> None:
         type=float,
         help="continuous: standard deviation of the stream-latency estimate in s (default: filter.latency_uncertainty_s, auto: 1e-4)",
     )
+    traj.add_argument(
+        "--model",
+        choices=("linear", "quadratic", "cubic"),
+        default="linear",
+        help="the sensor model the plan must determine: quadratic or cubic need loads of more masses and centres of mass "
+        "than the paper's jig; when the tool's configurations cannot determine it, nothing is planned, the jig that would "
+        "is named and written to OUT/suggested_tool.yaml, exit 9 (default: linear)",
+    )
     traj.add_argument("--compress", action="store_true", help="write .csv.gz files")
     traj.add_argument("--no-plot", dest="plot", action="store_false", help="do not write plan.png")
 

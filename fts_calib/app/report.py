@@ -148,10 +148,18 @@ def format_model_selection(selection, quality=None) -> list[str]:
         rows.append([mark, c["model"], c["offsets"], str(c["parameters_per_axis"]), *rms, f"{c['heldout_error']:.3g}"])
     lines = [
         f"model: {selection['chosen']} (--model {selection['setting']['model']}, --offsets {selection['setting']['offsets']}): "
-        f"held-out RMS per axis, leaving out one of {selection['units']} units at a time; * chosen: the fewest parameters "
-        f"within {selection.get('equal_within_standard_errors', 2):g} standard errors of the best"
+        f"held-out RMS per axis, leaving out one of {selection['units']} units (a configuration and a 10° cell of gravity's "
+        f"direction) at a time; * chosen: the fewest parameters within {selection.get('equal_within_standard_errors', 2):g} "
+        "standard errors of the best"
     ]
     lines.append(table(["", "model", "offsets", "params", *units, "error"], rows, "  "))
+    for family, found in selection.get("determination", {}).items():
+        if not found.get("determined", True):
+            lines.append(f"  {family}: not a candidate: {found.get('lacks', '')}")
+    check = selection.get("load_groups")
+    if check:
+        words = ", ".join(f"{c['model']} {c['heldout_error']:.3g}" for c in check["candidates"])
+        lines.append(f"  leaving one of {check['groups']} configurations out (each with its own offset), held-out error: {words}")
     held = None if quality is None else quality.held_directions
     if held and held.get("count"):
         lines.append(f"  {held['count']} directions no load excites held by the rule: {held['rule']}")

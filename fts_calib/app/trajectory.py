@@ -13,13 +13,15 @@ from ..core.fileio import atomic_write_text, dump_yaml
 from ..core.resources import resolve
 from ..core.text import table
 from ..model.budget import DEFAULT_TARGET_PERCENT
+from ..model.determination import Determination
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
 from ..planning.drift_excitation import DriftPrediction
+from ..planning.jig import check_jig, suggest_jig
 from ..planning.sweeps import SweepPattern
 from ..planning.trajectory import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
 from ..planning.trajectory_io import save_trajectory
-from ..robot.tool import ToolShape, load_tool
+from ..robot.tool import Tool, ToolShape, load_tool, save_tool
 from . import plots
 from .exit_codes import ExitCode, writing
 from .report import format_budget
@@ -52,6 +54,7 @@ def run(
     inertia_tolerance: float | None = None,
     joint_noise: float | None = None,
     latency_uncertainty_s: float | None = None,
+    model: str = "linear",
 ) -> int:
     """Plan and check the calibration sweeps, write them and print the report (``fts-calib trajectory``).
 
@@ -93,9 +96,13 @@ def run(
             the pipeline's ``filter.joint_noise`` when None (``auto``: 1e-5).
         latency_uncertainty_s: Standard deviation of the stream-latency estimate, in [s]
             (continuous); the pipeline's ``filter.latency_uncertainty_s`` when None (``auto``: 1e-4).
+        model: The sensor model the plan must determine ('linear', 'quadratic' or 'cubic',
+            :mod:`fts_calib.planning.jig`).
 
     Returns:
-        0 when every check passed, 1 when one failed (the trajectory files are then not written).
+        0 when every check passed, 1 when one failed (the trajectory files are then not written),
+        9 when the tool's configurations cannot determine ``model`` (a jig that would is written
+        to ``out/suggested_tool.yaml``).
     """
     robot_path, tool_path = resolve(robot, "robots"), resolve(tool, "configs", "tool")
     loaded = load_tool(tool_path)
@@ -112,6 +119,10 @@ def run(
             "a file with a 'simulation' section (e.g. the shipped 'sensor')"
         )
         raise FileFormatError(sensor_path, "simulation", message)
+    if model != "linear":
+        found = check_jig(loaded, model)
+        if not found.determined:
+            return _suggest(loaded, model, found, spec.full_scale, Path(out))
     settings = load_settings(pipeline)
     noise: float | np.ndarray | None = noise_std
     if noise is None:  # the sensor's own channels first: the pipeline's design noise is in the paper sensor's mV/V
@@ -162,14 +173,63 @@ def run(
         configurations,
         uncertainty,
     )
+    if model != "linear" and not plan_determines(planned, model).determined and not fixed:
+        # the shortest raster meets the linear budget with few stops: each configuration needs enough orientations
+        print(f"the sized raster's stops cannot determine a {model} model: planning the default raster instead", flush=True)
+        raster = dataclasses.replace(pattern, levels=default.levels, stops=default.stops, dwell=default.dwell)
+        planned = plan_trajectories(
+            robot_path, loaded, spec, settings.filter, noise, raster, rate_hz, min_clearance, None, configurations, uncertainty
+        )
+    if model != "linear" and not (found := plan_determines(planned, model)).determined:
+        planned.problems.append(f"the plan's stops cannot determine a {model} model: {found.lacks(loaded.names)}")
     with writing(out):
-        planned = write_run(planned, out, compress=compress, plot=plot)
+        planned = write_run(planned, out, compress=compress, plot=plot, model=model)
     print(format_report(planned, robot_path, tool_path, target_percent=target))
+    if model != "linear" and not planned.problems:
+        found = plan_determines(planned, model)
+        print(
+            f"model: {model}, determined by the plan's {len(loaded.configurations)} configurations ({found.masses} masses at "
+            f"{found.centres} centres of mass): rank {found.rank} of the {found.achievable} a jig of weights reaches, "
+            "each configuration predicted by the others; calibrate with --model auto or --model " + model
+        )
     return ExitCode.CHECK_FAILED if planned.problems else ExitCode.OK
 
 
-def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot: bool = True) -> TrajectoryRun:
-    """Write the trajectory files (only when every check passed), plan.yaml and plan.png."""
+def plan_determines(run: TrajectoryRun, model: str) -> Determination:
+    """What a plan's still samples (every configuration at the same stops) determine of ``model``."""
+    return check_jig(run.tool, model, directions=run.g_sensor[run.still] if run.still.any() else run.g_sensor)
+
+
+def _suggest(tool: Tool, model: str, found: Determination, full_scale: np.ndarray, out: Path) -> int:
+    """Name and write a jig that determines ``model`` (the tool's configurations cannot): exit 9."""
+    jig = suggest_jig(tool, model, full_scale)
+    added = [c for c in jig.configurations if c.name not in tool.names]
+    header = (
+        f"A jig that determines a {model} sensor model (fts-calib trajectory --model {model}): the configurations of\n"
+        f"'{tool.name}' and {len(added)} more. Check every mass, centre of mass and inertia against your hardware;\n"
+        "the inertias of the added ones are scaled copies of the nearest configuration's (for the dynamic filter only)."
+    )
+    with writing(out):
+        out.mkdir(parents=True, exist_ok=True)
+        path = save_tool(jig, out / "suggested_tool.yaml", header)
+    rows = [[c.name, f"{c.mass:g}", ", ".join(f"{v + 0.0:+.3f}" for v in c.p_sensor_com)] for c in added]
+    forces = max(c.mass for c in jig.configurations) * jig.gravity
+    print(
+        f"NOT PLANNED: the configurations of '{tool.name}' cannot determine a {model} model beyond their own loads: "
+        f"{found.lacks(tool.names)}.\n"
+        f"A jig that does: its {len(tool.configurations)} configurations and these {len(added)} (loads to {forces:.3g} N, "
+        f"{100 * forces / float(np.min(full_scale[:3])):.0f} % of the force full scale):\n"
+        + table(["configuration", "mass [kg]", "centre of mass [m]"], rows, "  ")
+        + f"\nwrote {path}: plan it with --tool {path} --model {model}"
+    )
+    return ExitCode.TRAJECTORY
+
+
+def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot: bool = True, model: str = "linear") -> TrajectoryRun:
+    """Write the trajectory files (only when every check passed), plan.yaml and plan.png.
+
+    ``model``: the sensor model the plan determines (recorded in plan.yaml when not linear).
+    """
     out = Path(out)
     plan = run.result.plan
     files = []
@@ -177,7 +237,10 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
         suffix = ".csv.gz" if compress else ".csv"
         for config in run.tool.configurations:
             files.append(save_trajectory(out / f"{config.name}{suffix}", plan.trajectory(config.name)))
-    files.append(atomic_write_text(out / "plan.yaml", dump_yaml(plan_summary(run, [f.name for f in files]))))
+    summary = plan_summary(run, [f.name for f in files])
+    if model != "linear":
+        summary["model"] = {"family": model, **plan_determines(run, model).as_dict()}
+    files.append(atomic_write_text(out / "plan.yaml", dump_yaml(summary)))
     if plot:
         index = [plan.joint_names.index(j) for j in plan.sweep_joints]
         labels = {}

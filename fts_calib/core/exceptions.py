@@ -92,6 +92,28 @@ class InsufficientExcitation(FtsCalibError):
         super().__init__(text + (" " + detail if detail else ""))
 
 
+class ModelNotDetermined(InsufficientExcitation):
+    """A nonlinear sensor model the loads cannot determine beyond themselves (``--model quadratic`` on the paper's jig).
+
+    Attributes:
+        family: The family asked for ('quadratic' or 'cubic').
+        rank: Its feature directions the loads fix (beyond the offsets).
+        full: The most a jig of weights can fix.
+        detail: What the jig lacks, in words.
+    """
+
+    def __init__(self, family: str, rank: int, full: int, detail: str):
+        self.family = family
+        FtsCalibError.__init__(
+            self,
+            f"no {family} model: the loads of this calibration cannot determine it beyond themselves ({detail}). "
+            f"A {family} model fitted here would be free off the loads it saw (another tool, a push, a contact); "
+            "'--model auto' keeps the linear model, and 'fts-calib trajectory --tool TOOL --model "
+            f"{family}' names a jig that determines it",
+        )
+        self.rank, self.missing, self.detail, self.full = rank, max(full - rank, 0), detail, full
+
+
 class FileFormatError(FtsCalibError, ValueError):
     """A file (calibration, robot, tool, config) has a missing or wrong field.
 

@@ -25,9 +25,9 @@ from ..core.exceptions import ConfigError, ShapeError
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .features import degree_of, model_setting
 from .least_squares import gram
-from .model_choice import UnitSums
 from .offset_basis import OffsetBasis
 from .offset_trace import OffsetTrace
+from .unit_sums import UnitSums
 
 _CHUNK = 1 << 16  # rows per block in batch updates: bounds temporary memory to ~10 MB
 _NON_FINITE = "non-finite wrench, strain or weight"
@@ -133,7 +133,9 @@ class SampleSums:
         return True
 
     @renamed(strain="channels")
-    def update_batch(self, w_sensor, channels, weight=None, time=None, configuration=None, temperature=None, unit=None) -> int:
+    def update_batch(
+        self, w_sensor, channels, weight=None, time=None, configuration=None, temperature=None, unit=None, w_static=None
+    ) -> int:
         """Add many samples; the sums equal those of calling :meth:`update` on each in order.
 
         Args:
@@ -144,8 +146,12 @@ class SampleSums:
             configuration: Tool configuration index per sample in [0, K), shape (N,); all 0
                 when None.
             temperature: Sensor temperatures [°C], shape (N,), or None.
-            unit: The held-out unit of each sample (integers >= 0), shape (N,); None: blocks
-                of :data:`UNIT_SAMPLES` samples. Used by models other than linear only.
+            unit: The held-out unit of each sample (integers >= 0; the same integer is the same
+                unit, in any call: :mod:`fts_calib.pipeline.units`), shape (N,); None: blocks of
+                :data:`UNIT_SAMPLES` samples. Used by models other than linear only.
+            w_static: The weight-only part of each known wrench (paper eqs 17-18) [N, N m],
+                shape (N, 6): what the loads determine of a nonlinear model is judged on it
+                (:mod:`fts_calib.model.determination`); ``w_sensor`` when None.
 
         Returns:
             Number of samples used; rows with a non-finite value are skipped and counted.
@@ -160,11 +166,15 @@ class SampleSums:
         )
         codes = self._codes(configuration, n)
         units = self._units(unit, n)
+        static = None if w_static is None or self.units is None else as_samples(w_static, 6, "w_static")[0]
+        if static is not None and len(static) != n:
+            raise ShapeError(f"w_static has {len(static)} rows but w_sensor has {n}: expected the same N")
         self._flush()
         used = 0
         for start in range(0, n, _CHUNK):
             part = slice(start, min(start + _CHUNK, n))
-            used += self._add_block(W[part], S[part], *(None if v is None else v[part] for v in (weight, time, codes, temperature, units)))
+            columns = (weight, time, codes, temperature, units, static)
+            used += self._add_block(W[part], S[part], *(None if v is None else v[part] for v in columns))
         self.samples_seen += n
         self.samples_used += used
         return used
@@ -200,7 +210,7 @@ class SampleSums:
             raise ShapeError(f"unit: {units.shape} {units.dtype} but expected ({n},) integers")
         return units.astype(np.int64)
 
-    def _add_units(self, Z: np.ndarray, S: np.ndarray, unit: np.ndarray | None, weight: np.ndarray | None) -> None:
+    def _add_units(self, Z: np.ndarray, S: np.ndarray, unit: np.ndarray | None, weight: np.ndarray | None, static=None, codes=None) -> None:
         """Add finite rows to the per-unit sums (the model choice); nothing for the linear model."""
         if self.units is None:
             return
@@ -208,7 +218,7 @@ class SampleSums:
             blocks = (self.unit_rows + np.arange(len(Z))) // UNIT_SAMPLES
             unit = blocks if unit is None else np.where(unit < 0, blocks, unit)
         self.unit_rows += len(Z)
-        self.units.add(Z[:, :6], S, Z[:, 12:], unit, weight)
+        self.units.add(Z[:, :6], S, Z[:, 12:], unit, weight, static, codes)
 
     def drift_rows(self, time, temperature) -> np.ndarray:
         """The drift columns of the offset basis (time powers, temperature) of samples already added.
@@ -229,13 +239,13 @@ class SampleSums:
         if self.temperature_origin is None and temperature is not None and len(temperature):
             self.temperature_origin = float(temperature[0])
 
-    def _add_block(self, W, S, weight, time, codes, temperature, unit=None) -> int:
+    def _add_block(self, W, S, weight, time, codes, temperature, unit=None, static=None) -> int:
         Z = np.empty((W.shape[0], self._sums.shape[0]))
         Z[:, :6] = W
         with np.errstate(over="ignore", invalid="ignore"):  # bad rows are found below
             np.matmul(S, self._P.T, out=Z[:, 6:12])
             if weight is None and self.forgetting == 1.0 and self._fast(Z, time, codes, temperature):
-                self._add_units(Z, S, unit, None)
+                self._add_units(Z, S, unit, None, static, codes)
                 return len(Z)
             # the rule of update(): a row is bad when its sum of squares is not finite
             ok = np.isfinite(np.einsum("ij,ij->i", S, S) + np.einsum("ij,ij->i", W, W))
@@ -248,10 +258,12 @@ class SampleSums:
         if rejected:
             self._skip(_NON_FINITE, rejected)
             Z, S = Z[ok], S[ok]
-            weight, time, codes, temperature, unit = (None if v is None else v[ok] for v in (weight, time, codes, temperature, unit))
+            weight, time, codes, temperature, unit, static = (
+                None if v is None else v[ok] for v in (weight, time, codes, temperature, unit, static)
+            )
         self._set_origins(time, temperature)
         self.basis._fill(Z[:, 12:], time, codes, temperature, self.time_origin or 0.0, self.temperature_origin or 0.0)
-        self._add_units(Z, S, unit, weight)
+        self._add_units(Z, S, unit, weight, static, codes)
         self._accumulate(Z, weight)
         self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
         return len(Z)

@@ -39,7 +39,7 @@ from dataclasses import replace
 import numpy as np
 
 from .._version import __version__
-from ..core.exceptions import InsufficientExcitation
+from ..core.exceptions import InsufficientExcitation, ModelNotDetermined
 from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
 from .channels import MALTESE_CROSS_8, ChannelLayout
@@ -242,6 +242,9 @@ class OnlineEstimator(SampleSums):
         if self.samples_used == 0:
             raise InsufficientExcitation(0, 7, "no sample has been added yet.")
         selection = self.selection()
+        if selection is not None and selection.refused is not None:
+            found = selection.refused
+            raise ModelNotDetermined(found.family, found.rank, found.achievable, found.lacks(configurations))
         if selection is not None and (selection.chosen.family != "linear" or self.full_channels) and prior is None:
             excited = excitation_rank(self.model_sums(self._constant()), rcond)
             if excited < 7:  # the model's linear part needs what the paper's does (eqs 18-20)
@@ -290,7 +293,7 @@ class OnlineEstimator(SampleSums):
             quality = replace(quality, prior=prior_report)
         selected = None
         if selection is not None and prior is None:
-            selected = selection.as_dict(self.basis.column_names(configurations))
+            selected = selection.as_dict(self.basis.column_names(configurations), configurations)
             offset_model["criterion"] = "held-out error (see model_selection)"
             quality = replace(quality, held_directions={"count": 0, "rule": HOLD_RULE})
         return Calibration(

@@ -1,26 +1,35 @@
 r"""The choice of the sensor model and the offset model by held-out error (leave one unit out).
 
-The estimator keeps, beside its sums, one sum of ``z z^T`` per *unit* with
-``z = [W; phi(u); b]``: W the known wrench (6,), ``phi`` the features of the largest family
-asked for (:mod:`fts_calib.model.features`) and ``b`` the full offset basis
-(:mod:`fts_calib.model.offset_basis`). A unit is what may be held out as a whole: a static
-pose, or a block of still windows of one configuration in time. Every candidate (a family
-and an offset model) is a block of these sums, so leave-one-unit-out residuals are exact
-from the sums alone:
+Every candidate (a family and an offset model) is a block of the estimator's per-unit sums
+(:mod:`fts_calib.model.unit_sums`), so leave-one-unit-out residuals are exact from the sums alone:
 
 .. math::
 
     \Theta_{-g} = \text{solve}(S - S_g), \qquad
     \mathrm{RSS}_g = \mathrm{diag}(S_{WW,g} - 2\,\Theta_{-g} S_{XW,g} + \Theta_{-g} S_{XX,g} \Theta_{-g}^T)
 
-The score of a candidate is its held-out mean square over units and axes, each axis divided
-by the smallest held-out RMS any candidate reaches on it (the noise level the data allow), so
-that forces and moments count alike and an axis brought down to its noise counts whatever its
-share of full scale. Among the candidates whose score is within :data:`EQUAL_WITHIN_SE` standard
-errors (of the per-unit differences to the best, over units) of the best one's, the one of
-fewest parameters wins: an ideal sensor keeps the linear model and constant offsets, while a model that is wrong
-(a nonlinearity, offsets that move) loses by far more than its noise. BIC, which rewards any
-column that lowers the in-sample residual, chose drift terms on a nonlinear sensor's data.
+A unit is a tool configuration and a cell of gravity's direction (:mod:`fts_calib.pipeline.units`),
+wherever its samples are in the run: a unit that revisits another's orientation is not held out,
+and the held-out error would reward fitting what repeats (the filter's dynamic residue, a pose's
+systematic error). The score of a candidate is its held-out mean square over units and axes, each
+axis divided by the smallest held-out RMS any candidate reaches on it (the noise level the data
+allow), so that forces and moments count alike and an axis brought down to its noise counts
+whatever its share of full scale. Among the candidates whose score is within
+:data:`EQUAL_WITHIN_SE` standard errors (of the per-unit differences to the best, over units) of
+the best one's, the one of fewest parameters wins: an ideal sensor keeps the linear model and
+constant offsets, while a model that is wrong (a nonlinearity, offsets that move) loses by far
+more than its noise. BIC, which rewards any column that lowers the in-sample residual, chose
+drift terms on a nonlinear sensor's data.
+
+**Nonlinear families only where the loads determine them.** The loads of one configuration lie on
+one gravity sphere; a quadratic or cubic model is free off the spheres the jig gave. A nonlinear
+family is a candidate only when the loads determine it beyond their own, each configuration
+predicted by the others (:mod:`fts_calib.model.determination`: on the paper's jig, one mass at
+three centres of mass, never); asked for by name where they do not, it is ``refused`` (the
+estimator raises :class:`~fts_calib.core.exceptions.ModelNotDetermined`). Chosen under ``auto``,
+it must also beat the linear model leaving one whole configuration out, each with its own offset
+(:meth:`Chooser.score_groups`), or the linear model is chosen: an error measured on a
+configuration's own sphere says nothing of how a model extrapolates to another tool.
 
 Directions of a candidate that the loads do not excite (quadratic forms of ``u`` that are
 constant on the gravity sphere alias with the offsets; ``channels: full`` has n - 6 load-free
@@ -33,13 +42,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .features import FAMILIES, degree_of, features, monomials
-from .least_squares import RCOND, gram, residual_sums, solve_normal
+from .determination import Determination, determine
+from .features import AUTO_FAMILIES, FAMILIES, degree_of, monomials
+from .least_squares import RCOND, residual_sums, solve_normal
 from .offset_basis import Candidate, candidates
+from .unit_sums import UnitSums
 
 #: Relative eigenvalue threshold of the minimum-norm rule for the directions of a nonlinear
 #: family that no load excites: those at the data's round-off. Directions that strain noise
@@ -57,75 +68,13 @@ HOLD_RULE = (
 #: one reads -7 to +1.1 standard errors, while a 2 % FS quadratic nonlinearity reads +4.8 and more:
 #: two leaves a margin both ways (one picked a quadratic model on 1 linear sensor in 20).
 EQUAL_WITHIN_SE = 2.0
-
-
-class UnitSums:
-    """Per-unit sums of ``z z^T`` with ``z = [W; phi(u); b]`` (see the module docstring).
-
-    Args:
-        projection: P (6, n) of the layout (``u = P Delta``), or None for ``u = Delta``.
-        n_channels: n.
-        degree: The largest family's degree (1 to 3).
-        basis_size: k, the columns of the offset basis.
-    """
-
-    def __init__(self, projection: np.ndarray | None, n_channels: int, degree: int, basis_size: int):
-        self.projection = None if projection is None else np.asarray(projection, dtype=float)
-        self.n_channels = int(n_channels)
-        self.degree = int(degree)
-        self.inputs = 6 if self.projection is not None else self.n_channels
-        self.n_features = len(monomials(self.inputs, self.degree))
-        self.basis_size = int(basis_size)
-        self.width = 6 + self.n_features + self.basis_size
-        self.sums: dict[int, np.ndarray] = {}
-        self.weights: dict[int, float] = {}
-
-    def add(self, W: np.ndarray, channels: np.ndarray, b: np.ndarray, unit: np.ndarray, weight: np.ndarray | None = None) -> None:
-        """Add finite rows: wrenches (N, 6), raw channels (N, n), offset basis rows (N, k), units (N,) int, weights (N,)."""
-        if not len(W):
-            return
-        Z = np.empty((len(W), self.width))
-        Z[:, :6] = W
-        u = channels if self.projection is None else channels @ self.projection.T
-        features(u, self.degree, out=Z[:, 6 : 6 + self.n_features])
-        Z[:, 6 + self.n_features :] = b
-        unit = np.asarray(unit, dtype=np.int64)
-        starts = np.r_[0, np.flatnonzero(np.diff(unit)) + 1, len(unit)]
-        for a, e in zip(starts[:-1], starts[1:], strict=True):  # units come in runs: one product per run
-            rows = Z[a:e]
-            g = int(unit[a])
-            if g not in self.sums:
-                self.sums[g], self.weights[g] = np.zeros((self.width, self.width)), 0.0
-            self.sums[g] += gram(rows, None if weight is None else weight[a:e])
-            self.weights[g] += float(e - a) if weight is None else float(weight[a:e].sum())
-
-    def merged(self, other: UnitSums, shift: np.ndarray) -> UnitSums:
-        """A copy holding both: ``other``'s units after this one's, its offset basis moved by ``shift`` (k, k)."""
-        out = UnitSums(self.projection, self.n_channels, self.degree, self.basis_size)
-        H = np.eye(self.width)
-        H[-self.basis_size :, -self.basis_size :] = shift
-        first = max(self.sums, default=-1) + 1
-        out.sums = {g: s.copy() for g, s in self.sums.items()} | {first + g: H @ s @ H.T for g, s in other.sums.items()}
-        out.weights = dict(self.weights) | {first + g: w for g, w in other.weights.items()}
-        return out
-
-    def total(self) -> np.ndarray:
-        """The sum over units, shape (width, width)."""
-        return sum(self.sums.values(), np.zeros((self.width, self.width)))
-
-    def state(self) -> dict:
-        """Plain data for checkpoints."""
-        return {
-            "degree": self.degree,
-            "full_channels": self.projection is None,
-            "units": {str(g): s.tolist() for g, s in self.sums.items()},
-            "weights": {str(g): w for g, w in self.weights.items()},
-        }
-
-    def restore(self, state: dict) -> None:
-        """Load :meth:`state` (of the same shape)."""
-        self.sums = {int(g): np.asarray(s, dtype=float).reshape(self.width, self.width) for g, s in state["units"].items()}
-        self.weights = {int(g): float(w) for g, w in state["weights"].items()}
+#: The rule of the choice, in words, for the calibration file.
+CRITERION = (
+    "leave one unit out (a tool configuration and a cell of gravity's direction in the sensor frame, wherever its samples "
+    "are in the run); a nonlinear family only when the loads determine it beyond their own (each configuration predicted "
+    "by the others) and it beats the linear model leaving one configuration out; among candidates within "
+    f"{EQUAL_WITHIN_SE:g} standard errors of the best held-out error, the fewest parameters"
+)
 
 
 @dataclass(frozen=True)
@@ -155,7 +104,21 @@ class Score:
 
 @dataclass(frozen=True)
 class Selection:
-    """The outcome of the choice: every candidate's score, the best and the one chosen."""
+    """The outcome of the choice: every candidate's score, the best and the one chosen.
+
+    Attributes:
+        scores: Every candidate's held-out error over the units.
+        chosen: The candidate the calibration uses.
+        best: The candidate of least held-out error.
+        setting: ``(model setting, offset setting)``.
+        units: Held-out units.
+        scale: Per-axis scale of the errors [N, N m], shape (6,).
+        determinations: Family -> what the loads determine of it (:mod:`fts_calib.model.determination`).
+        groups: The load-group check of a nonlinear family against the linear one (leaving one
+            configuration out, each with its own offset), or empty when none was made.
+        refused: The determination of a nonlinear family the setting asks for and the loads do
+            not determine (the estimator refuses to solve), or None.
+    """
 
     scores: list[Score]
     chosen: Score
@@ -163,19 +126,24 @@ class Selection:
     setting: tuple[str, str]
     units: int
     scale: np.ndarray
+    determinations: dict[str, Determination] = field(default_factory=dict)
+    groups: list[Score] = field(default_factory=list)
+    refused: Determination | None = None
 
-    def as_dict(self, column_names: Sequence[str]) -> dict:
-        """The calibration file's ``model_selection``: the rule, and the table of candidates."""
+    def as_dict(self, column_names: Sequence[str], configurations: Sequence[str] | None = None) -> dict:
+        """The calibration file's ``model_selection``: the rule, the table of candidates and what the loads determine.
+
+        Args:
+            column_names: The offset basis's column names.
+            configurations: The tool configurations' names (for the determination's words).
+        """
 
         def label(score: Score) -> str:
             return _label(score, column_names)
 
-        return {
+        out = {
             "setting": {"model": self.setting[0], "offsets": self.setting[1]},
-            "criterion": (
-                f"leave one unit out (a static pose, or a block of still windows); among candidates within {EQUAL_WITHIN_SE:g} "
-                "standard errors of the best held-out error, the fewest parameters"
-            ),
+            "criterion": CRITERION,
             "units": self.units,
             "equal_within_standard_errors": EQUAL_WITHIN_SE,
             "scale": self.scale.tolist(),
@@ -194,7 +162,18 @@ class Selection:
                 for s in self.scores
             ],
             "held_directions": {"count": self.chosen.held, "rule": HOLD_RULE},
+            "determination": {
+                f: {**d.as_dict(), **({"lacks": d.lacks(configurations)} if not d.determined else {})}
+                for f, d in self.determinations.items()
+            },
         }
+        if self.groups:
+            out["load_groups"] = {
+                "criterion": "leave one tool configuration out, each with its own offset",
+                "groups": len(self.groups[0].per_unit),
+                "candidates": [{"model": g.family, "heldout_rms": g.heldout_rms.tolist(), "heldout_error": g.error} for g in self.groups],
+            }
+        return out
 
 
 def _label(score: Score, names: Sequence[str]) -> str:
@@ -226,10 +205,19 @@ class Chooser:
         n_eff = sum(sums.weights.values())
         rms_w = np.sqrt(np.maximum(np.diag(self.total)[:6], 0.0) / max(n_eff, 1e-300))
         self.scale = np.asarray(scale, dtype=float) if scale is not None else np.maximum(rms_w, 1e-12 * max(float(rms_w.max()), 1e-300))
+        self._determined: dict[tuple[str, bool], Determination] = {}
 
     def families(self) -> list[str]:
-        """The families the model setting allows, simplest first."""
-        return list(FAMILIES[: self.sums.degree]) if self.setting[0] == "auto" else [self.setting[0]]
+        """The families the model setting asks for, simplest first ('auto': :data:`AUTO_FAMILIES`)."""
+        return list(AUTO_FAMILIES) if self.setting[0] == "auto" else [self.setting[0]]
+
+    def determination(self, family: str, candidate: Candidate) -> Determination:
+        """What the units' loads determine of ``family`` with the offset columns of ``candidate``."""
+        per_configuration = candidate.model != "constant"
+        key = (family, per_configuration)
+        if key not in self._determined:
+            self._determined[key] = determine(self.sums.loads.sums, family, per_configuration)
+        return self._determined[key]
 
     def maps(self, family: str, candidate: Candidate) -> np.ndarray:
         """The rows selecting ``[W; u; A b; higher features]`` of a candidate from z.
@@ -252,27 +240,60 @@ class Chooser:
         return solve_normal(S[6:, 6:], S[:6, 6:], RCOND if family == "linear" else self.rcond, True)
 
     def score(self, family: str, candidate: Candidate) -> Score:
-        """The held-out error of one candidate.
+        """The held-out error of one candidate, leaving one unit out at a time.
 
         The directions held are those of the fit on every unit (one eigen-decomposition per
         candidate); each fold solves in the others, by one linear solve (LAPACK's eigenvector
         solver runs on every core and is 15x slower than a solve on a busy machine).
         """
+        units = sorted(self.sums.sums)
+        return self._held_out(family, candidate, [self.sums.sums[g] for g in units], [self.sums.weights[g] for g in units])
+
+    def score_groups(self, family: str, candidate: Candidate) -> Score:
+        """The held-out error of one candidate leaving one tool configuration (a load group) out at a time.
+
+        The held-out configuration's own offset is refitted on its samples (one constant per
+        axis), so every offset model is judged on how the model carries the *loads* of the others
+        over to it.
+        """
+        codes = self.sums.configurations(self.basis.n_configurations)
+        parts: dict[int, np.ndarray] = {}
+        weights: dict[int, float] = {}
+        for g, S in self.sums.sums.items():
+            parts[codes[g]] = parts.get(codes[g], 0.0) + S
+            weights[codes[g]] = weights.get(codes[g], 0.0) + self.sums.weights[g]
+        keys = sorted(parts)
+        own = [6 + self.sums.n_features + k for k in keys]  # the one-hot column of each configuration in z
+        return self._held_out(family, candidate, [parts[k] for k in keys], [weights[k] for k in keys], own)
+
+    def _held_out(self, family: str, candidate: Candidate, parts: list, counts: list[float], own: list[int] | None = None) -> Score:
+        """The score of a candidate over folds that each leave one of ``parts`` (sums of z z^T) out.
+
+        Args:
+            family: The family.
+            candidate: The offset model.
+            parts: The sums of each fold's held-out samples, (width, width) each.
+            counts: Their weights.
+            own: Per part, the column of z that is 1 on its samples: its residual's mean is removed (its own offset); None: not.
+        """
         M = self.maps(family, candidate)
         total = M @ self.total @ M.T
         scale, kept = self._range(total, family)
-        units = sorted(self.sums.sums)
-        rss = np.zeros((len(units), 6))
-        counts = np.array([self.sums.weights[g] for g in units])
-        for i, g in enumerate(units):
-            mine = M @ self.sums.sums[g] @ M.T
+        rss = np.zeros((len(parts), 6))
+        weights = np.array(counts, dtype=float)
+        for i, raw in enumerate(parts):
+            mine = M @ raw @ M.T
             theta = self._fold(total - mine, scale, kept)
             rss[i] = residual_sums(mine[:6, :6], mine[:6, 6:], mine[6:, 6:], theta)
+            if own is not None and weights[i] > 0:  # sum of the residuals, over the held-out part's samples
+                column = (M @ raw)[:, own[i]]
+                residual_sum = column[:6] - theta @ column[6:]
+                rss[i] = np.maximum(rss[i] - residual_sum**2 / weights[i], 0.0)
         p = M.shape[0] - 6
-        per_unit = (rss / self.scale**2).sum(axis=1) / np.maximum(counts, 1e-300) / 6.0
-        n = max(float(counts.sum()), 1e-300)
+        per_unit = (rss / self.scale**2).sum(axis=1) / np.maximum(weights, 1e-300) / 6.0
+        n = max(float(weights.sum()), 1e-300)
         heldout = np.sqrt(rss.sum(axis=0) / n)
-        unit_ms = rss / np.maximum(counts, 1e-300)[:, None]
+        unit_ms = rss / np.maximum(weights, 1e-300)[:, None]
         return Score(family, candidate, p, heldout, float(per_unit.mean()), per_unit, p - kept.shape[1], unit_ms)
 
     def _range(self, S: np.ndarray, family: str) -> tuple[np.ndarray, np.ndarray]:
@@ -296,14 +317,40 @@ class Chooser:
         return (kept @ y).T * scale[None, :]
 
     def select(self) -> Selection:
-        """Score every candidate and choose (see the module docstring)."""
+        """Score every candidate and choose (see the module docstring).
+
+        A nonlinear family is a candidate only with the offset models whose columns leave it
+        determined by the loads (:meth:`determination`); one the setting asks for by name and
+        the loads do not determine is ``refused`` (the linear candidates are scored instead, for
+        the diagnosis). A nonlinear family chosen under ``auto`` must also beat the linear model
+        leaving one configuration out (:meth:`score_groups`) by :data:`EQUAL_WITHIN_SE` standard
+        errors, or the linear model is chosen.
+        """
         options = candidates(self.basis, np.diag(self.total)[6 + self.sums.n_features :] > 0, self.setting[1])
-        scores = _per_noise([self.score(f, c) for f in self.families() for c in options])
-        finite = [s for s in scores if math.isfinite(s.error)] or scores
-        best = min(finite, key=lambda s: s.error)
-        equal = [s for s in finite if s is best or _paired_se(s, best)[0] <= EQUAL_WITHIN_SE * _paired_se(s, best)[1]]
-        chosen = min(equal, key=lambda s: (s.parameters, s.error))
-        return Selection(scores, chosen, best, self.setting, len(self.sums.sums), self.scale)
+        asked = self.families()
+        pairs = [(f, c) for f in asked for c in options if f == FAMILIES[0] or self.determination(f, c).determined]
+        refused = None
+        if self.setting[0] in FAMILIES[1:] and not pairs:
+            refused = self.determination(self.setting[0], options[0])
+            pairs = [(FAMILIES[0], c) for c in options]
+        determinations = {f: self.determination(f, options[0]) for f in asked if f != FAMILIES[0]}
+        scores = _per_noise([self.score(f, c) for f, c in pairs])
+        chosen, best = _choose(scores)
+        groups: list[Score] = []
+        if chosen.family != FAMILIES[0]:
+            groups = _per_noise([self.score_groups(FAMILIES[0], chosen.offsets), self.score_groups(chosen.family, chosen.offsets)])
+            excess, se = _paired_se(groups[0], groups[1])
+            if self.setting[0] == "auto" and not excess > EQUAL_WITHIN_SE * se:  # not clearly better on another load
+                chosen = _choose([s for s in scores if s.family == FAMILIES[0]])[0]
+        return Selection(scores, chosen, best, self.setting, len(self.sums.sums), self.scale, determinations, groups, refused)
+
+
+def _choose(scores: list[Score]) -> tuple[Score, Score]:
+    """(chosen, best): among the candidates within :data:`EQUAL_WITHIN_SE` standard errors of the best, the fewest parameters."""
+    finite = [s for s in scores if math.isfinite(s.error)] or scores
+    best = min(finite, key=lambda s: s.error)
+    equal = [s for s in finite if s is best or _paired_se(s, best)[0] <= EQUAL_WITHIN_SE * _paired_se(s, best)[1]]
+    return min(equal, key=lambda s: (s.parameters, s.error)), best
 
 
 def _per_noise(scores: list[Score]) -> list[Score]:

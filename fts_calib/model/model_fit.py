@@ -111,7 +111,7 @@ def solve_model(est: OnlineEstimator, selection: Selection, configurations, at) 
         layout=est.layout,
         offset_model=offset_model,
         model=model if (score.family != "linear" or est.full_channels) else None,
-        model_selection=selection.as_dict(names),
+        model_selection=selection.as_dict(names, configurations),
     )
 
 

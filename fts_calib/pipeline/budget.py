@@ -147,8 +147,8 @@ def measured_budget(
         full_scale: Full scale per axis [N, N m]. Shape (6,).
         gap_s: A gap between kept samples longer than this [s] starts a new stop.
         residual_rms: The calibration's residual RMS per axis on held-out samples (or its fit's), [N, N m], shape
-            (6,): what exceeds ``sigma_w`` is the budget's "model error" term
-            (:func:`fts_calib.model.budget.model_error`); None for no such term.
+            (6,): what exceeds ``sigma_w``, its largest in % of full scale on every axis, is the
+            budget's "model error" term (:func:`fts_calib.model.budget.model_error`); None for no such term.
         prior_weight: The weight of the prior C_bar was shrunk toward, or None (see :func:`sample_budget`).
         accuracy: Encoders, timing and mount; the robot definition's when None (the dynamic mode
             gives the latency it fitted and applied, :meth:`fts_calib.pipeline.dynamic.DynamicFilter.budget_accuracy`).
@@ -183,7 +183,7 @@ def measured_budget(
     )
     if residual_rms is None:
         return budget
-    terms = {**budget.terms, MODEL_ERROR: model_error(residual_rms, sigma_w)}
+    terms = {**budget.terms, MODEL_ERROR: model_error(residual_rms, sigma_w, full_scale)}
     return AccuracyBudget(terms, budget.full_scale, budget.coverage, budget.kind)
 
 

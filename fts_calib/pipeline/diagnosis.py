@@ -19,7 +19,9 @@ can show; the causes are tried in this order, and the first that the data suppor
 4. **A nonlinear sensor** (:func:`nonlinear`): the quadratic family of
    :mod:`fts_calib.model.features` (``u``, every ``u_i u_j``) fitted to the kept samples
    leaves a residual at the noise (at most :data:`~fts_calib.pipeline.fit.MAX_RATIO` times
-   it, per configuration and axis) where the linear model does not; or **drifting offsets**
+   it, per configuration and axis) where the linear model does not. ``--model quadratic`` is
+   suggested only when the loads determine that model beyond themselves
+   (:mod:`fts_calib.model.determination`); otherwise the jig that would is named. Or **drifting offsets**
    (:func:`drifting`): the drift offset model with every time power does. A quadratic in the
    channels absorbs a part of a drift along a sweep (and the reverse), so when both fit the
    one with the smaller residual is named.
@@ -38,6 +40,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..model.determination import Determination, LoadSums, determine
 from ..model.features import features
 from ..model.least_squares import load_information
 from ..model.offset_basis import candidates
@@ -286,11 +289,38 @@ def nonlinear(session: CalibrationSession, check: FitCheck, per_configuration: b
         worst = max(worst, float(np.max(rms / check.expected)))
     if not _clearly_fits(worst, check.max_ratio):
         return None
+    found = quadratic_determination(session, per_configuration)
+    fits = f"(largest residual {worst:.3g}x the expected noise, the linear model's {check.max_ratio:.3g}x)"
+    if found.determined:
+        return Cause("nonlinear", f"the sensor is nonlinear: a quadratic model fits at the noise {fits}: --model quadratic or auto", worst)
+    m, c = found.requirement
     text = (
-        f"the sensor is nonlinear: a quadratic model fits at the noise (largest residual {worst:.3g}x the expected noise, "
-        f"the linear model's {check.max_ratio:.3g}x): --model quadratic or auto"
+        f"the sensor is nonlinear: a quadratic model fits these loads at the noise {fits}, but these loads cannot determine it "
+        f"beyond themselves ({found.lacks(session.tool.names)}): calibrate it with a jig of {m} masses at {c} centres of mass "
+        "each ('fts-calib trajectory --tool TOOL --model quadratic' names one for this tool), or keep the linear model knowingly "
+        "(--accept-poor-fit: its budget then holds the misfit)"
     )
     return Cause("nonlinear", text, worst)
+
+
+def quadratic_determination(session: CalibrationSession, per_configuration: bool) -> Determination:
+    """What the session's loads determine of a quadratic model (:mod:`fts_calib.model.determination`).
+
+    The estimator's own sums of the weight-only loads when it keeps them (a model other than the
+    linear one), else those of the kept samples' known wrenches.
+
+    Args:
+        session: The session.
+        per_configuration: One offset per configuration (the offset model in use), else one for all.
+    """
+    units = session.estimator.units
+    if units is not None and units.loads.degree >= 2:
+        return determine(units.loads.sums, "quadratic", per_configuration)
+    loads = LoadSums(2)
+    kept = session._kept_samples.arrays()
+    if len(kept[0]):
+        loads.add(kept[1], kept[3])
+    return determine(loads.sums, "quadratic", per_configuration)
 
 
 def cause(

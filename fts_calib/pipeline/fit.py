@@ -381,7 +381,9 @@ def check_fit(
         diagnosis = hint or (
             f"{UNEXPLAINED}: check the tool file (masses, centres of mass in m in the sensor frame), the "
             "configuration labels, the joint units and the sensor mount; offsets that drift during the run (warm-up, "
-            "temperature) or move at a tool change also leave such residuals (--offsets auto or drift models them)"
+            "temperature) or move at a tool change also leave such residuals (--offsets auto or drift models them), and "
+            "so does a sensor whose response bends with the load in a way these loads cannot show (a jig of 2 masses, "
+            "each at 5 centres of mass, would: 'fts-calib trajectory --tool TOOL --model quadratic' names one)"
         )
     return FitCheck("poor", float(ratio.max()), residual, expected, diagnosis, worst, **parts)
 

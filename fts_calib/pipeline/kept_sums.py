@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.exceptions import InsufficientExcitation, PoorFit
+from ..core.exceptions import InsufficientExcitation, ModelNotDetermined, PoorFit
 from ..model.least_squares import unexplained_strain
 from .advice import missing_words, moving_words, refused_words
 from .diagnosis import RECORDING_KINDS, Cause, cause, missing_centres, session_allowance, weak_excitation
@@ -189,6 +189,8 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
         :class:`PoorFit` (no calibration) when a wrong tool file or joint unit, not the
         recording, explains the missing rank; otherwise :class:`InsufficientExcitation` in words.
     """
+    if isinstance(exc, ModelNotDetermined):  # a model the jig cannot fix, whatever the samples: its words say what the jig lacks
+        return exc
     short = missing_centres(session)
     if not short and not accept_poor_fit and strains_unexplained(session):
         check, found = _checked(session, hint)

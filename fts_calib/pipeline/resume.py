@@ -33,7 +33,6 @@ def restore_session(session: CalibrationSession, state: dict[str, Any], path: Pa
         FileFormatError: A damaged checkpoint, or one of another channel layout or sensor model.
     """
     model, full_channels, full_scale = models
-    session.units.restore(state.get("units"))
     try:
         session.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
         estimator.full_scale = None if full_scale is None else np.asarray(full_scale, dtype=float)
@@ -77,5 +76,4 @@ def session_state(session: CalibrationSession) -> dict[str, Any]:
         "fit_sums": session._fit_sums.tolist(),
         "last_time": None if last == -math.inf else last,
         "filter": None if session.filter is None else session.filter.state(),
-        "units": session.units.state(),
     }

@@ -42,7 +42,7 @@ from ..model.prior import Prior
 from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
-from ..robot.tool_wrench import tool_load
+from ..robot.tool_wrench import tool_load, weight_wrench
 from .budget import KeptSamples, MovingSamples, with_measured_budget
 from .checkpoint import read_checkpoint, write_checkpoint
 from .checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
@@ -56,7 +56,7 @@ from .provenance import session_provenance
 from .resume import restore_session, session_state
 from .settings import PipelineConfig
 from .tool_load import check_tool_load
-from .units import HeldOutUnits
+from .units import held_out_units
 
 __all__ = [
     "BACKWARDS",
@@ -143,7 +143,6 @@ class CalibrationSession:
             full_channels=full_channels,
             full_scale=full_scale,
         )
-        self.units = HeldOutUnits()
         self.filter = sample_filter(self.settings, kin, use_filter, self.full_scale, self.layout, n)  # filter.mode: quasi-static or dynamic
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
@@ -257,8 +256,11 @@ class CalibrationSession:
         if not len(kept) or W is None:
             return
         codes = kept.configuration
-        units = None if self.estimator.units is None else self.units.assign(kept.time, codes, kept.joints)
-        self.estimator.update_batch(W, kept.channels, weight, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
+        units = static = None
+        if self.estimator.units is not None:  # the held-out units, and the weight alone: what the jig gave there
+            units, static = held_out_units(codes, g), weight_wrench(self.tool, g, codes)
+        columns = {"time": kept.time, "configuration": codes, "temperature": kept.temperature, "unit": units, "w_static": static}
+        self.estimator.update_batch(W, kept.channels, weight, **columns)
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)

@@ -1,90 +1,69 @@
-"""Held-out units of the kept samples: what the model choice leaves out as a whole.
+r"""Held-out units of the kept samples: a tool load and an orientation cell.
 
 The choice of the sensor model by held-out error (:mod:`fts_calib.model.model_choice`) leaves
-one *unit* out at a time. Samples of one unit share their errors (one orientation, one
-stretch of time), so a unit must be a whole static pose, or a block of still windows:
+one *unit* out at a time. A unit is held out only when no other unit holds the same load:
+samples that share a tool configuration and see gravity from nearly the same direction in the
+sensor frame carry the same known wrench, the same filter residue and the same systematic error
+of that pose, so they form **one unit wherever they are in the run or the files**. A sweep
+recorded twice, two files of one run, or a pose revisited an hour later add samples to the units
+they already have, never new units: the held-out error of a model does not fall with repeats.
 
-- a new unit starts when the tool configuration changes;
-- or after a gap of more than :data:`UNIT_GAP_S` between kept samples (the arm moved: the
-  next pose of a static-pose dataset, or the next still stretch of a sweep);
-- or when a unit has lasted :data:`UNIT_SPAN_S` (a long slow sweep, or the moving samples of the
-  dynamic mode, are cut into blocks in time: one unit per configuration would leave the others
-  rank 6 when one is left out),
-  once the joints have moved more than :data:`UNIT_STILL_RAD` from the stretch's first
-  sample: a static pose held for longer (13 s, say) stays one unit, since its blocks
-  would share one orientation and leaving one out would test nothing. (Without joints,
-  every stretch is cut by time.)
+The orientation cell of gravity ``g`` (in the sensor frame) is a cell of the equal-angle cube
+sphere: the face of the cube of ``g``'s largest component, and the angles
+``atan(g_j / |g_i|)`` of its two others, each in [-45°, 45°], cut in :data:`CELLS_PER_EDGE` bins:
+6 x 9 x 9 = 486 cells, none wider than :data:`CELL_DEG`. The cell is a fixed function of the
+direction alone, so the same orientation falls into the same cell whatever came before, in any
+batching. (A pose held on the edge of two cells would be split by its noise; with joint noise of
+1e-5 rad that is one pose in 10,000.) The unit's index is ``configuration * N_CELLS + cell``.
 
-A new file of a recording made of several files starts after a gap
-(:mod:`fts_calib.feeds.recording_set`), so it starts a new unit. Times in [s], joints in [rad].
+Units: gravity in [m/s^2] (only its direction matters).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-#: A gap between kept samples longer than this starts a new unit, [s].
+#: A gap between kept samples longer than this separates two still stretches (the arm moved), [s].
 UNIT_GAP_S = 0.5
-#: A unit lasts at most this long, [s]: a sweep's still stretches and a continuous motion are cut into blocks.
-UNIT_SPAN_S = 2.0
-#: Joints within this of a stretch's first sample hold one pose, [rad]: its stretch is not cut in time.
-UNIT_STILL_RAD = 1e-3
+#: Bins per edge of a cube face: cells of 90 / 9 = 10 degrees.
+CELLS_PER_EDGE = 9
+#: The widest angle a cell spans along a face's edge, [deg].
+CELL_DEG = 90.0 / CELLS_PER_EDGE
+#: Cells on the sphere (6 faces).
+N_CELLS = 6 * CELLS_PER_EDGE * CELLS_PER_EDGE
 
 
-class HeldOutUnits:
-    """Assigns each kept sample its unit, online, in time order (see the module docstring)."""
+def orientation_cells(g_sensor: np.ndarray) -> np.ndarray:
+    """The cube-sphere cell of each gravity direction (see the module docstring).
 
-    def __init__(self) -> None:
-        self.count = 0  # units started so far
-        self._open: tuple[float, int, float, int] | None = None  # the open stretch: start [s], its first unit, last time [s], configuration
-        self._pose: tuple[np.ndarray, bool] | None = None  # the open stretch's first joints [rad], and whether they moved since
+    Args:
+        g_sensor: Gravity in the sensor frame, [m/s^2] (any length but 0). Shape (N, 3).
 
-    def assign(self, time: np.ndarray, configuration: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray:
-        """Unit indices of kept samples (in time order), continuing the open stretch.
+    Returns:
+        Cell indices in [0, :data:`N_CELLS`), shape (N,).
+    """
+    g = np.asarray(g_sensor, dtype=float).reshape(-1, 3)
+    axis = np.argmax(np.abs(g), axis=1)
+    rows = np.arange(len(g))
+    major = np.abs(g[rows, axis])
+    face = 2 * axis + (g[rows, axis] < 0)
+    others = np.stack([g[rows, (axis + 1) % 3], g[rows, (axis + 2) % 3]], axis=1)
+    angle = np.arctan2(others, np.maximum(major, 1e-300)[:, None])  # in [-pi/4, pi/4]
+    bins = np.clip(np.floor((angle / (math.pi / 2) + 0.5) * CELLS_PER_EDGE), 0, CELLS_PER_EDGE - 1).astype(np.int64)
+    return (face * CELLS_PER_EDGE + bins[:, 0]) * CELLS_PER_EDGE + bins[:, 1]
 
-        Args:
-            time: Times [s], shape (N,).
-            configuration: Tool configuration index per sample, shape (N,).
-            joints: Joint readings [rad], shape (N, n_joints); None: every stretch is cut in time.
 
-        Returns:
-            Shape (N,), integers >= 0.
-        """
-        time = np.asarray(time, dtype=float)
-        codes = np.asarray(configuration, dtype=np.int64)
-        n = len(time)
-        out = np.empty(n, dtype=np.int64)
-        if not n:
-            return out
-        last_time, last_code = (self._open[2], self._open[3]) if self._open else (-np.inf, -1)
-        new = (codes != np.r_[last_code, codes[:-1]]) | (time - np.r_[last_time, time[:-1]] > UNIT_GAP_S)
-        firsts = np.flatnonzero(new).tolist()
-        ends = [*firsts, n]
-        stretches = [] if firsts and firsts[0] == 0 else [(0, ends[0], self._open)]
-        stretches += [(a, ends[j + 1], None) for j, a in enumerate(firsts)]
-        for a, e, opened in stretches:
-            start, first = (opened[0], opened[1]) if opened else (float(time[a]), self.count)
-            blocks = np.floor((time[a:e] - start) / UNIT_SPAN_S).astype(np.int64)
-            if joints is not None:
-                pose = self._pose if opened and self._pose is not None else (np.array(joints[a], dtype=float), False)
-                moved = pose[1] | (np.cumsum(np.any(np.abs(joints[a:e] - pose[0]) > UNIT_STILL_RAD, axis=1)) > 0)
-                blocks = np.where(moved, blocks, 0)  # one pose held: one unit, however long
-                self._pose = (pose[0], bool(moved[-1]))
-            out[a:e] = first + blocks
-            self.count = max(self.count, int(out[e - 1]) + 1)
-            self._open = (start, first, float(time[e - 1]), int(codes[e - 1]))
-        return out
+def held_out_units(configuration: np.ndarray, g_sensor: np.ndarray) -> np.ndarray:
+    """The held-out unit of each sample: its tool configuration and orientation cell.
 
-    def state(self) -> dict:
-        """Plain data for checkpoints."""
-        pose = None if self._pose is None else [self._pose[0].tolist(), self._pose[1]]
-        return {"count": self.count, "open": None if self._open is None else list(self._open), "pose": pose}
+    Args:
+        configuration: Tool configuration index per sample (>= 0), shape (N,).
+        g_sensor: Gravity in the sensor frame [m/s^2], shape (N, 3).
 
-    def restore(self, state: dict | None) -> None:
-        """Load :meth:`state` (None: nothing saved)."""
-        if state:
-            self.count = int(state["count"])
-            o = state.get("open")
-            self._open = None if o is None else (float(o[0]), int(o[1]), float(o[2]), int(o[3]))
-            pose = state.get("pose")  # absent from an older checkpoint: the stretch is cut in time
-            self._pose = None if pose is None else (np.asarray(pose[0], dtype=float), bool(pose[1]))
+    Returns:
+        Shape (N,), integers ``configuration * N_CELLS + cell`` (:func:`orientation_cells`).
+    """
+    codes = np.asarray(configuration, dtype=np.int64).reshape(-1)
+    return codes * N_CELLS + orientation_cells(g_sensor)

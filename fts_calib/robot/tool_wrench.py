@@ -83,13 +83,12 @@ def tool_load(
         return ToolLoad(np.zeros((0, 3)), np.zeros((0, 6)), None if joint_velocity is None else np.zeros((0, 6)))
     if (joint_velocity is None) != (joint_acceleration is None):
         raise ShapeError("give both joint_velocity and joint_acceleration, or neither")
-    matrices = np.stack([c.wrench_matrix for c in tool.configurations])  # (k, 6, 3): W = M g (eqs 17-18)
     if joint_velocity is None:
         g = kin.g_sensor(joints, tool.gravity).reshape(n, 3)
-        return ToolLoad(g, np.einsum("nij,nj->ni", matrices[codes], g))
+        return ToolLoad(g, weight_wrench(tool, g, codes))
     motion = kin.sensor_motion(joints, joint_velocity, joint_acceleration)
     g = np.einsum("nji,j->ni", motion.R_world_sensor.reshape(n, 3, 3), kin.g_world(tool.gravity))
-    static = np.einsum("nij,nj->ni", matrices[codes], g)
+    static = weight_wrench(tool, g, codes)
     if codes[0] == codes[-1] and np.all(codes == codes[0]):  # one configuration (the usual block): no copies
         moving = tool.configurations[int(codes[0])].dynamic_wrench(g, motion.omega, motion.alpha, motion.a)
         return ToolLoad(g, static, moving, motion)
@@ -99,6 +98,21 @@ def tool_load(
         if mine.any():
             moving[mine] = tool_configuration.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
     return ToolLoad(g, static, moving, motion)
+
+
+def weight_wrench(tool: Tool, g_sensor: np.ndarray, configuration: np.ndarray) -> np.ndarray:
+    """The weight alone of the tool's configurations (eqs 17-18): ``[m g; c x m g]``.
+
+    Args:
+        tool: The tool.
+        g_sensor: Gravity in the sensor frame [m/s^2], shape (N, 3).
+        configuration: Configuration index of each sample, shape (N,) int.
+
+    Returns:
+        Shape (N, 6), [N, N, N, N m, N m, N m].
+    """
+    matrices = np.stack([c.wrench_matrix for c in tool.configurations])  # (k, 6, 3): W = M g
+    return np.einsum("nij,nj->ni", matrices[np.asarray(configuration, dtype=np.int64)], np.asarray(g_sensor, dtype=float).reshape(-1, 3))
 
 
 def dynamic_fraction(tool: Tool, configuration: np.ndarray, dynamic_part: np.ndarray) -> np.ndarray:
