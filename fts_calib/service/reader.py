@@ -185,9 +185,10 @@ class WrenchReader:
     def outside_region(self, w_sensor) -> bool:
         """Whether one wrench lies outside the calibration's load region (:meth:`fts_calib.model.region.LoadRegion.contains`).
 
-        Not called by :meth:`wrench`: a caller decides whether the check is worth its cost
-        (a few hundred ns) in its loop. A calibration without a region (typed in by hand, or
-        a file written before regions were recorded) has nothing to check: always False.
+        Not called by :meth:`wrench`: a caller decides whether the check is worth its cost in
+        its loop (about half that of :meth:`wrench`: 0.8 µs against 1.4 µs, measured in
+        CPython). A calibration without a region (typed in by hand, or a file written before
+        regions were recorded) has nothing to check: always False.
 
         Args:
             w_sensor: The wrench [N, N, N, N m, N m, N m], shape (6,), e.g. what :meth:`wrench` returned.
