@@ -19,7 +19,8 @@ not kept and why), ``provenance`` (robot, tool, sensor, files with SHA-256, soft
 Frames and units: the wrench is the load on the sensor in S, ``[Fx Fy Fz Mx My Mz]`` in
 [N, N, N, N m, N m, N m]; a residual is the measured wrench minus the known one.
 
-The pictures are drawn by :mod:`fts_calib.app.report_svg`, the data gathered by
+The pictures are drawn by :mod:`fts_calib.app.report_svg` (the load region by
+:mod:`fts_calib.app.report_region`), the data gathered by
 :mod:`fts_calib.app.report_content`; a comparison of two calibrations is
 :mod:`fts_calib.app.report_compare`.
 """
@@ -37,6 +38,7 @@ from .._version import __version__
 from ..core.outputs import atomic_write_text
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from .report_content import ReportContent, _budget, _fit, _held_out, _quality_value, file_record, model_selection
+from .report_region import region_section
 from .report_svg import (
     _budget_section,
     _e,
@@ -44,7 +46,6 @@ from .report_svg import (
     _heatmap,
     _num,
     _offsets,
-    _region,
     _residuals,
     _skipped,
     _sphere,
@@ -296,7 +297,7 @@ def render_report(content: ReportContent) -> str:
         "verdict": _verdict,
         "sphere": _sphere,
         "residuals": _residuals,
-        "region": _region,
+        "region": region_section,
         "budget": _budget_section,
         "model-selection": _model_selection_section,
         "matrix": _matrix,

@@ -39,7 +39,6 @@ from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
 from ..model.prior import Prior
-from ..model.region import RegionBuilder
 from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
@@ -104,9 +103,7 @@ class CalibrationSession:
     Attributes:
         budget: The measured accuracy budget of the last :meth:`solve`, or None.
         latency: The stream-latency estimate of the last :meth:`solve`, or None.
-        kept_region: The load region of the known wrenches that entered the least squares so
-            far (:class:`fts_calib.model.region.RegionBuilder`, margin 1 % of ``full_scale``);
-            :meth:`solve` attaches it to the calibration.
+        kept_region: The load region of the wrenches kept so far (:class:`~fts_calib.model.region.RegionBuilder`), for :meth:`solve`.
     """
 
     def __init__(
@@ -151,9 +148,8 @@ class CalibrationSession:
         self.filter = sample_filter(self.settings, kin, use_filter, self.full_scale, self.layout, n)  # filter.mode: quasi-static or dynamic
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
-        self.kept_region = RegionBuilder(self.full_scale)
         self.seen = 0
-        self._directions, self._fit_sums = empty_sums(n, self.estimator.basis.n_drift)  # per configuration (kept_sums)
+        self._directions, self._fit_sums, self.kept_region = empty_sums(n, self.estimator.basis.n_drift, self.full_scale)  # kept_sums
         self._staged: list[tuple] = []
         self._last: tuple[float, int, float | None] | None = None  # time, configuration, temperature of the last valid sample
         self._clock = clock
@@ -264,11 +260,10 @@ class CalibrationSession:
         codes = kept.configuration
         units = None if self.estimator.units is None else self.units.assign(kept.time, codes, kept.joints)
         self.estimator.update_batch(W, kept.channels, weight, time=kept.time, configuration=codes, temperature=kept.temperature, unit=units)
-        self.kept_region.add(W)
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)
-        add_kept(self, g, kept.channels, codes, kept.time, kept.temperature, fit)
+        add_kept(self, g, W, kept.channels, codes, kept.time, kept.temperature, fit)
 
     def flush(self) -> None:
         """Decide the samples the filter still holds (call when the stream ends)."""
@@ -329,18 +324,17 @@ class CalibrationSession:
             raise FtsCalibError("the estimator returned a calibration without its quality")
         check = self.fit_check(hint)
         quality = replace(calibration.quality, samples_seen=self.seen, skipped=self.all_skipped(), fit=check.as_dict())
-        calibration = replace(calibration, quality=quality, provenance={**calibration.provenance, **self._provenance})
-        region = self.kept_region.region()
+        provenance = {**calibration.provenance, **self._provenance}
+        calibration = replace(calibration, quality=quality, provenance=provenance, region=self.kept_region.region())
         if not check.ok and not accept_poor_fit:
-            raise PoorFit(check, replace(calibration, region=region))
+            raise PoorFit(check, calibration)
         noise_floor = None if self.filter is None else self.filter.noise_floor
         accuracy = self.filter.budget_accuracy(self.kin) if isinstance(self.filter, DynamicFilter) else None  # the latency it fitted
         kept, n_kept = self._kept_samples, int(self.kept.sum())
         calibration, self.budget, self.latency = with_measured_budget(
             calibration, self.kin, self.tool, kept, n_kept, noise_floor, self._moving, self.full_scale, accuracy
         )
-        # the region last: the budget and the latency evaluate moving samples, outside it by their dynamics
-        return replace(with_health(self, calibration, noise_floor), region=region)
+        return with_health(self, calibration, noise_floor)
 
     @property
     def _provenance(self) -> dict:
