@@ -257,6 +257,7 @@ def test_cli_monitor_listens_to_the_live_feed(parity, sensor, calibrated, tmp_pa
     data = json.loads((tmp_path / "live.json").read_text())
     assert [(e["kind"], e["channel"]) for e in data["events"]] == [("frozen", 4)], data
     assert data["skipped"] >= 1  # the malformed datagram
+    assert data["region"]["samples"] == data["samples"] > 0  # every strain datagram counted, one at a time
 
 
 def test_cli_monitor_tracks_the_offset_and_retares(calibrated, ur5_recording, tmp_path, capsys):
@@ -381,3 +382,27 @@ def test_cli_monitor_listens_with_joints_and_tracks_the_offset(calibrated, ur5_r
     else:
         assert data["offset"]["windows_without_contact"] > recorded["offset"]["windows_without_contact"] // 2, (data, recorded)
     assert np.all(np.abs(data["offset"]["error"][:3]) < 0.02) and np.all(np.abs(data["offset"]["error"][3:]) < 0.002), data["offset"]
+
+
+def test_cli_monitor_counts_the_samples_outside_the_calibrated_load_region(calibrated, sensor, tmp_path, capsys):
+    """A 1 kg payload turned through random orientations for 2 s, then a 3 kg one: the calibration tool weighs 2 kg."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(41)
+    light, heavy = service_wrenches(2.0, 1000.0, rng), service_wrenches(2.0, 1000.0, rng, mass=3.0)
+    t, w = np.concatenate([light[0], heavy[0] + 2.0]), np.vstack([light[1], heavy[1]])
+    channels = sensor.channels(w, t, rng)
+    _service_csv(tmp_path / "service.csv", t, channels)
+    cal = calibrated.save(tmp_path / "cal.yaml")
+    assert main(["monitor", "--calibration", str(cal), str(tmp_path / "service.csv"), "--json", str(tmp_path / "m.json")]) == 0
+    out = capsys.readouterr().out
+    # the count, computed here from C and D directly (the calibration is linear)
+    outside = int(np.count_nonzero(~calibrated.region.contains(channels @ calibrated.C.T + calibrated.D)))
+    # every 3 kg sample is outside (|F| = 29.4 N > 19.62 N + 0.87 N), the 1 kg ones in the box here
+    assert len(heavy[0]) <= outside < len(t)
+    assert f"{outside:,} of {len(t):,} samples ({100 * outside / len(t):.3g} %) outside the calibrated load region" in out, out
+    assert json.loads((tmp_path / "m.json").read_text())["region"] == {"outside": outside, "samples": len(t)}
+    bare = replace(calibrated, region=None).save(tmp_path / "bare.yaml")
+    assert main(["monitor", "--calibration", str(bare), str(tmp_path / "service.csv"), "--json", str(tmp_path / "b.json")]) == 0
+    assert "load region: the calibration records none" in capsys.readouterr().out
+    assert json.loads((tmp_path / "b.json").read_text())["region"] is None

@@ -114,6 +114,32 @@ def test_model_selection_shows_what_the_file_holds(calibrated):
     assert "not recorded" in render_report(ReportContent("none", None, diagnosis="no sample"))
 
 
+def _section(page: str, sid: str) -> str:
+    start = page.index(f'<section id="{sid}">')
+    return page[start : page.index("</section>", start)]
+
+
+def test_the_region_section_draws_the_calibrated_loads_and_the_samples_beyond_them(calibrated):
+    result, collector = calibrated
+    cal = result.calibration
+    region, samples = cal.region, collector.samples(cal)
+    names = tuple(result.session.tool.names)
+    section = _section(render_report(ReportContent("a short run", cal, samples=samples, configurations=names)), "region")
+    # the numbers of the file, to their printed digits; the kept samples are the region: none outside
+    assert f"|F| ≤ {region.force_max:.4g} N, |M| ≤ {region.moment_max:.4g} N·m, from the {region.samples:,} samples" in section
+    assert f"<td>{region.low[1]:+.4g} N</td><td>{region.high[1]:+.4g} N</td>" in section
+    assert f"0 of {len(samples.time):,} lie outside the region" in section
+    # the same loads twice as heavy (a 4 kg tool): counted outside as the region's own rule says
+    heavy = dataclasses.replace(samples, w_sensor=2.0 * samples.w_sensor, label="heavier samples")
+    page = render_report(ReportContent("heavier", cal, samples=heavy, configurations=names))
+    check_page(page)
+    outside = int(np.count_nonzero(~region.contains(heavy.w_sensor)))
+    assert outside == len(heavy.time)  # |F| = 39.2 N > 19.62 N + 0.87 N
+    assert f"{outside:,} of {len(heavy.time):,} lie outside the region (red)" in _section(page, "region")
+    bare = render_report(ReportContent("typed in", dataclasses.replace(cal, region=None)))
+    assert "not recorded: the calibration records no load region" in _section(bare, "region")
+
+
 def test_compare_against_noiseless_truths(calibrated):
     cal = calibrated[0].calibration
     q = cal.quality

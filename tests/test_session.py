@@ -130,3 +130,80 @@ def test_resume_refuses_another_robot_or_tool(tmp_path, ur5, panda, paper_tool):
     (tmp_path / "bad.json").write_text("{")
     with pytest.raises(FileFormatError, match="not a checkpoint"):
         CalibrationSession.resume(tmp_path / "bad.json", ur5, paper_tool)
+
+
+@pytest.fixture(scope="module")
+def shipped_plan_arrays(seed):
+    """The shipped UR5 plan (trajectories/ur5) played through the simulated sensor, as arrays (moving tool, noise)."""
+    from fts_calib.core.resources import data_dir, resolve
+    from fts_calib.planning.trajectory_io import read_trajectory
+    from fts_calib.robot.definition import load_robot
+    from fts_calib.robot.kinematics import Kinematics
+    from fts_calib.robot.tool import load_tool
+    from fts_calib.sim.recording import simulate_batches
+
+    kin, tool = Kinematics(load_robot(resolve("ur5", "robots"))), load_tool(resolve("paper_tool", "configs"))
+    plan = [read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz") for name in tool.names]
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    batches = list(simulate_batches(kin, tool, plan, sensor, np.random.default_rng([seed, 29])))
+    return {
+        "time": np.concatenate([b.time for b in batches]),  # [s]
+        "joints": np.concatenate([b.joints for b in batches]),  # [rad]
+        "channels": np.concatenate([b.channels for b in batches]),
+        "configuration": np.concatenate([b.configuration for b in batches]),
+    }
+
+
+def test_the_calibration_carries_the_load_region_of_its_kept_samples(ur5, paper_tool, shipped_plan_arrays):
+    import fts_calib
+
+    kept = []
+    session = CalibrationSession(ur5, paper_tool, on_kept=lambda t, W, *rest: kept.append(W))
+    a = shipped_plan_arrays
+    session.add_batch(a["time"], a["joints"], a["channels"], a["configuration"])
+    session.flush()
+    calibration = session.solve()
+    region, W = calibration.region, np.vstack(kept)
+    # the region is the box of exactly the wrenches that entered the least squares
+    np.testing.assert_array_equal(region.low, W.min(axis=0))
+    np.testing.assert_array_equal(region.high, W.max(axis=0))
+    assert region.samples == len(W) == calibration.quality.samples_used > 300  # 376 of 4,035 at 100 Hz
+    # quasi-static samples enter with the static wrench: |F| = m g (2 kg, 9.81 m/s^2) to rounding
+    assert region.force_max == pytest.approx(2.0 * paper_tool.gravity, rel=1e-6)
+    assert region.moment_max == pytest.approx(np.linalg.norm(W[:, 3:], axis=1).max(), rel=1e-12)
+    np.testing.assert_array_equal(region.margin, 0.01 * session.full_scale)  # 1 % of the sensor's full scale
+    # the Python entry point goes through the session: the same region
+    names = [paper_tool.names[k] for k in a["configuration"]]
+    api = fts_calib.calibrate({**a, "configuration": names}, robot=ur5, tool=paper_tool)
+    np.testing.assert_array_equal(api.region.low, region.low)
+    np.testing.assert_array_equal(api.region.high, region.high)
+
+
+def test_a_resumed_session_keeps_the_region_of_the_samples_before_its_checkpoint(tmp_path, ur5, paper_tool, ur5_recording):
+    import json
+
+    chunks = _chunks(ur5_recording, ur5, paper_tool, rows=3000)
+    whole = CalibrationSession(ur5, paper_tool)
+    _feed(whole, chunks)
+    expected = whole.solve().region
+    clock = iter(np.arange(0.0, 1000.0, 1.0))
+    config = PipelineConfig(live=LiveConfig(checkpoint_interval_s=1.0))
+    first = CalibrationSession(ur5, paper_tool, config, checkpoint=tmp_path / "cp.json", clock=lambda: next(clock))
+    assert len(chunks) >= 3
+    for c in chunks[:2]:  # a crash after the second chunk
+        first.add_batch(c.time, c.joints, c.channels, c.configuration)
+    state = json.loads((tmp_path / "cp.json").read_text())
+    assert state["region"]["samples"] == sum(state["kept"]) > 0
+    resumed = CalibrationSession.resume(tmp_path / "cp.json", ur5, paper_tool, config)
+    _feed(resumed, chunks)
+    got = resumed.solve().region
+    # the filter's undecided context at the checkpoint is lost (a few samples of one stop): the extremes stay
+    assert abs(got.samples - expected.samples) < 60
+    np.testing.assert_allclose(got.low, expected.low, rtol=0, atol=1e-3 * np.abs(expected.low).max())
+    np.testing.assert_allclose(got.high, expected.high, rtol=0, atol=1e-3 * np.abs(expected.high).max())
+    # a checkpoint of an older version, without the region: the region of the resumed part only
+    del state["region"]
+    (tmp_path / "old.json").write_text(json.dumps(state))
+    older = CalibrationSession.resume(tmp_path / "old.json", ur5, paper_tool, config)
+    _feed(older, chunks)
+    assert older.solve().region.samples == got.samples - sum(state["kept"])

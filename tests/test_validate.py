@@ -109,3 +109,99 @@ def test_a_full_scale_that_is_not_positive_is_refused_before_reading(tmp_path, v
     command = ["validate", "--calibration", table1, "--robot", "ur5", str(tmp_path / "unread.csv"), "--full-scale-force", value]
     assert main(command) == ExitCode.CONFIG
     assert "full_scale=" in capsys.readouterr().err
+
+
+# --- inside and outside the calibration's load region ----------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def poses(tmp_path_factory, short_plan, seed, _kinematics_cache):
+    """A static-pose recording of the short plan (the arm still at each stop), its calibration and the kinematics."""
+    from fts_calib.pipeline.calibrate import calibrate_recording
+
+    from .conftest import _kinematics
+
+    kin = _kinematics(_kinematics_cache, "ur5")
+    tool = load_tool(resolve("paper_tool", "configs"))
+    sensor = SimulatedSensor.from_spec(load_sensor_config(resolve("sensor", "configs")).simulated)
+    p = short_plan
+    plan = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, name) for name in tool.names]
+    path = tmp_path_factory.mktemp("poses") / "poses.csv"
+    simulate_recording(path, kin, tool, plan, sensor, np.random.default_rng([seed, 3]), poses_only=True)
+    result = calibrate_recording(path, kin, tool)
+    assert result.calibration is not None, result.error
+    return kin, tool, plan, sensor, path, result.calibration
+
+
+def _check_split(result):
+    """The two parts hold every sample, and their sums of squares and maxima make the whole's."""
+    split, whole = result.regions[0], result.errors[0]
+    assert split.inside_samples + split.outside_samples == result.samples
+    # rms^2 n = rms_in^2 n_in + rms_out^2 n_out: the same squares summed in two groups (round-off ~1e-15 relative)
+    squares = split.inside.rms**2 * split.inside_samples + split.outside.rms**2 * split.outside_samples
+    np.testing.assert_allclose(squares, whole.rms**2 * result.samples, rtol=1e-9)
+    np.testing.assert_array_equal(np.maximum(split.inside.max_abs, split.outside.max_abs), whole.max_abs)
+    # classified by the expected wrench: every sample is in the plot's series below 20,000 samples
+    assert len(result.expected) == result.samples
+    assert int(split.region.contains(result.expected).sum()) == split.inside_samples
+
+
+def test_the_calibrations_own_static_poses_lie_inside_its_region(poses):
+    kin, tool, _, _, path, calibration = poses
+    full_scale = load_sensor_config(resolve("sensor", "configs")).full_scale
+    result = validate_recording(path, kin, tool, [calibration], full_scale, dynamic=False)
+    split, quality = result.regions[0], calibration.quality
+    # every stop of the sweeps is inside. Each configuration's motion starts with one still sample at the home
+    # pose: too short for the filter's window, it is not kept, and its load (gravity along -Y of S: Fy = -19.62 N)
+    # lies beyond the box of the sweeps: the region says so
+    assert split.outside_samples == len(tool.names) == quality.samples_seen - quality.samples_used
+    assert split.inside_samples == quality.samples_used > 1000
+    _check_split(result)
+    home = result.expected[~split.region.contains(result.expected)]
+    weight = 2.0 * tool.gravity  # [N]
+    np.testing.assert_allclose(home[:, 1], -weight, rtol=0, atol=1e-6 * weight)  # joints as the CSV writes them
+    data = result.as_json()
+    assert set(data["region"]) == {"inside", "outside"} and data["region"]["outside"]["samples"] == len(tool.names)
+    assert data["region"]["inside"]["samples"] + data["region"]["outside"]["samples"] == data["samples"]
+
+
+def test_a_heavier_tool_is_outside_the_region_and_the_calibrations_own_motion_partly(poses, ur5_recording, tmp_path):
+    kin, tool, plan, sensor, _, calibration = poses
+    full_scale = load_sensor_config(resolve("sensor", "configs")).full_scale
+    heavy = tmp_path / "heavy_tool.yaml"  # twice the calibration tool's mass (2 kg) at its centres of mass
+    configurations = "".join(f"  - {{name: {c.name}, mass: 4.0, com: {c.p_sensor_com.tolist()}}}\n" for c in tool.configurations)
+    heavy.write_text(f"name: heavy tool\ngravity: 9.81\nconfigurations:\n{configurations}")
+    heavy_tool = load_tool(heavy)
+    recording = simulate_recording(tmp_path / "heavy.csv", kin, heavy_tool, plan, sensor, np.random.default_rng(5))
+    result = validate_recording(recording, kin, heavy_tool, [calibration], full_scale)
+    split = result.regions[0]
+    # |F| = 4 kg x 9.81 = 39.2 N everywhere, beyond 19.62 N + |margin| 0.87 N: every sample is outside
+    assert split.outside_samples == result.samples > 0 and split.inside_samples == 0
+    _check_split(result)
+    # the calibration's own moving recording: the stops inside, the motion between them partly outside
+    moving = validate_recording(ur5_recording, kin, tool, [calibration], full_scale)
+    assert 0 < moving.regions[0].outside_samples < moving.regions[0].inside_samples
+    _check_split(moving)
+    # a calibration without a region: no split, no json key
+    bare = validate_recording(ur5_recording, kin, tool, [Calibration(calibration.C_bar, calibration.D)], full_scale)
+    assert bare.regions == [None] and "region" not in bare.as_json()
+
+
+def test_cli_validate_prints_and_writes_the_region_split(poses, ur5_recording, tmp_path, capsys):
+    import json
+
+    from fts_calib.app.cli import main
+
+    calibration = poses[5].save(tmp_path / "cal.yaml")
+    command = ["validate", "--calibration", str(calibration), "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording)]
+    assert main([*command, "--json", str(tmp_path / "v.json")]) == 0
+    out = capsys.readouterr().out
+    data = json.loads((tmp_path / "v.json").read_text())
+    inside, outside = data["region"]["inside"]["samples"], data["region"]["outside"]["samples"]
+    assert inside + outside == data["samples"] and outside > 0
+    assert f"inside the calibrated load region: {inside:,} samples" in out and f"outside: {outside:,} samples" in out, out
+    assert set(data["region"]["outside"]["axes"]) == set(data["axes"]) == {"Fx", "Fy", "Fz", "Mx", "My", "Mz"}
+    table1 = str(resolve("paper_table1_calibration", "configs"))
+    assert main([*command[:2], table1, *command[3:], "--json", str(tmp_path / "t.json")]) == 0
+    assert "the calibration records no load region" in capsys.readouterr().out
+    assert "region" not in json.loads((tmp_path / "t.json").read_text())

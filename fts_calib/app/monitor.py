@@ -1,4 +1,9 @@
-"""The ``monitor`` command: the sensor's health over a recording, from the calibration's parity model."""
+"""The ``monitor`` command: the sensor's health over a recording, from the calibration's parity model.
+
+It also counts the samples whose measured wrench (``C strain + D``, the calibration's D) lies
+outside the load region the calibration was fitted on (:mod:`fts_calib.model.region`): loads
+of the service the calibration was not determined on.
+"""
 
 from __future__ import annotations
 
@@ -18,10 +23,11 @@ from ..feeds.recording_set import describe_files
 from ..feeds.source import open_recording, recording_paths
 from ..feeds.sync import Synchronizer
 from ..feeds.udp import LiveStats, UdpReceiver, feed_datagram
-from ..model.calibration import load_calibration
+from ..model.calibration import Calibration, load_calibration
 from ..model.channels import check_channels
 from ..model.health import ParityModel
 from ..service.health import HealthMonitor
+from ..service.reader import WrenchReader
 from .exit_codes import ExitCode, using_udp, writing
 from .monitor_offsets import OffsetFeed
 from .setup import load_sensor, load_setup
@@ -51,7 +57,9 @@ def run(
         recording: Recording (CSV or CSV.gz) of the sensor in service, or ROS 2 bags.
         calibration: Calibration file with a ``health`` section.
         json_path: Where to write ``{"events": [{"time_s", "kind", "channel", "detail"}, ...],
-            "samples": N, "skipped": N, "health": "ok" | "fault"}``, atomically; None for none.
+            "samples": N, "skipped": N, "health": "ok" | "fault", "region": {"outside": k,
+            "samples": N} or null}`` (``region`` null for a calibration that records none),
+            atomically; None for none.
         false_alarms_per_hour: False-alarm budget of the tests, per hour of service.
         listen: ``(host, port)`` of the live UDP feed to watch instead of a recording (its
             strain datagrams, :mod:`fts_calib.feeds.protocol`), until an 'end' datagram, Ctrl-C
@@ -91,6 +99,7 @@ def run(
         )
         raise ConfigError("health", None, "the calibration's parity model", message=f"{calibration} has no health section: {why}")
     parity = ParityModel.from_dict(cal.health)
+    region = RegionCount(cal)
     offsets = None
     if robot is not None:
         kin, payload, _ = load_setup(robot, tool)
@@ -99,9 +108,9 @@ def run(
     elif auto_tare:
         raise ConfigError("auto_tare", True, "--robot and --tool: the payload's wrench needs the joints")
     if listen is not None:
-        live, span, skipped = _listen(parity, listen, listen_any, rate_hz, false_alarms_per_hour, idle_timeout_s, quiet, offsets)
+        live, span, skipped = _listen(parity, listen, listen_any, rate_hz, false_alarms_per_hour, idle_timeout_s, quiet, region, offsets)
         source = f"udp://{listen[0]}:{listen[1]}"
-        return _report(live, parity, source, calibration, span, skipped, false_alarms_per_hour, json_path, offsets)
+        return _report(live, parity, source, calibration, span, skipped, false_alarms_per_hour, json_path, region, offsets)
     monitor: HealthMonitor | None = None
     skipped = 0
     first_time = last_time = None
@@ -123,9 +132,57 @@ def run(
                 monitor = HealthMonitor(parity, rate_hz, false_alarms_per_hour=false_alarms_per_hour)
                 first_time = float(time[0])
             monitor.update_batch(time, channels)
+            region.add(channels)
             last_time = float(time[-1])
     span = 0.0 if first_time is None or last_time is None else last_time - first_time
-    return _report(monitor, parity, describe_files(paths), calibration, span, skipped, false_alarms_per_hour, json_path, offsets)
+    return _report(monitor, parity, describe_files(paths), calibration, span, skipped, false_alarms_per_hour, json_path, region, offsets)
+
+
+class RegionCount:
+    """Counts the samples whose measured wrench lies outside the calibration's load region.
+
+    The wrench is the calibration's own (``C strain + D``, its D at the start: an offset that
+    drifts by a small fraction of the region's 1 % FS margin changes nothing).
+
+    Args:
+        calibration: The calibration; one without a region counts nothing.
+
+    Attributes:
+        outside: Samples outside the region so far.
+        samples: Samples counted so far.
+    """
+
+    def __init__(self, calibration: Calibration):
+        self.region = calibration.region
+        self.reader = WrenchReader(calibration)
+        self.outside = 0
+        self.samples = 0
+
+    def add(self, channels) -> None:
+        """Count samples: raw channels, shape (N, n)."""
+        if self.region is not None and len(channels):
+            self.outside += int(np.count_nonzero(~self.region.contains(self.reader.wrench_batch(channels))))
+            self.samples += len(channels)
+
+    def add_one(self, channels) -> None:
+        """Count one sample: raw channels, shape (n,) (the reader's one-sample path: no array per call)."""
+        if self.region is not None:
+            self.outside += self.reader.outside_region(self.reader.wrench(channels))
+            self.samples += 1
+
+    def line(self) -> str:
+        """What the summary prints, e.g. '12 of 4,035 samples (0.297 %) outside the calibrated load region (...)'."""
+        if self.region is None:
+            return "load region: the calibration records none (typed in by hand, or written before regions were recorded)"
+        share = 100.0 * self.outside / self.samples if self.samples else 0.0
+        return (
+            f"{self.outside:,} of {self.samples:,} samples ({share:.3g} %) outside the calibrated load region "
+            f"({self.region.describe()}; measured wrench)"
+        )
+
+    def as_dict(self) -> dict | None:
+        """``{"outside": k, "samples": N}`` for ``--json``; None without a region."""
+        return None if self.region is None else {"outside": self.outside, "samples": self.samples}
 
 
 def _report(
@@ -137,6 +194,7 @@ def _report(
     skipped: int,
     false_alarms_per_hour: float,
     json_path: str | Path | None,
+    region: RegionCount,
     offsets: OffsetFeed | None = None,
 ) -> int:
     """Print what the monitor found, write the JSON; the exit status (1 on a fault)."""
@@ -156,6 +214,7 @@ def _report(
     for event in events:
         print(f"  {event.time_s:10.3f} s  {event.kind:<15} strain_{event.channel}: {event.detail} (reported at {event.detected_s:.3f} s)")
     print(f"health: {'ok, no fault found' if not events else f'{len(events)} fault(s)'}")
+    print(region.line())
     for line in [] if offsets is None else offsets.lines():
         print(line)
     if json_path is not None:
@@ -164,6 +223,7 @@ def _report(
             "samples": samples,
             "skipped": skipped,
             "health": "fault" if events else "ok",
+            "region": region.as_dict(),
             **({} if offsets is None else {"offset": offsets.as_dict()}),
         }
         with writing(json_path):
@@ -180,6 +240,7 @@ def _listen(
     false_alarms_per_hour: float,
     idle_timeout_s: float | None,
     quiet: bool,
+    region: RegionCount,
     offsets: OffsetFeed | None = None,
 ) -> tuple[HealthMonitor, float, int]:
     """Watch the live feed's strain datagrams; returns the monitor, the time span [s] and the samples skipped.
@@ -216,7 +277,7 @@ def _listen(
             if sync is not None:
                 for data, sender in datagrams:
                     feed_datagram(data, sync, stats, sender)
-                first, last = _paired(sync.pop(final=stats.ended), monitor, offsets, first, last)
+                first, last = _paired(sync.pop(final=stats.ended), monitor, region, offsets, first, last)
                 datagrams = []
             for data, sender in datagrams:
                 message = feed_datagram(data, None, stats, sender)
@@ -226,6 +287,7 @@ def _listen(
                     skipped += 1
                     continue
                 monitor.update(message.t, message.strain)
+                region.add_one(message.strain)
                 first = message.t if first is None else first
                 last = message.t
             if not quiet and now - status_at >= 1.0:
@@ -245,7 +307,7 @@ def _listen(
     finally:
         receiver.close()
     if sync is not None:
-        first, last = _paired(sync.pop(final=True), monitor, offsets, first, last)
+        first, last = _paired(sync.pop(final=True), monitor, region, offsets, first, last)
         skipped += sum(sync.dropped.values())
     if not quiet:
         print(file=sys.stderr)
@@ -253,11 +315,14 @@ def _listen(
     return monitor, 0.0 if first is None or last is None else last - first, skipped
 
 
-def _paired(batch, monitor: HealthMonitor, offsets: OffsetFeed | None, first, last) -> tuple[float | None, float | None]:
-    """Feed the synchronizer's paired samples to the monitor and the offsets; the first and last times so far."""
+def _paired(
+    batch, monitor: HealthMonitor, region: RegionCount, offsets: OffsetFeed | None, first, last
+) -> tuple[float | None, float | None]:
+    """Feed the synchronizer's paired samples to the monitor, the region count and the offsets; the first and last times so far."""
     if not len(batch):
         return first, last
     monitor.update_batch(batch.time, batch.channels)
+    region.add(batch.channels)
     if offsets is not None:
         offsets.add(batch.time, batch.joints, batch.channels, batch.configuration)
     return (float(batch.time[0]) if first is None else first), float(batch.time[-1])

@@ -107,7 +107,7 @@ class OffsetFeed:
             return
         time, joints, channels = time[known], joints[known], channels[known]
         payload = tool_load(self.kin, self.tool, joints, codes[known]).static
-        wrench = self.calibration.wrench(channels)
+        wrench = self.calibration.wrench(channels, region_check=False)  # monitor counts the region itself
         start = 0
         while start < len(time):
             # with --auto-tare, up to the end of the next window: a re-tare is judged after each one
@@ -117,7 +117,7 @@ class OffsetFeed:
             learnt = self.watch.updates >= MIN_UPDATES  # never re-tare on the first windows' estimate
             if self.auto_tare and learnt and self.watch.pending == 0 and np.any(np.abs(self.watch.offset) > self.threshold):
                 self._retare()
-                wrench[start:] = self.calibration.wrench(channels[start:])
+                wrench[start:] = self.calibration.wrench(channels[start:], region_check=False)
 
     def _retare(self) -> None:
         self.calibration = self.watch.retare(

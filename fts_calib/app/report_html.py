@@ -10,7 +10,8 @@ Sections, in order (each an element with the id given, which the tests look for)
 refused calibration's diagnosis), ``sphere`` (the gravity directions reached per tool
 configuration on the unit sphere of the sensor frame S, two hemispheres in an equal-area
 projection), ``residuals`` (per axis over time, and per configuration against the noise
-band), ``budget`` (bars per term and axis, the target), ``model-selection`` (the table the
+band), ``region`` (the calibrated load region per axis as a band, the samples' known wrench as
+dots, its numbers), ``budget`` (bars per term and axis, the target), ``model-selection`` (the table the
 calibration file holds, whatever its candidates), ``matrix`` (C with its standard errors
 as a heat map), ``offsets`` (D over the run and the tare history), ``skipped`` (what was
 not kept and why), ``provenance`` (robot, tool, sensor, files with SHA-256, software).
@@ -18,7 +19,8 @@ not kept and why), ``provenance`` (robot, tool, sensor, files with SHA-256, soft
 Frames and units: the wrench is the load on the sensor in S, ``[Fx Fy Fz Mx My Mz]`` in
 [N, N, N, N m, N m, N m]; a residual is the measured wrench minus the known one.
 
-The pictures are drawn by :mod:`fts_calib.app.report_svg`, the data gathered by
+The pictures are drawn by :mod:`fts_calib.app.report_svg` (the load region by
+:mod:`fts_calib.app.report_region`), the data gathered by
 :mod:`fts_calib.app.report_content`; a comparison of two calibrations is
 :mod:`fts_calib.app.report_compare`.
 """
@@ -36,6 +38,7 @@ from .._version import __version__
 from ..core.outputs import atomic_write_text
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from .report_content import ReportContent, _budget, _fit, _held_out, _quality_value, file_record, model_selection
+from .report_region import region_section
 from .report_svg import (
     _budget_section,
     _e,
@@ -54,6 +57,7 @@ SECTIONS = (
     ("verdict", "Verdict"),
     ("sphere", "Gravity directions reached"),
     ("residuals", "Residuals"),
+    ("region", "Calibrated load region"),
     ("budget", "Accuracy budget"),
     ("model-selection", "Model selection"),
     ("matrix", "Calibration matrix C"),
@@ -254,7 +258,7 @@ footer{font-size:.75em;color:#777;text-align:center;margin:8px 0 20px}
  .pair{flex-wrap:nowrap;gap:8px;margin:2px 0}
  .fig{flex:0 0 52%}.nums{flex:1 1 48%}
  #sphere .fig{flex-basis:40%}
- #residuals .fig,#budget .fig{flex-basis:40%}
+ #residuals .fig,#budget .fig,#region .fig{flex-basis:40%}
  .nums{overflow:visible}
  .panels{grid-template-columns:1fr 1fr 1fr;gap:0 4px}
  table{font-size:6.5pt;margin:1px 0}th,td{padding:0 4px;white-space:nowrap}
@@ -293,6 +297,7 @@ def render_report(content: ReportContent) -> str:
         "verdict": _verdict,
         "sphere": _sphere,
         "residuals": _residuals,
+        "region": region_section,
         "budget": _budget_section,
         "model-selection": _model_selection_section,
         "matrix": _matrix,

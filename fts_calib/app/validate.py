@@ -19,24 +19,59 @@ from ..feeds.recording_set import describe_files
 from ..feeds.source import MIN_COVERAGE, recording_paths
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..service.ati import read_calibration
-from ..service.validate import AxisErrors, validate_recording
+from ..service.validate import AxisErrors, RegionErrors, validate_recording
 from .exit_codes import ExitCode, writing
 from .setup import load_sensor, load_setup
 
 
+def _cells(errors: AxisErrors, i: int, unit: str) -> tuple[str, str, str, str]:
+    """Axis ``i``'s max error and its % FS, its RMS error and its % FS, as printed."""
+    return (
+        f"{errors.max_abs[i]:.4g} {unit}",
+        f"{errors.max_percent[i]:.4f} %",
+        f"{errors.rms[i]:.4g} {unit}",
+        f"{errors.rms_percent[i]:.4f} %",
+    )
+
+
 def format_errors(label: str, errors: AxisErrors) -> str:
     """A table of the errors per axis, in N or N·m and in % of full scale, under ``label``."""
-    rows = [
-        [
-            axis,
-            f"{errors.max_abs[i]:.4g} {unit}",
-            f"{errors.max_percent[i]:.4f} %",
-            f"{errors.rms[i]:.4g} {unit}",
-            f"{errors.rms_percent[i]:.4f} %",
-        ]
-        for i, (axis, unit) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))
-    ]
+    rows = [[axis, *_cells(errors, i, unit)] for i, (axis, unit) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True))]
     return label + ":\n" + table(["axis", "max error", "max, % FS", "RMS error", "RMS, % FS"], rows, "  ")
+
+
+#: What validate says of a calibration without a load region.
+NO_REGION = "the calibration records no load region (typed in by hand, or written before regions were recorded)"
+
+
+def format_region(label: str, split: RegionErrors | None) -> str:
+    """The errors inside and outside a calibration's load region (by the expected wrench), under ``label``.
+
+    Args:
+        label: The calibration, e.g. its file name.
+        split: Its errors split by its region, or None for a calibration that records none.
+
+    Returns:
+        A line when every sample lies on one side (or there is no region), else the counts
+        and a table per axis of max and RMS error, each in N or N·m and % FS, inside and outside.
+    """
+    if split is None:
+        return f"{label}: {NO_REGION}"
+    n = split.inside_samples + split.outside_samples
+    head = f"{label}, inside and outside the load region it was fitted on ({split.region.describe()}), by the expected wrench"
+    if not split.outside_samples or not split.inside_samples:
+        side = "inside" if not split.outside_samples else "outside"
+        return f"{head}: all {n:,} samples {side} (the errors above)"
+    counts = (
+        f"inside the calibrated load region: {split.inside_samples:,} samples ({100 * split.inside_samples / n:.3g} %); "
+        f"outside: {split.outside_samples:,} samples ({100 * split.outside_samples / n:.3g} %)"
+    )
+    rows = []
+    for i, (axis, unit) in enumerate(zip(WRENCH_AXES, WRENCH_UNITS, strict=True)):
+        inside, outside = _cells(split.inside, i, unit), _cells(split.outside, i, unit)
+        rows.append([axis, *(f"{part[k]} ({part[k + 1]})" for part in (inside, outside) for k in (0, 2))])
+    headers = ["axis", "max inside (% FS)", "RMS inside (% FS)", "max outside (% FS)", "RMS outside (% FS)"]
+    return f"{head}:\n{counts}\n" + table(headers, rows, "  ")
 
 
 def run(
@@ -89,8 +124,10 @@ def run(
         joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
         pose_topic: Without ``robot``: a bag's geometry_msgs/msg/PoseStamped topic of the sensor's orientation.
         json_path: Where to write the errors of the first calibration for scripts,
-            ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}`` (N, N·m),
-            atomically; None for none. Not written when no sample was compared.
+            ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}`` (N, N·m), and, when
+            the calibration records its load region, ``"region": {"inside": {"samples": n,
+            "axes": {...} or null}, "outside": {...}}`` (no such key without one), atomically;
+            None for none. Not written when no sample was compared.
         report: HTML report of the first calibration with this validation as its held-out
             error and residuals (:mod:`fts_calib.app.report_html`); None for none. Not
             written when no sample was compared.
@@ -158,6 +195,8 @@ def run(
         print(format_errors(str(path), errors))
     if result.between is not None:
         print(format_errors(f"{calibrations[0]} against {calibrations[1]}", result.between))
+    for path, split in zip(calibrations, result.regions, strict=True):
+        print(format_region(str(path), split))
     if json_path is not None:
         with writing(json_path):
             written_json = atomic_write_text(json_path, json.dumps(result.as_json(), indent=2) + "\n")

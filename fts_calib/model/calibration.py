@@ -6,12 +6,15 @@ paper eq 7, with P the sensor's channel layout, :mod:`fts_calib.model.channels`)
 two can never disagree; a file whose C does not match its C_bar is refused.
 
 The file is written atomically: a crash never leaves half a file. The quality and its
-section of the file are :mod:`fts_calib.model.quality`'s (:class:`Quality` is re-exported here).
+section of the file are :mod:`fts_calib.model.quality`'s (:class:`Quality` is re-exported here);
+the load region the calibration was fitted on and its ``region`` section are
+:mod:`fts_calib.model.region`'s.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -22,13 +25,14 @@ import numpy as np
 from ..core import validation
 from ..core.arrays import as_matrix, frozen
 from ..core.deprecation import renamed
-from ..core.exceptions import ConfigError, FileFormatError, ShapeError
+from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning, ShapeError
 from ..core.fileio import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, require
 from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .features import SensorModel
 from .health import ParityModel
 from .quality import Quality, quality_from_dict, quality_to_dict
+from .region import LoadRegion, region_from_dict
 from .sensor import WRENCH_UNITS, wrench_from_strain
 
 #: Value of the ``format`` field of a calibration file.
@@ -75,6 +79,9 @@ class Calibration:
         health: The parity model of the channels (the ``health`` section,
             :class:`fts_calib.model.health.ParityModel` as plain data), or None (a layout
             with no more channels than axes, or a file written before it existed).
+        region: The load region the calibration was fitted on (:class:`fts_calib.model.region.LoadRegion`:
+            the known wrenches of the samples that entered the least squares), or None (a
+            calibration typed in by hand, or a file written before regions were recorded).
         extra: Top-level fields of the file that this version does not know (written by a
             newer one), kept as read: a rewrite (``tare``) writes them back unchanged.
         C: Calibration matrix ``C_bar @ P``, shape (6, n) (derived, not an argument).
@@ -91,6 +98,7 @@ class Calibration:
     model_selection: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
     health: Mapping[str, Any] | None = None
+    region: LoadRegion | None = None
     C: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -113,6 +121,8 @@ class Calibration:
             raise ShapeError(f"model.n_channels={self.model.n_channels} but expected {layout.n_channels}, the layout's")
         if self.model_selection is not None:
             object.__setattr__(self, "model_selection", dict(self.model_selection))
+        if self.region is not None and not isinstance(self.region, LoadRegion):
+            raise ConfigError("region", type(self.region).__name__, "a LoadRegion (fts_calib.model.region) or None")
 
     @property
     def family(self) -> str:
@@ -125,20 +135,38 @@ class Calibration:
         return self.model is not None
 
     @renamed(strain="channels")
-    def wrench(self, channels) -> np.ndarray:
+    def wrench(self, channels, region_check: bool = True) -> np.ndarray:
         """Wrench on the sensor from raw channels: ``C Delta + D``, or the model's ``Theta phi(u) + D``.
 
         The one evaluator of a calibration (reader, validate, tare, payload, live, the budget).
+        A nonlinear model (quadratic, cubic) is determined only on the loads it was fitted on:
+        when any wrench lies outside the calibration's :attr:`region`, one
+        :class:`FtsCalibWarning` per call says how many. The in-controller
+        :class:`fts_calib.service.reader.WrenchReader` never checks per sample; its
+        ``outside_region`` is there for a caller that wants to.
 
         Args:
             channels: Raw channel readings. Shape (n,) or (N, n), n = ``layout.n_channels``.
+            region_check: Warn about wrenches outside the region (nonlinear models only);
+                False for a caller that reports the region itself (``validate``, ``monitor``).
 
         Returns:
             ``[Fx, Fy, Fz, Mx, My, Mz]`` in S, in [N] and [N m]. Shape (6,) or (N, 6).
         """
         if self.model is None:
             return wrench_from_strain(self.C, channels, self.D)
-        return self.model.wrench(channels) + self.D
+        w_sensor = self.model.wrench(channels) + self.D
+        if region_check and self.region is not None and self.model.family != "linear":
+            outside = int(np.count_nonzero(~self.region.contains(w_sensor)))
+            if outside:
+                total = len(w_sensor) if w_sensor.ndim == 2 else 1
+                warnings.warn(
+                    f"{outside:,} of {total:,} wrenches lie outside the load region the {self.model.family} model was fitted on "
+                    f"({self.region.describe()}): it is not determined there",
+                    FtsCalibWarning,
+                    stacklevel=3,  # the caller's line: this method is wrapped by @renamed
+                )
+        return w_sensor
 
     def save(self, path: str | Path) -> Path:
         """Write this calibration to a YAML file of format ``fts-calib/1``, atomically (:func:`save_calibration`).
@@ -195,6 +223,7 @@ FIELDS = (
     "model",
     "model_selection",
     "health",
+    "region",
 )
 
 
@@ -227,6 +256,8 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
         data["model_selection"] = dict(calibration.model_selection)
     if calibration.health is not None:
         data["health"] = dict(calibration.health)
+    if calibration.region is not None:
+        data["region"] = calibration.region.as_dict()
     data.update({key: value for key, value in calibration.extra.items() if key not in FIELDS})  # a newer version's fields, kept
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
     return atomic_write_text(path, header + dump_yaml(data))
@@ -283,6 +314,7 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     with fields_of(path):
         if health is not None:
             ParityModel.from_dict(health)  # refused here, naming the field, rather than in service
+    region = region_from_dict(data["region"], path) if data.get("region") is not None else None  # older files: none
     with fields_of(path):
         return Calibration(
             C_bar=C_bar,
@@ -295,6 +327,7 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             model=model,
             model_selection=selection,
             health=health,
+            region=region,
             extra={key: value for key, value in data.items() if key not in FIELDS},
         )
 

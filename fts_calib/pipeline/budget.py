@@ -162,7 +162,7 @@ def measured_budget(
     if len(time) > 1:
         slope = np.diff(joints, axis=0) / np.maximum(np.diff(time), 1e-12)[:, None]
         velocity[1:][same] = slope[same]
-    x_bar = np.linalg.solve(calibration.C_bar, (calibration.wrench(channels) - calibration.D).T).T
+    x_bar = np.linalg.solve(calibration.C_bar, (calibration.wrench(channels, region_check=False) - calibration.D).T).T
     x = np.hstack([x_bar, np.ones((len(x_bar), 1))])
     budget = sample_budget(
         kin,

@@ -4,8 +4,10 @@ Per configuration ``c`` the session (:class:`fts_calib.pipeline.session.Calibrat
 keeps the sum of ``[u; 1][u; 1]^T`` with ``u = g / |g|`` (4 x 4: the gravity directions the
 sensor saw, for the advice on what is missing) and the sum of ``y y^T`` with
 ``y = [g_sensor; P Delta; 1; drift]`` ((10 + m) x (10 + m), :func:`fts_calib.pipeline.fit.fit_rows`,
-for the fit check). From them: the progress in words, the fit check of the model in use, and
-the error raised when a solve lacks rank. Units: gravity in [m/s^2], channels raw.
+for the fit check); over all of them, the load region of the known wrenches
+(:class:`fts_calib.model.region.RegionBuilder`). From them: the progress in words, the fit
+check of the model in use, and the error raised when a solve lacks rank. Units: gravity in
+[m/s^2], channels raw, wrenches [N, N, N, N m, N m, N m].
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 from ..core.exceptions import InsufficientExcitation, ModelNotDetermined, PoorFit
 from ..model.least_squares import unexplained_strain
+from ..model.region import RegionBuilder
 from .advice import missing_words, moving_words, refused_words
 from .diagnosis import RECORDING_KINDS, Cause, cause, missing_centres, session_allowance, weak_excitation
 from .dynamic import DynamicFilter
@@ -30,28 +33,38 @@ if TYPE_CHECKING:
     from .session import CalibrationSession
 
 
-def empty_sums(n_configurations: int, n_drift: int) -> tuple[np.ndarray, np.ndarray]:
-    """The empty sums of a new session: gravity directions and fit rows, per configuration.
+def empty_sums(n_configurations: int, n_drift: int, full_scale) -> tuple[np.ndarray, np.ndarray, RegionBuilder]:
+    """The empty sums of a new session: gravity directions and fit rows, per configuration, and its load region.
 
     Args:
         n_configurations: k, the tool's configurations.
         n_drift: m, the drift columns of the estimator's offset basis.
+        full_scale: The sensor's full scale [N, N, N, N m, N m, N m], shape (6,): the region's margin is 1 % of it.
 
     Returns:
-        ``(directions (k, 4, 4), fit sums (k, 10 + m, 10 + m))``, zeros.
+        ``(directions (k, 4, 4), fit sums (k, 10 + m, 10 + m), region)``, zeros and an empty region.
     """
     m = 10 + n_drift  # sum of y y^T per configuration, y = [g; P Delta; 1; drift] (fit checks)
-    return np.zeros((n_configurations, 4, 4)), np.zeros((n_configurations, m, m))  # directions: sum of [u; 1][u; 1]^T, u = g / |g|
+    directions = np.zeros((n_configurations, 4, 4))  # sum of [u; 1][u; 1]^T, u = g / |g|
+    return directions, np.zeros((n_configurations, m, m)), RegionBuilder(full_scale)
 
 
 def add_kept(
-    session: CalibrationSession, g: np.ndarray, channels: np.ndarray, codes: np.ndarray, time, temperature, fit: np.ndarray | None = None
+    session: CalibrationSession,
+    g: np.ndarray,
+    w_sensor: np.ndarray,
+    channels: np.ndarray,
+    codes: np.ndarray,
+    time,
+    temperature,
+    fit: np.ndarray | None = None,
 ) -> None:
-    """Add kept samples to the session's counts, gravity directions and fit sums, per configuration.
+    """Add kept samples to the session's counts, gravity directions and fit sums, per configuration, and to its load region.
 
     Args:
-        session: The session (its ``kept``, directions and fit sums are updated in place).
+        session: The session (its ``kept``, directions, fit sums and ``kept_region`` are updated in place).
         g: Gravity in the sensor frame [m/s^2], shape (N, 3).
+        w_sensor: The known wrench the least squares took [N, N, N, N m, N m, N m], shape (N, 6).
         channels: Raw channels, shape (N, n).
         codes: Configuration indices in the tool's order, shape (N,).
         time: Times [s], shape (N,) (the estimator's drift columns).
@@ -60,6 +73,7 @@ def add_kept(
             model), shape (N,) bool; None: all.
     """
     session.kept += np.bincount(codes, minlength=len(session.kept))
+    session.kept_region.add(w_sensor)
     unit = np.hstack([g / np.linalg.norm(g, axis=1, keepdims=True), np.ones((len(g), 1))])
     rows = fit_rows(g, channels, session.layout, session.estimator.drift_rows(time, temperature))
     for c in np.unique(codes):

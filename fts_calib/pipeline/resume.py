@@ -46,6 +46,8 @@ def restore_session(session: CalibrationSession, state: dict[str, Any], path: Pa
         session._directions = np.array(state["directions"], dtype=float)
         if "fit_sums" in state:
             session._fit_sums = np.array(state["fit_sums"], dtype=float).reshape(session._fit_sums.shape)
+        # a checkpoint of an older version holds no region: the calibration's is then that of the resumed part only
+        session.kept_region.restore(state.get("region"))
     except (KeyError, TypeError, ValueError) as exc:
         raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
     saved = (session.estimator.model, session.estimator.full_channels)
@@ -76,4 +78,5 @@ def session_state(session: CalibrationSession) -> dict[str, Any]:
         "fit_sums": session._fit_sums.tolist(),
         "last_time": None if last == -math.inf else last,
         "filter": None if session.filter is None else session.filter.state(),
+        "region": session.kept_region.state(),
     }

@@ -58,15 +58,7 @@ from .settings import PipelineConfig
 from .tool_load import check_tool_load
 from .units import held_out_units
 
-__all__ = [
-    "BACKWARDS",
-    "BEFORE_CHECKPOINT",
-    "NON_FINITE",
-    "OUTSIDE_LIMITS",
-    "UNKNOWN_TOOL",
-    "CalibrationSession",
-    "Progress",
-]
+__all__ = ["BACKWARDS", "BEFORE_CHECKPOINT", "NON_FINITE", "OUTSIDE_LIMITS", "UNKNOWN_TOOL", "CalibrationSession", "Progress"]
 
 _STAGE = 256  # single samples from add() are processed in groups of this size
 
@@ -103,6 +95,7 @@ class CalibrationSession:
     Attributes:
         budget: The measured accuracy budget of the last :meth:`solve`, or None.
         latency: The stream-latency estimate of the last :meth:`solve`, or None.
+        kept_region: The load region of the wrenches kept so far (:class:`~fts_calib.model.region.RegionBuilder`), for :meth:`solve`.
     """
 
     def __init__(
@@ -147,7 +140,7 @@ class CalibrationSession:
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
-        self._directions, self._fit_sums = empty_sums(n, self.estimator.basis.n_drift)  # per configuration (kept_sums)
+        self._directions, self._fit_sums, self.kept_region = empty_sums(n, self.estimator.basis.n_drift, self.full_scale)  # kept_sums
         self._staged: list[tuple] = []
         self._last: tuple[float, int, float | None] | None = None  # time, configuration, temperature of the last valid sample
         self._clock = clock
@@ -264,7 +257,7 @@ class CalibrationSession:
         self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)
-        add_kept(self, g, kept.channels, codes, kept.time, kept.temperature, fit)
+        add_kept(self, g, W, kept.channels, codes, kept.time, kept.temperature, fit)
 
     def flush(self) -> None:
         """Decide the samples the filter still holds (call when the stream ends)."""
@@ -298,7 +291,7 @@ class CalibrationSession:
         return session_fit_check(self, hint)
 
     def solve(self, accept_poor_fit: bool = False, hint: str = "", prior: Prior | None = None) -> Calibration:
-        """The calibration from everything kept so far, with its fit check, measured budget and latency in the quality.
+        """The calibration from everything kept so far, with its fit check, measured budget and latency in the quality, and its load region.
 
         The measured accuracy budget and the stream-latency estimate
         (:func:`fts_calib.pipeline.budget.with_measured_budget`) are left out only for a
@@ -325,7 +318,8 @@ class CalibrationSession:
             raise FtsCalibError("the estimator returned a calibration without its quality")
         check = self.fit_check(hint)
         quality = replace(calibration.quality, samples_seen=self.seen, skipped=self.all_skipped(), fit=check.as_dict())
-        calibration = replace(calibration, quality=quality, provenance={**calibration.provenance, **self._provenance})
+        provenance = {**calibration.provenance, **self._provenance}
+        calibration = replace(calibration, quality=quality, provenance=provenance, region=self.kept_region.region())
         if not check.ok and not accept_poor_fit:
             raise PoorFit(check, calibration)
         noise_floor = None if self.filter is None else self.filter.noise_floor

@@ -107,10 +107,16 @@ class WrenchReader:
     Raises:
         ConfigError: ``calibration`` is not a :class:`Calibration` (a path: load it first).
 
+    The reader never checks the calibration's load region itself (a test per sample has no
+    place in a 1 kHz loop); :meth:`outside_region` is a cheap check a caller may make, e.g. to
+    count or to log the loads a nonlinear model was not fitted on.
+
     Example::
 
         reader = WrenchReader(load_calibration("calibration.yaml"))
         w_sensor = reader.wrench(channels)  # (n,) raw -> (6,) [N, N m], a buffer reused by the next call
+        if reader.outside_region(w_sensor):  # optional: beyond the loads the calibration was fitted on
+            ...
     """
 
     def __init__(self, calibration: Calibration):
@@ -128,6 +134,12 @@ class WrenchReader:
         if self.model is not None:
             self._u = np.empty((1, self.model.inputs))
             self._phi = np.empty((1, len(self.model.names)))
+        region = calibration.region
+        # the region's limits as Python floats: a one-sample check without numpy temporaries
+        self._lower = () if region is None else tuple(region.lower.tolist())
+        self._upper = () if region is None else tuple(region.upper.tolist())
+        self._force_limit2 = 0.0 if region is None else region.force_limit**2
+        self._moment_limit2 = 0.0 if region is None else region.moment_limit**2
 
     @renamed(strain="channels")
     def wrench(self, channels) -> np.ndarray:
@@ -169,6 +181,34 @@ class WrenchReader:
         """
         S, _ = as_samples(channels, self.n_channels, "channels")
         return (S @ self.C.T if self.model is None else self.model.wrench(S)) + self.D
+
+    def outside_region(self, w_sensor) -> bool:
+        """Whether one wrench lies outside the calibration's load region (:meth:`fts_calib.model.region.LoadRegion.contains`).
+
+        Not called by :meth:`wrench`: a caller decides whether the check is worth its cost in
+        its loop (about half that of :meth:`wrench`: 0.8 µs against 1.4 µs, measured in
+        CPython). A calibration without a region (typed in by hand, or a file written before
+        regions were recorded) has nothing to check: always False.
+
+        Args:
+            w_sensor: The wrench [N, N, N, N m, N m, N m], shape (6,), e.g. what :meth:`wrench` returned.
+
+        Returns:
+            True when an axis leaves its range (with the margin), or |F| or |M| exceeds its
+            limit; NaN is outside.
+
+        Raises:
+            ShapeError: ``w_sensor`` is not 6 numbers.
+        """
+        if not self._lower:
+            return False
+        if not (type(w_sensor) is np.ndarray and w_sensor.shape == (6,)):
+            w_sensor = as_matrix(w_sensor, (6,), "w_sensor")  # a list: converted; another shape: ShapeError
+        fx, fy, fz, mx, my, mz = values = w_sensor.tolist()
+        for value, lower, upper in zip(values, self._lower, self._upper, strict=True):
+            if not lower <= value <= upper:
+                return True
+        return not (fx * fx + fy * fy + fz * fz <= self._force_limit2 and mx * mx + my * my + mz * mz <= self._moment_limit2)
 
     def set_offsets(self, D) -> None:
         """Replace the offsets (after a re-tare), [N, N, N, N m, N m, N m], shape (6,)."""

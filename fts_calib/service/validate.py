@@ -12,6 +12,11 @@ configuration's offset, the drift at each sample's time on the calibration's own
 scale (the paper's sensor: 50 N, 5 N m), and, with two calibrations, the same between them
 (the paper's Table 1 against Table 2).
 
+A calibration that records its load region (:mod:`fts_calib.model.region`) also has its errors
+split into the samples whose *expected* wrench lies inside that region and those outside it
+(:class:`RegionErrors`): a model is determined only on the loads it was fitted on, and the
+region is a box with magnitude caps, so the split says where the errors were measured, not more.
+
 The recording streams in chunks; statistics are accumulated and the series for the plot are
 thinned as they grow, so memory does not grow with the recording's length.
 """
@@ -32,6 +37,7 @@ from ..feeds.source import open_recording
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits
 from ..model.channels import CALIBRATION_HINT, check_channels
+from ..model.region import LoadRegion
 from ..model.sensor import WRENCH_AXES
 from ..pipeline.checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, RAILED, RailTally, forward_in_time, refuse_railed, valid_values
 from ..pipeline.qsfilter import PERIOD_SAMPLES, joint_rates, sample_period
@@ -75,6 +81,35 @@ class AxisErrors:
 
 
 @dataclass(frozen=True)
+class RegionErrors:
+    """Errors of one calibration inside and outside its load region, the samples classified by their expected wrench.
+
+    Attributes:
+        inside: Errors of the samples whose expected wrench lies inside the region (zeros when there is none).
+        outside: Errors of the samples outside it (zeros when there is none).
+        inside_samples: Samples inside.
+        outside_samples: Samples outside (the two add up to :attr:`ValidationResult.samples`).
+        region: The calibration's region.
+    """
+
+    inside: AxisErrors
+    outside: AxisErrors
+    inside_samples: int
+    outside_samples: int
+    region: LoadRegion
+
+    def as_json(self) -> dict:
+        """``{"inside": {"samples": n, "axes": {...}}, "outside": {...}}``; ``axes`` null for a part without a sample (N, N·m)."""
+        parts = (("inside", self.inside, self.inside_samples), ("outside", self.outside, self.outside_samples))
+        return {name: {"samples": int(n), "axes": axes_json(errors) if n else None} for name, errors, n in parts}
+
+
+def axes_json(errors: AxisErrors) -> dict[str, dict[str, float]]:
+    """The errors per axis for scripts: ``{"Fx": {"rms": ..., "max": ...}, ...}`` in N and N·m."""
+    return {axis: {"rms": float(errors.rms[i]), "max": float(errors.max_abs[i])} for i, axis in enumerate(WRENCH_AXES)}
+
+
+@dataclass(frozen=True)
 class ValidationResult:
     """What ``validate`` measured.
 
@@ -92,6 +127,8 @@ class ValidationResult:
         rails: One line per channel whose samples were skipped at its rail
             (:meth:`fts_calib.pipeline.checks.RailTally.lines`).
         offsets: Per calibration, which offsets were used (:attr:`ValidationOffsets.words`).
+        regions: Per calibration, its errors inside and outside its load region, or None for
+            a calibration that records none.
     """
 
     samples: int
@@ -112,15 +149,19 @@ class ValidationResult:
 
     rails: list[str] = field(default_factory=list)
     offsets: list[str] = field(default_factory=list)
+    regions: list[RegionErrors | None] = field(default_factory=list)
 
     def as_json(self, index: int = 0) -> dict:
         """The errors of calibration ``index`` for scripts: ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}``.
 
-        Units: N for the forces, N·m for the moments.
+        With a load region, a ``"region"`` key: :meth:`RegionErrors.as_json`; without one, no
+        such key. Units: N for the forces, N·m for the moments.
         """
-        errors = self.errors[index]
-        axes = {axis: {"rms": float(errors.rms[i]), "max": float(errors.max_abs[i])} for i, axis in enumerate(WRENCH_AXES)}
-        return {"axes": axes, "samples": int(self.samples)}
+        out = {"axes": axes_json(self.errors[index]), "samples": int(self.samples)}
+        region = self.regions[index] if index < len(self.regions) else None
+        if region is not None:
+            out["region"] = region.as_json()
+        return out
 
 
 class _Errors:
@@ -135,6 +176,26 @@ class _Errors:
 
     def result(self, n: int, full_scale: np.ndarray) -> AxisErrors:
         return AxisErrors(self.max_abs.copy(), np.sqrt(self.sum_sq / max(n, 1)), full_scale)
+
+
+class _RegionSplit:
+    """The errors of one calibration inside and outside its load region, by the expected wrench."""
+
+    def __init__(self, region: LoadRegion):
+        self.region = region
+        self.inside, self.outside = _Errors(), _Errors()
+        self.counts = [0, 0]
+
+    def add(self, expected: np.ndarray, difference: np.ndarray) -> None:
+        inside = self.region.contains(expected)
+        self.inside.add(difference[inside])
+        self.outside.add(difference[~inside])
+        self.counts[0] += int(inside.sum())
+        self.counts[1] += int((~inside).sum())
+
+    def result(self, full_scale: np.ndarray) -> RegionErrors:
+        inside, outside = self.counts
+        return RegionErrors(self.inside.result(inside, full_scale), self.outside.result(outside, full_scale), inside, outside, self.region)
 
 
 class _Thinner:
@@ -220,6 +281,7 @@ def validate_recording(
         raise ConfigError("calibrations", len(calibrations), "one or two calibrations", message=message)
     full_scale = np.asarray(full_scale, dtype=float)
     errors = [_Errors() for _ in calibrations]
+    splits = [None if cal.region is None else _RegionSplit(cal.region) for cal in calibrations]
     between = _Errors()
     plot = _Thinner(_PLOT_POINTS)
     skipped: Counter[str] = Counter()
@@ -242,12 +304,14 @@ def validate_recording(
         t, q, s, k, T = rows
         W = expected_wrench(kin, tool, t, q, k, dt, dynamic)[first:last]
         heat = None if np.isnan(T[first:last]).all() else T[first:last]
-        measured = [
-            cal.wrench(s[first:last]) - cal.D + off.offsets(t[first:last], k[first:last], heat)
+        measured = [  # the region is reported below, split by the expected wrench: no warning per chunk
+            cal.wrench(s[first:last], region_check=False) - cal.D + off.offsets(t[first:last], k[first:last], heat)
             for cal, off in zip(calibrations, offsets, strict=True)
         ]
-        for errs, m in zip(errors, measured, strict=True):
+        for errs, split, m in zip(errors, splits, measured, strict=True):
             errs.add(m - W)
+            if split is not None:
+                split.add(W, m - W)
         if len(measured) == 2:
             between.add(measured[0] - measured[1])
         samples += len(W)
@@ -309,4 +373,5 @@ def validate_recording(
         rows_read=rows_read,
         rails=[] if rails is None else rails.lines(tool.names),
         offsets=[off.words for off in offsets],
+        regions=[None if split is None else split.result(full_scale) for split in splits],
     )
