@@ -19,8 +19,8 @@ from fts_calib.robot.tool import ToolTolerance
 from fts_calib.sim.recording import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
-#: Words of the diagnoses that only a fitting alternative of the tool file or the joints may give.
-GUESSES = ("not m", "the mass of configuration", "labels permuted", "degrees", "--joints-in-degrees")
+#: Words of the diagnoses that only a fitting alternative of the tool file, the joints or the mount may give.
+GUESSES = ("not m", "the mass of configuration", "labels permuted", "degrees", "--joints-in-degrees", "sensor.rpy", "--mount")
 
 
 def _record(tmp_path, name, ur5, tool, trajectories, seed, **sensor_changes):

@@ -11,8 +11,9 @@ import fts_calib
 PACKAGE = Path(fts_calib.__file__).resolve().parent
 #: The stages in import order: a stage imports only from stages before it (DESIGN.md, "Architecture").
 STAGES = ("core", "model", "robot", "feeds", "pipeline", "planning", "service", "sim", "app")
-#: A module has one job: a few hundred lines at most.
-MAX_LINES = 400
+#: A module holds one concept: a few hundred lines at most. Split a file by meaning when it outgrows its concept,
+#: never to stay under a count (400 split concepts across files: a session over seven, a bag reader over four).
+MAX_LINES = 800
 
 
 def _modules() -> list[Path]:
@@ -78,7 +79,7 @@ def test_imports_go_one_way(path):
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_a_module_is_a_few_hundred_lines_at_most(path):
     lines = len(path.read_text(encoding="utf-8").splitlines())
-    assert lines <= MAX_LINES, f"{path.relative_to(PACKAGE)} has {lines} lines (at most {MAX_LINES}): split it by job"
+    assert lines <= MAX_LINES, f"{path.relative_to(PACKAGE)} has {lines} lines (at most {MAX_LINES}): split it by concept"
 
 
 def test_the_checker_sees_imports_against_the_order_even_lazy_and_relative():

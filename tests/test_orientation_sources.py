@@ -11,7 +11,7 @@ from fts_calib.core.exceptions import BagError, RecordingError
 from fts_calib.core.resources import resolve
 from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.planning.trajectory_io import TrajectoryFile
-from fts_calib.robot.orientation import orientation_kinematics
+from fts_calib.robot.orientation import GIMBAL_LOCK, mount_rpy, orientation_kinematics
 from fts_calib.sim.recording import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
@@ -446,3 +446,14 @@ def test_re_tare_from_a_live_window_of_quaternion_datagrams(ur5, rng):
         sender.join(timeout=60.0)
     assert result.estimate.samples_used > 100
     np.testing.assert_allclose(result.calibration.D - cal.D, SHIFT, atol=2e-3)
+
+
+def test_mount_angles_give_the_rotation_back_and_no_split_at_gimbal_lock(rng):
+    """R = Rz(yaw) Ry(pitch) Rx(roll) from the angles (to round-off); at pitch -90 deg, yaw 0 (within GIMBAL_LOCK of the turn)."""
+    axis = rng.standard_normal(3)
+    R = pin.exp3(rng.uniform(0.0, np.pi) * axis / np.linalg.norm(axis))
+    np.testing.assert_allclose(pin.rpy.rpyToMatrix(*mount_rpy(R)), R, atol=1e-12)
+    locked = pin.rpy.rpyToMatrix(-1.9687, -np.pi / 2 + 1e-5, 0.3979)  # only roll + yaw = -1.5708 is determined
+    roll, pitch, yaw = mount_rpy(locked)
+    assert (roll, pitch, yaw) == pytest.approx((-1.5708, -np.pi / 2, 0.0), abs=1e-4)
+    assert np.linalg.norm(pin.log3(pin.rpy.rpyToMatrix(roll, pitch, yaw).T @ locked)) < GIMBAL_LOCK

@@ -110,3 +110,25 @@ def open_recording(
     if len(paths) == 1:
         return open_csv(Path(paths[0]))
     return RecordingSet(paths, open_csv)
+
+
+def orientation_source(reader: RecordingReader | RecordingSet | BagReader, joint_names: Sequence[str] | None) -> str | None:
+    """What gives the sensor's orientation in a run without a robot, for the words of a diagnosis.
+
+    Args:
+        reader: The reader :func:`open_recording` gave.
+        joint_names: The joints it was opened with (the gimbal's in a run without a robot).
+
+    Returns:
+        A key of :data:`fts_calib.robot.orientation.ORIENTATION_FORMS` ('quaternion', 'roll-pitch-yaw',
+        'tcp') for a CSV, 'pose topic' for bags, or None: a robot's joints.
+    """
+    from .bag_pose import is_pose_run
+
+    if not is_pose_run(joint_names):
+        return None
+    if isinstance(reader, BagReader):
+        return "pose topic"
+    from ..robot.orientation import orientation_form  # lazily: pinocchio is not for the parser of the command line
+
+    return orientation_form(reader.columns)

@@ -35,7 +35,7 @@ from ..core.resources import locate
 from ..feeds.bag_log import BagTopics
 from ..feeds.batch import SampleBatch
 from ..feeds.recording_set import RecordingSet, describe_files
-from ..feeds.source import open_recording, recording_paths
+from ..feeds.source import open_recording, orientation_source, recording_paths
 from ..model.budget import AccuracyBudget
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits
@@ -358,6 +358,7 @@ class _Run:
                     layout=layout,
                     **self.models,
                 )
+            session.orientation_source = orientation_source(reader, kin.joint_names)
             degrees = self.joints_in_degrees
             chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if degrees else c for c in reader)
             for chunk in clock_checked(reader.path, chunks, kin, settings.filter if self.use_filter else None, degrees):

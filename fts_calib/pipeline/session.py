@@ -127,6 +127,7 @@ class CalibrationSession:
         self.source = source
         self.source_record = source_record
         self.joints_in_degrees = False  # the joints were converted from degrees (the fit's diagnosis tries rad)
+        self.orientation_source: str | None = None  # what gives the orientation, for a mount's diagnosis (feeds.source)
         n = len(tool.configurations)
         self.estimator = OnlineEstimator(
             layout=self.layout,

@@ -22,6 +22,7 @@ or slow motions (the quasi-static filter keeps the still samples).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -45,6 +46,8 @@ ORIENTATION_FORMS = {
 UNIT_TOLERANCE = 1e-3
 #: The gimbal's frame the sensor is mounted on.
 FLANGE = "flange"
+#: Within this of pitch +-90 deg (cos pitch below its sine), roll and yaw turn about one axis: yaw is set to 0 [rad].
+GIMBAL_LOCK = math.radians(0.05)
 
 
 def orientation_kinematics(mount_rpy: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0), name: str = "orientation") -> Kinematics:
@@ -138,6 +141,26 @@ def gimbal_angles(R: np.ndarray) -> np.ndarray:
     """The gimbal's joints ``[yaw, pitch, roll]`` [rad] of rotations ``R = Rz(yaw) Ry(pitch) Rx(roll)``, (N, 3)."""
     rpy = np.array([pin.rpy.matrixToRpy(r) for r in np.asarray(R, dtype=float).reshape(-1, 3, 3)]).reshape(-1, 3)
     return rpy[:, ::-1].copy()
+
+
+def mount_rpy(R: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw of a rotation ``R = Rz(yaw) Ry(pitch) Rx(roll)``, as ``--mount`` and ``sensor.rpy`` take them.
+
+    Within :data:`GIMBAL_LOCK` of pitch +-90 deg only ``roll -+ yaw`` is determined: pitch is set to +-90
+    deg, yaw to 0 and roll takes the rest (``-90 -90 0``, not ``-112.8 -90 22.8``).
+
+    Args:
+        R: A rotation, shape (3, 3).
+
+    Returns:
+        ``[roll, pitch, yaw]`` [rad], shape (3,).
+    """
+    roll, pitch, yaw = (float(v) for v in pin.rpy.matrixToRpy(np.asarray(R, dtype=float)))
+    if abs(math.cos(pitch)) < math.sin(GIMBAL_LOCK):
+        pitch = math.copysign(math.pi / 2.0, pitch)
+        roll = roll + yaw if pitch < 0 else roll - yaw  # Rz(y) Ry(-+pi/2) Rx(r) = Ry(-+pi/2) Rx(r +- y)
+        roll, yaw = math.remainder(roll, 2.0 * math.pi), 0.0
+    return np.array([roll, pitch, yaw])
 
 
 def orientation_joints(form: str, values: np.ndarray) -> np.ndarray:
