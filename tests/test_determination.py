@@ -71,3 +71,17 @@ def test_the_calibration_refuses_a_model_its_loads_cannot_determine(tmp_path, ur
     printed = capsys.readouterr()
     assert f"no {family} model: the loads of this calibration cannot determine it beyond themselves" in printed.out + printed.err
     assert not out.exists()
+
+
+def test_a_sensor_file_asking_for_a_cubic_model_is_refused_on_the_paper_jig(tmp_path, ur5_recording, capsys):
+    """``model: cubic`` in the sensor YAML is the option's setting: the same refusal, exit 8 (was rank 43 of 84, exit 0)."""
+    from fts_calib.core.resources import resolve
+
+    sensor = tmp_path / "cubic_sensor.yaml"
+    sensor.write_text(resolve("sensor", "configs").read_text(encoding="utf-8") + "\nmodel: cubic\n", encoding="utf-8")
+    out = tmp_path / "cal.yaml"
+    argv = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "--sensor", str(sensor), "-o", str(out)]
+    assert main(argv) == 8
+    printed = capsys.readouterr()
+    assert "no cubic model" in printed.out + printed.err and "2 masses, each at 8 centres of mass" in printed.out + printed.err
+    assert not out.exists()
