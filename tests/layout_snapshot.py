@@ -99,8 +99,8 @@ def _api() -> list[str]:
 def take(folder: Path) -> None:
     """Write the snapshot into ``folder``."""
     folder.mkdir(parents=True, exist_ok=True)
-    tests = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider"], cwd=ROOT, capture_output=True,
-                           text=True).stdout  # fmt: skip
+    collect = [sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider"]
+    tests = subprocess.run(collect, cwd=ROOT, capture_output=True, text=True).stdout
     (folder / "tests.txt").write_text("\n".join(sorted(line for line in tests.splitlines() if "::" in line)) + "\n")
     (folder / "help").mkdir(exist_ok=True)
     from fts_calib.app.cli import main
