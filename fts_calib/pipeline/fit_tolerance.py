@@ -52,6 +52,7 @@ import numpy as np
 from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..robot.definition import RobotAccuracy
 from ..robot.tool import Tool
+from .settings import DEFAULT_FLOOR_PERCENT
 
 #: Largest accepted ratio of a configuration's residual RMS to the expected residual (noise and tolerances), per axis.
 #: A consistent fit over hundreds of samples gives 1 +- a few %: 3 leaves room for the
@@ -59,9 +60,6 @@ from ..robot.tool import Tool
 MAX_RATIO = 3.0
 #: Floor of the expected residual, relative to the tool's weight (forces) and moment (moments).
 RELATIVE_FLOOR = 1e-6
-#: Default of the pipeline setting ``fit.floor``: a residual RMS below this, in % of each axis's
-#: full scale, never refuses a fit.
-DEFAULT_FLOOR_PERCENT = 0.01
 
 
 @dataclass(frozen=True)

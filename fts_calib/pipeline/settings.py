@@ -58,7 +58,6 @@ from ..core.exceptions import ConfigError, FileFormatError
 from ..core.fileio import check_keys, fields_of, load_yaml, read_number
 from ..model.channel_limits import ChannelLimits
 from ..model.offset_basis import AUTO, OffsetBasis, offset_setting
-from .fit_tolerance import DEFAULT_FLOOR_PERCENT
 
 #: Default of ``checks.max_abs_channel`` [raw units]: larger than any reading of a sensor
 #: delivering mV/V, N or 24-bit ADC counts (2^23 = 8.4e6), far below a corrupt cell (1e160).
@@ -171,6 +170,11 @@ class OffsetConfig:
     def basis(self, n_configurations: int) -> OffsetBasis:
         """The estimator's full offset basis for a tool of ``n_configurations``."""
         return OffsetBasis(n_configurations, self.drift_degree, self.time_scale_s, temperature=True)
+
+
+#: Default of the pipeline setting ``fit.floor``: a residual RMS below this, in % of each axis's
+#: full scale, never refuses a fit.
+DEFAULT_FLOOR_PERCENT = 0.01
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ them). Units: N, N m, and % of each axis's full scale.
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numpy as np
 
@@ -29,7 +30,34 @@ from ..robot.kinematics import Kinematics
 from ..robot.sensitivities import stops
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
-from .motion import Plan
+
+
+class Plan(Protocol):
+    """What a budget reads of a planned motion (:class:`fts_calib.planning.motion.Plan` is one)."""
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times [s], shape (N,)."""
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint positions [rad], shape (N, n_joints)."""
+
+    @property
+    def qd(self) -> np.ndarray:
+        """Joint velocities [rad/s], shape (N, n_joints)."""
+
+    @property
+    def qdd(self) -> np.ndarray:
+        """Joint accelerations [rad/s^2], shape (N, n_joints)."""
+
+    @property
+    def rate(self) -> float:
+        """Sample rate [Hz]."""
+
+    def still(self, max_speed: float, max_acceleration: float) -> np.ndarray:
+        """Samples where every joint is slow and steady, shape (N,) bool."""
+
 
 __all__ = ["SYSTEMATIC", "KeptSamples", "measured_budget", "plan_budget", "predicted_still", "sample_budget"]
 

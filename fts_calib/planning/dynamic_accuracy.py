@@ -28,7 +28,7 @@ from ..robot.dynamic_sensitivities import MotionUncertainty, dynamic_error_sourc
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..robot.tool_wrench import tool_load
-from .motion import Plan
+from .accuracy import Plan
 
 
 def plan_jerk(plan: Plan) -> np.ndarray:
