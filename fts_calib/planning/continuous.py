@@ -36,12 +36,12 @@ from .sizing import check_target, floor_refusal
 from .sweeps import MIN_CLEARANCE, SweepPattern, raster, spanned
 
 #: The continuous rasters searched: levels, stops and span, every combination.
-LEVELS = (2, 3, 4, 5)
-STOPS = (1, 2, 3)
-SPANS = (0.2, 0.35, 0.5, 0.75, 1.0)
+CONTINUOUS_LEVELS = (2, 3, 4, 5)
+CONTINUOUS_STOPS = (1, 2, 3)
+CONTINUOUS_SPANS = (0.2, 0.35, 0.5, 0.75, 1.0)
 
-_SCREEN_RATE_HZ = 25.0  # [Hz] rate of the candidate motions (their budget, not their files)
-_FINAL_TRIES = 4  # candidates checked for limits and collisions before giving up
+CONTINUOUS_SCREEN_HZ = 25.0  # [Hz] rate of the candidate motions (their budget, not their files)
+_CONTINUOUS_FINAL_TRIES = 4  # candidates checked for limits and collisions before giving up
 
 
 @dataclass(frozen=True)
@@ -75,7 +75,7 @@ class ContinuousSizing:
                 f"sized to the target {self.target_percent:g} % of full scale: smooth excitation (every joint on a sinusoid, "
                 f"ramped in and out at home), {self.duration_s:g} s, {self.configurations} "
                 f"configuration{'s' if self.configurations > 1 else ''} "
-                f"(the shortest of {self.candidates} durations whose budget was computed, screened at {_SCREEN_RATE_HZ:g} Hz): "
+                f"(the shortest of {self.candidates} durations whose budget was computed, screened at {CONTINUOUS_SCREEN_HZ:g} Hz): "
                 f"{self.budget.largest_percent:.4f} % on {axis} there, dominated by {term}; "
                 f"the tool tolerance and mount alone give at least {self.floor_percent:.4f} % on the motions screened"
             )
@@ -84,7 +84,7 @@ class ContinuousSizing:
             f"stop{'s' if p.stops > 1 else ''} passed without stopping, span {p.span:g} of the second joint's range, "
             f"{self.configurations} configuration{'s' if self.configurations > 1 else ''} "
             f"(the shortest of {self.candidates} motions whose budget was computed, "
-            f"screened at {_SCREEN_RATE_HZ:g} Hz): {self.budget.largest_percent:.4f} % on {axis} there, dominated by {term}; "
+            f"screened at {CONTINUOUS_SCREEN_HZ:g} Hz): {self.budget.largest_percent:.4f} % on {axis} there, dominated by {term}; "
             f"the tool tolerance and mount alone give at least {self.floor_percent:.4f} % on the motions screened"
         )
 
@@ -151,14 +151,14 @@ def size_continuous(
     base = plan_base(kin, checker, SweepPattern(2, 2, 0.0, margin, continuous=True), min_clearance)
     home, ranges = base[0].home, base[1].ranges
     order = []
-    for levels, stops, span in itertools.product(LEVELS, STOPS, SPANS):
+    for levels, stops, span in itertools.product(CONTINUOUS_LEVELS, CONTINUOUS_STOPS, CONTINUOUS_SPANS):
         pattern = SweepPattern(levels, stops, 0.0, margin, span, continuous=True)
         order.append((sum(segment_durations(kin, home, raster(kin, home, spanned(ranges, span), pattern), True)), pattern))
     order.sort(key=lambda item: item[0])
     screened = Screened()
     finals = 0
     for _, pattern in order:
-        plan = plan_sweeps(kin, home, spanned(ranges, pattern.span), pattern, _SCREEN_RATE_HZ)
+        plan = plan_sweeps(kin, home, spanned(ranges, pattern.span), pattern, CONTINUOUS_SCREEN_HZ)
         budget = screened.add(plan, _budget(kin, tool, plan, nominal, sample_rate_hz, uncertainty))
         if budget.largest_percent > target_percent:
             continue
@@ -167,7 +167,7 @@ def size_continuous(
             sizing = ContinuousSizing(target_percent, pattern, budget, screened.tried, screened.floor_percent, len(tool.configurations))
             return result, sizing
         finals += 1
-        if finals >= _FINAL_TRIES:
+        if finals >= _CONTINUOUS_FINAL_TRIES:
             raise TrajectoryError(f"the shortest continuous plans that meet the target fail their checks: {result.problems[0]}", "checks")
     raise screened.refusal(kin, tool, full_tool, nominal, sample_rate_hz, uncertainty, target_percent, "continuous")
 

@@ -20,7 +20,7 @@ from ..robot.collision import CollisionChecker
 from ..robot.dynamic_sensitivities import MotionUncertainty
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
-from .continuous import _SCREEN_RATE_HZ, ContinuousSizing, Screened, _budget
+from .continuous import CONTINUOUS_SCREEN_HZ, ContinuousSizing, Screened, _budget
 from .planner import PlanResult, check_plan, plan_base
 from .sizing import check_target
 from .smooth import smooth_plan
@@ -61,7 +61,7 @@ def size_smooth(
     screened, problem, stalled = Screened(), None, 0
     for tried, duration in enumerate(DURATIONS_S, start=1):
         try:
-            plan = smooth_plan(kin, home, ranges, duration, _SCREEN_RATE_HZ, margin)
+            plan = smooth_plan(kin, home, ranges, duration, CONTINUOUS_SCREEN_HZ, margin)
         except TrajectoryError:
             continue  # too short for the ramps within this robot's limits
         budget = _budget(kin, tool, plan, nominal, sample_rate_hz, uncertainty)
