@@ -17,12 +17,12 @@ import numpy as np
 from bench_calibrate import write_recording
 
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.source import open_recording
-from fts_calib.pipeline.calibrate import calibrate_recording
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.sim.bag import recording_to_bag
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.sim.robot_log import recording_to_bag
+from fts_calib.sources.source import open_recording
 
 
 def read_all(path, kin, tool) -> tuple[int, float]:

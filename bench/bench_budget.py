@@ -18,17 +18,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from fts_calib.budget.propagation import DEFAULT_TARGET_PERCENT, range_moments
 from fts_calib.core.resources import resolve
-from fts_calib.model.budget import DEFAULT_TARGET_PERCENT, range_moments
+from fts_calib.filters.settings import load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.settings import load_pipeline_config
 from fts_calib.planning.sweeps import SweepPattern
-from fts_calib.planning.trajectory import plan_trajectories
+from fts_calib.planning.trajectory_run import plan_trajectories
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import ToolConfiguration, load_tool
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
 LAG_S = 0.008  # [s] the joint readings of the simulated recordings are this late

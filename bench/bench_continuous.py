@@ -2,7 +2,7 @@
 
 For each number of tool configurations (1, 2, 3) and continuous motions of increasing length
 (UR5, the shipped paper tool, sensor at 1 kHz): the predicted budget of the plan's samples in
-the dynamic filter mode (:func:`fts_calib.planning.dynamic_accuracy.dynamic_plan_budget`, the
+the dynamic filter mode (:func:`fts_calib.budget.predicted.dynamic_plan_budget`, the
 terms a plan can shrink: the simulation knows the tool's mass, centre of mass and the mount
 exactly), and the error measured in simulation: the tool's wrench by Pinocchio's RNEA
 (:mod:`fts_calib.sim.rnea`, a dynamics model independent of the calibration's) with each
@@ -25,27 +25,26 @@ from pathlib import Path
 
 import numpy as np
 
+from fts_calib.budget.predicted import SYSTEMATIC, dynamic_plan_budget
+from fts_calib.budget.propagation import range_moments
 from fts_calib.core.exceptions import FtsCalibError
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.recording import RecordingWriter
-from fts_calib.model.budget import range_moments
+from fts_calib.filters.settings import load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.settings import load_pipeline_config
-from fts_calib.planning.accuracy import SYSTEMATIC
-from fts_calib.planning.continuous import with_configurations
-from fts_calib.planning.dynamic_accuracy import dynamic_plan_budget
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.planner import plan_base
+from fts_calib.planning.sizing import with_configurations
 from fts_calib.planning.smooth import smooth_plan
 from fts_calib.planning.sweeps import SweepPattern, spanned
-from fts_calib.planning.trajectory import motion_uncertainty
+from fts_calib.planning.trajectory_run import motion_uncertainty
 from fts_calib.robot.collision import CollisionChecker
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import ToolConfiguration, load_tool
+from fts_calib.session.calibration_run import calibrate_recording
 from fts_calib.sim.rnea import rnea_tool_wrench
 from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sources.recording import RecordingWriter
 
 LAG_S = 0.008  # [s] the joint readings are this late
 JOINT_NOISE = 1e-5  # [rad] white noise of each joint reading
@@ -110,7 +109,7 @@ def main():
     pipeline = dataclasses.replace(pipeline, filter=known, nominal_c=tuple(map(tuple, spec.simulated.C)))
     uncertainty = motion_uncertainty(pipeline.filter, spec.rate_hz)
     sim = spec.simulated
-    from fts_calib.model.budget import wrench_noise
+    from fts_calib.budget.propagation import wrench_noise
 
     nominal = (sim.C_bar, sim.D, wrench_noise(sim.C, sim.noise_std), spec.full_scale)
     checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])

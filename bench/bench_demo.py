@@ -9,7 +9,7 @@ import tempfile
 import time
 
 from fts_calib.app.demo import run_demo
-from fts_calib.feeds.recording import RecordingReader
+from fts_calib.sources.recording import RecordingReader
 
 
 def main():

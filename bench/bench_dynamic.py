@@ -29,11 +29,11 @@ import numpy as np
 from bench_calibrate import write_repeated
 
 from fts_calib.core.resources import data_dir, resolve
-from fts_calib.planning.trajectory_io import read_trajectory
+from fts_calib.planning.trajectory_files import read_trajectory
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.sim.recording import tool_wrenches
+from fts_calib.sim.runs import tool_wrenches
 from fts_calib.sim.sensor import load_simulated_sensor
 
 

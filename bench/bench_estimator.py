@@ -13,8 +13,8 @@ import numpy as np
 
 from fts_calib import OnlineEstimator, SimulatedSensor
 from fts_calib.model.accumulator import UNIT_SAMPLES
-from fts_calib.model.sensor import P
-from fts_calib.robot.wrench import static_wrench
+from fts_calib.model.channels import P
+from fts_calib.robot.tool import static_wrench
 
 
 def _data(n: int, rng: np.random.Generator):

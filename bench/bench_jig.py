@@ -25,7 +25,7 @@ import pandas as pd
 from fts_calib.app.cli import main
 from fts_calib.model.calibration import load_calibration
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.validate import validate_recording
+from fts_calib.service.validation import validate_recording
 
 BENT = Path(__file__).resolve().parents[1] / "configs" / "sensor.yaml"
 

@@ -1,6 +1,6 @@
 """Health monitor figures: naming a 1 % gain loss, false alarms in clean service, cost per sample.
 
-Simulated 1 kHz service (:mod:`fts_calib.sim.service`): a 1 kg payload, centre of mass off
+Simulated 1 kHz service (:mod:`fts_calib.sim.service_run`): a 1 kg payload, centre of mass off
 the tool axis, turned through random orientations with pauses; the paper's simulated sensor
 (Table 1, 1e-5 mV/V noise, 24-bit ADC, null content). The parity model is learnt from one
 minute of such service with the true C (what a calibration's kept samples give).
@@ -15,10 +15,10 @@ import time
 
 import numpy as np
 
-from fts_calib.model.health import fit_parity
-from fts_calib.service.health import HealthMonitor
+from fts_calib.model.parity import fit_parity
+from fts_calib.monitor.health import HealthMonitor
 from fts_calib.sim.sensor import load_simulated_sensor
-from fts_calib.sim.service import inject_fault, service_wrenches
+from fts_calib.sim.service_run import inject_fault, service_wrenches
 
 FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N m]
 RATE_HZ = 1000.0

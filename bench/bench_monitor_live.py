@@ -21,14 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from fts_calib.feeds.protocol import End, Strain, encode
 from fts_calib.model.calibration import load_calibration
+from fts_calib.sources.udp import End, Strain, encode
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_monitor import RATE_HZ, learnt_parity  # noqa: E402
 
-from fts_calib.sim.sensor import load_simulated_sensor  # noqa: E402
-from fts_calib.sim.service import service_wrenches  # noqa: E402
+from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sim.service_run import service_wrenches
 
 
 def main() -> None:

@@ -14,7 +14,7 @@ import argparse
 
 import numpy as np
 
-from fts_calib.sim.service import offset_watch_trial
+from fts_calib.sim.service_run import offset_watch_trial
 
 FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N m]
 NOISE = np.array([2e-3] * 3 + [2e-4] * 3)  # [N, N m] per sample

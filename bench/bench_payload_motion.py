@@ -1,7 +1,7 @@
 """Benchmark: payload from a continuous motion on the simulated UR5, over seeds.
 
 The shipped 1.4 kg validation payload moved by the wrist motion of
-:func:`fts_calib.planning.payload_excitation.payload_excitation` (jerk-limited, no dwell),
+:func:`fts_calib.payload.inertia_motion.payload_excitation` (jerk-limited, no dwell),
 joints 8 ms late with 1e-5 rad of noise on a 20-bit encoder, the simulated sensor's noise
 and 24-bit ADC, offsets drifting as a sensor warming up (:meth:`OffsetDrift.typical`);
 identified by :func:`identify_payload_from_motion` (latency estimated).
@@ -21,14 +21,14 @@ import numpy as np
 from fts_calib.core.exceptions import PayloadError
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration
-from fts_calib.planning.payload_excitation import payload_excitation
+from fts_calib.payload.inertia_motion import payload_excitation
+from fts_calib.payload.moving import NAMES
+from fts_calib.payload.samples import identify_payload_from_motion
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.payload_motion import NAMES
-from fts_calib.service.payload_motion_recording import identify_payload_from_motion
 from fts_calib.sim.drift import OffsetDrift
-from fts_calib.sim.payload_motion import simulate_payload_motion
+from fts_calib.sim.payload_run import simulate_payload_motion
 from fts_calib.sim.sensor import load_simulated_sensor
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad]

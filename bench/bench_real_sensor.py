@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from fts_calib.app.cli import main
-from fts_calib.model.budget import wrench_noise
-from fts_calib.model.sensor import WRENCH_AXES, WRENCH_UNITS
+from fts_calib.budget.propagation import wrench_noise
+from fts_calib.model.channels import WRENCH_AXES, WRENCH_UNITS
 from fts_calib.model.sensor_config import load_sensor_config
 
 TARGET_RATIO = 1.5

@@ -18,14 +18,14 @@ from pathlib import Path
 
 from fts_calib.app import report as report_command
 from fts_calib.app.demo import run_demo
-from fts_calib.app.report_content import KeptCollector, ReportContent
-from fts_calib.app.report_html import render_report, write_report
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.settings import load_pipeline_config
+from fts_calib.filters.settings import load_pipeline_config
+from fts_calib.report.content import KeptCollector, ReportContent
+from fts_calib.report.html import render_report, write_report
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
+from fts_calib.session.calibration_run import calibrate_recording
 
 REPEATS = 5
 

@@ -9,10 +9,10 @@ import numpy as np
 
 from fts_calib import Calibration
 from fts_calib.core.resources import resolve
+from fts_calib.payload.still import identify_payload
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.payload import identify_payload
 from fts_calib.service.reader import GravityCompensator
 from fts_calib.sim.sensor import load_simulated_sensor
 

@@ -8,10 +8,10 @@ import time
 
 from fts_calib.app.trajectory import write_run
 from fts_calib.core.resources import resolve
+from fts_calib.filters.settings import load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.settings import load_pipeline_config
 from fts_calib.planning.sweeps import SweepPattern
-from fts_calib.planning.trajectory import plan_trajectories
+from fts_calib.planning.trajectory_run import plan_trajectories
 from fts_calib.robot.tool import load_tool
 
 

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from fts_calib import WrenchReader, load_calibration
-from fts_calib.model.budget import wrench_noise
+from fts_calib.budget.propagation import wrench_noise
 from fts_calib.sim.sensor import load_simulated_sensor
 
 RATE_HZ = 1000.0  # [Hz] the control loop

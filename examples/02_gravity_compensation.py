@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from fts_calib import GravityCompensator, Kinematics, ToolConfiguration, identify_payload, load_calibration, load_robot, load_tool
-from fts_calib.model.offsets import estimate_offsets
+from fts_calib.model.retare import estimate_offsets
 from fts_calib.sim.sensor import load_simulated_sensor
 
 RATE = 1000.0  # [Hz] the control loop

@@ -12,7 +12,7 @@ import numpy as np
 
 import fts_calib
 from fts_calib.core.resources import data_dir
-from fts_calib.planning.trajectory_io import read_trajectory
+from fts_calib.planning.trajectory_files import read_trajectory
 
 
 def main():

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 import fts_calib
-from fts_calib.pipeline.settings import PipelineConfig
+from fts_calib.filters.settings import PipelineConfig
 from fts_calib.planning.sweeps import SweepPattern
-from fts_calib.planning.trajectory_io import write_trajectory
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.planning.trajectory_files import write_trajectory
+from fts_calib.sim.runs import simulate_recording
 
 
 def main():

@@ -10,7 +10,7 @@ errors, printed beside the truth (Table 1 of the paper).
 import numpy as np
 
 from fts_calib import OnlineEstimator
-from fts_calib.robot.wrench import static_wrench
+from fts_calib.robot.tool import static_wrench
 from fts_calib.sim.sensor import load_simulated_sensor
 
 

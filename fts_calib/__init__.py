@@ -21,6 +21,9 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
+from .core.deprecation import install_moved_modules
+
+install_moved_modules()  # the module paths of the release before the stage layout, for one release
 
 if TYPE_CHECKING:  # type checkers and IDEs see the names; at run time __getattr__ loads them
     from .core.exceptions import (
@@ -37,28 +40,27 @@ if TYPE_CHECKING:  # type checkers and IDEs see the names; at run time __getattr
         TrajectoryError,
         UnknownToolConfiguration,
     )
-    from .feeds.batch import SampleBatch
     from .model.calibration import Calibration, Quality, load_calibration
     from .model.channels import ChannelLayout
     from .model.estimator import OnlineEstimator
     from .model.sensor_config import SensorSpec, load_sensor_config
-    from .pipeline.calibrate import calibrate
-    from .pipeline.session import CalibrationSession
-    from .planning.trajectory import plan_trajectories
+    from .payload.still import PayloadEstimate, identify_payload
+    from .planning.trajectory_run import plan_trajectories
     from .robot.definition import RobotDefinition, load_robot
     from .robot.kinematics import Kinematics
-    from .robot.tool import Tool, ToolConfiguration, load_tool
-    from .robot.tool_wrench import tool_load
-    from .service.export import export
-    from .service.payload import PayloadEstimate, identify_payload
+    from .robot.tool import Tool, ToolConfiguration, load_tool, tool_load
+    from .service.exports import export
     from .service.reader import GravityCompensator, WrenchReader
-    from .sim.recording import simulate_batches
+    from .session.calibration_run import calibrate
+    from .session.session import CalibrationSession
+    from .sim.runs import simulate_batches
     from .sim.sensor import SimulatedSensor, load_simulated_sensor
+    from .sources.batch import SampleBatch
 
 #: Where each public name lives: name -> module (relative to the package).
 _WHERE = {
     "Calibration": ".model.calibration",
-    "CalibrationSession": ".pipeline.session",
+    "CalibrationSession": ".session.session",
     "ChannelLayout": ".model.channels",
     "ConfigError": ".core.exceptions",
     "FileFormatError": ".core.exceptions",
@@ -69,13 +71,13 @@ _WHERE = {
     "InsufficientExcitation": ".core.exceptions",
     "Kinematics": ".robot.kinematics",
     "OnlineEstimator": ".model.estimator",
-    "PayloadEstimate": ".service.payload",
+    "PayloadEstimate": ".payload.still",
     "PoorFit": ".core.exceptions",
     "Quality": ".model.calibration",
     "RecordingError": ".core.exceptions",
     "ResourceNotFound": ".core.exceptions",
     "RobotDefinition": ".robot.definition",
-    "SampleBatch": ".feeds.batch",
+    "SampleBatch": ".sources.batch",
     "SensorSpec": ".model.sensor_config",
     "ShapeError": ".core.exceptions",
     "SimulatedSensor": ".sim.sensor",
@@ -84,17 +86,17 @@ _WHERE = {
     "TrajectoryError": ".core.exceptions",
     "UnknownToolConfiguration": ".core.exceptions",
     "WrenchReader": ".service.reader",
-    "calibrate": ".pipeline.calibrate",
-    "export": ".service.export",
-    "identify_payload": ".service.payload",
+    "calibrate": ".session.calibration_run",
+    "export": ".service.exports",
+    "identify_payload": ".payload.still",
     "load_calibration": ".model.calibration",
     "load_robot": ".robot.definition",
     "load_sensor_config": ".model.sensor_config",
     "load_simulated_sensor": ".sim.sensor",
     "load_tool": ".robot.tool",
-    "plan_trajectories": ".planning.trajectory",
-    "simulate_batches": ".sim.recording",
-    "tool_load": ".robot.tool_wrench",
+    "plan_trajectories": ".planning.trajectory_run",
+    "simulate_batches": ".sim.runs",
+    "tool_load": ".robot.tool",
 }
 
 __all__ = [

@@ -131,8 +131,8 @@ def short_plan():
 @pytest.fixture(scope="session")
 def ur5_recording(tmp_path_factory, short_plan, seed):
     """A simulated UR5 recording of the short plan: noise, 24-bit ADC, moving tool (Newton-Euler)."""
-    from fts_calib.planning.trajectory_io import TrajectoryFile
-    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.planning.trajectory_files import TrajectoryFile
+    from fts_calib.sim.runs import simulate_recording
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))

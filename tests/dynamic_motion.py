@@ -10,8 +10,8 @@ import dataclasses
 
 import numpy as np
 
-from fts_calib.feeds.batch import SampleBatch
 from fts_calib.sim.rnea import rnea_tool_wrench
+from fts_calib.sources.batch import SampleBatch
 
 HOME = np.array([0.0, -1.2, 1.4, -1.8, -1.57, 0.0])  # [rad]
 AMPLITUDE = np.array([0.2, 0.2, 0.3, 0.8, 1.2, 1.2])  # [rad]

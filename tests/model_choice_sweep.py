@@ -22,7 +22,7 @@ from collections import Counter
 import numpy as np
 
 from fts_calib.model.estimator import OnlineEstimator
-from fts_calib.model.offset_basis import OffsetBasis
+from fts_calib.model.offset_models import OffsetBasis
 
 from .nonlinear import OTHER_TOOL, PAPER_JIG, percent_error, pose_data, repeated
 

@@ -20,10 +20,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from fts_calib.model.channels import P_NULL, P, c_bar_from_c
 from fts_calib.model.features import features, monomials
-from fts_calib.model.sensor import P_NULL, P, c_bar_from_c
-from fts_calib.pipeline.units import held_out_units
-from fts_calib.robot.wrench import wrench_matrix
+from fts_calib.robot.tool import wrench_matrix
+from fts_calib.session.held_out import held_out_units
 
 #: Counts per mV/V of the simulated ADC: the paper's Table 1 then reads about 2,000 counts at 50 N.
 COUNTS_PER_MVV = 5000.0

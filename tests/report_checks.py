@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fts_calib.app.report_html import SECTIONS
+from fts_calib.report.html import SECTIONS
 
 #: Chromium's executables, Debian's first.
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")

@@ -25,9 +25,9 @@ from fts_calib.core.exceptions import (
     ResourceNotFound,
     UnknownToolConfiguration,
 )
-from fts_calib.core.fileio import load_yaml
+from fts_calib.core.files import load_yaml
 from fts_calib.core.resources import resolve
-from fts_calib.sim.recording import simulate_batches
+from fts_calib.sim.runs import simulate_batches
 from fts_calib.sim.sensor import load_simulated_sensor
 
 #: Modules the in-controller path must not load (STYLE.md: pandas, ruckig, matplotlib, rosbags; and Pinocchio, coal, PyYAML).
@@ -162,10 +162,11 @@ def test_old_keyword_names_warn_and_give_the_same_result(calibration, ur5, truth
         np.testing.assert_array_equal(ur5.g_sensor(readings=joints), ur5.g_sensor(joints))
     with pytest.warns(DeprecationWarning, match=r"strains\(\) is now channels\(\)"):
         np.testing.assert_array_equal(truth.strains(np.ones(6)), truth.channels(np.ones(6)))
-    for old, new in (("load", "tool_wrench"), ("load_errors", "sensitivities")):
-        sys.modules.pop(f"fts_calib.robot.{old}", None)
-        with pytest.warns(DeprecationWarning, match=f"fts_calib.robot.{old} is now fts_calib.robot.{new}"):
-            importlib.import_module(f"fts_calib.robot.{old}")
+    for old, new in (("robot.load", "robot.tool"), ("robot.load_errors", "budget.sensitivities"), ("pipeline.session", "session.session")):
+        sys.modules.pop(f"fts_calib.{old}", None)
+        with pytest.warns(DeprecationWarning, match=f"fts_calib.{old} is now fts_calib.{new}"):
+            moved = importlib.import_module(f"fts_calib.{old}")
+        assert moved is importlib.import_module(f"fts_calib.{new}")  # the same module: what it holds, the old path holds
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the new names never warn
         reader.wrench(channels=x)

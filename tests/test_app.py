@@ -8,7 +8,8 @@ import pytest
 import yaml
 
 from fts_calib import load_calibration
-from fts_calib.app import arguments, cli, export, robots, setup, tare, trajectory
+from fts_calib.app import cli, export, robots, setup, tare, trajectory
+from fts_calib.app import parser as arguments
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import EXIT_CODES, ExitCode, error_line, exit_code
 from fts_calib.core import exceptions

@@ -2,8 +2,8 @@
 
 import pytest
 
-from fts_calib.app.arguments import COMMANDS
 from fts_calib.app.cli import main
+from fts_calib.app.parser import COMMANDS
 
 
 @pytest.mark.parametrize("command", sorted(COMMANDS))

@@ -14,7 +14,7 @@ from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.sensor_config import SimulationSpec
 from fts_calib.service.ati import AXIS_NAMES, ati_text, load_ati_calibration, read_calibration
-from fts_calib.service.validate import validate_recording
+from fts_calib.service.validation import validate_recording
 from fts_calib.sim.sensor import SimulatedSensor
 
 #: A factory matrix of six gauges, [N per V] (rows Fx Fy Fz) and [N m per V] (rows Tx Ty Tz).
@@ -106,11 +106,11 @@ def test_bad_files_name_the_element_and_line(tmp_path, edit, words):
 @pytest.fixture(scope="module")
 def gauge_run(tmp_path_factory, short_plan, seed):
     """A recording of raw gauge voltages of a sensor whose factory matrix is 3 % off and rotated by 2°."""
-    from fts_calib.planning.trajectory_io import TrajectoryFile
+    from fts_calib.planning.trajectory_files import TrajectoryFile
     from fts_calib.robot.definition import load_robot
     from fts_calib.robot.kinematics import Kinematics
     from fts_calib.robot.tool import load_tool
-    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.sim.runs import simulate_recording
     from fts_calib.sim.sensor import load_simulated_sensor
 
     folder = tmp_path_factory.mktemp("ati")

@@ -16,15 +16,15 @@ from fts_calib import ConfigError, FileFormatError, FtsCalibWarning, Kinematics,
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.batch import SampleBatch
-from fts_calib.feeds.recording import RecordingReader
+from fts_calib.filters.clock import check_clock
+from fts_calib.filters.sample_checks import NON_FINITE, OUT_OF_RANGE, SampleChecks
+from fts_calib.filters.settings import PipelineConfig, load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.checks import NON_FINITE, OUT_OF_RANGE, SampleChecks
-from fts_calib.pipeline.clock import check_clock
-from fts_calib.pipeline.settings import PipelineConfig, load_pipeline_config
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.tool import load_tool
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.sources.batch import SampleBatch
+from fts_calib.sources.recording import RecordingReader
 
 STRAIN_3 = 9  # column index of strain_3 in the UR5 recording (time, 6 joints, strains)
 

@@ -8,21 +8,20 @@ from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.exceptions import BagError
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.bag import BagReader
-from fts_calib.feeds.bag_log import WRENCH_STAMPED, BagTopics, parse_bag_argument
-from fts_calib.feeds.batch import UNKNOWN_TOOL, SampleBatch
-from fts_calib.feeds.recording import RecordingReader
-from fts_calib.feeds.replay import ReplayOptions, messages
-from fts_calib.feeds.source import open_recording
-from fts_calib.feeds.sync import JOINT_GAP, WRONG_LENGTH
 from fts_calib.model.channels import WRENCH_6
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.planning.trajectory_io import TrajectoryFile
-from fts_calib.service.tare import tare_recording
-from fts_calib.sim.bag import BagWriter, recording_to_bag
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.planning.trajectory_files import TrajectoryFile
+from fts_calib.service.retare_job import tare_recording
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.sim.robot_log import BagWriter, recording_to_bag
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor, simulated_sensor
+from fts_calib.sources.bag import WRENCH_STAMPED, BagReader, BagTopics, parse_bag_argument
+from fts_calib.sources.batch import UNKNOWN_TOOL, SampleBatch
+from fts_calib.sources.recording import RecordingReader
+from fts_calib.sources.sender import ReplayOptions, messages
+from fts_calib.sources.source import open_recording
+from fts_calib.sources.synchronizer import JOINT_GAP, WRONG_LENGTH
 
 from .test_tare import _recording
 

@@ -13,13 +13,13 @@ import dataclasses
 import numpy as np
 import pytest
 
+from fts_calib.budget.predicted import plan_budget, predicted_still, sample_budget
+from fts_calib.budget.propagation import COVERAGE, ErrorSource, propagate, range_moments, wrench_noise
+from fts_calib.budget.sensitivities import stops
 from fts_calib.core.resources import resolve
-from fts_calib.model.budget import COVERAGE, ErrorSource, propagate, range_moments, wrench_noise
+from fts_calib.filters.settings import FilterConfig
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.settings import FilterConfig
-from fts_calib.planning.accuracy import plan_budget, predicted_still, sample_budget
 from fts_calib.robot.definition import RobotAccuracy
-from fts_calib.robot.sensitivities import stops
 from fts_calib.robot.tool import ToolTolerance
 
 from .helpers import C_BAR_TRUE, D_TRUE, P_PAPER
@@ -163,10 +163,10 @@ def test_a_bent_sensor_is_refused_naming_the_bend_or_its_budget_covers_another_t
     whose budget covers its error on another tool (1.4 kg, noiseless readings) on every axis; a calibration accepted
     despite its fit, too (the model-error term is the largest axis's, on every axis).
     """
-    from fts_calib.pipeline.calibrate import calibrate_recording
-    from fts_calib.planning.trajectory_io import TrajectoryFile
-    from fts_calib.robot.wrench import wrench_matrix
-    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.planning.trajectory_files import TrajectoryFile
+    from fts_calib.robot.tool import wrench_matrix
+    from fts_calib.session.calibration_run import calibrate_recording
+    from fts_calib.sim.runs import simulate_recording
     from fts_calib.sim.sensor import load_simulated_sensor
 
     coms = [(0.08, 0.0, 0.0), (0.05, 0.06, 0.0), (0.05, 0.0, 0.06)]

@@ -7,7 +7,7 @@ from fts_calib import load_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.calibrate import calibrate_recording
+from fts_calib.session.calibration_run import calibrate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
 

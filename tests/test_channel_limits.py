@@ -7,6 +7,7 @@ import pytest
 
 from fts_calib.core.exceptions import ConfigError, FileFormatError
 from fts_calib.core.resources import resolve
+from fts_calib.filters.sample_checks import RailTally, refuse_railed
 from fts_calib.model.channel_limits import (
     RAIL_MIN_SAMPLES,
     ChannelLimits,
@@ -19,7 +20,6 @@ from fts_calib.model.channel_limits import (
     railed,
 )
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.checks import RailTally, refuse_railed
 
 ATOL_STEP = 1e-9  # relative: a detected step against the true one (float noise of the values only)
 
@@ -165,7 +165,7 @@ def test_bad_simulation_of_a_lowcost_sensor_is_refused_with_the_field(tmp_path, 
 
 
 def test_a_pipeline_file_cannot_declare_channel_limits(tmp_path):
-    from fts_calib.pipeline.settings import load_pipeline_config
+    from fts_calib.filters.settings import load_pipeline_config
 
     path = tmp_path / "pipeline.yaml"
     path.write_text("checks:\n  limits: 5\n")

@@ -5,10 +5,9 @@ import pytest
 
 from fts_calib.core.exceptions import ConfigError, FileFormatError, InsufficientExcitation, ShapeError, StructureError
 from fts_calib.model.calibration import Calibration, load_calibration, save_calibration
-from fts_calib.model.channels import MALTESE_CROSS_8, WRENCH_6, ChannelLayout, channel_layout
+from fts_calib.model.channels import MALTESE_CROSS_8, WRENCH_6, ChannelLayout, P, channel_layout
 from fts_calib.model.estimator import OnlineEstimator
-from fts_calib.model.jig import jig_calibration
-from fts_calib.model.sensor import P
+from fts_calib.model.offline import jig_calibration
 from tests.helpers import COMS, TOOL_MASS, random_gravity, tool_wrench
 
 

@@ -49,7 +49,7 @@ def test_the_script_starts_light_and_its_parser_loads_no_pandas():
 
 
 def test_ctrl_c_while_the_command_line_is_read_is_one_line_and_exit_130(monkeypatch, capsys):
-    import fts_calib.app.arguments as arguments
+    import fts_calib.app.parser as arguments
 
     def interrupted():
         raise KeyboardInterrupt

@@ -7,14 +7,14 @@ import yaml
 from fts_calib import TrajectoryError
 from fts_calib.app.cli import main
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.progress import Progress
-from fts_calib.pipeline.remaining import load_plan_progress
-from fts_calib.planning import continuous
-from fts_calib.planning.continuous import with_configurations
+from fts_calib.planning import sizing as continuous
 from fts_calib.planning.planner import plan_calibration
+from fts_calib.planning.sizing import with_configurations
 from fts_calib.planning.sweeps import SweepPattern
-from fts_calib.planning.trajectory_io import read_trajectory, save_trajectory
+from fts_calib.planning.trajectory_files import read_trajectory, save_trajectory
 from fts_calib.robot.collision import CollisionChecker
+from fts_calib.session.plan_progress import load_plan_progress
+from fts_calib.session.session import Progress
 
 PATTERN = SweepPattern(3, 1, 0.0, 0.02, 0.35, continuous=True)  # both wrist joints at once; the first passes its middle level
 
@@ -111,14 +111,14 @@ def test_live_shows_the_progress_of_a_continuous_plan_from_moving_samples(tmp_pa
     """
     import dataclasses
 
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import UdpReceiver
+    from fts_calib.filters.settings import load_pipeline_config
     from fts_calib.model.sensor_config import load_sensor_config
-    from fts_calib.pipeline.live import LiveRunner
-    from fts_calib.pipeline.session import CalibrationSession
-    from fts_calib.pipeline.settings import load_pipeline_config
-    from fts_calib.sim.recording import simulate_batches
+    from fts_calib.session.calibration_run import LiveRunner
+    from fts_calib.session.session import CalibrationSession
+    from fts_calib.sim.runs import simulate_batches
     from fts_calib.sim.sensor import load_simulated_sensor
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import UdpReceiver
 
     out = tmp_path / "plan"
     common = ["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--no-plot", "--motion", "continuous"]

@@ -11,12 +11,12 @@ import pytest
 
 from fts_calib import InsufficientExcitation, PoorFit
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.diagnosis import WEAK_CONDITION
-from fts_calib.pipeline.fit import MAX_RATIO
-from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.tool import ToolTolerance
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.session.diagnosis import WEAK_CONDITION
+from fts_calib.session.fit import MAX_RATIO
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
 #: Words of the diagnoses that only a fitting alternative of the tool file, the joints or the mount may give.

@@ -150,7 +150,7 @@ def test_the_exit_code_table_is_complete():
 
 
 def test_every_command_and_option_is_in_cli_md():
-    from fts_calib.app.arguments import COMMANDS, build_parser
+    from fts_calib.app.parser import COMMANDS, build_parser
 
     text = (DOCS / "cli.md").read_text(encoding="utf-8")
     parser = build_parser()

@@ -2,7 +2,7 @@
 
 The recordings are continuous motions of the UR5 with no still sample (tests/dynamic_motion.py),
 the tool's wrench from Pinocchio's RNEA on an attached body (fts_calib.sim.rnea), while the
-calibration predicts it with its own Newton-Euler (fts_calib.robot.wrench) on its own
+calibration predicts it with its own Newton-Euler (fts_calib.robot.tool) on its own
 kinematics. True C: the paper's Table 1 (the simulated sensor of configs/sensor.yaml).
 """
 
@@ -13,15 +13,14 @@ import pytest
 
 from fts_calib.core.exceptions import FileFormatError, InsufficientExcitation, PoorFit
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.recording_writer import RecordingWriter
+from fts_calib.filters.dynamic import DynamicFilter, nominal_c, third_difference_noise, trust_weights
+from fts_calib.filters.joint_rates import joint_motion, kernel_gains
+from fts_calib.filters.settings import FilterConfig, PipelineConfig, load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.derivatives import joint_motion, kernel_gains
-from fts_calib.pipeline.dynamic import DynamicFilter, nominal_c, third_difference_noise
-from fts_calib.pipeline.session import CalibrationSession
-from fts_calib.pipeline.settings import FilterConfig, PipelineConfig, load_pipeline_config
-from fts_calib.pipeline.trust import trust_weights
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.session.session import CalibrationSession
 from fts_calib.sim.sensor import SimulatedSensor
+from fts_calib.sources.writer import RecordingWriter
 from tests.dynamic_motion import error_percent_fs, motion, noiseless, recording
 
 SPEC = load_sensor_config(resolve("sensor", "configs"))
@@ -210,10 +209,10 @@ def test_live_feeds_calibrate_in_dynamic_mode(ur5, paper_tool, seed, tmp_path):
     standard errors: the synchronizer interpolates the joints at the strain times)."""
     import threading
 
-    from fts_calib.feeds.replay import ReplayOptions, replay
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import UdpReceiver
-    from fts_calib.pipeline.live import LiveRunner
+    from fts_calib.session.calibration_run import LiveRunner
+    from fts_calib.sources.sender import ReplayOptions, replay
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import UdpReceiver
 
     rng = np.random.default_rng(seed)
     path = tmp_path / "moving.csv"

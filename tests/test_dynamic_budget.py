@@ -12,14 +12,13 @@ import itertools
 import numpy as np
 import pytest
 
+from fts_calib.budget.predicted import dynamic_plan_budget
+from fts_calib.budget.propagation import range_moments
+from fts_calib.budget.sensitivities import MotionUncertainty
 from fts_calib.core.resources import resolve
-from fts_calib.model.budget import range_moments
-from fts_calib.planning.dynamic_accuracy import dynamic_plan_budget
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.sweeps import SweepPattern
-from fts_calib.robot.dynamic_sensitivities import MotionUncertainty
-from fts_calib.robot.tool import load_tool
-from fts_calib.robot.wrench import dynamic_wrench
+from fts_calib.robot.tool import dynamic_wrench, load_tool
 
 from .helpers import C_BAR_TRUE, D_TRUE
 
@@ -188,7 +187,7 @@ def test_one_configuration_is_rank_7_only_through_the_inertial_torques(continuou
 @pytest.mark.parametrize("order", [3, 5])
 def test_the_budget_filters_the_joints_as_the_dynamic_mode_does(order):
     """The joint-noise term's kernels are those of the dynamic filter's derivative estimate (its noise gains)."""
-    from fts_calib.pipeline.derivatives import kernel_gains
+    from fts_calib.filters.joint_rates import kernel_gains
 
     uncertainty = MotionUncertainty(joint_noise=1.0, joint_rate_hz=1000.0, window_s=0.3, order=order)
     gain_v, gain_a = kernel_gains(0.3, 1e-3, order)[:2]

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from fts_calib import ConfigError, InsufficientExcitation, OnlineEstimator, ShapeError
-from fts_calib.model.jig import jig_calibration
+from fts_calib.model.channels import c_from_c_bar
 from fts_calib.model.least_squares import information_rank
-from fts_calib.model.offsets import estimate_offsets
-from fts_calib.model.sensor import c_from_c_bar
+from fts_calib.model.offline import jig_calibration
+from fts_calib.model.retare import estimate_offsets
 
 from .helpers import C_BAR_TRUE, COMS, D_TRUE, TOOL_MASS, paper_simulation, random_gravity, strains_eq22, tool_wrench
 

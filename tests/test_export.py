@@ -13,7 +13,7 @@ from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import save_calibration
 from fts_calib.model.channels import WRENCH_6
-from fts_calib.service.export import c_header, export, json_text
+from fts_calib.service.exports import c_header, export, json_text
 from fts_calib.sim.sensor import load_simulated_sensor
 
 

@@ -16,7 +16,7 @@ from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.channels import MALTESE_CROSS_8, WRENCH_6
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
+from fts_calib.session.calibration_run import calibrate_recording
 from fts_calib.sim.sensor import simulated_sensor
 from tests.helpers import random_gravity, tool_wrench
 
@@ -33,11 +33,11 @@ def factory():
 
 @pytest.fixture(scope="module")
 def factory_recording(tmp_path_factory, short_plan, seed, factory):
-    from fts_calib.planning.trajectory_io import TrajectoryFile
+    from fts_calib.planning.trajectory_files import TrajectoryFile
     from fts_calib.robot.definition import load_robot
     from fts_calib.robot.kinematics import Kinematics
     from fts_calib.robot.tool import load_tool
-    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.sim.runs import simulate_recording
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
     tool = load_tool(resolve("paper_tool", "configs"))
@@ -96,7 +96,7 @@ def test_cli_selects_the_sensor_and_names_both_channel_counts(tmp_path, factory_
 
 
 def test_a_session_refuses_samples_of_another_width(ur5, paper_tool):
-    from fts_calib.pipeline.session import CalibrationSession
+    from fts_calib.session.session import CalibrationSession
 
     session = CalibrationSession(ur5, paper_tool, source="robot", layout=MALTESE_CROSS_8)
     with pytest.raises(ShapeError, match=r"robot has 6 channels but the sensor's layout maltese-cross-8 has 8"):
@@ -106,10 +106,9 @@ def test_a_session_refuses_samples_of_another_width(ur5, paper_tool):
 
 
 def test_live_counts_and_names_strain_datagrams_of_another_length():
-    from fts_calib.feeds.protocol import Joints, Strain, ToolChange, encode
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import LiveStats, feed_datagram
-    from fts_calib.pipeline.live import format_stats
+    from fts_calib.session.calibration_run import format_stats
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import Joints, LiveStats, Strain, ToolChange, encode, feed_datagram
 
     sync, stats = Synchronizer(["a"], n_channels=6, configurations=["A"]), LiveStats()
     feed_datagram(encode(ToolChange(0.0, "A")), sync, stats)

@@ -12,9 +12,9 @@ import pytest
 from fts_calib import PoorFit, Tool, ToolConfiguration, load_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.fit import MAX_RATIO
 from fts_calib.robot.tool import save_tool
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.session.fit import MAX_RATIO
 
 
 def _with(tool, **changes_by_name):
@@ -110,8 +110,8 @@ def test_joints_in_degrees_on_a_file_in_rad_is_named(ur5_recording, ur5, paper_t
 def test_drifting_offsets_are_refused_under_constant_offsets_and_fit_under_auto(tmp_path, short_plan, ur5, paper_tool, seed):
     """A drift of 1e-6 mV/V/s per bridge (0.02 N over the run): the paper's constant offsets are refused, auto models it."""
     from fts_calib.core.resources import resolve
-    from fts_calib.pipeline.settings import OffsetConfig, PipelineConfig
-    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.filters.settings import OffsetConfig, PipelineConfig
+    from fts_calib.sim.runs import simulate_recording
     from fts_calib.sim.sensor import load_simulated_sensor
 
     drifting = dataclasses.replace(load_simulated_sensor(resolve("sensor", "configs")), drift_rate=np.full(8, 1e-6))

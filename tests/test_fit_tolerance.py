@@ -12,15 +12,14 @@ import pytest
 
 from fts_calib.core.exceptions import FileFormatError, PoorFit
 from fts_calib.core.resources import resolve
+from fts_calib.filters.settings import FitConfig, OffsetConfig, PipelineConfig, load_pipeline_config
 from fts_calib.model.channels import MALTESE_CROSS_8, WRENCH_6
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.fit import _embeddings, fit_rows
-from fts_calib.pipeline.fit_tolerance import MAX_RATIO, projected_rss, unit_errors
-from fts_calib.pipeline.settings import FitConfig, OffsetConfig, PipelineConfig, load_pipeline_config
-from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.tool import Tool, ToolConfiguration, ToolTolerance
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.session.fit import MAX_RATIO, _embeddings, fit_rows, projected_rss, unit_errors
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import simulated_sensor
 
 from . import tolerance_case

@@ -6,9 +6,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fts_calib.pipeline.fit import _embeddings, fit_rows
-from fts_calib.pipeline.fit_tolerance import projected_rss
-from fts_calib.pipeline.frame_rotation import (
+from fts_calib.robot.tool import wrench_matrix
+from fts_calib.session.fit import _embeddings, fit_rows, projected_rss
+from fts_calib.session.frame_rotation import (
     axis_aligned,
     frame_rotations,
     half_turn,
@@ -17,7 +17,6 @@ from fts_calib.pipeline.frame_rotation import (
     rotated_sums,
     rotation_angle,
 )
-from fts_calib.robot.wrench import wrench_matrix
 
 from .helpers import C_BAR_TRUE, COMS, D_TRUE, TOOL_MASS, random_gravity, strains_eq22, tool_wrench
 

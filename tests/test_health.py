@@ -14,15 +14,14 @@ from fts_calib.app.cli import main
 from fts_calib.core.exceptions import FileFormatError
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.channels import channel_layout
-from fts_calib.model.health import ParityModel, chi2_isf, chi2_sf, fit_parity
-from fts_calib.pipeline.calibrate import calibrate_recording
+from fts_calib.model.parity import ParityModel, chi2_isf, chi2_sf, fit_parity
+from fts_calib.monitor.health import HealthMonitor
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
-from fts_calib.robot.tool import load_tool
-from fts_calib.robot.tool_wrench import tool_load
-from fts_calib.service.health import HealthMonitor
+from fts_calib.robot.tool import load_tool, tool_load
+from fts_calib.session.calibration_run import calibrate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
-from fts_calib.sim.service import inject_fault, service_wrenches
+from fts_calib.sim.service_run import inject_fault, service_wrenches
 
 FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N m]
 NOISE = 1e-5  # [mV/V] per bridge, the simulated sensor's
@@ -183,7 +182,7 @@ def test_cli_monitor_refuses_a_calibration_without_health(tmp_path, capsys):
 def test_the_exported_c_parity_check_matches_python(parity, sensor, calibrated, tmp_path, double):
     from dataclasses import replace
 
-    from fts_calib.service.export import c_header
+    from fts_calib.service.exports import c_header
 
     cal = replace(calibrated, health=parity.to_dict())
     (tmp_path / "fts_calib.h").write_text(c_header(cal))
@@ -229,8 +228,8 @@ def test_cli_monitor_listens_to_the_live_feed(parity, sensor, calibrated, tmp_pa
     import sys
     from dataclasses import replace
 
-    from fts_calib.feeds.protocol import End as EndMessage
-    from fts_calib.feeds.protocol import Strain, encode
+    from fts_calib.sources.udp import End as EndMessage
+    from fts_calib.sources.udp import Strain, encode
 
     cal = replace(calibrated, health=parity.to_dict()).save(tmp_path / "cal.yaml")
     rng = np.random.default_rng(31)
@@ -290,10 +289,10 @@ def test_cli_monitor_tracks_the_offset_and_retares(calibrated, ur5_recording, tm
 def test_monitor_offsets_do_not_depend_on_how_the_feed_is_batched(calibrated, ur5_recording, tmp_path):
     """The recording shifted 0.8 N on Fx and drifting 1 N/min on Fy, fed in batches of 1, 7, 100, 1000 samples or all:
     the same windows, the same re-tares at the same times, the same tracked offset as one batch."""
-    from fts_calib.app.monitor_offsets import OffsetFeed
+    from fts_calib.app.monitor import OffsetFeed
     from fts_calib.app.setup import load_sensor, load_setup
-    from fts_calib.feeds.source import open_recording
-    from fts_calib.service.offset_watch import OffsetWatch
+    from fts_calib.monitor.offset_watch import OffsetWatch
+    from fts_calib.sources.source import open_recording
 
     kin, payload, _ = load_setup("ur5", "paper_tool")
     with open_recording([ur5_recording], kin.joint_names, payload.names) as reader:
@@ -338,7 +337,7 @@ def test_cli_monitor_listens_with_joints_and_tracks_the_offset(calibrated, ur5_r
     import socket
     import sys
 
-    from fts_calib.feeds.protocol import End, Joints, Strain, ToolChange, encode
+    from fts_calib.sources.udp import End, Joints, Strain, ToolChange, encode
 
     cal = calibrated.save(tmp_path / "cal.yaml")
     command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(cal), "--listen", "127.0.0.1:0"]

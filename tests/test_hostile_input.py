@@ -27,14 +27,13 @@ from fts_calib import FileFormatError, FtsCalibWarning
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.bounded import MAX_CHANNELS, MAX_COLUMNS, MAX_DEPTH, LimitError, json_depth, loads_json, parse_yaml
-from fts_calib.core.text import utf8_safe
-from fts_calib.feeds.batch import repeated_rows
-from fts_calib.feeds.protocol import MAX_NESTING, Strain, encode
-from fts_calib.feeds.sync import Synchronizer
-from fts_calib.feeds.udp import LiveStats, SeqGaps, UdpReceiver, feed_datagram, listen_host
+from fts_calib.core.tables import utf8_safe
 from fts_calib.model.calibration import load_calibration
-from fts_calib.pipeline.live import LiveRunner
-from fts_calib.pipeline.session import CalibrationSession
+from fts_calib.session.calibration_run import LiveRunner
+from fts_calib.session.session import CalibrationSession
+from fts_calib.sources.batch import repeated_rows
+from fts_calib.sources.synchronizer import Synchronizer
+from fts_calib.sources.udp import MAX_NESTING, LiveStats, SeqGaps, Strain, UdpReceiver, encode, feed_datagram, listen_host
 
 from .helpers import DEADLINE_S, FakeRtdeServer, wait_for
 
@@ -163,7 +162,7 @@ def test_a_repeated_column_among_many_is_found(tmp_path, ur5_recording, capsys):
 
 @pytest.fixture(scope="module")
 def bag(tmp_path_factory, ur5_recording):
-    from fts_calib.sim.bag import recording_to_bag
+    from fts_calib.sim.robot_log import recording_to_bag
 
     return recording_to_bag(ur5_recording, tmp_path_factory.mktemp("bag") / "run", "mcap")
 
@@ -382,7 +381,7 @@ def _in_thread(argv):
 def test_a_host_that_accepts_and_says_nothing_is_named_within_the_timeout(tmp_path, monkeypatch, capsys):
     _fake_rtde_module(monkeypatch, None)
     with FakeRtdeServer(answer=False) as server:
-        monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
+        monkeypatch.setattr("fts_calib.sources.ur.RTDE_PORT", server.port)
         code = _in_thread(_live_ur(tmp_path, "--ur-timeout", "0.3"))
     assert code == ExitCode.TIMEOUT == 18
     assert not list(tmp_path.iterdir())
@@ -399,7 +398,7 @@ def test_a_controller_that_connects_and_never_publishes_is_named(tmp_path, monke
 
     _fake_rtde_module(monkeypatch, Silent())
     with FakeRtdeServer() as server:
-        monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
+        monkeypatch.setattr("fts_calib.sources.ur.RTDE_PORT", server.port)
         code = _in_thread(_live_ur(tmp_path, "--ur-timeout", "0.3", "--quiet"))
     assert code == ExitCode.TIMEOUT
     assert _error(capsys) == "fts-calib live: error: no answer within 0.3 s: waited for the first sample of the UR controller (RTDE)"
@@ -413,8 +412,8 @@ def test_ctrl_c_ends_a_wait_on_a_silent_controller(tmp_path):
             f"""
             import sys, types
             sys.modules["rtde_receive"] = types.SimpleNamespace(RTDEReceiveInterface=lambda host: None)
-            import fts_calib.feeds.rtde
-            fts_calib.feeds.rtde.RTDE_PORT = {server.port}
+            import fts_calib.sources.ur
+            fts_calib.sources.ur.RTDE_PORT = {server.port}
             from fts_calib.app.cli import main
             sys.exit(main({_live_ur(tmp_path, "--ur-timeout", "60")!r}))
             """
@@ -449,7 +448,7 @@ def test_binding_every_interface_needs_listen_any(tmp_path, capsys, address):
 
 def test_listen_any_reaches_the_socket_and_is_warned_about(tmp_path, monkeypatch, capsys):
     """`live --listen-any`: the flag reaches the receiver, which warns; the socket itself stays on loopback here."""
-    from fts_calib.feeds import udp
+    from fts_calib.sources import udp
 
     def loopback_instead(host, listen_any=False, port=None):  # the flag checked, then loopback
         assert listen_any, f"--listen-any did not reach the receiver ({host})"
@@ -483,7 +482,7 @@ def test_listen_any_binds_every_interface_and_a_network_address_is_warned_about(
     assert listen_host("192.168.1.20", listen_any=True) == "192.168.1.20"
     assert listen_host("127.0.0.1") == "127.0.0.1" and listen_host("192.168.1.20") == "192.168.1.20"
     # the warning, on a socket that only pretends to be beyond loopback (tests bind 127.0.0.1)
-    monkeypatch.setattr("fts_calib.feeds.udp._is_loopback", lambda host: False)
+    monkeypatch.setattr("fts_calib.sources.udp._is_loopback", lambda host: False)
     with pytest.warns(FtsCalibWarning, match=r"listening on udp://127\.0\.0\.1:\d+, beyond loopback: any host that reaches"):
         UdpReceiver("127.0.0.1", 0).close()
     monkeypatch.undo()
@@ -532,7 +531,7 @@ def test_parse_yaml_keeps_what_a_real_file_holds_and_refuses_the_rest(tmp_path):
 
 
 def test_our_yaml_writer_never_writes_an_alias(tmp_path):
-    from fts_calib.core.fileio import dump_yaml, load_yaml
+    from fts_calib.core.files import dump_yaml, load_yaml
 
     shared = [1.0, 2.0]
     path = tmp_path / "shared.yaml"
@@ -556,7 +555,7 @@ def test_repeated_rows_are_equal_in_every_column_and_across_chunks():
 
 
 def test_an_rtde_server_that_answers_as_another_protocol_is_named(monkeypatch):
-    from fts_calib.feeds.rtde import probe_rtde
+    from fts_calib.sources.ur import probe_rtde
 
     with socket.socket() as srv:
         srv.bind(("127.0.0.1", 0))

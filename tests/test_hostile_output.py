@@ -18,12 +18,12 @@ import pytest
 
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.core import outputs
-from fts_calib.core.outputs import OutputLock
+from fts_calib.core import files as outputs
+from fts_calib.core.files import OutputLock
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.recording import RecordingWriter
 from fts_calib.model.calibration import Calibration, save_calibration
 from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sources.recording import RecordingWriter
 
 
 def _error_line(capsys):
@@ -106,7 +106,7 @@ def test_a_block_device_or_socket_is_refused(tmp_path):
 
 HOLDER = """
 import sys
-from fts_calib.core.outputs import OutputLock
+from fts_calib.core.files import OutputLock
 lock = OutputLock(sys.argv[1]).acquire()
 print("held", flush=True)
 sys.stdin.read()
@@ -272,8 +272,8 @@ def test_tare_keeps_the_fields_of_a_newer_version(tmp_path, sensor, cal_file, ur
 
 def _bag(path, csv, stamp, rows=2000):
     """The first ``rows`` rows of ``csv`` as a bag, each joint state stamped ``stamp(k, t)`` and logged at t."""
-    from fts_calib.feeds.source import open_recording
-    from fts_calib.sim.bag import BagWriter
+    from fts_calib.sim.robot_log import BagWriter
+    from fts_calib.sources.source import open_recording
 
     with open_recording(csv, None, None) as reader, BagWriter(path) as writer:
         batch = next(iter(reader))
@@ -356,12 +356,12 @@ def drifting_csv(tmp_path_factory):
     """The README's drifting example: the shipped UR5 plan, OffsetDrift.typical() (a warm-up: the temperature follows time)."""
     from fts_calib.core.resources import data_dir
     from fts_calib.core.resources import resolve as find
-    from fts_calib.planning.trajectory_io import read_trajectory
+    from fts_calib.planning.trajectory_files import read_trajectory
     from fts_calib.robot.definition import load_robot
     from fts_calib.robot.kinematics import Kinematics
     from fts_calib.robot.tool import load_tool
     from fts_calib.sim.drift import OffsetDrift
-    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.sim.runs import simulate_recording
 
     kin, tool = Kinematics(load_robot(find("ur5", "robots"))), load_tool(find("paper_tool", "configs"))
     trajectories = [read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz") for name in tool.names]

@@ -149,7 +149,7 @@ def test_motion_and_dynamic_wrench_match_finite_differences_of_the_pose(name, ro
 
 
 def test_tool_wrench_matrix_equals_the_pure_function(rng):
-    from fts_calib.robot.wrench import static_wrench
+    from fts_calib.robot.tool import static_wrench
 
     config = ToolConfiguration("X", 1.7, np.array([0.1, -0.02, 0.05]))
     g = rng.standard_normal((5, 3))

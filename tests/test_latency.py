@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from fts_calib.core.resources import resolve
+from fts_calib.filters.latency import estimate_latency
 from fts_calib.model.calibration import Calibration
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.latency import estimate_latency
-from fts_calib.robot.tool_wrench import tool_load
+from fts_calib.robot.tool import tool_load
 from fts_calib.sim.sensor import load_simulated_sensor
 
 ENCODER_STEP = 2 * np.pi / 2**20  # [rad] the readings are quantized as a 20-bit encoder's

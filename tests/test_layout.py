@@ -10,7 +10,10 @@ import fts_calib
 
 PACKAGE = Path(fts_calib.__file__).resolve().parent
 #: The stages in import order: a stage imports only from stages before it (DESIGN.md, "Architecture").
-STAGES = ("core", "model", "robot", "feeds", "pipeline", "planning", "service", "sim", "app")
+STAGES = (
+    *("core", "model", "robot", "sources", "filters", "budget", "session"),
+    *("planning", "payload", "service", "monitor", "sim", "report", "app"),
+)
 #: A module holds one concept: a few hundred lines at most. Split a file by meaning when it outgrows its concept,
 #: never to stay under a count (400 split concepts across files: a session over seven, a bag reader over four).
 MAX_LINES = 800

@@ -18,13 +18,11 @@ import pytest
 import yaml
 
 from fts_calib import ConfigError, load_calibration
-from fts_calib.feeds.protocol import encode
-from fts_calib.feeds.replay import ReplayOptions, messages, replay
-from fts_calib.feeds.sync import Synchronizer
-from fts_calib.feeds.udp import UdpReceiver
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.live import LiveRunner
-from fts_calib.pipeline.session import CalibrationSession
+from fts_calib.session.calibration_run import LiveRunner, calibrate_recording
+from fts_calib.session.session import CalibrationSession
+from fts_calib.sources.sender import ReplayOptions, messages, replay
+from fts_calib.sources.synchronizer import Synchronizer
+from fts_calib.sources.udp import UdpReceiver, encode
 
 from .helpers import DEADLINE_S, wait_for
 from .report_checks import check_page

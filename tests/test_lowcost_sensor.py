@@ -15,14 +15,14 @@ import pytest
 from fts_calib import load_calibration
 from fts_calib.core.exceptions import InsufficientExcitation
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.batch import SampleBatch
+from fts_calib.filters.sample_checks import RAILED
+from fts_calib.filters.settings import PipelineConfig
 from fts_calib.model.channel_limits import ChannelLimits
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.checks import RAILED
-from fts_calib.pipeline.session import CalibrationSession
-from fts_calib.pipeline.settings import PipelineConfig
-from fts_calib.robot.tool_wrench import tool_load
+from fts_calib.robot.tool import tool_load
+from fts_calib.session.session import CalibrationSession
 from fts_calib.sim.sensor import SimulatedSensor
+from fts_calib.sources.batch import SampleBatch
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] the UR5's calibration home
 POSES = 12
@@ -310,9 +310,9 @@ def test_validate_json_holds_the_errors_an_independent_computation_finds(lowcost
 
 
 def test_tare_refuses_the_samples_of_a_channel_stuck_at_its_rail(lowcost, ur5, tmp_path, rng):
-    from fts_calib.feeds.recording import RecordingWriter
     from fts_calib.model.calibration import Calibration
-    from fts_calib.service.tare import tare_recording
+    from fts_calib.service.retare_job import tare_recording
+    from fts_calib.sources.recording import RecordingWriter
 
     _, sensor = lowcost
     counts = quiet(sensor, 0.3).channels(np.zeros((500, 6)), rng=rng)  # nothing mounted
@@ -372,9 +372,9 @@ def test_a_resumed_session_keeps_its_railed_counts(lowcost, ur5, paper_tool, tmp
 
 
 def test_payload_refuses_railed_samples_and_finds_the_mass(lowcost, ur5, paper_tool, tmp_path, rng):
-    from fts_calib.feeds.recording import RecordingWriter
     from fts_calib.model.calibration import Calibration
-    from fts_calib.service.payload import identify_payload_from_recording
+    from fts_calib.payload.still import identify_payload_from_recording
+    from fts_calib.sources.recording import RecordingWriter
 
     _, sensor = lowcost
     linear = dataclasses.replace(sensor, quadratic=0.0)

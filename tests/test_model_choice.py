@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from fts_calib.budget.propagation import MODEL_ERROR, model_error
 from fts_calib.core.exceptions import ConfigError, ModelNotDetermined
-from fts_calib.model.budget import MODEL_ERROR, model_error
 from fts_calib.model.estimator import OnlineEstimator
-from fts_calib.pipeline.units import CELL_DEG, N_CELLS, held_out_units, orientation_cells
+from fts_calib.session.held_out import CELL_DEG, N_CELLS, held_out_units, orientation_cells
 
 from .model_choice_sweep import KINDS, judge
 from .model_choice_sweep import estimator as _estimator
@@ -139,9 +139,9 @@ def test_the_model_error_is_the_residual_beyond_the_noise():
 
 def test_the_measured_budget_holds_the_model_error_and_is_finite_with_a_prior(ur5, paper_tool, ur5_recording):
     """Residuals of 10 % of full scale cannot print less; one configuration alone (rank 4, paper eqs 18-20) with a prior is finite."""
-    from fts_calib.model.budget import wrench_noise
-    from fts_calib.pipeline.calibrate import calibrate_recording
-    from fts_calib.planning.accuracy import KeptSamples, measured_budget
+    from fts_calib.budget.predicted import KeptSamples, measured_budget
+    from fts_calib.budget.propagation import wrench_noise
+    from fts_calib.session.calibration_run import calibrate_recording
 
     kept = KeptSamples()
     result = calibrate_recording(ur5_recording, ur5, paper_tool, on_kept=kept)
@@ -169,7 +169,7 @@ def test_the_measured_budget_holds_the_model_error_and_is_finite_with_a_prior(ur
 def test_the_fit_check_of_a_nonlinear_model_judges_its_own_residual(paper_tool):
     """2 % FS quadratic: the quadratic model's residual per configuration is the noise (0.5 counts and the rounding)."""
     from fts_calib.model.channels import MALTESE_CROSS_8
-    from fts_calib.pipeline.fit import FitCheck, check_model_fit
+    from fts_calib.session.fit import FitCheck, check_model_fit
 
     est = _estimator(pose_data(6, quadratic=0.02), model="quadratic")
     residuals = est.model_residuals()

@@ -10,13 +10,13 @@ import pytest
 
 from fts_calib.core.exceptions import ConfigError, FileFormatError
 from fts_calib.model.calibration import load_calibration, save_calibration
+from fts_calib.model.channels import P_NULL, P
 from fts_calib.model.estimator import OnlineEstimator
 from fts_calib.model.features import SensorModel, feature_names, features, monomials, n_features
-from fts_calib.model.offset_basis import OffsetBasis
-from fts_calib.model.offsets import estimate_offsets
-from fts_calib.model.sensor import P_NULL, P
+from fts_calib.model.offset_models import OffsetBasis
+from fts_calib.model.retare import estimate_offsets
 from fts_calib.robot.tool import ToolConfiguration
-from fts_calib.service.export import c_header, export, json_text
+from fts_calib.service.exports import c_header, export, json_text
 from fts_calib.service.reader import WrenchReader
 
 from .nonlinear import FULL_SCALE, JIG, OTHER_TOOL, pose_data

@@ -20,11 +20,11 @@ from fts_calib import Kinematics, PoorFit, load_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.diagnosis import mount
-from fts_calib.pipeline.fit import model_fit_sums
 from fts_calib.robot.definition import load_robot
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.session.diagnosis import mount
+from fts_calib.session.fit import model_fit_sums
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
 from .test_orientation_sources import _quaternions, _write

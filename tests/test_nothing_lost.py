@@ -17,13 +17,12 @@ from fts_calib.app import live as live_app
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import data_dir
-from fts_calib.feeds.protocol import End, Strain, ToolChange, encode
-from fts_calib.feeds.replay import ReplayOptions, messages, replay
-from fts_calib.feeds.sync import Synchronizer
-from fts_calib.feeds.udp import LiveStats, SeqGaps, UdpReceiver, feed_datagram
-from fts_calib.pipeline.checkpoint import HASHED_BYTES, live_source, recording_source
-from fts_calib.pipeline.live import LiveRunner, format_stats
-from fts_calib.pipeline.session import CalibrationSession
+from fts_calib.session.calibration_run import LiveRunner, format_stats
+from fts_calib.session.checkpoint import HASHED_BYTES, live_source, recording_source
+from fts_calib.session.session import CalibrationSession
+from fts_calib.sources.sender import ReplayOptions, messages, replay
+from fts_calib.sources.synchronizer import Synchronizer
+from fts_calib.sources.udp import End, LiveStats, SeqGaps, Strain, ToolChange, UdpReceiver, encode, feed_datagram
 
 from .helpers import DEADLINE_S, wait_for
 

@@ -13,13 +13,13 @@ import pytest
 
 from fts_calib import InsufficientExcitation, load_calibration
 from fts_calib.core.resources import resolve
+from fts_calib.filters.settings import OffsetConfig, PipelineConfig
 from fts_calib.model.calibration import save_calibration
 from fts_calib.model.estimator import OnlineEstimator
-from fts_calib.model.offset_basis import CONSTANT_ONLY, OffsetBasis, evaluate_offsets
-from fts_calib.pipeline.session import CalibrationSession
-from fts_calib.pipeline.settings import OffsetConfig, PipelineConfig
+from fts_calib.model.offset_models import CONSTANT_ONLY, OffsetBasis, evaluate_offsets
+from fts_calib.session.session import CalibrationSession
 from fts_calib.sim.drift import OffsetDrift
-from fts_calib.sim.recording import simulate_batches
+from fts_calib.sim.runs import simulate_batches
 from fts_calib.sim.sensor import load_simulated_sensor
 
 from .helpers import C_BAR_TRUE, COMS, D_TRUE, P_PAPER, TOOL_MASS, random_gravity, tool_wrench
@@ -261,8 +261,8 @@ def test_constant_offsets_in_the_simulated_run_stay_within_0_01_percent(short_pl
 
 def test_temperature_flows_through_udp_datagrams_and_the_synchronizer():
     from fts_calib.core.exceptions import ProtocolError
-    from fts_calib.feeds.protocol import Strain, decode, encode
-    from fts_calib.feeds.sync import Synchronizer
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import Strain, decode, encode
 
     message = decode(b'{"type": "strain", "t": 1.5, "strain": [1, 2, 3, 4, 5, 6], "temperature": 31.25}')
     assert message == Strain(1.5, (1.0, 2.0, 3.0, 4.0, 5.0, 6.0), None, 31.25) and decode(encode(message)) == message
@@ -281,7 +281,7 @@ def test_temperature_flows_through_udp_datagrams_and_the_synchronizer():
 
 def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_command_line(tmp_path, short_plan, ur5, paper_tool, capsys):
     from fts_calib.app.cli import main
-    from fts_calib.sim.recording import simulate_recording
+    from fts_calib.sim.runs import simulate_recording
 
     sensor = load_simulated_sensor(resolve("sensor", "configs"))
     trajectories = [short_plan.trajectory(name) for name in paper_tool.names]
@@ -304,9 +304,9 @@ def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_comm
 
 
 def test_replay_sends_the_recording_s_temperature_in_its_strain_datagrams(tmp_path):
-    from fts_calib.feeds.protocol import Strain
-    from fts_calib.feeds.recording import RecordingWriter
-    from fts_calib.feeds.replay import ReplayOptions, messages
+    from fts_calib.sources.recording import RecordingWriter
+    from fts_calib.sources.sender import ReplayOptions, messages
+    from fts_calib.sources.udp import Strain
 
     path = tmp_path / "r.csv"
     with RecordingWriter(path, ["j1"], 6, temperature=True) as writer:
@@ -373,10 +373,10 @@ def test_the_excitation_report_predicts_the_drift_model_s_standard_errors(rng):
 
 def test_a_return_pass_makes_the_drift_model_cost_no_precision_of_c():
     """The stops again in reverse order: the time terms decorrelate from the orientation (about twice the time)."""
+    from fts_calib.filters.settings import FilterConfig
     from fts_calib.model.sensor_config import load_sensor_config
-    from fts_calib.pipeline.settings import FilterConfig
     from fts_calib.planning.sweeps import SweepPattern
-    from fts_calib.planning.trajectory import plan_trajectories
+    from fts_calib.planning.trajectory_run import plan_trajectories
     from fts_calib.robot.tool import load_tool
 
     tool, spec = load_tool(resolve("paper_tool", "configs")), load_sensor_config(resolve("sensor", "configs"))

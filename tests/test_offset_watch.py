@@ -7,8 +7,8 @@ import pytest
 
 from fts_calib.core.exceptions import ConfigError
 from fts_calib.model.calibration import load_calibration
-from fts_calib.service.offset_watch import OffsetWatch
-from fts_calib.sim.service import offset_watch_trial
+from fts_calib.monitor.offset_watch import OffsetWatch
+from fts_calib.sim.service_run import offset_watch_trial
 
 FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N m]
 NOISE = np.array([2e-3] * 3 + [2e-4] * 3)  # wrench noise per sample [N, N m]: the paper's sensor's

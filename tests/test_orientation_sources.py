@@ -9,10 +9,10 @@ import pytest
 
 from fts_calib.core.exceptions import BagError, RecordingError
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.orientation import GIMBAL_LOCK, mount_rpy, orientation_kinematics
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.session.calibration_run import calibrate_recording
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.3, 0.7])  # the tare recording's pose (tests/test_tare.py)
@@ -163,8 +163,8 @@ def _close(found, reference):
 def test_a_bag_with_a_pose_topic_gives_the_joints_bag_calibration(real_run, tmp_path):
     """The same still run as a bag of joint states and as a bag of PoseStamped (the sensor's
     quaternion, header-stamped at the channels' times): C equal to 1e-9 relative (seen: 1e-14)."""
-    from fts_calib.feeds.bag_log import BagTopics
-    from fts_calib.sim.bag import BagWriter, recording_to_bag
+    from fts_calib.sim.robot_log import BagWriter, recording_to_bag
+    from fts_calib.sources.bag import BagTopics
 
     kin, tool, folder, table, R, joints_path = real_run
     joints_bag = recording_to_bag(joints_path, tmp_path / "joints_bag")
@@ -190,9 +190,9 @@ def test_a_bag_with_a_pose_topic_gives_the_joints_bag_calibration(real_run, tmp_
 
 def _live(kin, tool, datagrams):
     """The live path without its socket: datagrams decoded, counted, paired, calibrated."""
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import LiveStats, feed_datagram
-    from fts_calib.pipeline.session import CalibrationSession
+    from fts_calib.session.session import CalibrationSession
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import LiveStats, feed_datagram
 
     sync, stats = Synchronizer(kin.joint_names, kin.continuous, configurations=tool.names, n_channels=8), LiveStats()
     for data in datagrams:
@@ -251,9 +251,9 @@ def test_hostile_orientation_datagrams_are_counted_and_named(orientation, says):
     """A bad orientation is one malformed datagram, named in the run's summary; the good ones around it count."""
     import json
 
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import LiveStats, feed_datagram
     from fts_calib.robot.orientation import GIMBAL_JOINTS
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import LiveStats, feed_datagram
 
     sync, stats = Synchronizer(GIMBAL_JOINTS, configurations=["A"]), LiveStats()
     good = json.dumps({"type": "joints", "t": 0.0, "quat": [1, 0, 0, 0]}).encode()
@@ -265,8 +265,8 @@ def test_hostile_orientation_datagrams_are_counted_and_named(orientation, says):
 
 
 def test_the_gimbal_joints_written_twice_agree():
-    from fts_calib.feeds import bag_pose
     from fts_calib.robot.orientation import GIMBAL_JOINTS
+    from fts_calib.sources import bag as bag_pose
 
     assert bag_pose.GIMBAL_JOINTS == GIMBAL_JOINTS
 
@@ -274,8 +274,8 @@ def test_the_gimbal_joints_written_twice_agree():
 def test_an_orientation_datagram_with_a_robot_is_named():
     import json
 
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import LiveStats, feed_datagram
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import LiveStats, feed_datagram
 
     sync, stats = Synchronizer(["a", "b"]), LiveStats()
     feed_datagram(json.dumps({"type": "joints", "t": 0.0, "R": np.eye(3).ravel().tolist()}).encode(), sync, stats)
@@ -382,8 +382,8 @@ def test_live_without_a_robot_takes_orientation_datagrams(tmp_path, monkeypatch,
 def test_replay_sends_an_orientation_recording_as_R_datagrams(real_run, form):
     """``replay`` of a recording in an orientation form sends "R" datagrams; received without a robot (the TCP
     form with its mount), they give the C of the joints recording replayed, to 1e-9 relative (seen: 7e-14)."""
-    from fts_calib.feeds.protocol import encode
-    from fts_calib.feeds.replay import ReplayOptions, messages
+    from fts_calib.sources.sender import ReplayOptions, messages
+    from fts_calib.sources.udp import encode
 
     kin, tool, folder, table, R, joints_path = real_run
     given = _as_form(kin, joints_path, form)
@@ -404,7 +404,7 @@ def test_re_tare_from_a_live_window_of_quaternion_datagrams(ur5, rng):
     import time
 
     from fts_calib import Calibration, load_tool
-    from fts_calib.service.tare import tare_live
+    from fts_calib.service.retare_job import tare_live
     from tests.test_tare import SHIFT
 
     sensor = load_simulated_sensor(resolve("sensor", "configs"))

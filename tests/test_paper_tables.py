@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fts_calib.model.sensor import P_NULL, P_PINV, P, c_bar_from_c, c_from_c_bar
+from fts_calib.model.channels import P_NULL, P_PINV, P, c_bar_from_c, c_from_c_bar
 
 from .paper import ROUNDING, TABLE_1, TABLE_2
 

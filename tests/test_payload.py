@@ -5,8 +5,8 @@ import pytest
 
 from fts_calib import ShapeError
 from fts_calib.core.exceptions import PayloadError
+from fts_calib.payload.still import identify_payload
 from fts_calib.robot.tool import load_tool, save_tool
-from fts_calib.service.payload import identify_payload
 from fts_calib.sim.sensor import load_simulated_sensor
 
 MASS, COM = 1.37, np.array([0.03, -0.01, 0.085])  # [kg], [m]
@@ -104,7 +104,7 @@ def test_the_payload_is_saved_as_a_tool_file(tmp_path, rng):
 def _payload_recording(path, ur5, poses, rng):
     """The validation payload held still 0.3 s in each pose, on the simulated sensor."""
     from fts_calib.core.resources import resolve
-    from fts_calib.feeds.recording import RecordingWriter
+    from fts_calib.sources.recording import RecordingWriter
 
     sensor = load_simulated_sensor(resolve("sensor", "configs"))
     payload = load_tool(resolve("validation_tool", "configs")).configurations[0]

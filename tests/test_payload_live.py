@@ -9,19 +9,18 @@ import threading
 import numpy as np
 import pytest
 
-from fts_calib.app import payload_motion
+from fts_calib.app import payload as payload_motion
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.replay import ReplayOptions, replay
 from fts_calib.model.calibration import Calibration, save_calibration
-from fts_calib.planning.payload_excitation import payload_excitation
+from fts_calib.payload.inertia_motion import payload_excitation
+from fts_calib.payload.samples import identify_payload_from_motion, identify_payload_from_samples, read_payload_samples
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.payload_motion_recording import identify_payload_from_motion, identify_payload_from_samples
-from fts_calib.service.payload_recording import read_payload_samples
 from fts_calib.sim.drift import OffsetDrift
-from fts_calib.sim.payload_motion import simulate_payload_motion
+from fts_calib.sim.payload_run import simulate_payload_motion
 from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sources.sender import ReplayOptions, replay
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] tests/test_payload_motion.py's pose
 LATENCY_S, JOINT_NOISE = 0.008, 1e-5  # [s], [rad] joints late and noisy (issue 22's)
@@ -136,8 +135,8 @@ def test_samples_lost_on_the_way_leave_their_windows_out(ur5, moving):
 def test_seconds_of_motion_or_ctrl_c_end_the_collection(ur5, moving, end):
     """``--seconds 1``: the samples span 1 s of the feed's clock (to a 20 ms placement); Ctrl-C (raised in the
     progress once 1 s is collected): what was collected is kept. The sender is still sending in both."""
-    from fts_calib.pipeline.settings import PipelineConfig
-    from fts_calib.service.payload_live import collect_motion
+    from fts_calib.filters.settings import PipelineConfig
+    from fts_calib.payload.samples import collect_motion
 
     path, calibration, _ = moving
     bound, listening = [], threading.Event()
@@ -168,8 +167,9 @@ def test_seconds_of_motion_or_ctrl_c_end_the_collection(ur5, moving, end):
 
 
 def test_the_parser_defaults_are_the_services():
-    from fts_calib.app import service_arguments
-    from fts_calib.service import payload, payload_live
+    from fts_calib.app import parser as service_arguments
+    from fts_calib.payload import samples as payload_live
+    from fts_calib.payload import still as payload
 
     assert service_arguments.IDLE_TIMEOUT_S == payload_live.IDLE_TIMEOUT_S
     assert service_arguments.MIN_SPREAD_DEG == payload.MIN_SPREAD_DEG

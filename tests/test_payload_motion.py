@@ -9,15 +9,14 @@ import pytest
 from fts_calib.core.exceptions import PayloadError
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration
+from fts_calib.payload.inertia_motion import payload_excitation
+from fts_calib.payload.moving import fit_payload_motion
+from fts_calib.payload.samples import identify_payload_from_motion
 from fts_calib.planning.motion import sample_motion
-from fts_calib.planning.payload_excitation import payload_excitation
 from fts_calib.robot import inertial
-from fts_calib.robot.tool import ToolConfiguration, load_tool
-from fts_calib.robot.wrench import dynamic_wrench
-from fts_calib.service.payload_motion import fit_payload_motion
-from fts_calib.service.payload_motion_recording import identify_payload_from_motion
+from fts_calib.robot.tool import ToolConfiguration, dynamic_wrench, load_tool
 from fts_calib.sim.drift import OffsetDrift
-from fts_calib.sim.payload_motion import simulate_payload_motion
+from fts_calib.sim.payload_run import simulate_payload_motion
 from fts_calib.sim.sensor import load_simulated_sensor
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] the UR5's payload pose of tests/test_payload.py

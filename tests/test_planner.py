@@ -8,17 +8,17 @@ import pytest
 import yaml
 
 from fts_calib import ConfigError, FileFormatError, TrajectoryError
+from fts_calib.budget.propagation import DEFAULT_TARGET_PERCENT
 from fts_calib.core.exceptions import JointError
 from fts_calib.core.resources import resolve
-from fts_calib.model.budget import DEFAULT_TARGET_PERCENT
+from fts_calib.filters.settings import load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.settings import load_pipeline_config
 from fts_calib.planning.excitation import predict_excitation
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.planner import plan_calibration
 from fts_calib.planning.sweeps import SweepPattern, sweep_ranges
-from fts_calib.planning.trajectory import plan_trajectories
-from fts_calib.planning.trajectory_io import read_trajectory
+from fts_calib.planning.trajectory_files import read_trajectory
+from fts_calib.planning.trajectory_run import plan_trajectories
 from fts_calib.robot.collision import CollisionChecker
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics

@@ -3,7 +3,7 @@
 import pytest
 
 from fts_calib.core.exceptions import ProtocolError
-from fts_calib.feeds.protocol import MAX_DATAGRAM, End, Joints, Strain, ToolChange, decode, encode
+from fts_calib.sources.udp import MAX_DATAGRAM, End, Joints, Strain, ToolChange, decode, encode
 
 
 @pytest.mark.parametrize(
@@ -59,9 +59,9 @@ def test_bad_datagrams(data, reason, match):
 
 def test_the_live_summary_names_why_the_first_malformed_datagram_was_skipped():
     """Before: '3 malformed' and no word on why (a sender writing "temperature": "hot")."""
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import LiveStats, feed_datagram
-    from fts_calib.pipeline.live import format_stats
+    from fts_calib.session.calibration_run import format_stats
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import LiveStats, feed_datagram
 
     sync, stats = Synchronizer(["j1", "j2"], [False, False], 0.05, 0.0), LiveStats()
     for k in range(3):

@@ -3,11 +3,10 @@
 import numpy as np
 import pytest
 
-from fts_calib.feeds.batch import SampleBatch
-from fts_calib.feeds.recording import RecordingReader
-from fts_calib.pipeline.qsfilter import QuasiStaticFilter, window_bounds, windowed_std
-from fts_calib.pipeline.settings import FilterConfig
-from fts_calib.pipeline.still import quasi_static
+from fts_calib.filters.quasi_static import QuasiStaticFilter, quasi_static, window_bounds, windowed_std
+from fts_calib.filters.settings import FilterConfig
+from fts_calib.sources.batch import SampleBatch
+from fts_calib.sources.recording import RecordingReader
 
 
 def test_windowed_std_equals_the_direct_computation(rng):

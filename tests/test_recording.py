@@ -5,7 +5,7 @@ import pytest
 
 from fts_calib import FtsCalibWarning, RecordingError
 from fts_calib.core.exceptions import ShapeError
-from fts_calib.feeds.recording import MALFORMED, UNKNOWN_TOOL, RecordingReader, RecordingWriter
+from fts_calib.sources.recording import MALFORMED, UNKNOWN_TOOL, RecordingReader, RecordingWriter
 
 JOINTS = ["j1", "j2"]
 HEADER = "time,j1,j2,strain_1,strain_2,strain_3,strain_4,strain_5,strain_6,strain_7,strain_8,tool\n"

@@ -5,8 +5,8 @@ import yaml
 
 from fts_calib import FileFormatError
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.progress import Progress
-from fts_calib.pipeline.remaining import PlanProgress, load_plan_progress
+from fts_calib.session.plan_progress import PlanProgress, load_plan_progress
+from fts_calib.session.session import Progress
 
 from .test_planner import ROOT
 
@@ -66,10 +66,10 @@ def test_a_plan_file_with_a_rate_or_duration_not_above_zero_is_refused_by_name(t
 
 
 def test_the_live_status_line_shows_the_plan(ur5, paper_tool):
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import UdpReceiver
-    from fts_calib.pipeline.live import LiveRunner
-    from fts_calib.pipeline.session import CalibrationSession
+    from fts_calib.session.calibration_run import LiveRunner
+    from fts_calib.session.session import CalibrationSession
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import UdpReceiver
 
     plan = load_plan_progress(ROOT / "trajectories" / "ur5" / "plan.yaml", rate_hz=1000.0)
     receiver = UdpReceiver("127.0.0.1", 0)
@@ -100,10 +100,10 @@ def test_live_refuses_the_plan_of_another_robot_and_a_file_that_is_not_a_plan(tm
 
 
 def test_the_live_runner_measures_the_stream_rate_on_the_stream_clock(ur5, paper_tool):
-    from fts_calib.feeds.sync import Synchronizer
-    from fts_calib.feeds.udp import UdpReceiver
-    from fts_calib.pipeline.live import LiveRunner
-    from fts_calib.pipeline.session import CalibrationSession
+    from fts_calib.session.calibration_run import LiveRunner
+    from fts_calib.session.session import CalibrationSession
+    from fts_calib.sources.synchronizer import Synchronizer
+    from fts_calib.sources.udp import UdpReceiver
 
     receiver = UdpReceiver("127.0.0.1", 0)
     try:

@@ -15,16 +15,16 @@ import pytest
 
 from fts_calib.app import cli
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.app.report_compare import CHANGE_SIGMAS, compare
-from fts_calib.app.report_content import KeptCollector, ReportContent, model_selection, sphere_gap
-from fts_calib.app.report_html import render_report
 from fts_calib.core.resources import resolve
+from fts_calib.filters.settings import load_pipeline_config
 from fts_calib.model.calibration import Calibration, load_calibration
 from fts_calib.model.channels import channel_layout
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.settings import load_pipeline_config
+from fts_calib.report.compare import CHANGE_SIGMAS, compare
+from fts_calib.report.content import KeptCollector, ReportContent, model_selection, sphere_gap
+from fts_calib.report.html import render_report
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
+from fts_calib.session.calibration_run import calibrate_recording
 
 from .report_checks import check_page
 

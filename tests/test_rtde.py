@@ -13,23 +13,22 @@ from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.app.live import format_rtde
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.batch import SampleBatch
-from fts_calib.feeds.protocol import End, Joints, Strain, ToolChange, encode
-from fts_calib.feeds.recording import RecordingReader
-from fts_calib.feeds.rtde import RtdePoller, connect_ur
-from fts_calib.feeds.sync import Synchronizer
-from fts_calib.feeds.udp import UdpReceiver
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.channels import WRENCH_6
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.live import LiveRunner
-from fts_calib.pipeline.session import CalibrationSession
-from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.sim.recording import simulate_batches
+from fts_calib.session.calibration_run import LiveRunner
+from fts_calib.session.session import CalibrationSession
+from fts_calib.sim.runs import simulate_batches
 from fts_calib.sim.sensor import simulated_sensor
+from fts_calib.sources.batch import SampleBatch
+from fts_calib.sources.recording import RecordingReader
+from fts_calib.sources.synchronizer import Synchronizer
+from fts_calib.sources.udp import End, Joints, Strain, ToolChange, UdpReceiver, encode
+from fts_calib.sources.ur import RtdePoller, connect_ur
 
 from .helpers import FakeRtdeServer, wait_for
 
@@ -155,7 +154,7 @@ def test_a_controller_that_does_not_answer(monkeypatch):
 
     monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=refuse))
     with FakeRtdeServer() as server:  # the handshake answered, then ur_rtde refuses
-        monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
+        monkeypatch.setattr("fts_calib.sources.ur.RTDE_PORT", server.port)
         with pytest.raises(ConnectionError, match="UR controller at 127.0.0.1 .*already in use"):
             connect_ur("127.0.0.1")
 
@@ -187,7 +186,7 @@ def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, mo
     sensor, runs = factory_runs
     out = tmp_path / "ur.yaml"
     server = FakeRtdeServer()
-    monkeypatch.setattr("fts_calib.feeds.rtde.RTDE_PORT", server.port)
+    monkeypatch.setattr("fts_calib.sources.ur.RTDE_PORT", server.port)
     for k, (name, run) in enumerate(runs.items()):
         fake = FakeUR(*run, reads=1)
         monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host, fake=fake: fake))
@@ -273,7 +272,7 @@ def test_live_with_rtde_joints_and_strain_datagrams_gives_the_calibration_of_cal
 
 
 def test_samples_nobody_drains_are_dropped_and_counted(monkeypatch):
-    monkeypatch.setattr("fts_calib.feeds.rtde.MAX_PENDING", 50)
+    monkeypatch.setattr("fts_calib.sources.ur.MAX_PENDING", 50)
     poller = RtdePoller(FakeUR(*_linear_run(80)[:3], reads=1), JOINTS, wrench=True)
     _poll_all(poller, poller.receiver)
     sync = Synchronizer(JOINTS)

@@ -5,7 +5,7 @@ import pytest
 
 from fts_calib import Calibration, ShapeError
 from fts_calib.core.exceptions import StructureError
-from fts_calib.model.sensor import P_NULL, c_bar_from_c, project, wrench_from_strain
+from fts_calib.model.channels import P_NULL, c_bar_from_c, project, wrench_from_strain
 
 from .helpers import C_BAR_TRUE, D_TRUE, strains_eq22
 from .paper import TABLE_1

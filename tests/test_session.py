@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from fts_calib import FtsCalibWarning, InsufficientExcitation
-from fts_calib.feeds.recording import RecordingReader
-from fts_calib.pipeline.session import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, CalibrationSession
-from fts_calib.pipeline.settings import LiveConfig, PipelineConfig
+from fts_calib.filters.settings import LiveConfig, PipelineConfig
 from fts_calib.robot.tool import Tool, ToolConfiguration
+from fts_calib.session.session import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, CalibrationSession
 from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sources.recording import RecordingReader
 
 
 def _chunks(path, kin, tool, rows=4000):
@@ -136,11 +136,11 @@ def test_resume_refuses_another_robot_or_tool(tmp_path, ur5, panda, paper_tool):
 def shipped_plan_arrays(seed):
     """The shipped UR5 plan (trajectories/ur5) played through the simulated sensor, as arrays (moving tool, noise)."""
     from fts_calib.core.resources import data_dir, resolve
-    from fts_calib.planning.trajectory_io import read_trajectory
+    from fts_calib.planning.trajectory_files import read_trajectory
     from fts_calib.robot.definition import load_robot
     from fts_calib.robot.kinematics import Kinematics
     from fts_calib.robot.tool import load_tool
-    from fts_calib.sim.recording import simulate_batches
+    from fts_calib.sim.runs import simulate_batches
 
     kin, tool = Kinematics(load_robot(resolve("ur5", "robots"))), load_tool(resolve("paper_tool", "configs"))
     plan = [read_trajectory(data_dir("trajectories") / "ur5" / f"{name}.csv.gz") for name in tool.names]

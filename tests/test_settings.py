@@ -5,7 +5,7 @@ import yaml
 
 from fts_calib import ConfigError, FileFormatError
 from fts_calib.core.resources import resolve
-from fts_calib.pipeline.settings import FilterConfig, LiveConfig, PipelineConfig, load_pipeline_config
+from fts_calib.filters.settings import FilterConfig, LiveConfig, PipelineConfig, load_pipeline_config
 
 
 @pytest.mark.parametrize(

@@ -6,7 +6,7 @@ import yaml
 
 from fts_calib import ConfigError, FileFormatError, ShapeError, SimulatedSensor
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor import project
+from fts_calib.model.channels import project
 from fts_calib.model.sensor_config import SensorSpec, SimulationSpec, load_sensor_config
 
 from .helpers import C_BAR_TRUE, D_TRUE

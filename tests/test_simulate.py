@@ -6,10 +6,10 @@ from fts_calib import load_calibration
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import data_dir, resolve
-from fts_calib.feeds.recording import RecordingReader
-from fts_calib.planning.trajectory_io import read_trajectory
-from fts_calib.sim.recording import tool_wrenches
+from fts_calib.planning.trajectory_files import read_trajectory
+from fts_calib.sim.runs import tool_wrenches
 from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sources.recording import RecordingReader
 
 TRAJECTORIES = data_dir("trajectories") / "ur5"
 

@@ -8,25 +8,24 @@ import yaml
 
 from fts_calib import TrajectoryError
 from fts_calib.app.cli import main
+from fts_calib.budget.predicted import SYSTEMATIC, dynamic_plan_budget, filter_weights
+from fts_calib.budget.propagation import wrench_noise
+from fts_calib.budget.sensitivities import MotionUncertainty
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.recording_writer import RecordingWriter
-from fts_calib.model.budget import wrench_noise
+from fts_calib.filters.dynamic import nominal_c
+from fts_calib.filters.settings import FilterConfig, PipelineConfig
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import calibrate_recording
-from fts_calib.pipeline.dynamic import nominal_c
-from fts_calib.pipeline.settings import FilterConfig, PipelineConfig
-from fts_calib.planning import smooth_sizing
-from fts_calib.planning.accuracy import SYSTEMATIC
-from fts_calib.planning.dynamic_accuracy import dynamic_plan_budget, filter_weights
+from fts_calib.planning import sizing as smooth_sizing
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.planner import check_plan, plan_base
 from fts_calib.planning.smooth import smooth_plan
 from fts_calib.planning.sweeps import SweepPattern, spanned
-from fts_calib.planning.trajectory import motion_uncertainty
+from fts_calib.planning.trajectory_run import motion_uncertainty
 from fts_calib.robot.collision import CollisionChecker
-from fts_calib.robot.dynamic_sensitivities import MotionUncertainty
+from fts_calib.session.calibration_run import calibrate_recording
 from fts_calib.sim.rnea import rnea_tool_wrench
 from fts_calib.sim.sensor import SimulatedSensor
+from fts_calib.sources.writer import RecordingWriter
 from tests.dynamic_motion import error_percent_fs
 
 BASE = SweepPattern(2, 2, 0.0, 0.02, continuous=True)

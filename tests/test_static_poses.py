@@ -19,15 +19,15 @@ from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.exceptions import RecordingError
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.recording_set import FILE_GAP_S, natural_key
-from fts_calib.feeds.source import open_recording
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.units import held_out_units
-from fts_calib.planning.trajectory_io import TrajectoryFile
-from fts_calib.robot.tool_wrench import tool_load
+from fts_calib.planning.trajectory_files import TrajectoryFile
+from fts_calib.robot.tool import tool_load
+from fts_calib.session.held_out import held_out_units
 from fts_calib.sim.pose_files import simulate_pose_files
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import SimulatedSensor
+from fts_calib.sources.recording_set import FILE_GAP_S, natural_key
+from fts_calib.sources.source import open_recording
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] the UR5's calibration home
 RATE_HZ = 250.0
@@ -255,7 +255,7 @@ def test_a_pose_held_long_is_one_unit_a_slow_sweep_is_cut_by_orientation_and_a_r
 
 
 def test_simulate_pose_files_writes_one_file_per_pose_and_never_mixes_two_datasets(ur5, tmp_path, capsys):
-    from fts_calib.planning.trajectory_io import write_trajectory
+    from fts_calib.planning.trajectory_files import write_trajectory
 
     plan = tmp_path / "plan"
     for name in ("A", "B", "C"):

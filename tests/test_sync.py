@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from fts_calib.feeds.sync import BEFORE_JOINTS, JOINT_GAP, LATE, NO_TOOL, WRONG_LENGTH, Synchronizer
+from fts_calib.sources.synchronizer import BEFORE_JOINTS, JOINT_GAP, LATE, NO_TOOL, WRONG_LENGTH, Synchronizer
 
 NAMES = ["a", "b"]
 

@@ -9,11 +9,11 @@ from fts_calib import Calibration, ConfigError, UnknownToolConfiguration, load_c
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
-from fts_calib.feeds.recording import RecordingWriter
 from fts_calib.model.calibration import save_calibration
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.tare import tare_recording
+from fts_calib.service.retare_job import tare_recording
 from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sources.recording import RecordingWriter
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.3, 0.7])
 SHIFT = np.array([0.8, -0.3, 0.25, 0.02, -0.015, 0.01])  # [N, N·m]: the offsets drifted by this
@@ -76,8 +76,8 @@ def test_re_tare_from_a_live_window(setup, rng):
     import threading
     import time
 
-    from fts_calib.feeds.protocol import Strain, encode
-    from fts_calib.service.tare import tare_live
+    from fts_calib.service.retare_job import tare_live
+    from fts_calib.sources.udp import Strain, encode
 
     sensor, cal = setup
     drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})
@@ -118,7 +118,7 @@ def test_re_tare_from_a_live_window(setup, rng):
 
 def test_a_live_window_with_nothing_sent_says_so_without_rank_words(setup):
     from fts_calib.core.exceptions import InsufficientExcitation
-    from fts_calib.service.tare import tare_live
+    from fts_calib.service.retare_job import tare_live
 
     _, cal = setup
     with pytest.raises(InsufficientExcitation) as caught:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fts_calib import ConfigError, RecordingError
-from fts_calib.planning.trajectory_io import read_trajectory, write_trajectory
+from fts_calib.planning.trajectory_files import read_trajectory, write_trajectory
 
 
 @pytest.mark.parametrize("name", ["A.csv", "A.csv.gz"])

@@ -7,10 +7,10 @@ from fts_calib import Calibration, load_calibration
 from fts_calib.core.resources import resolve
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.planning.motion import sample_motion
-from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.tool import load_tool
-from fts_calib.service.validate import validate_recording
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.service.validation import validate_recording
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import SimulatedSensor
 
 from .paper import ROUNDING, TABLE_1, TABLE_2
@@ -117,7 +117,7 @@ def test_a_full_scale_that_is_not_positive_is_refused_before_reading(tmp_path, v
 @pytest.fixture(scope="module")
 def poses(tmp_path_factory, short_plan, seed, _kinematics_cache):
     """A static-pose recording of the short plan (the arm still at each stop), its calibration and the kinematics."""
-    from fts_calib.pipeline.calibrate import calibrate_recording
+    from fts_calib.session.calibration_run import calibrate_recording
 
     from .conftest import _kinematics
 

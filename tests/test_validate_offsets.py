@@ -5,13 +5,13 @@ import pytest
 
 from fts_calib import Calibration
 from fts_calib.core.resources import resolve
-from fts_calib.model.offset_basis import Candidate, OffsetBasis, describe
+from fts_calib.model.offset_models import Candidate, OffsetBasis, describe
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.planning.motion import sample_motion
-from fts_calib.planning.trajectory_io import TrajectoryFile
-from fts_calib.service.validate import validate_recording
+from fts_calib.planning.trajectory_files import TrajectoryFile
+from fts_calib.service.validation import validate_recording
 from fts_calib.sim.drift import OffsetDrift
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import SimulatedSensor
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])

@@ -20,16 +20,16 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from fts_calib.budget.propagation import range_moments
 from fts_calib.core.resources import resolve
-from fts_calib.model.budget import range_moments
+from fts_calib.filters.settings import OffsetConfig, PipelineConfig
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.pipeline.calibrate import CalibrateResult, calibrate_recording
-from fts_calib.pipeline.settings import OffsetConfig, PipelineConfig
-from fts_calib.planning.trajectory_io import TrajectoryFile
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import Tool, ToolTolerance, load_tool
-from fts_calib.sim.recording import simulate_recording
+from fts_calib.session.calibration_run import CalibrateResult, calibrate_recording
+from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import simulated_sensor
 
 COM_TOLERANCE = 5e-4  # [m] per coordinate, declared in the tool file

@@ -2,7 +2,7 @@
 
 World, robot base, TCP (flange) and sensor frames in an orthographic view, gravity along -Z
 of the world, and where R_world_sensor and the mount rotation sit. Drawn with matplotlib
-(headless) and written through the output guard, as the plots of fts_calib/app/plots.py
+(headless) and written through the output guard, as the plots of fts_calib/report/plots.py
 (whose demo plot is docs/img/convergence_c11.png); tests/test_orientation_sources.py runs it.
 Run: .venv/bin/python docs/img/frames.py [OUT.png]
 """
@@ -16,7 +16,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fts_calib.core.outputs import AtomicFile
+from fts_calib.core.files import AtomicFile
 
 matplotlib.use("Agg")
 

@@ -1,1 +1,1 @@
-"""App: the command line (argparse and dispatch), one module per command, text reports, plots and progress."""
+"""App: the command line: options declared once, the parser, exit codes and one module per command."""

@@ -9,23 +9,23 @@ from pathlib import Path
 from typing import TextIO
 
 from ..core.exceptions import FtsCalibError, PoorFit
-from ..core.paths import check_outputs
-from ..core.text import table
-from ..feeds.bag_log import BagTopics
-from ..feeds.recording_set import describe_files
-from ..feeds.source import recording_paths
-from ..feeds.sync import AFTER_JOINTS, BEFORE_JOINTS, JOINT_GAP
+from ..core.files import check_outputs
+from ..core.tables import table
+from ..filters.dynamic import DynamicFilter, nominal_c
 from ..model.calibration import save_calibration
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.prior import describe as describe_prior
-from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
-from ..pipeline.calibrate import CalibrateResult, calibrate_recording
-from ..pipeline.dynamic import DynamicFilter, nominal_c
-from ..pipeline.fit import MAX_RATIO, FitCheck
-from ..pipeline.session import CalibrationSession
+from ..report.content import KeptCollector, calibrate_content
+from ..report.html import render_report, write_report
+from ..session.calibration_run import CalibrateResult, calibrate_recording
+from ..session.fit import MAX_RATIO, FitCheck
+from ..session.session import CalibrationSession
+from ..sources.bag import BagTopics
+from ..sources.recording_set import describe_files
+from ..sources.source import recording_paths
+from ..sources.synchronizer import AFTER_JOINTS, BEFORE_JOINTS, JOINT_GAP
 from .exit_codes import ExitCode, writing
 from .report import format_budget, format_model_selection, format_offsets
-from .report_content import KeptCollector, calibrate_content
-from .report_html import render_report, write_report
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -93,8 +93,8 @@ def run(
         model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
             (default auto: chosen with the offset model by held-out error) when None.
         filter_mode: The sample filter's mode ('quasi-static', 'dynamic':
-            :mod:`fts_calib.pipeline.dynamic`); the pipeline file's (default quasi-static) when None.
-        report: HTML report to write (:mod:`fts_calib.app.report_html`), also when the
+            :mod:`fts_calib.filters.dynamic`); the pipeline file's (default quasi-static) when None.
+        report: HTML report to write (:mod:`fts_calib.report.html`), also when the
             calibration is refused (its diagnosis first); None for none.
 
     Returns:

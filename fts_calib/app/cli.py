@@ -1,6 +1,6 @@
 """Command-line interface: ``fts-calib <command> --help`` shows each command with an example.
 
-Argparse and dispatch only: the parser is :mod:`fts_calib.app.arguments`, and each command
+Argparse and dispatch only: the parser is :mod:`fts_calib.app.parser`, and each command
 ``NAME`` is the function ``fts_calib.app.NAME.run``, called with the parsed options as
 keyword arguments. An error is printed as one line, ``fts-calib NAME: error: ...``, and
 exits with the code of its family (:mod:`fts_calib.app.exit_codes`).
@@ -16,11 +16,11 @@ import warnings
 from typing import TYPE_CHECKING, Any
 
 from ..core.exceptions import FtsCalibError
-from ..core.outputs import holding_outputs
 from .exit_codes import ExitCode, error_line, exit_code
 
 if TYPE_CHECKING:
     import argparse
+
 
 __all__ = ["build_parser", "main", "run_command"]
 
@@ -33,11 +33,11 @@ BLAS_THREADS = "1"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The parser of ``fts-calib`` (:mod:`fts_calib.app.arguments`), imported on first use.
+    """The parser of ``fts-calib`` (:mod:`fts_calib.app.parser`), imported on first use.
 
     Numpy and the stages then load inside :func:`main`, where a Ctrl-C is caught, not while the script starts.
     """
-    from .arguments import build_parser as build
+    from .parser import build_parser as build
 
     return build()
 
@@ -47,8 +47,10 @@ def run_command(command: str, options: dict[str, Any]) -> int:
 
     The command holds the lock of its output file and checkpoint (``output``, ``checkpoint``)
     from start to end: a second run writing the same file is refused, naming the first
-    (:func:`fts_calib.core.outputs.holding_outputs`).
+    (:func:`fts_calib.core.files.holding_outputs`).
     """
+    from ..core.files import holding_outputs  # with numpy: after the script started, where a Ctrl-C is caught
+
     module = importlib.import_module(f".{command}", __package__)  # lazily: only the command run loads its modules
     with holding_outputs([options.get("output"), options.get("checkpoint")]):
         return int(module.run(**options))

@@ -1,6 +1,6 @@
 """The command-line reference, ``docs/cli.md``, generated from the argument parser itself.
 
-Every command, option, default and example comes from :func:`fts_calib.app.arguments.build_parser`
+Every command, option, default and example comes from :func:`fts_calib.app.parser.build_parser`
 and the exit codes from :data:`fts_calib.app.exit_codes.EXIT_CODES`, so the page cannot
 disagree with ``fts-calib --help``. The text does not depend on the terminal width or on the
 Python version's help formatter: the parser's actions are read, not its formatted help.
@@ -16,8 +16,8 @@ import re
 import sys
 from pathlib import Path
 
-from .arguments import build_parser
 from .exit_codes import EXIT_CODES
+from .parser import build_parser
 
 #: How the page says where it comes from (and how to write it again).
 GENERATED_BY = "python -m fts_calib.app.cli_docs docs/cli.md"
@@ -132,7 +132,7 @@ def cli_reference() -> str:
         "`fts-calib COMMAND --help` prints the same options and an example of each command;",
         "`fts-calib --version` prints the version. Every option below is also a keyword argument",
         "of `fts_calib.app.COMMAND.run(...)`, with the same default (see the destination in",
-        "`fts_calib/app/arguments.py`). Shipped names (`ur5`, `paper_tool`, `sensor`, `pipeline`)",
+        "`fts_calib/app/parser.py`). Shipped names (`ur5`, `paper_tool`, `sensor`, `pipeline`)",
         "and file paths are accepted wherever a robot, tool, sensor or pipeline file is asked for.",
         "",
         "| command | what it does |",

@@ -1,9 +1,18 @@
-"""The demo: the whole loop in simulation on the built-in UR5, with the paper's figures.
+"""The demo's drifting sensor (``fts-calib demo --drift``): offsets that move, calibrated right.
 
-1. Plan the calibration sweeps for the shipped tool (:mod:`fts_calib.planning.trajectory`).
+The simulated sensor's offsets drift (:meth:`fts_calib.sim.drift.OffsetDrift.typical`:
+forces up to 1 N/min, moments 0.05 N m/min, a warm-up with its temperature channel, a jump
+of up to 1 N at each tool change). The calibration models them (``offsets: auto``); this
+module compares its offset trajectory with the truth, calibrates the same recording with
+the paper's constant offsets for contrast, plots both, and gives the sensor as it is at
+the end of the run, which the validation then reads.
+
+The demo: the whole loop in simulation on the built-in UR5, with the paper's figures.
+
+1. Plan the calibration sweeps for the shipped tool (:mod:`fts_calib.planning.trajectory_run`).
 2. Simulate the recording: the moving tool's full wrench through the simulated sensor of
    ``configs/sensor.yaml`` (true C = Table 1 of the paper, offsets, noise, 24-bit ADC).
-3. Calibrate with the quasi-static filter (:mod:`fts_calib.pipeline.calibrate`).
+3. Calibrate with the quasi-static filter (:mod:`fts_calib.session.calibration_run`).
 4. Follow the estimate of C_bar_11 sample by sample (the paper's Fig. 7).
 5. Validate on another motion (ruckig through seeded waypoints of the wrist, no dwell) with
    another tool (``configs/validation_tool.yaml``): the paper's third stage; and compare
@@ -11,11 +20,11 @@
 
 Everything goes into one folder (``out/`` by default): trajectories, recordings, the
 calibration, the plots of the paper's Figs 5-6, 7 and 9-10, and the calibration's one-page
-HTML report ``report.html`` (:mod:`fts_calib.app.report_html`) with the validation as its
+HTML report ``report.html`` (:mod:`fts_calib.report.html`) with the validation as its
 held-out error.
 
 With ``drift`` the simulated sensor's offsets move during the run (a drift, a warm-up
-with a temperature channel, jumps at tool changes: :mod:`fts_calib.app.demo_drift`); the
+with a temperature channel, jumps at tool changes: :mod:`fts_calib.app.demo`); the
 calibration models them, and the plot ``offsets_drift.png`` shows the estimated against
 the true offsets over time. The validation then reads the sensor as it is at the end.
 """
@@ -25,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -33,36 +43,119 @@ import numpy as np
 
 from ..core.exceptions import FtsCalibError, TrajectoryError
 from ..core.resources import resolve
-from ..core.text import table
-from ..feeds.batch import SampleBatch
-from ..feeds.recording import RecordingReader
+from ..core.tables import table
+from ..filters.settings import PipelineConfig, load_pipeline_config
 from ..model.calibration import Calibration, load_calibration, save_calibration
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.estimator import OnlineEstimator
-from ..model.offset_basis import OffsetBasis
-from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..model.offset_models import OffsetBasis, evaluate_offsets
 from ..model.sensor_config import load_sensor_config
-from ..pipeline.calibrate import calibrate_recording
-from ..pipeline.settings import load_pipeline_config
 from ..planning.motion import sample_motion
 from ..planning.sweeps import SweepPattern
-from ..planning.trajectory import plan_trajectories
-from ..planning.trajectory_io import TrajectoryFile
+from ..planning.trajectory_files import TrajectoryFile
+from ..planning.trajectory_run import plan_trajectories
+from ..report.content import KeptCollector, calibrate_content, held_out
+from ..report.html import render_report, write_report
 from ..robot.collision import CollisionChecker
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
-from ..robot.tool import load_tool
-from ..robot.tool_wrench import tool_load
-from ..service.validate import AxisErrors, ValidationResult, validate_recording
+from ..robot.tool import Tool, load_tool, tool_load
+from ..service.validation import AxisErrors, ValidationResult, validate_recording
+from ..session.calibration_run import calibrate_recording
 from ..sim.drift import OffsetDrift
-from ..sim.recording import simulate_recording
-from ..sim.sensor import simulated_sensor
+from ..sim.runs import simulate_recording
+from ..sim.sensor import SimulatedSensor, simulated_sensor
+from ..sources.batch import SampleBatch
+from ..sources.recording import RecordingReader
 from .calibrate import format_counts
-from .demo_drift import drift_stage
 from .exit_codes import ExitCode, writing
-from .report_content import KeptCollector, calibrate_content, held_out
-from .report_html import render_report, write_report
 from .trajectory import write_run
 
+
+# --- from app.demo_drift ---
+@dataclasses.dataclass(frozen=True)
+class DriftReport:
+    """What the drifting demo found.
+
+    Attributes:
+        sensor_at_end: The simulated sensor with its offsets as at the end of the run.
+        constant: The calibration of the same recording with constant offsets (the paper's).
+        max_error: Largest |estimated - true| offset over the run per axis, [N, N m]. Shape (6,).
+        plot: The PNG of the offsets over time.
+    """
+
+    sensor_at_end: SimulatedSensor
+    constant: Calibration
+    max_error: np.ndarray
+    plot: Path
+
+
+def drift_stage(
+    out: Path,
+    kin: Kinematics,
+    tool: Tool,
+    recording: Path,
+    calibration: Calibration,
+    sensor: SimulatedSensor,
+    drift: OffsetDrift,
+    settings: PipelineConfig,
+    say: Callable[[str], None],
+) -> DriftReport:
+    """Compare the calibration's offset trajectory with the truth, plot it, and report in words.
+
+    Args:
+        out: The demo's folder.
+        kin: The robot's kinematics.
+        tool: The calibration tool; the recording runs its configurations in order (the k-th
+            follows k tool changes).
+        recording: The drifting calibration recording (with its temperature column).
+        calibration: Its calibration (with an offset model).
+        sensor: The simulated sensor (offsets at the start).
+        drift: How its offsets moved.
+        settings: The pipeline settings of the calibration.
+        say: Prints a line.
+    """
+    from ..report import plots
+
+    with RecordingReader(recording, kin.joint_names, tool.names) as reader:
+        samples = SampleBatch.concatenate(list(reader))
+    step = max(1, len(samples) // 5_000)
+    t, codes = samples.time[::step], samples.configuration[::step]
+    heat = None if samples.temperature is None else samples.temperature[::step]
+    true = sensor.D + drift.offsets(t - samples.time[0], codes)
+    estimated = evaluate_offsets(calibration.offset_model or {}, t, codes, heat)
+    constant = calibrate_recording(recording, kin, tool, settings.with_offsets("constant"), accept_poor_fit=True).calibration
+    if constant is None:  # never: the same recording determines C with constant offsets too
+        raise RuntimeError("the demo's constant-offset calibration gave no result")
+    starts = np.flatnonzero(np.r_[True, codes[1:] != codes[:-1]])
+    changes = [(float(t[k] - t[0]), tool.names[codes[k]]) for k in starts if codes[k] >= 0]
+    plot = plots.plot_offsets(
+        out / "offsets_drift.png",
+        t - t[0],
+        estimated,
+        true,
+        constant.D,
+        "offsets over the calibration run (demo --drift): the estimated offsets against the simulated sensor's",
+        changes,
+    )
+    error = np.abs(estimated - true).max(axis=0)
+    model = calibration.offset_model or {}
+    moved = true[-1] - true[0]
+    say(f"      offsets: {model.get('model')} model ({', '.join(model.get('columns', []))}), chosen by BIC")
+    say(
+        "      true drift over the run: " + ", ".join(f"{a} {m:+.3f} {u}" for a, m, u in zip(WRENCH_AXES, moved, WRENCH_UNITS, strict=True))
+    )
+    say("      largest |estimated - true| offset over the run: " + _axes(error, signed=False))
+    say("      constant offsets (the paper's model) on the same data: D - true at the end " + _axes(constant.D - true[-1]))
+    return DriftReport(dataclasses.replace(sensor, D=true[-1]), constant, error, plot)
+
+
+def _axes(values: np.ndarray, signed: bool = True) -> str:
+    form = "+.2e" if signed else ".2e"
+    return ", ".join(f"{a} {v:{form}} {u}" for a, v, u in zip(WRENCH_AXES, values, WRENCH_UNITS, strict=True))
+
+
+# --- from app.demo ---
 #: The paper's validation: "the measurement error of the force Fx is less than 10%".
 PAPER_ERROR_PERCENT = 10.0
 
@@ -159,7 +252,7 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
         stream: Where to print (standard output by default).
         drift: The sensor's offsets drift (see the module docstring).
     """
-    from . import plots
+    from ..report import plots
 
     stream = stream or sys.stdout
     out = Path(out)

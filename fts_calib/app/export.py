@@ -6,12 +6,11 @@ import sys
 from pathlib import Path
 
 from ..core.exceptions import ConfigError
-from ..core.fileio import STDOUT, atomic_write_text
-from ..core.paths import check_outputs
+from ..core.files import STDOUT, atomic_write_text, check_outputs
 from ..core.resources import resolve
 from ..robot.tool import STANDARD_GRAVITY, load_tool
 from ..service.ati import read_calibration
-from ..service.export import export
+from ..service.exports import export
 from .exit_codes import ExitCode, writing
 from .setup import load_sensor
 

@@ -10,20 +10,20 @@ from pathlib import Path
 from typing import Any
 
 from ..core.exceptions import ConfigError, FeedTimeout, FtsCalibError, InsufficientExcitation, PoorFit, UnknownToolConfiguration
-from ..core.paths import check_outputs
-from ..feeds.rtde import TIMEOUT_S, RtdePoller, connect_ur
-from ..feeds.sync import Synchronizer
-from ..feeds.udp import UdpReceiver, listen_host
+from ..core.files import check_outputs
+from ..filters.dynamic import nominal_c
 from ..model.calibration import save_calibration
 from ..model.prior import describe as describe_prior
-from ..pipeline.checkpoint import check_start, live_source
-from ..pipeline.dynamic import nominal_c
-from ..pipeline.live import LiveRunner, format_stats
-from ..pipeline.remaining import load_plan_progress
-from ..pipeline.session import CalibrationSession
+from ..report.content import KeptCollector
+from ..session.calibration_run import LiveRunner, format_stats
+from ..session.checkpoint import check_start, live_source
+from ..session.plan_progress import load_plan_progress
+from ..session.session import CalibrationSession
+from ..sources.synchronizer import Synchronizer
+from ..sources.udp import UdpReceiver, listen_host
+from ..sources.ur import TIMEOUT_S, RtdePoller, connect_ur
 from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
-from .report_content import KeptCollector
 from .setup import load_prior, load_sensor, load_setup
 
 
@@ -61,7 +61,7 @@ def run(
 
     Args:
         robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for datagrams
-            that give the sensor's orientation (``"R"`` or ``"quat"``, :mod:`fts_calib.feeds.protocol`).
+            that give the sensor's orientation (``"R"`` or ``"quat"``, :mod:`fts_calib.sources.udp`).
         tool: Tool file: a shipped name or a YAML path.
         pipeline: Pipeline settings (filter thresholds, live settings).
         listen: (host, port) to bind; port 0 takes any free port.
@@ -99,10 +99,10 @@ def run(
         model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
             (default auto: chosen with the offset model by held-out error) when None.
         filter_mode: The sample filter's mode ('quasi-static', 'dynamic':
-            :mod:`fts_calib.pipeline.dynamic`); the pipeline file's (default quasi-static) when None.
+            :mod:`fts_calib.filters.dynamic`); the pipeline file's (default quasi-static) when None.
 
         report: HTML report of the run to write, also when no calibration is written (its
-            diagnosis first; :mod:`fts_calib.app.report_html`); None for none. A resumed run's
+            diagnosis first; :mod:`fts_calib.report.html`); None for none. A resumed run's
             report has no pictures of the samples kept before the checkpoint.
         mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the datagrams'
             orientation gives to the sensor; None for none.
@@ -233,8 +233,8 @@ def _report(report, session, collector, calibration, error, diagnosis: str, file
         return
     from types import SimpleNamespace
 
-    from .report_content import calibrate_content
-    from .report_html import render_report, write_report
+    from ..report.content import calibrate_content
+    from ..report.html import render_report, write_report
 
     content = calibrate_content(SimpleNamespace(calibration=calibration, session=session, error=error), collector, files, diagnosis)
     with writing(report):

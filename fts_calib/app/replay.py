@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..feeds.bag_log import BagTopics
-from ..feeds.replay import ReplayOptions, replay
-from ..feeds.source import recording_paths
+from ..sources.bag import BagTopics
+from ..sources.sender import ReplayOptions, replay
+from ..sources.source import recording_paths
 from .exit_codes import ExitCode, using_udp
 
 

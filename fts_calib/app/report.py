@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..budget.propagation import AccuracyBudget
 from ..core.resources import resolve, shipped
-from ..core.text import table
-from ..model.budget import AccuracyBudget
-from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..core.tables import table
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 
@@ -103,7 +103,7 @@ def format_offsets(offset_model) -> list[str]:
     """The offset model of a calibration in words: the model chosen and why, and how far D moved, with units.
 
     Args:
-        offset_model: A calibration's ``offset_model`` (:func:`fts_calib.model.offset_basis.describe`),
+        offset_model: A calibration's ``offset_model`` (:func:`fts_calib.model.offset_models.describe`),
             or None (a file written before offset models: constant offsets).
     """
     if not offset_model:
@@ -197,14 +197,14 @@ def run(
     Returns:
         0.
     """
+    from ..budget.propagation import DEFAULT_TARGET_PERCENT
     from ..core.exceptions import ConfigError
-    from ..core.paths import check_outputs
-    from ..model.budget import DEFAULT_TARGET_PERCENT
+    from ..core.files import check_outputs
     from ..model.calibration import load_calibration
+    from ..report.compare import render_comparison
+    from ..report.content import KeptCollector, ReportContent
+    from ..report.html import render_report, write_report
     from .exit_codes import writing
-    from .report_compare import render_comparison
-    from .report_content import KeptCollector, ReportContent
-    from .report_html import render_report, write_report
 
     inputs = {"the calibration": calibration, "the recording": recording, "--against": against}
     check_outputs({"-o": output}, inputs)
@@ -222,7 +222,7 @@ def run(
         names = tuple(str(c.get("name")) for c in tools.get("configurations", []))
         samples, skipped, seen, kept = None, None, None, None
         if recording is not None:
-            from ..pipeline.calibrate import calibrate_recording
+            from ..session.calibration_run import calibrate_recording
             from .setup import load_sensor, load_setup
 
             robot = robot or (prov.get("robot") or {}).get("name")

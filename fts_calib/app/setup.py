@@ -9,14 +9,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..core import validation
+from ..core import arrays as validation
 from ..core.arrays import as_matrix
 from ..core.exceptions import ConfigError
 from ..core.resources import resolve
+from ..filters.settings import PipelineConfig, load_pipeline_config
 from ..model.channels import ChannelLayout
 from ..model.prior import Prior
 from ..model.sensor_config import SensorSpec, load_sensor_config
-from ..pipeline.settings import PipelineConfig, load_pipeline_config
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
 from ..robot.orientation import orientation_kinematics

@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import FileFormatError
-from ..core.paths import check_outputs
+from ..core.files import check_outputs
 from ..core.resources import resolve
 from ..model.sensor_config import load_sensor_config
-from ..planning.trajectory_io import TrajectoryFile, read_trajectory
+from ..planning.trajectory_files import TrajectoryFile, read_trajectory
 from ..robot.tool import Tool
 from ..sim.pose_files import simulate_pose_files
-from ..sim.recording import simulate_recording
+from ..sim.runs import simulate_recording
 from ..sim.sensor import simulated_sensor
 from .exit_codes import ExitCode, writing
 from .setup import load_setup

@@ -9,14 +9,14 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import ConfigError, FtsCalibWarning
-from ..core.paths import check_outputs
+from ..core.files import check_outputs
 from ..core.resources import resolve
-from ..core.text import table
+from ..core.tables import table
 from ..model.calibration import load_calibration, save_calibration
-from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, load_tool
-from ..service.tare import TareResult, tare_live, tare_recording
+from ..service.retare_job import TareResult, tare_live, tare_recording
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import load_settings, load_setup
 

@@ -8,21 +8,21 @@ from pathlib import Path
 
 import numpy as np
 
+from ..budget.propagation import DEFAULT_TARGET_PERCENT
 from ..core.exceptions import FileFormatError, FtsCalibError
-from ..core.fileio import atomic_write_text, dump_yaml
+from ..core.files import atomic_write_text, dump_yaml
 from ..core.resources import resolve
-from ..core.text import table
-from ..model.budget import DEFAULT_TARGET_PERCENT
+from ..core.tables import table
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.determination import Determination
-from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
 from ..model.sensor_config import load_sensor_config
-from ..planning.drift_excitation import DriftPrediction
+from ..planning.excitation import DriftPrediction
 from ..planning.jig import check_jig, suggest_jig
 from ..planning.sweeps import SweepPattern
-from ..planning.trajectory import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
-from ..planning.trajectory_io import save_trajectory
+from ..planning.trajectory_files import save_trajectory
+from ..planning.trajectory_run import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
+from ..report import plots
 from ..robot.tool import Tool, ToolShape, load_tool, save_tool
-from . import plots
 from .exit_codes import ExitCode, writing
 from .report import format_budget
 from .setup import load_settings
@@ -66,7 +66,7 @@ def run(
         rate_hz: Sample rate of the trajectory files, in [Hz].
         target_error_percent: Size the raster: the shortest whose predicted accuracy budget
             is within this on every axis, in [% of full scale]; the default target
-            (:data:`fts_calib.model.budget.DEFAULT_TARGET_PERCENT`) when None. With a fixed
+            (:data:`fts_calib.budget.propagation.DEFAULT_TARGET_PERCENT`) when None. With a fixed
             raster it is only compared.
         levels: Positions of the first sweep joint (a fixed raster; 4 when only others are given).
         stops: Positions of the second sweep joint per level (fixed raster; default 6).

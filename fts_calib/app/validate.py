@@ -11,15 +11,14 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import ConfigError
-from ..core.fileio import atomic_write_text
-from ..core.paths import check_outputs
-from ..core.text import table
-from ..feeds.bag_log import BagTopics
-from ..feeds.recording_set import describe_files
-from ..feeds.source import MIN_COVERAGE, recording_paths
-from ..model.sensor import WRENCH_AXES, WRENCH_UNITS
+from ..core.files import atomic_write_text, check_outputs
+from ..core.tables import table
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..service.ati import read_calibration
-from ..service.validate import AxisErrors, RegionErrors, validate_recording
+from ..service.validation import AxisErrors, RegionErrors, validate_recording
+from ..sources.bag import BagTopics
+from ..sources.recording_set import describe_files
+from ..sources.source import MIN_COVERAGE, recording_paths
 from .exit_codes import ExitCode, writing
 from .setup import load_sensor, load_setup
 
@@ -129,7 +128,7 @@ def run(
             "axes": {...} or null}, "outside": {...}}`` (no such key without one), atomically;
             None for none. Not written when no sample was compared.
         report: HTML report of the first calibration with this validation as its held-out
-            error and residuals (:mod:`fts_calib.app.report_html`); None for none. Not
+            error and residuals (:mod:`fts_calib.report.html`); None for none. Not
             written when no sample was compared.
 
     Returns:
@@ -202,7 +201,7 @@ def run(
             written_json = atomic_write_text(json_path, json.dumps(result.as_json(), indent=2) + "\n")
         print(f"wrote {written_json}")
     if plot_path is not None:
-        from .plots import plot_validation
+        from ..report.plots import plot_validation
 
         with writing(plot_path):
             written = plot_validation(
@@ -216,8 +215,8 @@ def run(
             )
         print(f"wrote {written}")
     if report is not None:
-        from .report_content import validation_content
-        from .report_html import render_report, write_report
+        from ..report.content import validation_content
+        from ..report.html import render_report, write_report
 
         files = {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor}
         content = validation_content(result, loaded_calibrations[0], Path(calibrations[0]).name, loaded, files)

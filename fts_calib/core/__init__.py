@@ -1,4 +1,4 @@
-"""Core: exceptions, array and value checks, atomic file writing, YAML loading and shipped-data lookup.
+"""Core: exceptions, array and value checks, bounded parsing, files and shipped data.
 
-Knows nothing of the other stages; every other stage may import it.
+Files: atomic writes, the one output guard, output paths. Knows nothing of the rest of the package.
 """

@@ -54,7 +54,7 @@ class PoorFit(FtsCalibError):
     """The data do not fit the model at the noise level they show: the calibration is refused.
 
     Attributes:
-        check: The fit check (:class:`fts_calib.pipeline.fit.FitCheck`): verdict, residuals
+        check: The fit check (:class:`fts_calib.session.fit.FitCheck`): verdict, residuals
             per configuration and axis, the expected noise and the diagnosis.
         calibration: The refused calibration (with the verdict in its quality), for a caller
             that decides to keep it anyway; None when the data determine none.

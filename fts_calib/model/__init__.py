@@ -1,4 +1,4 @@
-"""Model: the sensor channel layout (P, paper eqs 1-7), the estimators (eqs 9, 12-16) and the calibration result and its file.
+"""Model: the sensor, its model families, the estimator and its choice of model, the calibration and its file.
 
-Knows nothing of robots, feeds or files other than its own.
+The sensor: channel layout (P), its file, channel limits. Knows nothing of robots, other files or sources.
 """

@@ -1,9 +1,9 @@
-r"""The sums of the online estimator: ``z z^T`` with ``z = [W; P Delta; b]``, weights and forgetting.
+"""The sums of the online estimator: ``z z^T`` with ``z = [W; P Delta; b]``, weights and forgetting.
 
 One symmetric (12 + k) x (12 + k) sum holds every normal matrix of the estimator
 (:mod:`fts_calib.model.estimator`): W the known wrench (6,) in [N, N, N, N m, N m, N m],
 ``P Delta`` the projected strain (6,), ``b`` the offset basis (k,) of the sample's tool
-configuration, time [s] and temperature [°C] (:mod:`fts_calib.model.offset_basis`), so the
+configuration, time [s] and temperature [°C] (:mod:`fts_calib.model.offset_models`), so the
 memory does not grow with the number of samples.
 
 Weights are frequency weights: a sample of weight 2 counts exactly like the same sample
@@ -25,9 +25,8 @@ from ..core.exceptions import ConfigError, ShapeError
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout
 from .features import degree_of, model_setting
 from .least_squares import gram
-from .offset_basis import OffsetBasis
-from .offset_trace import OffsetTrace
-from .unit_sums import UnitSums
+from .model_choice import UnitSums
+from .offset_models import OffsetBasis, OffsetTrace
 
 _CHUNK = 1 << 16  # rows per block in batch updates: bounds temporary memory to ~10 MB
 _NON_FINITE = "non-finite wrench, strain or weight"
@@ -147,7 +146,7 @@ class SampleSums:
                 when None.
             temperature: Sensor temperatures [°C], shape (N,), or None.
             unit: The held-out unit of each sample (integers >= 0; the same integer is the same
-                unit, in any call: :mod:`fts_calib.pipeline.units`), shape (N,); None: blocks of
+                unit, in any call: :mod:`fts_calib.session.held_out`), shape (N,); None: blocks of
                 :data:`UNIT_SAMPLES` samples. Used by models other than linear only.
             w_static: The weight-only part of each known wrench (paper eqs 17-18) [N, N m],
                 shape (N, 6): what the loads determine of a nonlinear model is judged on it

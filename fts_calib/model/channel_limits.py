@@ -1,4 +1,4 @@
-r"""What a channel can read: its resolution (the ADC step) and its valid range (its rails).
+"""What a channel can read: its resolution (the ADC step) and its valid range (its rails).
 
 A low-cost sensor's channels are integer ADC counts: a reading moves in steps, and a
 channel driven past its input range stays at the last code (its *rail*), whatever the load

@@ -2,7 +2,7 @@ r"""The online least-squares estimator of the calibration (paper eqs 12-16), wit
 
 The online estimator regresses the known wrench W (shape (6,), [N, N, N, N m, N m, N m])
 on the projected strain ``P Delta`` and an offset basis ``b`` (shape (k,),
-:mod:`fts_calib.model.offset_basis`) and keeps only sums, so its memory does not grow with
+:mod:`fts_calib.model.offset_models`) and keeps only sums, so its memory does not grow with
 the number of samples. P is the sensor's channel layout (6 x n,
 :mod:`fts_calib.model.channels`): the paper's 6 x 8 by default. With the paper's constant
 offsets ``b = [1]`` and ``x = [P Delta; 1]`` (eq 13):
@@ -28,29 +28,49 @@ The rank of S_XX and the solve of the normal equations are those of
 :mod:`fts_calib.model.least_squares`: with constant offsets three non-collinear tool
 centres of mass give the full rank 7 (paper eqs 18-20); with one offset per configuration
 the full rank is 6 + K, reached with the same three centres of mass (see :data:`RANK_ADVICE`).
+
+The online estimator's sums carried between instances: its checkpoint state and the merge of two.
+
+:func:`estimator_state` turns an :class:`~fts_calib.model.estimator.OnlineEstimator` into
+plain data (its sums ``z z^T``, weights, counts, origins and offset trace) and
+:func:`restore_estimator` builds one back; :func:`merge_estimators` adds the sums of two
+estimators as one pass over both samples would. Units are the estimator's: W in
+[N, N, N, N m, N m, N m], time in [s], temperature in [°C].
+
+The fit of a nonlinear (or full-channel) sensor model from the estimator's per-unit sums.
+
+The estimator (:mod:`fts_calib.model.estimator`) keeps the sums of ``z z^T`` per held-out unit
+(:mod:`fts_calib.model.model_choice`); once the choice is made, the model it chose is solved on
+every unit at minimum norm (the directions no load excites held), its residual per tool
+configuration judged, and the calibration built: the model's coefficients over named features
+(:mod:`fts_calib.model.features`), C_bar the model linearised at the centre of the data, D the
+offset at the end of the run. Units: W in [N, N, N, N m, N m, N m], channels raw.
 """
 
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
 
 from .._version import __version__
-from ..core.exceptions import InsufficientExcitation, ModelNotDetermined
+from ..core.arrays import as_matrix
+from ..core.exceptions import ConfigError, InsufficientExcitation, ModelNotDetermined
 from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
-from .channels import MALTESE_CROSS_8, ChannelLayout
-from .estimator_state import estimator_state, merge_estimators, restore_estimator
-from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, solve_normal, undetermined_columns
+from .channels import MALTESE_CROSS_8, WRENCH_AXES, ChannelLayout, channel_layout
+from .features import SensorModel
+from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, residual_sums, solve_normal, undetermined_columns
 from .model_choice import HOLD_RULE, Chooser, Selection
-from .model_fit import model_residuals, solve_model
-from .offset_basis import (
+from .offset_models import (
     AUTO,
+    CONSTANT_ONLY,
     Candidate,
     OffsetBasis,
+    OffsetTrace,
     candidates,
     choose,
     describe,
@@ -59,8 +79,8 @@ from .offset_basis import (
     offset_setting,
 )
 from .prior import Prior
-from .sensor import WRENCH_AXES
 
+# --- from model.estimator ---
 #: What full rank needs, in words: the one advice text of the estimator and the excitation report.
 RANK_ADVICE = (
     "One tool centre of mass gives at most rank 4, two give 6, three non-collinear ones "
@@ -86,7 +106,7 @@ class OnlineEstimator(SampleSums):
         layout: The sensor's channel layout (or its sensor-YAML ``channels`` value); the
             paper's 8-bridge sensor by default.
         offsets: The offset model: 'auto' (least BIC), 'constant', 'per-configuration' or
-            'drift' (:mod:`fts_calib.model.offset_basis`).
+            'drift' (:mod:`fts_calib.model.offset_models`).
         basis: The full offset basis accumulated (configurations, drift degree, time
             scale, temperature); one configuration, time up to degree 2 and temperature
             when None.
@@ -119,7 +139,7 @@ class OnlineEstimator(SampleSums):
         Both must have the same forgetting factor, channel layout, offset setting and basis;
         with forgetting < 1, ``other``'s data count as the more recent. ``other``'s sums are
         moved to this estimator's time and temperature origins first
-        (:func:`~fts_calib.model.estimator_state.merge_estimators`).
+        (:func:`~fts_calib.model.estimator.merge_estimators`).
         """
         return merge_estimators(self, other)
 
@@ -357,7 +377,7 @@ class OnlineEstimator(SampleSums):
     def state(self) -> dict:
         """Everything needed to resume: plain types, safe to write as YAML or JSON.
 
-        See :func:`~fts_calib.model.estimator_state.estimator_state`.
+        See :func:`~fts_calib.model.estimator.estimator_state`.
         """
         return estimator_state(self)
 
@@ -365,3 +385,212 @@ class OnlineEstimator(SampleSums):
     def from_state(cls, state: Mapping) -> OnlineEstimator:
         """Rebuild an estimator from :meth:`state` (a state of an older version, without offset models, too)."""
         return restore_estimator(cls, state)
+
+
+# --- from model.estimator_state ---
+def merge_estimators(first: OnlineEstimator, other: OnlineEstimator) -> OnlineEstimator:
+    """A new estimator holding the data of both (as one pass over both would).
+
+    Both must have the same forgetting factor, channel layout, offset setting and basis;
+    with forgetting < 1, ``other``'s data count as the more recent. ``other``'s sums are
+    moved to ``first``'s time and temperature origins first.
+
+    Args:
+        first: The estimator of the earlier data.
+        other: The estimator of the later data.
+
+    Returns:
+        A new estimator of ``first``'s class; its sums are (12 + k) x (12 + k), k the basis size.
+
+    Raises:
+        ConfigError: The two differ in a setting named above, or in the sensor model.
+    """
+    for name, mine, theirs in (
+        ("forgetting", first.forgetting, other.forgetting),
+        ("channels", first.layout, other.layout),
+        ("offsets", first.offsets, other.offsets),
+        ("offset basis", first.basis, other.basis),
+        ("model", (first.model, first.full_channels), (other.model, other.full_channels)),
+    ):
+        if mine != theirs:
+            label = f"channel layouts {first.layout.name} and {other.layout.name}" if name == "channels" else f"{name} {mine} and {theirs}"
+            message = f"cannot merge estimators {'of' if name == 'channels' else 'with'} {label}"
+            raise ConfigError(name, theirs, f"{mine}, the same as this estimator's", message=message)
+    first._flush()
+    other._flush()
+    out = type(first)(first.forgetting, first.layout, first.offsets, first.basis, first.model, first.full_channels, first.full_scale)
+    out.time_origin = first.time_origin if first.time_origin is not None else other.time_origin
+    out.temperature_origin = first.temperature_origin if first.temperature_origin is not None else other.temperature_origin
+    shift = [
+        0.0 if b is None or a is None else b - a
+        for a, b in ((out.time_origin, other.time_origin), (out.temperature_origin, other.temperature_origin))
+    ]
+    G = np.eye(len(first._sums))
+    G[12:, 12:] = first.basis.shift(*shift)
+    decay = first.forgetting**other.samples_used
+    out._sums = first._sums * decay + G @ other._sums @ G.T
+    out._weight_sum = first._weight_sum * decay + other._weight_sum
+    out.samples_used = first.samples_used + other.samples_used
+    out.samples_seen = first.samples_seen + other.samples_seen
+    out.trace = first.trace.merged(other.trace)
+    if first.units is not None and other.units is not None:
+        out.units, out.unit_rows = first.units.merged(other.units, G[12:, 12:]), first.unit_rows + other.unit_rows
+    for source in (first.skipped, other.skipped):
+        for reason, count in source.items():
+            out._skip(reason, count)
+    return out
+
+
+def estimator_state(est: OnlineEstimator) -> dict:
+    """Everything needed to resume an estimator: plain types, safe to write as YAML or JSON.
+
+    Args:
+        est: The estimator; its staged samples are added to the sums first.
+
+    Returns:
+        A mapping of settings, the sums ``S`` ((12 + k) x (12 + k) nested lists), weights and counts.
+    """
+    return {
+        "forgetting": est.forgetting,
+        "channels": est.layout.to_config(),
+        "offsets": est.offsets,
+        "model": est.model,
+        "full_channels": est.full_channels,
+        **({"units": est.units.state(), "unit_rows": est.unit_rows} if est.units is not None else {}),
+        "basis": est.basis.to_config(),
+        "time_origin": est.time_origin,
+        "temperature_origin": est.temperature_origin,
+        "trace": est.trace.state(),
+        "S": est._current().tolist(),
+        "weight_sum": est._weight_sum,
+        "samples_used": est.samples_used,
+        "samples_seen": est.samples_seen,
+        "skipped": dict(est.skipped),
+    }
+
+
+def restore_estimator(cls: type[OnlineEstimator], state: Mapping) -> OnlineEstimator:
+    """Rebuild an estimator from :func:`estimator_state` (a state of an older version, without offset models, too).
+
+    Args:
+        cls: The estimator class to build.
+        state: The mapping :func:`estimator_state` wrote.
+
+    Returns:
+        The estimator, its sums of shape (12 + k, 12 + k) as saved.
+
+    Raises:
+        ShapeError: The sums do not match the offset basis.
+    """
+    basis = OffsetBasis.from_config(state["basis"]) if "basis" in state else CONSTANT_ONLY
+    offsets = str(state.get("offsets", "constant"))
+    model, full = str(state.get("model", "linear")), bool(state.get("full_channels", False))
+    out = cls(float(state["forgetting"]), channel_layout(state.get("channels")), offsets, basis, model, full)
+    if out.units is not None and "units" in state:
+        out.units.restore(state["units"])
+        out.unit_rows = int(state.get("unit_rows", 0))
+    width = 12 + basis.size
+    out._sums = as_matrix(state["S"], (width, width), "state['S']").copy()
+    out._weight_sum = float(state["weight_sum"])
+    out.samples_used = int(state["samples_used"])
+    out.samples_seen = int(state["samples_seen"])
+    out.skipped = Counter({str(k): int(v) for k, v in state.get("skipped", {}).items()})
+    for name in ("time_origin", "temperature_origin"):
+        value = state.get(name)
+        setattr(out, name, None if value is None else float(value))
+    out.trace = OffsetTrace.from_state(state.get("trace"))
+    return out
+
+
+# --- from model.model_fit ---
+def fit_chosen(est: OnlineEstimator, selection: Selection):
+    """``(units, M, sums, (Theta, rank, condition, pseudo-inverse))`` of the chosen candidate on every unit."""
+    units = est.units
+    if units is None:  # selection() is None without unit sums
+        raise ConfigError("model", est.model, "a model with held-out sums")
+    chooser = Chooser(units, est.basis, (est.model, est.offsets), est.full_scale)
+    M = chooser.maps(selection.chosen.family, selection.chosen.offsets)
+    sums = M @ units.total() @ M.T
+    return units, M, sums, chooser.fit(sums, selection.chosen.family)
+
+
+def model_residuals(est: OnlineEstimator, selection: Selection) -> tuple[dict[int, np.ndarray], np.ndarray]:
+    """The chosen nonlinear (or full-channel) model's residual RMS per configuration, and its linear C_bar.
+
+    Returns:
+        ``({configuration index: RMS per axis (6,) in N, N m}, C_bar (6, 6))``, or None when
+        the model in use is the linear one on ``P Delta`` (its fit check is the session's own).
+    """
+    units, M, _, (theta, *_) = fit_chosen(est, selection)
+    K, first = est.basis.n_configurations, 6 + units.n_features
+    rss: dict[int, np.ndarray] = {}
+    weight: dict[int, float] = {}
+    for g, sums in units.sums.items():
+        c = int(np.argmax(np.diag(sums)[first : first + K]))  # a unit lies within one configuration
+        mine = M @ sums @ M.T
+        rss[c] = rss.get(c, np.zeros(6)) + residual_sums(mine[:6, :6], mine[:6, 6:], mine[6:, 6:], theta)
+        weight[c] = weight.get(c, 0.0) + units.weights[g]
+    model = SensorModel(selection.chosen.family, _features_first(theta, units.inputs, len(selection.chosen.offsets.A)), None, units.inputs)
+    slope = model.slope(mean_inputs(est))
+    C_bar = slope @ est.layout.pinv if est.full_channels else slope
+    return {c: np.sqrt(rss[c] / max(weight[c], 1e-300)) for c in sorted(rss)}, C_bar
+
+
+def mean_inputs(est: OnlineEstimator) -> np.ndarray:
+    """The mean of the model's inputs u over the samples (d,): the centre of the calibration data."""
+    units = est.units
+    if units is None:
+        raise ConfigError("model", est.model, "a model with held-out sums")
+    total, K = units.total(), est.basis.n_configurations
+    first = 6 + units.n_features
+    counts = np.diag(total)[first : first + K].sum()  # the one-hot columns: one per sample
+    return total[6 : 6 + units.inputs, first : first + K].sum(axis=1) / max(counts, 1e-300)
+
+
+def solve_model(est: OnlineEstimator, selection: Selection, configurations, at) -> Calibration:
+    """The calibration of a nonlinear family or of the raw channels, from the per-unit sums (minimum norm)."""
+    score = selection.chosen
+    units, _, sums, (theta, rank, condition, inv) = fit_chosen(est, selection)
+    S_XX, S_WX, S_WW = sums[6:, 6:], sums[:6, 6:], sums[:6, :6]
+    d, k_m = units.inputs, len(score.offsets.A)
+    origins, end = est._end(at)
+    a_end = score.offsets.A @ est._basis_row(end, origins)
+    padded = np.zeros(theta.shape[1] - 6)
+    padded[d - 6 : d - 6 + k_m] = a_end  # where the offsets sit among the regressors after the first six
+    P = est.layout.projection if not est.full_channels else np.eye(6, est.layout.n_channels)
+    quality = fit_quality(
+        S_WW, S_WX, S_XX, theta, inv, est.weight_sum, est.samples_used, est.samples_seen, rank, condition, est.skipped, P, padded
+    )
+    coefficients = _features_first(theta, d, k_m)
+    model = SensorModel(score.family, coefficients, None if est.full_channels else est.layout.projection, est.layout.n_channels)
+    if est.full_channels:  # the free C's standard errors are those of its own columns
+        sigma = np.sqrt(np.maximum(quality.residual_rms**2 * est.weight_sum / max(est.weight_sum - theta.shape[1], 1.0), 0.0))
+        stderr_C = sigma[:, None] * np.sqrt(np.maximum(np.diag(inv)[:d], 0.0))[None, :]
+        quality = replace(quality, stderr_C=stderr_C)
+    held = theta.shape[1] - rank
+    quality = replace(quality, held_directions={"count": held, "rule": HOLD_RULE})
+    trace = est.trace.with_end()
+    trace += [end] if not trace or trace[-1] != end else []
+    names = est.basis.column_names(configurations)
+    offset_model = describe(est.offsets, score.offsets, est.basis, theta[:, d : d + k_m], origins, [], trace, configurations)
+    offset_model["criterion"] = "held-out error (see model_selection)"
+    slope = model.slope(mean_inputs(est))  # linearised at the centre of the data, not at u = 0
+    return Calibration(
+        C_bar=slope @ est.layout.pinv if est.full_channels else slope,
+        D=theta[:, d : d + k_m] @ a_end,
+        quality=quality,
+        provenance={
+            "method": f"least squares of a {score.family} model (held-out choice)",
+            "time": now_iso(),
+            "software_version": __version__,
+        },
+        layout=est.layout,
+        offset_model=offset_model,
+        model=model if (score.family != "linear" or est.full_channels) else None,
+        model_selection=selection.as_dict(names, configurations),
+    )
+
+
+def _features_first(theta: np.ndarray, d: int, k_m: int) -> np.ndarray:
+    """The coefficients over the features (6, p) of a fit whose regressors are ``[u (d); offsets (k_m); higher features]``."""
+    return np.hstack([theta[:, :d], theta[:, d + k_m :]])

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .quality import Quality
+from .calibration import Quality
 
 #: Default relative eigenvalue threshold for the numerical rank of the scaled S_XX.
 #: A direction whose strain amplitude is below about 3e-4 of the typical one
@@ -285,7 +285,7 @@ def fit_quality(
     """Residuals and standard errors of a least-squares fit from its normal matrices.
 
     ``theta`` is (6, p) with p = 6 (C_bar only), 7 (C_bar and D) or 6 + k (C_bar and the k
-    offset terms of :mod:`fts_calib.model.offset_basis`); ``inv`` is the (p, p)
+    offset terms of :mod:`fts_calib.model.offset_models`); ``inv`` is the (p, p)
     (pseudo-)inverse of S_XX; ``projection`` the layout's P (6, n). The residual variance
     per axis is RSS / (n_eff - p). ``offset_row`` (k,) is the offset basis of the time the
     reported D belongs to (``D = theta[:, 6:] @ offset_row``): its standard error is
@@ -307,7 +307,7 @@ def fit_quality(
         offset_row: Offset basis row of the reported D, shape (k,), or None (see above).
 
     Returns:
-        The :class:`~fts_calib.model.quality.Quality` (residual RMS and standard errors
+        The :class:`~fts_calib.model.calibration.Quality` (residual RMS and standard errors
         in N and N m).
     """
     p = theta.shape[1]

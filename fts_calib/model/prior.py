@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core import validation
+from ..core import arrays as validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError
 from .least_squares import information_rank, solve_normal

@@ -40,10 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from ..core import validation
+from ..core import arrays as validation
 from ..core.arrays import as_matrix, as_samples, frozen
 from ..core.exceptions import ConfigError, FileFormatError
-from ..core.fileio import fields_of, read_array, read_number, require
+from ..core.files import fields_of, read_array, read_number, require
 
 #: The default margin of a region on each axis, as a share of the sensor's full scale on that axis (1 %).
 MARGIN_SHARE = 0.01

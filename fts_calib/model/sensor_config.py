@@ -34,10 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import validation
+from ..core import arrays as validation
 from ..core.arrays import as_matrix, frozen
 from ..core.exceptions import ConfigError, FileFormatError, ShapeError, StructureError
-from ..core.fileio import check_keys, fields_of, load_yaml, read_array, read_number, read_positive, require
+from ..core.files import check_keys, fields_of, load_yaml, read_array, read_number, read_positive, require
 from ..core.resources import locate
 from .channel_limits import ChannelLimits
 from .channels import MALTESE_CROSS_8, ChannelLayout, channel_layout

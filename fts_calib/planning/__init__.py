@@ -1,4 +1,4 @@
-"""Planning: home pose, ruckig sweeps, excitation prediction and trajectory files.
+"""Planning: calibration motions for a robot and a tool, sized to a target, checked and written.
 
-Knows nothing of feeds.
+Home pose, sweeps, stop-and-go, continuous and smooth motions, excitation, the jig a model needs, trajectory files.
 """

@@ -24,7 +24,7 @@ from ..core.exceptions import TrajectoryError
 from ..robot.joints import JointLimits
 from ..robot.kinematics import Kinematics
 from .sweeps import SweepPattern, raster
-from .trajectory_io import TrajectoryFile
+from .trajectory_files import TrajectoryFile
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-r"""A smooth continuous excitation: every joint on a sinusoid of its own, ramped in and out at home.
+"""A smooth continuous excitation: every joint on a sinusoid of its own, ramped in and out at home.
 
 The jerk-limited rasters of :mod:`fts_calib.planning.motion` change their jerk often and
 abruptly; the dynamic filter's rate estimate is biased there (its polynomial misses the snap)

@@ -1,4 +1,4 @@
-"""Robot: robot definitions, Kinematics (the only forward kinematics), collision checks, the tool and its wrench.
+"""Robot: definitions, joints, Kinematics, collision, orientation, inertia, the tool and the one wrench model.
 
-Knows nothing of strains or feeds.
+Kinematics is the only forward kinematics. Knows nothing of channels or sources.
 """

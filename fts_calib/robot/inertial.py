@@ -10,7 +10,7 @@ parameters (``pin.Inertia.toDynamicParameters``) of the body in S:
 
 with ``h = m c`` [kg m] (c: centre of mass) and ``I_o = I_c + m ([c]_x^T [c]_x)`` the inertia
 about the origin of S [kg m^2]. The wrench the moving body exerts on the sensor
-(:func:`fts_calib.robot.wrench.dynamic_wrench`, Newton-Euler about the origin of S) is linear
+(:func:`fts_calib.robot.tool.dynamic_wrench`, Newton-Euler about the origin of S) is linear
 in them:
 
 .. math::

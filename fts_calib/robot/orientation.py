@@ -1,4 +1,4 @@
-r"""Recordings that give the sensor's orientation instead of joint angles.
+"""Recordings that give the sensor's orientation instead of joint angles.
 
 Real datasets often hold the orientation itself: a unit quaternion from a robot driver, roll,
 pitch and yaw typed into a script, or the TCP pose a UR controller reports. Each form is

@@ -1,4 +1,27 @@
-r"""Calibration tools: configurations of known mass and centre of mass, and their wrench.
+r"""Wrench that a rigid tool exerts on the sensor, static (paper eqs 17-18) and moving.
+
+Everything is expressed in the sensor frame S; the moment is about the origin of S; a
+wrench is ``[Fx, Fy, Fz, Mx, My, Mz]`` in [N] and [N m].
+
+Static (eqs 17-18), with ``g_sensor = R_world_sensor.T @ g_world``:
+
+.. math::
+
+    F = m\,g_S, \qquad M = c \times F
+
+Moving (Newton-Euler on the tool body): with ``omega`` and ``alpha`` the angular velocity
+and acceleration of S in the world, expressed in S, ``a`` the classical linear
+acceleration of the origin of S expressed in S, and ``I_c`` the inertia about the centre
+of mass in S,
+
+.. math::
+
+    a_c = a + \alpha \times c + \omega \times (\omega \times c), \qquad
+    F = m\,(g_S - a_c), \qquad M = c \times F - (I_c\,\alpha + \omega \times I_c\,\omega)
+
+At rest (omega = alpha = a = 0) the moving wrench equals the static one.
+
+Calibration tools: configurations of known mass and centre of mass, and their wrench.
 
 A tool file (YAML, ``configs/``) holds ``name``, optional ``gravity`` (magnitude in
 [m/s^2], default 9.81) and ``configurations``: a list of ``{name, mass [kg], com [x, y, z]
@@ -16,6 +39,17 @@ Python field names the file's key.
 
 Identifiability (paper eqs 18-20): one centre of mass gives the estimator rank 4, two
 give 6, and the full rank 7 needs three centres of mass that are not on one line.
+
+The tool's wrench on the sensor along a motion: the one function every stage calls.
+
+Session, simulation, validation, tare, demo and planning all get the calibration tool's
+load from :func:`tool_load`: forward kinematics once (:class:`Kinematics`, the only forward
+kinematics), gravity in the sensor frame, then the static wrench of each sample's tool
+configuration (paper eqs 17-18) and, when joint rates are given, the Newton-Euler wrench of
+the moving tool (:mod:`fts_calib.robot.tool`).
+
+Frames and units: everything in the sensor frame S, moment about the origin of S;
+``g_sensor = R_world_sensor.T @ g_world`` with ``|g_world|`` the tool file's gravity.
 """
 
 from __future__ import annotations
@@ -24,16 +58,87 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core import validation
-from ..core.arrays import as_matrix, frozen
-from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning, UnknownToolConfiguration
-from ..core.fileio import atomic_write_text, check_keys, dump_yaml, fields_of, load_yaml, read_array, read_number, require
+from ..core import arrays as validation
+from ..core.arrays import as_matrix, as_samples, cross, frozen
+from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning, ShapeError, UnknownToolConfiguration
+from ..core.files import atomic_write_text, check_keys, dump_yaml, fields_of, load_yaml, read_array, read_number, require
 from ..core.resources import locate
-from .wrench import apply_wrench_matrix, dynamic_wrench, wrench_matrix
 
+if TYPE_CHECKING:  # the in-controller path (a tool for gravity compensation) loads no Pinocchio
+    from .kinematics import Kinematics, SensorMotion
+
+
+# --- from robot.wrench ---
+def wrench_matrix(mass: float, p_sensor_com) -> np.ndarray:
+    """The (6, 3) matrix ``[m I; m [c]x]`` of eqs 17-18: ``W = wrench_matrix @ g_sensor``.
+
+    Args:
+        mass: Tool mass in [kg].
+        p_sensor_com: Centre of mass of the tool in the sensor frame, in [m]. Shape (3,).
+    """
+    import pinocchio as pin  # here, not at the top: the in-controller path (service.reader) imports this module
+
+    c = as_matrix(p_sensor_com, (3,), "p_sensor_com")
+    return mass * np.vstack([np.eye(3), pin.skew(c)])
+
+
+def apply_wrench_matrix(matrix: np.ndarray, g_sensor) -> np.ndarray:
+    """``matrix @ g`` for one gravity vector (3,) or a batch (N, 3); shape (6,) or (N, 6)."""
+    g = np.asarray(g_sensor, dtype=float)
+    if g.shape == (3,):
+        return matrix.dot(g)
+    g, _ = as_samples(g, 3, "g_sensor")
+    return g @ matrix.T
+
+
+def static_wrench(mass: float, p_sensor_com, g_sensor) -> np.ndarray:
+    """Wrench of a tool at rest on the sensor (paper eqs 17-18).
+
+    Args:
+        mass: Tool mass in [kg].
+        p_sensor_com: Centre of mass of the tool in the sensor frame, in [m]. Shape (3,).
+        g_sensor: Gravity in the sensor frame, in [m/s^2]. Shape (3,) or (N, 3).
+
+    Returns:
+        ``[F, c x F]`` in [N, N m]. Shape (6,) or (N, 6).
+    """
+    return apply_wrench_matrix(wrench_matrix(mass, p_sensor_com), g_sensor)
+
+
+def dynamic_wrench(mass: float, p_sensor_com, inertia_com, g_sensor, omega_sensor, alpha_sensor, a_sensor) -> np.ndarray:
+    """Wrench of a moving rigid tool on the sensor (Newton-Euler, see module docstring).
+
+    Args:
+        mass: Tool mass in [kg].
+        p_sensor_com: Centre of mass in the sensor frame, in [m]. Shape (3,).
+        inertia_com: Inertia about the centre of mass, axes of S, in [kg m^2]. Shape (3, 3).
+        g_sensor: Gravity in S, in [m/s^2]. Shape (3,) or (N, 3).
+        omega_sensor: Angular velocity of S, in S, in [rad/s]. Shape (3,) or (N, 3).
+        alpha_sensor: Angular acceleration of S, in S, in [rad/s^2]. Shape (3,) or (N, 3).
+        a_sensor: Classical linear acceleration of the origin of S, in S, in [m/s^2].
+            Shape (3,) or (N, 3).
+
+    Returns:
+        ``[Fx, Fy, Fz, Mx, My, Mz]`` in [N, N m]. Shape (6,) or (N, 6).
+    """
+    c = as_matrix(p_sensor_com, (3,), "p_sensor_com")
+    inertia = as_matrix(inertia_com, (3, 3), "inertia_com")
+    g, single = as_samples(g_sensor, 3, "g_sensor")
+    omega, _ = as_samples(omega_sensor, 3, "omega_sensor")
+    al, _ = as_samples(alpha_sensor, 3, "alpha_sensor")
+    a, _ = as_samples(a_sensor, 3, "a_sensor")
+    a_com = a + cross(al, c) + cross(omega, cross(omega, c))
+    force = mass * (g - a_com)
+    torque = cross(c, force) - (al @ inertia.T + cross(omega, omega @ inertia.T))
+    out = np.concatenate([force, torque], axis=1)
+    return out[0] if single and out.shape[0] == 1 else out
+
+
+# --- from robot.tool ---
 #: Default magnitude of gravity in [m/s^2].
 STANDARD_GRAVITY = 9.81
 
@@ -115,7 +220,7 @@ class ToolConfiguration:
         return apply_wrench_matrix(self.wrench_matrix, g_sensor)
 
     def dynamic_wrench(self, g_sensor, omega_sensor, alpha_sensor, a_sensor) -> np.ndarray:
-        """Wrench of the moving tool (Newton-Euler); see :func:`fts_calib.robot.wrench.dynamic_wrench`.
+        """Wrench of the moving tool (Newton-Euler); see :func:`fts_calib.robot.tool.dynamic_wrench`.
 
         Without inertia the tool is treated as a point mass at its centre of mass.
 
@@ -330,3 +435,120 @@ def save_tool(tool: Tool, path: str | Path, header: str = "") -> Path:
         data["configurations"].append(entry)
     comments = "".join(f"# {line}\n" for line in header.splitlines())
     return atomic_write_text(path, comments + dump_yaml(data))
+
+
+# --- from robot.tool_wrench ---
+@dataclass(frozen=True)
+class ToolLoad:
+    """The tool's load on the sensor at each sample.
+
+    Attributes:
+        g_sensor: Gravity in S, in [m/s^2]. Shape (N, 3).
+        static: The weight alone (eqs 17-18), ``[F, c x F]`` in [N, N m]. Shape (N, 6).
+        moving: The Newton-Euler wrench of the moving tool in [N, N m], shape (N, 6), or
+            None when no joint rates were given.
+        motion: The sensor's motion the moving wrench comes from (N rows), or None.
+    """
+
+    g_sensor: np.ndarray
+    static: np.ndarray
+    moving: np.ndarray | None = None
+    motion: SensorMotion | None = None
+
+    @property
+    def w_sensor(self) -> np.ndarray:
+        """The best-known wrench: ``moving`` when computed, else ``static``. Shape (N, 6)."""
+        return self.static if self.moving is None else self.moving
+
+
+def tool_load(
+    kin: Kinematics,
+    tool: Tool,
+    joints: np.ndarray,
+    configuration: np.ndarray | int | str,
+    joint_velocity: np.ndarray | None = None,
+    joint_acceleration: np.ndarray | None = None,
+) -> ToolLoad:
+    """The calibration tool's wrench on the sensor at each sample of a motion.
+
+    Args:
+        kin: Kinematics of the robot.
+        tool: The tool (its gravity, and the mass, centre of mass and inertia of each
+            configuration).
+        joints: Joint readings in [rad]. Shape (N, n_joints).
+        configuration: Index of each sample's tool configuration, shape (N,) int (every
+            index valid), or one index or name for all samples.
+        joint_velocity: Joint velocities in [rad/s], shape (N, n_joints), with
+            ``joint_acceleration`` in [rad/s^2]: the moving wrench is computed too. None for
+            the static wrench alone.
+        joint_acceleration: See ``joint_velocity``.
+
+    Returns:
+        :class:`ToolLoad` with arrays of N rows.
+
+    Raises:
+        ShapeError: The arrays do not have one row per sample.
+        UnknownToolConfiguration: A configuration name that is not in the tool file.
+    """
+    joints = np.asarray(joints, dtype=float)
+    n = len(joints)
+    if isinstance(configuration, str):
+        configuration = tool.names.index(tool.configuration(configuration).name)
+    codes = np.broadcast_to(np.asarray(configuration, dtype=np.int64), (n,))
+    if n == 0:
+        return ToolLoad(np.zeros((0, 3)), np.zeros((0, 6)), None if joint_velocity is None else np.zeros((0, 6)))
+    if (joint_velocity is None) != (joint_acceleration is None):
+        raise ShapeError("give both joint_velocity and joint_acceleration, or neither")
+    if joint_velocity is None:
+        g = kin.g_sensor(joints, tool.gravity).reshape(n, 3)
+        return ToolLoad(g, weight_wrench(tool, g, codes))
+    motion = kin.sensor_motion(joints, joint_velocity, joint_acceleration)
+    g = np.einsum("nji,j->ni", motion.R_world_sensor.reshape(n, 3, 3), kin.g_world(tool.gravity))
+    static = weight_wrench(tool, g, codes)
+    if codes[0] == codes[-1] and np.all(codes == codes[0]):  # one configuration (the usual block): no copies
+        moving = tool.configurations[int(codes[0])].dynamic_wrench(g, motion.omega, motion.alpha, motion.a)
+        return ToolLoad(g, static, moving, motion)
+    moving = np.zeros((n, 6))
+    for k, tool_configuration in enumerate(tool.configurations):
+        mine = codes == k
+        if mine.any():
+            moving[mine] = tool_configuration.dynamic_wrench(g[mine], motion.omega[mine], motion.alpha[mine], motion.a[mine])
+    return ToolLoad(g, static, moving, motion)
+
+
+def weight_wrench(tool: Tool, g_sensor: np.ndarray, configuration: np.ndarray) -> np.ndarray:
+    """The weight alone of the tool's configurations (eqs 17-18): ``[m g; c x m g]``.
+
+    Args:
+        tool: The tool.
+        g_sensor: Gravity in the sensor frame [m/s^2], shape (N, 3).
+        configuration: Configuration index of each sample, shape (N,) int.
+
+    Returns:
+        Shape (N, 6), [N, N, N, N m, N m, N m].
+    """
+    matrices = np.stack([c.wrench_matrix for c in tool.configurations])  # (k, 6, 3): W = M g
+    return np.einsum("nij,nj->ni", matrices[np.asarray(configuration, dtype=np.int64)], np.asarray(g_sensor, dtype=float).reshape(-1, 3))
+
+
+def dynamic_fraction(tool: Tool, configuration: np.ndarray, dynamic_part: np.ndarray) -> np.ndarray:
+    """How large the dynamic part of the tool's wrench is, relative to its weight.
+
+    Args:
+        tool: The tool (the weight and lever of each configuration).
+        configuration: Configuration index of each sample, shape (N,).
+        dynamic_part: The moving wrench less the static one [N, N m], shape (N, 6).
+
+    Returns:
+        Per sample, the larger of ``|force part| / (m g)`` and ``|moment part| / (m g |c|)``
+        (``|c|`` at least 1 mm), shape (N,).
+    """
+    fraction = np.zeros(len(configuration))
+    for c, tool_configuration in enumerate(tool.configurations):
+        mine = configuration == c
+        weight = tool_configuration.mass * tool.gravity
+        lever = max(float(np.linalg.norm(tool_configuration.p_sensor_com)), 1e-3)
+        fraction[mine] = np.maximum(
+            np.linalg.norm(dynamic_part[mine, :3], axis=1) / weight, np.linalg.norm(dynamic_part[mine, 3:], axis=1) / (weight * lever)
+        )
+    return fraction

@@ -1,1 +1,1 @@
-"""Service: the calibration in use: wrench reader, gravity compensation, tare, payload identification, validation, exports."""
+"""Service: the calibration in use: wrench reader, gravity compensation, re-tare, validation, exports."""

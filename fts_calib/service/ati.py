@@ -1,4 +1,4 @@
-r"""ATI calibration files (``FTxxxxx.cal``, XML): the factory calibration in, ours out in the same structure.
+"""ATI calibration files (``FTxxxxx.cal``, XML): the factory calibration in, ours out in the same structure.
 
 The structure (as ATI ships it, and as public parsers read it): a root ``<FTSensor Serial
 BodyStyle Family NumGages CalFileVersion>`` holding one ``<Calibration PartNumber CalDate
@@ -34,8 +34,7 @@ from ..core.arrays import frozen
 from ..core.bounded import MAX_CHANNELS, read_bounded
 from ..core.exceptions import ConfigError, FileFormatError
 from ..model.calibration import Calibration, load_calibration
-from ..model.channels import ChannelLayout
-from ..model.sensor import WRENCH_AXES
+from ..model.channels import WRENCH_AXES, ChannelLayout
 from ..model.sensor_config import SensorSpec
 
 #: The suffix of an ATI calibration file.

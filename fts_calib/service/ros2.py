@@ -1,4 +1,4 @@
-r"""ros2_control parameters: the force/torque broadcaster's correction and the gravity compensation filter.
+"""ros2_control parameters: the force/torque broadcaster's correction and the gravity compensation filter.
 
 One YAML file for the node of ros2_controllers' ``force_torque_sensor_broadcaster``
 (parameter names from its ``force_torque_sensor_broadcaster_parameters.yaml``):
@@ -35,9 +35,9 @@ import numpy as np
 
 from ..core.arrays import frozen
 from ..core.exceptions import ConfigError, FtsCalibWarning
-from ..core.fileio import dump_yaml
+from ..core.files import dump_yaml
 from ..model.calibration import Calibration
-from ..model.sensor import WRENCH_AXES
+from ..model.channels import WRENCH_AXES
 from ..robot.tool import ToolConfiguration
 
 #: Node name of the broadcaster (the controller's name in the controller manager).

@@ -1,1 +1,1 @@
-"""Simulation: the simulated sensor and simulated recordings, for the demo and the tests."""
+"""Simulation: the simulated sensor, recordings, robot logs and services, for the demo and the tests."""

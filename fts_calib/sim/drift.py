@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core import validation
+from ..core import arrays as validation
 from ..core.arrays import as_matrix, frozen
 
 

@@ -1,13 +1,13 @@
 """A simulated static-pose dataset of one file per pose, as a user records by hand.
 
-The samples of :func:`fts_calib.sim.recording.simulate_batches` with ``poses_only`` (the arm
+The samples of :func:`fts_calib.sim.runs.simulate_batches` with ``poses_only`` (the arm
 still at each stop of the planned trajectories) are cut into poses: a pose is a run of
 samples of one configuration with no gap longer than :data:`GAP_PERIODS` sample periods.
 Each pose is written to its own CSV recording (``pose_01.csv``, ``pose_02.csv``, ... in the
 order recorded, numbered over the configurations), its time restarting at 0 as a logger
 started for each pose writes it; a still stretch shorter than :data:`MIN_POSE_S` (the lone
 first sample of a trajectory) is not a pose and gets no file. Read back together (``fts-calib calibrate 'poses/*.csv'``:
-:mod:`fts_calib.feeds.recording_set`), they are the same samples as the one-file
+:mod:`fts_calib.sources.recording_set`), they are the same samples as the one-file
 recording, each file a held-out unit.
 """
 
@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from ..core.exceptions import ConfigError
-from ..feeds.batch import SampleBatch
-from ..feeds.recording import RecordingWriter
-from ..planning.trajectory_io import TrajectoryFile
+from ..planning.trajectory_files import TrajectoryFile
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
+from ..sources.batch import SampleBatch
+from ..sources.recording import RecordingWriter
 from .drift import OffsetDrift
-from .recording import simulate_batches
+from .runs import simulate_batches
 from .sensor import SimulatedSensor
 
 #: Samples further apart than this many sample periods belong to two poses.
@@ -90,7 +90,7 @@ def simulate_pose_files(
         tool_change_s: Pause between configurations [s].
         dynamic: Use the moving tool's wrench (True) or the static one.
         drift: Offsets that move, and a ``temperature`` column; constant offsets when None
-            (as :func:`fts_calib.sim.recording.simulate_recording`).
+            (as :func:`fts_calib.sim.runs.simulate_recording`).
 
     Returns:
         The files written, in the order recorded.

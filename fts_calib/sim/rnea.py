@@ -1,8 +1,8 @@
-r"""The tool's wrench on the sensor by Pinocchio's RNEA: a dynamics model independent of the calibration's.
+"""The tool's wrench on the sensor by Pinocchio's RNEA: a dynamics model independent of the calibration's.
 
 The calibration's expected wrench is the classical Newton-Euler of
-:mod:`fts_calib.robot.wrench` on the sensor motion of the vectorised chain
-(:mod:`fts_calib.robot._batch`). To test it against something else, the tool here is a body
+:mod:`fts_calib.robot.tool` on the sensor motion of the vectorised chain
+(:mod:`fts_calib.robot.kinematics`). To test it against something else, the tool here is a body
 of a Pinocchio model: the robot's actuated joints, then a joint at the sensor frame held at
 zero (its position, velocity and acceleration), carrying the tool's spatial inertia
 ``pin.Inertia(m, c, I_c)``. Pinocchio's recursive Newton-Euler (``pin.rnea``, spatial

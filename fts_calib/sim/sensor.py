@@ -1,4 +1,4 @@
-r"""A simulated sensor of any channel layout: channels from wrenches (paper eqs 21-22), with noise.
+"""A simulated sensor of any channel layout: channels from wrenches (paper eqs 21-22), with noise.
 
 The inverse of the sensor model. The projected channels follow eq 22,
 ``Delta_bar = C_bar^-1 (W - D)``; the n raw channels are ``pinv(P) Delta_bar`` plus

@@ -1,0 +1,1 @@
+"""Budget: the accuracy budget, one engine: sensitivities, the budget predicted from a plan and measured from a calibration."""

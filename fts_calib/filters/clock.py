@@ -1,0 +1,206 @@
+"""Clock sanity of a recording: is its time column a clock in seconds for its joint readings?
+
+A wrong time column does not stop a calibration by itself: the filter then keeps moving
+samples too, and the calibration is a few % off with no warning. So ``calibrate`` checks
+the first rows of a recording (the first chunk: ~36,000 rows, read once) before the
+session sees them, and refuses, naming the likely cause, when
+
+- every stamp is equal (no clock at all);
+- most consecutive stamps are equal and the clock ticks more coarsely than the filter's
+  windows (``filter.strain_window_s``, ``filter.derivative_window_s``);
+- the sample period is longer than those windows: a time column in ms makes the period
+  look 1000x longer (in µs 1e6x); the unit whose conversion gives a controller's period
+  (100 Hz to 10 kHz) is suggested;
+- the joint speeds implied by the stamps, ``|Δjoint| / Δt`` over :data:`SPEED_LAG` samples,
+  are far beyond the velocity limits of the robot (:attr:`Kinematics.limits.velocity`,
+  rad/s): joint columns in degrees (57x; named when a reading is beyond a turn), or a
+  time column that advances too slowly.
+
+Only valid rows count (finite, in time order); a few glitches do not trigger the speed
+rule, which needs :data:`SPEED_SHARE` of the intervals to be too fast.
+:func:`clock_checked` holds the first chunks of a stream until the check has passed on
+them, so that the file is read once.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..core.exceptions import RecordingError
+from ..robot.kinematics import Kinematics
+from ..sources.batch import SampleBatch
+from .settings import FilterConfig
+
+#: Sample periods of a robot controller or a sensor, in [s] (10 kHz to 100 Hz).
+PLAUSIBLE_PERIOD_S = (1e-4, 1e-2)
+#: Units a time column is mistakenly written in, with their value in [s].
+TIME_UNITS = (("ms", 1e-3), ("µs", 1e-6), ("ns", 1e-9))
+#: An implied speed this many times the velocity limit is impossible.
+FAR_BEYOND = 5.0
+#: Samples between the two readings of a speed estimate (smooths stamp jitter).
+SPEED_LAG = 10
+#: Share of the intervals that must be impossibly fast for a refusal (glitches are not).
+SPEED_SHARE = 0.005
+#: Rows needed for a verdict; fewer are not judged.
+MIN_ROWS = 3
+#: Rows the check looks at, at least (the first chunk of a recording holds ~36,000).
+CHECK_ROWS = 1000
+
+
+@dataclass(frozen=True)
+class ClockCheck:
+    """What the check found on the first rows of a recording.
+
+    Attributes:
+        rows: Valid rows looked at.
+        period_s: Median interval between distinct stamps, in [s] (0 when none).
+        max_speed_ratio: Largest implied joint speed over its velocity limit, at the
+            :data:`SPEED_SHARE` quantile (0 without motion).
+    """
+
+    rows: int
+    period_s: float
+    max_speed_ratio: float
+
+
+def clock_checked(
+    path: str | Path, chunks: Iterable[SampleBatch], kin: Kinematics, filter_settings: FilterConfig | None, joints_in_degrees: bool = False
+) -> Iterator[SampleBatch]:
+    """The chunks of a recording, unchanged, once :func:`check_clock` has passed on their first rows.
+
+    The first chunks are held until they hold :data:`CHECK_ROWS` rows (the first chunk of a
+    file does) or the stream ends; nothing reaches the caller before the check. Arguments
+    as :func:`check_clock`, with ``chunks`` the batches of the recording, joints in [rad].
+
+    Raises:
+        RecordingError: From :func:`check_clock`, before the first chunk is yielded.
+    """
+    stream = iter(chunks)
+    held: list[SampleBatch] = []
+    for chunk in stream:
+        held.append(chunk)
+        if sum(len(c) for c in held) >= CHECK_ROWS:
+            break
+    if held:
+        first = SampleBatch.concatenate(held)
+        check_clock(path, first.time, first.joints, kin, filter_settings, joints_in_degrees)
+    yield from held
+    yield from stream
+
+
+def check_clock(
+    path: str | Path,
+    time: np.ndarray,
+    joints: np.ndarray,
+    kin: Kinematics,
+    filter_settings: FilterConfig | None,
+    joints_in_degrees: bool = False,
+) -> ClockCheck:
+    """Check the time column of a recording's first rows (see the module docstring).
+
+    Args:
+        path: The recording, for the message.
+        time: Times of the first rows, as read, in [s]. Shape (N,).
+        joints: Joint readings of those rows, in [rad] (converted when given in degrees).
+            Shape (N, n_joints).
+        kin: Kinematics of the robot (velocity limits, continuous joints).
+        filter_settings: The filter's settings (its windows), or None without the filter.
+        joints_in_degrees: The joint columns were converted from degrees (no degree hint then).
+
+    Raises:
+        RecordingError: The clock cannot be the recording's (column 'time', or the joint
+            column that looks like degrees); the message names the likely cause.
+    """
+    time = np.asarray(time, dtype=float)
+    joints = np.array(joints, dtype=float)
+    ok = np.isfinite(time) & np.all(np.isfinite(joints), axis=1)
+    time, joints = time[ok], joints[ok]
+    if len(time):
+        forward = time >= np.maximum.accumulate(time)  # rows earlier than one before them are the checks' business
+        time, joints = time[forward], joints[forward]
+    n = len(time)
+    if n < MIN_ROWS:
+        return ClockCheck(n, 0.0, 0.0)
+    if time[-1] == time[0]:
+        message = f"all {n:,} time stamps of the first rows are equal ({time[0]:g}): the column holds no clock; write the time in s"
+        raise RecordingError(path, None, "time", message)
+    steps = np.diff(time)
+    period = float(np.median(steps[steps > 0]))
+    if filter_settings is not None:
+        _check_period(path, period, float(np.mean(steps == 0)), filter_settings)
+    ratio, joint = _speed_ratio(time, joints.copy(), kin)  # unwraps continuous joints
+    if ratio > FAR_BEYOND:
+        raise _too_fast(path, ratio, joint, kin, joints, joints_in_degrees)
+    return ClockCheck(n, period, ratio)
+
+
+def _check_period(path: str | Path, period: float, repeated: float, settings: FilterConfig) -> None:
+    window = min(settings.strain_window_s, settings.derivative_window_s)
+    if period <= window:
+        return
+    strain, derivative = settings.strain_window_s, settings.derivative_window_s
+    windows = f"the filter's windows (strain_window_s {strain:g} s, derivative_window_s {derivative:g} s)"
+    if repeated > 0.5:
+        message = (
+            f"the clock ticks every {period:g} s ({100 * repeated:.0f} % of consecutive rows have the same time stamp), more "
+            f"coarsely than {windows}: the filter cannot tell still samples from moving ones; record the time in s with a "
+            "finer resolution (e.g. the controller's clock, to the µs)"
+        )
+        raise RecordingError(path, None, "time", message)
+    rate = f"{period:g} s between samples ({1 / period:.3g} Hz)"
+    low, high = PLAUSIBLE_PERIOD_S
+    unit = next(((name, factor) for name, factor in TIME_UNITS if low <= period * factor <= high * (1 + 1e-9)), None)
+    if unit is not None:
+        name, factor = unit
+        message = (
+            f"{rate}, longer than {windows}: the time column looks like {name} ({period * factor:g} s, "
+            f"{1 / (period * factor):.3g} Hz when read as {name}); write the time in s (divide it by {1 / factor:g})"
+        )
+    else:
+        message = (
+            f"{rate}, longer than {windows}: the clock is too coarse for the filter; record at a higher rate (the time in s), "
+            "or widen the windows in the pipeline settings"
+        )
+    raise RecordingError(path, None, "time", message)
+
+
+def _speed_ratio(time: np.ndarray, joints: np.ndarray, kin: Kinematics) -> tuple[float, int]:
+    """The implied joint speed over its limit at the :data:`SPEED_SHARE` top quantile, and its joint."""
+    limits = np.asarray(kin.limits.velocity, dtype=float)
+    checked = np.isfinite(limits) & (limits > 0)
+    if kin.continuous.any():
+        joints[:, kin.continuous] = np.unwrap(joints[:, kin.continuous], axis=0)
+    lag = min(SPEED_LAG, len(time) - 1)
+    span = time[lag:] - time[:-lag]
+    moved = np.abs(joints[lag:] - joints[:-lag])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where((span > 0)[:, None] & checked, moved / span[:, None] / np.where(checked, limits, 1.0), 0.0)
+    if not ratio.size:
+        return 0.0, 0
+    per_joint = np.quantile(ratio, 1.0 - SPEED_SHARE, axis=0)
+    joint = int(np.argmax(per_joint))
+    return float(per_joint[joint]), joint
+
+
+def _too_fast(path: str | Path, ratio: float, joint: int, kin: Kinematics, joints: np.ndarray, joints_in_degrees: bool) -> RecordingError:
+    name, limit = kin.joint_names[joint], float(kin.limits.velocity[joint])
+    speed = f"{ratio * limit:.3g} rad/s on {name}, {ratio:.0f}x its velocity limit ({limit:.3g} rad/s)"
+    implied = f"the time stamps imply joint speeds of {speed}"
+    largest = float(np.max(np.abs(joints[:, joint])))
+    # readings beyond a turn are degrees (a joint sweeping 180° reads 180); below, the clock is suspect first
+    if not joints_in_degrees and largest > 2 * math.pi:
+        message = (
+            f"{implied}: the joint columns look like degrees (|{name}| up to {largest:.4g}; in rad the speeds would be "
+            f"{math.radians(ratio * limit):.3g} rad/s); write the joints in rad, or pass --joints-in-degrees"
+        )
+        return RecordingError(path, None, name, message)
+    message = (
+        f"{implied}: the time column advances too slowly for the motion (a unit larger than s, or another clock than "
+        "the joints'), or the joint columns are not in rad (degrees of a small motion?); write the time in s and the joints in rad"
+    )
+    return RecordingError(path, None, "time", message)

@@ -1,0 +1,269 @@
+r"""The constant latency between the joint and channel streams, estimated from the moving samples.
+
+When the joint readings are ``tau`` late (the row of time t holds the joints of t - tau),
+the wrench predicted from them along a motion is late too: with the measured wrench
+``W_meas = C Delta + D`` and the tool's moving wrench predicted from the readings
+(:func:`fts_calib.robot.tool.tool_load`, the one dynamic model: mass, centre of mass,
+inertia, joint rates estimated from the readings as the filter does),
+
+.. math::
+
+    W_{meas}(t) - W_{pred}(t) \approx \tau\, \dot W_{pred}(t),
+
+a regression of the residual on the predicted wrench's rate, each axis scaled by its full
+scale. Only moving samples whose dynamic part is well predicted count: every joint's rate
+estimate from a whole window, a joint moving faster than ``min_speed``, and the residual
+within a few times its robust spread after a first fit. One estimate per move (a stretch
+of moving samples) gives the uncertainty: the weighted spread of the moves' estimates over
+the square root of their number, so correlated model errors within a move do not make it
+look better than it is. Times in [s], rates in [rad/s].
+
+The joint stream's latency fitted with the calibration, from the dynamic filter's moving samples.
+
+Joints read ``tau`` late shift the expected wrench by ``tau dW/dt`` to first order. Fitting
+the calibration to ``W + tau dW/dt`` (axes scaled by their full scale ``FS``, regressors
+``x = [P Delta; e_c]``, one offset per tool configuration) leaves a residual quadratic in
+``tau``; with ``S`` the weighted sums of ``z z^T``, ``z = [x; W / FS; dW/dt / FS]``, and the
+parts of ``W`` and ``dW/dt`` the regressors do not explain
+(``A = S_WW - S_Wx S_xx^+ S_xW``, ``B = S_WV - S_Wx S_xx^+ S_xV``, ``E = S_VV - S_Vx S_xx^+ S_xV``):
+
+.. math::
+
+    \mathrm{RSS}(\tau) = \mathrm{tr} A + 2\tau\,\mathrm{tr} B + \tau^2\,\mathrm{tr} E, \qquad
+    \hat\tau = -\mathrm{tr} B / \mathrm{tr} E, \qquad
+    \sigma_\tau^2 = \frac{\mathrm{RSS}(\hat\tau)}{6 (n - p)\,\mathrm{tr} E}.
+
+``tau`` is the latency *left* after the one the filter applied: ``calibrate`` with
+``filter.latency_s: auto`` reads the recording again with it applied
+(:func:`fts_calib.session.calibration_run.calibrate_recording`). The standard error takes the
+samples as independent: optimistic where the errors correlate over the derivative window.
+Only sums are kept: memory does not grow with the stream. Times [s].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model.calibration import Calibration
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool, tool_load
+from .quasi_static import joint_rates
+
+# --- from pipeline.latency ---
+_MIN_SPEED = 0.2  # [rad/s] a joint at least this fast: the wrench changes enough to show a lag
+_MIN_MOVE_SAMPLES = 20  # a move shorter than this gives no estimate of its own
+_OUTLIER = 5.0  # residuals beyond this many robust spreads are not "well predicted"
+
+
+@dataclass(frozen=True)
+class LatencyEstimate:
+    """How late the joint readings are, relative to the channels.
+
+    Attributes:
+        latency_s: The estimate [s] (positive: the joints are late; add it to their times,
+            ``live.latency_s``, to align them).
+        stderr_s: Its standard error [s] (inf with fewer than two moves).
+        moves: Moves that gave an estimate.
+        samples: Moving samples used.
+    """
+
+    latency_s: float
+    stderr_s: float
+    moves: int
+    samples: int
+
+    def summary(self) -> str:
+        """One line with units."""
+        return (
+            f"joint stream behind the channels by {1e3 * self.latency_s:.3f} ± {1e3 * self.stderr_s:.3f} ms "
+            f"(from {self.moves} moves, {self.samples:,} moving samples)"
+        )
+
+    def as_dict(self) -> dict:
+        """Plain data for a file, in [ms]."""
+        return {
+            "latency_ms": float(f"{1e3 * self.latency_s:.4g}"),
+            "stderr_ms": float(f"{1e3 * self.stderr_s:.4g}") if math.isfinite(self.stderr_s) else None,
+            "moves": self.moves,
+            "samples": self.samples,
+        }
+
+
+def estimate_latency(
+    kin: Kinematics,
+    tool: Tool,
+    calibration: Calibration,
+    time: np.ndarray,
+    joints: np.ndarray,
+    channels: np.ndarray,
+    configuration: np.ndarray,
+    full_scale: np.ndarray,
+    window_s: float = 0.05,
+    min_speed: float = _MIN_SPEED,
+) -> LatencyEstimate | None:
+    """Estimate the latency of the joint stream from a recording's moving samples (see the module docstring).
+
+    Args:
+        kin: Kinematics.
+        tool: The tool (mass, centre of mass and inertia of each configuration).
+        calibration: The calibration (from the still samples) that turns channels into wrenches.
+        time: Sample times [s], non-decreasing. Shape (N,).
+        joints: Joint readings [rad]. Shape (N, n_joints).
+        channels: Raw channels. Shape (N, n).
+        configuration: Tool configuration index of each sample. Shape (N,) int.
+        full_scale: Full scale per axis [N, N m] (scales the axes). Shape (6,).
+        window_s: Window of the joint-rate estimates [s].
+        min_speed: Slowest joint speed that counts as moving [rad/s].
+
+    Returns:
+        The estimate, or None when the recording has no usable move.
+    """
+    time, joints = np.asarray(time, dtype=float), np.asarray(joints, dtype=float)
+    codes = np.asarray(configuration, dtype=np.int64)
+    if len(time) < 3:
+        return None
+    steps = np.diff(time)
+    steps = steps[steps > 0]  # repeated stamps (a sample logged twice) have no step: the period is that of the others
+    if not len(steps):
+        return None
+    dt = float(np.median(steps))
+    residual, rate, move = [], [], []
+    new = np.concatenate([[True], np.diff(codes) != 0])
+    bounds = [*np.nonzero(new)[0], len(time)]
+    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        part = slice(start, stop)
+        velocity, acceleration = joint_rates(time[part], joints[part], window_s, dt, kin.continuous)
+        half = int(math.ceil(window_s / dt / 2)) + 1
+        moving = np.max(np.abs(velocity), axis=1) >= min_speed
+        moving[:half], moving[-half:] = False, False
+        if not moving.any():
+            continue
+        predicted = tool_load(kin, tool, joints[part], codes[part], velocity, acceleration).w_sensor / full_scale
+        measured = calibration.wrench(channels[part], region_check=False) / full_scale
+        with np.errstate(divide="ignore", invalid="ignore"):  # repeated time stamps: no slope there
+            slope = np.gradient(predicted, time[part], axis=0)
+        moving &= np.all(np.isfinite(slope), axis=1)
+        label = np.cumsum(np.concatenate([[True], moving[1:] & ~moving[:-1]])) + start
+        residual.append((measured - predicted)[moving])
+        rate.append(slope[moving])
+        move.append(label[moving])
+    if not residual:
+        return None
+    r, s, m = np.concatenate(residual), np.concatenate(rate), np.concatenate(move)
+    tau = float(np.sum(r * s) / np.sum(s * s))
+    spread = np.abs(r - tau * s)
+    scale = 1.4826 * np.median(spread, axis=0) + 1e-15
+    good = np.all(spread <= _OUTLIER * scale, axis=1)
+    estimates, weights = [], []
+    for label in np.unique(m[good]):
+        mine = good & (m == label)
+        if mine.sum() >= _MIN_MOVE_SAMPLES and np.sum(s[mine] ** 2) > 0:
+            weights.append(float(np.sum(s[mine] ** 2)))
+            estimates.append(float(np.sum(r[mine] * s[mine]) / weights[-1]))
+    if not estimates:
+        return None
+    w, e = np.array(weights), np.array(estimates)
+    mean = float(np.sum(w * e) / np.sum(w))
+    k = len(e)
+    stderr = math.sqrt(float(np.sum(w * (e - mean) ** 2) / np.sum(w)) / (k - 1)) if k > 1 else math.inf
+    return LatencyEstimate(mean, stderr, k, int(good.sum()))
+
+
+# --- from pipeline.latency_fit ---
+#: Fewest samples for a latency estimate.
+MIN_SAMPLES = 200
+
+
+class LatencyFit:
+    """Sums for the latency fitted with the calibration (see the module docstring).
+
+    Args:
+        n_configurations: k, the tool's configurations (one offset column each).
+        full_scale: Full scale per axis [N, N m], shape (6,).
+    """
+
+    def __init__(self, n_configurations: int, full_scale):
+        self.k = int(n_configurations)
+        self.full_scale = np.asarray(full_scale, dtype=float)
+        width = 6 + self.k + 12
+        self.sums = np.zeros((self.k, width, width))  # per configuration
+        self.counts = np.zeros(self.k, dtype=np.int64)
+
+    @property
+    def count(self) -> int:
+        """Samples added."""
+        return int(self.counts.sum())
+
+    def add(self, projected: np.ndarray, codes: np.ndarray, wrench: np.ndarray, rate: np.ndarray, weight: np.ndarray) -> None:
+        """Add kept samples.
+
+        Args:
+            projected: ``P Delta`` of the samples, shape (N, 6).
+            codes: Configuration index per sample, shape (N,).
+            wrench: Expected wrench [N, N m], shape (N, 6).
+            rate: Its rate of change [N/s, N m/s], shape (N, 6).
+            weight: The samples' weights, shape (N,).
+        """
+        finite = np.all(np.isfinite(rate), axis=1)
+        n = int(finite.sum())
+        if not n:
+            return
+        z = np.zeros((n, self.sums.shape[1]))
+        z[:, :6] = projected[finite]
+        z[np.arange(n), 6 + codes[finite]] = 1.0
+        z[:, 6 + self.k : 12 + self.k] = wrench[finite] / self.full_scale
+        z[:, 12 + self.k :] = rate[finite] / self.full_scale
+        codes, weight = codes[finite], weight[finite]
+        single = bool(np.all(codes == codes[0]))
+        for c in np.unique(codes):
+            mine = slice(None) if single else codes == c  # one configuration (the usual chunk): no copies
+            part = z[mine]
+            self.sums[c] += (part * weight[mine, None]).T @ part
+            self.counts[c] += len(part)
+
+    def solve(self) -> tuple[float, float] | None:
+        """``(tau [s], standard error [s])``, or None with too few samples or no change of the wrench."""
+        if self.count < MIN_SAMPLES:
+            return None
+        p = 6 + self.k
+        S = self.sums.sum(axis=0)
+        x, w, v = slice(0, p), slice(p, p + 6), slice(p + 6, p + 12)
+        inverse = np.linalg.pinv(S[x, x])
+
+        def part(a: slice, b: slice) -> float:
+            return float(np.trace(S[a, b] - S[a, x] @ inverse @ S[x, b]))
+
+        A, B, E = part(w, w), part(w, v), part(v, v)
+        if not E > 0:
+            return None
+        tau = -B / E
+        rss = max(A + 2 * tau * B + tau * tau * E, 0.0)
+        dof = max(self.count - p, 1)
+        return tau, math.sqrt(rss / (6 * dof) / E)
+
+    def residuals(self, tau: float) -> tuple[dict[int, np.ndarray], np.ndarray] | None:
+        """The fit's residual per configuration at the latency ``tau`` [s] (the dynamic fit check), and its C_bar.
+
+        Returns:
+            ``({configuration index: weighted residual RMS per axis [N, N m], scaled by
+            sqrt(sum of weights / samples) so that samples of weight 1 / (1 + rho^2) show the strain
+            noise alone}, C_bar (6, 6))``, or None with too few samples.
+        """
+        if self.count < MIN_SAMPLES:
+            return None
+        p = 6 + self.k
+        S = self.sums.sum(axis=0)
+        x = slice(0, p)
+        target = S[p : p + 6, x] + tau * S[p + 6 : p + 12, x]
+        theta = target @ np.linalg.pinv(S[x, x])  # (6, p): scaled wrench from [P Delta; e_c]
+        L = np.hstack([-theta, np.eye(6), tau * np.eye(6)])
+        out = {}
+        for c in range(self.k):
+            weight = self.sums[c, 6 + c, 6 + c]  # the sum of the weights: the one-hot column's
+            if self.counts[c] and weight > 0:
+                rss = np.maximum(np.diag(L @ self.sums[c] @ L.T), 0.0)
+                out[c] = self.full_scale * np.sqrt(rss / weight) * math.sqrt(weight / self.counts[c])
+        return out, theta[:, :6] * self.full_scale[:, None]

@@ -1,0 +1,1 @@
+"""Monitor: the sensor's health in service and the watch of its offsets."""

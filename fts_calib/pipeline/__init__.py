@@ -1,4 +1,0 @@
-"""Pipeline: settings, sample checks, the quasi-static filter, the calibration session and its runs on recordings and live feeds.
-
-Knows nothing of the command line or plots.
-"""

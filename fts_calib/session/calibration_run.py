@@ -1,0 +1,601 @@
+"""The ``calibrate`` job: a recording in, a calibration out, with progress.
+
+The recording is read chunk by chunk (:mod:`fts_calib.sources.recording`) into a
+:class:`fts_calib.session.session.CalibrationSession`, the same path live feeds take. Rows the
+reader cannot use (malformed lines, unknown tool configurations) and samples the session
+drops (time going backwards, non-finite values, readings outside the joint limits, the
+filter's rules) are counted and reported; the run goes on where it safely can.
+
+Samples with a channel at its rail are refused when the rail is known (declared in the
+sensor file). A rail the sensor file does not declare is detected on the way
+(:class:`fts_calib.model.channel_limits.RailWatch`), after its samples went in: the
+recording is then calibrated again, with the rail, and the result says what was detected.
+
+With ``filter.mode: dynamic`` and ``filter.latency_s: auto`` the first read applies no latency
+and leaves the latency out of the trust rule, while the latency is fitted with the
+calibration (:mod:`fts_calib.filters.latency`); the recording is then read again with
+it applied and its standard error (at least :data:`fts_calib.filters.dynamic.MIN_LATENCY_SIGMA_S`) as the trust
+rule's latency uncertainty.
+
+The ``live`` job: calibrate from live UDP feeds (joints and strains) until the run ends.
+
+A background thread only reads datagrams (a 4 MiB socket buffer absorbs bursts); the main
+thread decodes them (:mod:`fts_calib.sources.udp`), pairs the two streams
+(:mod:`fts_calib.sources.synchronizer`) and feeds the session (:mod:`fts_calib.session.session`) every 20 ms, and
+prints a status line. The run ends on an ``end`` message, Ctrl-C, SIGTERM, SIGHUP (the
+terminal closed) or an optional idle timeout; then the calibration is written. Datagrams
+lost on the way are counted from the protocol's optional ``seq`` numbers, per sender, and
+shown in the status line and the summary. The session checkpoints every few seconds,
+so ``--resume`` after a crash loses at most that interval. The socket binds to 127.0.0.1
+unless told otherwise.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import signal
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol, TextIO
+
+import numpy as np
+
+from ..budget.propagation import AccuracyBudget
+from ..core.exceptions import FeedTimeout, FtsCalibError, InsufficientExcitation, PoorFit, ShapeError
+from ..core.files import check_distinct
+from ..core.resources import locate
+from ..filters.clock import clock_checked
+from ..filters.dynamic import nominal_c, settings_for_first_read, settings_with_latency
+from ..filters.latency import LatencyEstimate
+from ..filters.settings import PipelineConfig, load_pipeline_config
+from ..model.calibration import Calibration
+from ..model.channel_limits import ChannelLimits
+from ..model.channels import MALTESE_CROSS_8, ChannelLayout
+from ..model.prior import Prior
+from ..model.sensor_config import SensorSpec, load_sensor_config
+from ..robot.definition import RobotDefinition, load_robot
+from ..robot.kinematics import Kinematics
+from ..robot.tool import Tool, load_tool
+from ..sources.bag import BagTopics
+from ..sources.batch import SampleBatch
+from ..sources.recording_set import RecordingSet, describe_files
+from ..sources.source import open_recording, orientation_source, recording_paths
+from ..sources.synchronizer import Synchronizer
+from ..sources.udp import LiveStats, UdpReceiver, feed_datagram
+from ..sources.ur import RtdePoller
+from .checkpoint import check_start, recording_source
+from .plan_progress import PlanProgress
+from .session import CalibrationSession
+
+
+# --- from pipeline.calibrate ---
+class ProgressSink(Protocol):
+    """Where a long job reports how far it is (the command line's progress bar is one)."""
+
+    total: float
+
+    def update(self, done: float, count: int) -> None:
+        """``done`` of ``total`` units (bytes of the file), ``count`` items (rows) so far."""
+
+    def close(self) -> None:
+        """The job is over."""
+
+
+@dataclass
+class CalibrateResult:
+    """What the ``calibrate`` job did.
+
+    Attributes:
+        calibration: The calibration, or None when the data cannot determine it.
+        session: The session (counts, progress).
+        problems: The first problems the reader found, with line and column.
+        rows: Rows read.
+        seconds: Wall-clock time of the run [s].
+        error: Why there is no calibration, or None.
+        budget: The measured accuracy budget (also in the calibration's quality), or None.
+        latency: The joint stream's latency estimated from the moving samples, or None.
+        detected: What the run detected of the channels' limits that the sensor file does
+            not declare (e.g. 'high rail of strain_7 at 1023'): the recording was calibrated
+            again with them.
+    """
+
+    calibration: Calibration | None
+    session: CalibrationSession
+    problems: list[str]
+    rows: int
+    seconds: float
+    error: InsufficientExcitation | PoorFit | None = None
+    budget: AccuracyBudget | None = None
+    latency: LatencyEstimate | None = None
+    detected: tuple[str, ...] = ()
+
+
+def calibrate_recording(
+    path: str | Path | Sequence[str | Path],
+    kin: Kinematics,
+    tool: Tool,
+    settings: PipelineConfig | None = None,
+    use_filter: bool = True,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    joints_in_degrees: bool = False,
+    progress: ProgressSink | None = None,
+    restart: bool = False,
+    on_kept=None,
+    accept_poor_fit: bool = False,
+    topics: BagTopics | None = None,
+    layout: ChannelLayout = MALTESE_CROSS_8,
+    prior: Prior | None = None,
+    model: str = "linear",
+    full_channels: bool = False,
+    full_scale=None,
+    limits: ChannelLimits | None = None,
+) -> CalibrateResult:
+    """Calibrate from a recording (see the module docstring).
+
+    Args:
+        path: Recording (CSV or CSV.gz), or ROS 2 bags (``.mcap``, ``.db3``, bag folders),
+            each optionally ``BAG:CONFIGURATION`` (:mod:`fts_calib.sources.source`).
+        kin: Kinematics of the robot that made it.
+        tool: The calibration tool.
+        settings: Pipeline settings; the defaults when None.
+        use_filter: Keep only quasi-static samples (True) or every valid one.
+        checkpoint: Checkpoint file, or None.
+        resume: Continue from ``checkpoint``; it must be of this recording (the same first
+            MiB, at least as long).
+        joints_in_degrees: The joint columns are in degrees (converted to rad).
+        progress: A progress bar over the file's bytes, or None (its ``total`` is set here).
+        accept_poor_fit: Keep a calibration whose fit check is poor (its quality records the
+            verdict) instead of refusing it.
+        on_kept: Passed to the session (see :class:`fts_calib.session.session.CalibrationSession`).
+        restart: Start afresh over an existing ``checkpoint`` (overwriting it).
+        topics: Topic names of a bag; the defaults when None.
+        layout: The sensor's channel layout; a recording of another number of channels is
+            refused (ShapeError naming both).
+        prior: Shrink C_bar toward a known calibration (ridge, :mod:`fts_calib.model.prior`).
+        model: The sensor model setting ('linear', 'quadratic', 'cubic' or 'auto', chosen by
+            held-out error: :mod:`fts_calib.model.model_choice`).
+        full_channels: Regress on the raw channels (a free 6 x n C) instead of ``P Delta``.
+        full_scale: Full scale per wrench axis [N, N m], shape (6,), scaling the held-out errors and
+            the measured budget in %; a sensor file's default when None.
+        limits: The channels' declared resolution and rails (the sensor file's), in place of
+            ``settings.checks.limits``; None: those.
+            Rails not declared are detected (see the module docstring).
+
+    Raises:
+        RecordingError: The file cannot be read at all (missing, no data row, a missing
+            column, a truncated .csv.gz; for a bag, a missing topic or joint: BagError), or its clock is not one in s for its joints
+            (:mod:`fts_calib.filters.clock`): refused before anything is solved or written.
+        ConfigError: ``checkpoint`` exists and neither ``resume`` nor ``restart`` is given,
+            both are, ``resume`` without a checkpoint, or ``checkpoint`` is the recording.
+        FileFormatError: ``resume`` with the checkpoint of another robot, tool or recording.
+    """
+    start = time.perf_counter()
+    paths = recording_paths(path)
+    check_start(checkpoint, resume, restart)
+    check_distinct({"--checkpoint": checkpoint}, {("the recording" if k == 0 else f"recording {k + 1}"): p for k, p in enumerate(paths)})
+    settings = settings or PipelineConfig()
+    settings = settings if limits is None else settings.with_limits(limits)
+    pending: list[tuple] = []  # the kept samples of a run that may be done again, for on_kept
+    models = {"model": model, "full_channels": full_channels, "full_scale": full_scale}
+    run = _Run(paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models)
+    first = settings_for_first_read(settings, resume)  # latency_s auto: the latency is fitted on the way
+    session, problems, rows, lost = run.read(resume, first, on_kept=None if on_kept is None else lambda *a: pending.append(a))
+    found = None if resume or session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
+    again = settings_with_latency(settings, session.filter) if first is not settings else None
+    if found is not None or again is not None:  # a rail nobody declared, or the latency: calibrate again with them
+        settings = (again or settings).with_limits(found) if found is not None else again or settings
+        session, problems, rows, lost = run.read(False, settings, on_kept)
+    elif on_kept is not None:
+        for kept in pending:
+            on_kept(*kept)
+    if progress is not None:
+        progress.close()
+    # what is really missing comes first: a configuration all of whose rows were unreadable
+    hint = "; ".join(lost)
+    session.joints_in_degrees = joints_in_degrees  # the diagnosis of a poor fit tries the joints in rad
+    try:
+        calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
+    except (InsufficientExcitation, PoorFit) as exc:
+        calibration, error = None, exc
+    seconds, detected = time.perf_counter() - start, (() if found is None else found.detected)
+    return CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency, detected=detected)
+
+
+def calibrate(
+    recording_or_arrays,
+    *,
+    robot,
+    tool,
+    sensor="sensor",
+    settings=None,
+    use_filter: bool = True,
+    joints_in_degrees: bool = False,
+    accept_poor_fit: bool = False,
+    prior: Prior | None = None,
+) -> Calibration:
+    """Calibrate a sensor from a recording or from arrays in memory: the ``calibrate`` command, from Python.
+
+    The calibration holds what the command writes (the fit check, the measured accuracy
+    budget, the stream-latency estimate): ``calibrate(...).save(path)`` writes the same file.
+
+    Args:
+        recording_or_arrays: A recording (CSV or CSV.gz; time, joints, ``strain_1..n``,
+            tool), ROS 2 bags, or a list of them; or arrays in memory: a
+            :class:`~fts_calib.sources.batch.SampleBatch`, or a mapping with ``time`` [s] (N,),
+            ``joints`` [rad] (N, n_joints) in the robot's joint order, ``channels`` (N, n)
+            raw, ``configuration`` (one tool configuration name, or one per sample), and
+            optionally ``temperature`` [°C] (N,).
+        robot: A shipped robot name (``"ur5"``), a robot YAML path, a
+            :class:`~fts_calib.robot.definition.RobotDefinition` or a
+            :class:`~fts_calib.robot.kinematics.Kinematics`.
+        tool: The calibration tool: a shipped name (``"paper_tool"``), a tool YAML path or a
+            :class:`~fts_calib.robot.tool.Tool`. Required: a wrong tool gives a wrong C.
+        sensor: The sensor: a shipped name (``"sensor"``: the paper's 8 bridges), a YAML
+            path or a :class:`~fts_calib.model.sensor_config.SensorSpec` (its channel layout
+            and full scale).
+        settings: Pipeline settings: a :class:`~fts_calib.filters.settings.PipelineConfig`,
+            a shipped name or a YAML path; the shipped ``pipeline`` when None.
+        use_filter: Keep only the quasi-static samples (False: every valid one).
+        joints_in_degrees: The joint readings are in degrees.
+        accept_poor_fit: Return a calibration whose fit check is poor instead of raising.
+        prior: Shrink C_bar toward a known calibration (:mod:`fts_calib.model.prior`).
+
+    Returns:
+        The calibration.
+
+    Raises:
+        InsufficientExcitation: The data cannot determine C; the message says what is missing.
+        PoorFit: The data do not fit the tool's model (and ``accept_poor_fit`` is False).
+        RecordingError: A recording cannot be read (the message names file, line and column).
+        ShapeError: Arrays of inconsistent lengths or a wrong number of channels.
+        ResourceNotFound: A name that is neither a file nor shipped.
+
+    Example::
+
+        calibration = fts_calib.calibrate("recording.csv.gz", robot="ur5", tool="paper_tool")
+        calibration.save("calibration.yaml")
+    """
+    kin = robot if isinstance(robot, Kinematics) else Kinematics(robot if isinstance(robot, RobotDefinition) else load_robot(robot))
+    tool = tool if isinstance(tool, Tool) else load_tool(tool)
+    spec = sensor if isinstance(sensor, SensorSpec) else load_sensor_config(sensor)
+    if not isinstance(settings, PipelineConfig):
+        settings = load_pipeline_config(locate("pipeline" if settings is None else settings, "configs"))
+    settings = settings if settings.nominal_c is not None else settings.with_nominal_c(nominal_c(spec))
+    if isinstance(recording_or_arrays, (str, Path)) or (
+        isinstance(recording_or_arrays, Sequence) and all(isinstance(p, (str, Path)) for p in recording_or_arrays)
+    ):
+        result = calibrate_recording(
+            recording_or_arrays,
+            kin,
+            tool,
+            settings,
+            use_filter=use_filter,
+            joints_in_degrees=joints_in_degrees,
+            accept_poor_fit=accept_poor_fit,
+            layout=spec.layout,
+            prior=prior,
+            full_scale=spec.full_scale,
+            limits=spec.limits,
+            model=spec.model,
+            full_channels=spec.full_channels,
+        )
+        if result.calibration is None:
+            raise result.error if result.error is not None else InsufficientExcitation(0, 7)
+        return result.calibration
+    session = CalibrationSession(
+        kin,
+        tool,
+        settings.with_limits(spec.limits),
+        use_filter=use_filter,
+        source="arrays in memory",
+        layout=spec.layout,
+        full_scale=spec.full_scale,
+        model=spec.model,
+        full_channels=spec.full_channels,
+    )
+    if isinstance(recording_or_arrays, SampleBatch):
+        batch = recording_or_arrays
+        session.add_samples(dataclasses.replace(batch, joints=np.radians(batch.joints)) if joints_in_degrees else batch)
+    elif isinstance(recording_or_arrays, Mapping):
+        arrays = recording_or_arrays
+        missing = [key for key in ("time", "joints", "channels", "configuration") if key not in arrays]
+        if missing:
+            given = ", ".join(map(str, arrays)) or "none"
+            raise ShapeError(f"recording_or_arrays has no {missing}: expected time, joints, channels and configuration (given: {given})")
+        joints = np.radians(np.asarray(arrays["joints"], dtype=float)) if joints_in_degrees else arrays["joints"]
+        session.add_batch(arrays["time"], joints, arrays["channels"], arrays["configuration"], arrays.get("temperature"))
+    else:
+        raise ShapeError(
+            f"recording_or_arrays is a {type(recording_or_arrays).__name__}: expected a recording path (or a list of them), "
+            "a SampleBatch, or a mapping with time, joints, channels and configuration"
+        )
+    session.flush()
+    session.joints_in_degrees = joints_in_degrees
+    return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)
+
+
+def _counting(files: RecordingSet, per_file: np.ndarray, on_kept):
+    """``on_kept`` that first adds each kept sample to ``per_file`` [the index of its file in ``files``]."""
+
+    def counted(time, *rest):
+        index = files.file_of(time)
+        per_file[:] += np.bincount(index[index >= 0], minlength=len(per_file))
+        if on_kept is not None:
+            on_kept(time, *rest)
+
+    return counted
+
+
+class _Run:
+    """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice."""
+
+    def __init__(self, paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models):
+        self.paths, self.kin, self.tool = paths, kin, tool
+        self.use_filter, self.checkpoint, self.topics, self.layout = use_filter, checkpoint, topics, layout
+        self.joints_in_degrees, self.progress, self.models = joints_in_degrees, progress, models
+
+    def read(self, resume: bool, settings: PipelineConfig, on_kept) -> tuple[CalibrationSession, list[str], int, list[str]]:
+        """The session after the whole recording (with these settings).
+
+        Returns:
+            The session, the reader's notes, the rows read and the configurations none of
+            whose rows could be read.
+        """
+        paths, kin, tool, checkpoint, progress = self.paths, self.kin, self.tool, self.checkpoint, self.progress
+        source = describe_files(paths)
+        live = settings.live
+        with open_recording(
+            paths, kin.joint_names, tool.names, settings.checks.max_abs_channel, self.topics, kin.continuous, live.max_gap_s, live.latency_s
+        ) as reader:
+            if progress is not None:
+                progress.total = max(float(reader.size), 1.0)
+            record = None if checkpoint is None else recording_source(paths)
+            layout = self.layout
+            files = reader if isinstance(reader, RecordingSet) else None
+            per_file = None if files is None else np.zeros(len(files.paths), dtype=np.int64)
+            if files is not None and per_file is not None:  # count each file's kept samples, to name the files with none
+                on_kept = _counting(files, per_file, on_kept)
+            if resume and checkpoint is not None and Path(checkpoint).exists():
+                per_file = None  # the samples before the checkpoint are not at hand
+                session = CalibrationSession.resume(
+                    checkpoint, kin, tool, settings, source=source, source_record=record, layout=layout, **self.models
+                )
+            else:
+                session = CalibrationSession(
+                    kin,
+                    tool,
+                    settings,
+                    checkpoint,
+                    self.use_filter,
+                    source,
+                    on_kept=on_kept,
+                    source_record=record,
+                    layout=layout,
+                    **self.models,
+                )
+            session.orientation_source = orientation_source(reader, kin.joint_names)
+            degrees = self.joints_in_degrees
+            chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if degrees else c for c in reader)
+            for chunk in clock_checked(reader.path, chunks, kin, settings.filter if self.use_filter else None, degrees):
+                session.add_samples(chunk)
+                if progress is not None:
+                    progress.update(reader.bytes_read, reader.rows_read)
+            for reason, count in reader.skipped.items():
+                session.note_skipped(reason, count)
+            problems, rows = reader.notes(), reader.rows_read
+            lost = reader.unusable_configurations()
+            session.flush()
+            if files is not None and per_file is not None and not per_file.all():
+                empty = [files.paths[k].name for k in np.flatnonzero(per_file == 0)]
+                listed = ", ".join(empty[:10]) + (f" and {len(empty) - 10} more" if len(empty) > 10 else "")
+                problems.insert(
+                    1, f"{len(empty)} of {len(per_file)} files with no still sample kept: {listed}; the run goes on without them"
+                )
+        if progress is not None:
+            progress.update(progress.total, rows)
+        session.checkpoint()
+        return session, problems, rows, lost
+
+
+# --- from pipeline.live ---
+_BATCH_S = 0.02  # how often paired samples go to the session [s]
+#: Signals that end a run like Ctrl-C: checkpoint and calibration written (SIGHUP: the terminal closed).
+_STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
+class LiveRunner:
+    """Runs a session on live feeds (see the module docstring).
+
+    Args:
+        session: The calibration session (fresh or resumed).
+        receiver: The UDP receiver.
+        sync: The synchronizer of the two streams, made with the session tool's
+            ``configurations`` (so that its indices are the tool's).
+        status: Where to print the status line (None: no status).
+        status_interval_s: Time between status lines [s].
+        rtde: A UR controller's RTDE poller (:mod:`fts_calib.sources.ur`) that gives the joints
+            (and the built-in sensor's wrench); the datagrams then add what it does not give.
+        plan: What the sized plan expects (:mod:`fts_calib.session.plan_progress`): the status
+            line then shows the motion left and the configuration to mount next.
+    """
+
+    def __init__(
+        self,
+        session: CalibrationSession,
+        receiver: UdpReceiver,
+        sync: Synchronizer,
+        status: TextIO | None = None,
+        status_interval_s: float = 0.5,
+        rtde: RtdePoller | None = None,
+        plan: PlanProgress | None = None,
+    ):
+        if sync.configurations != session.tool.names:
+            raise FtsCalibError(
+                f"the synchronizer indexes configurations {sync.configurations}, the session's tool has {session.tool.names}: "
+                "make it with Synchronizer(..., configurations=tool.names)"
+            )
+        self.session = session
+        self.receiver = receiver
+        self.sync = sync
+        self.status = status
+        self.status_interval_s = status_interval_s
+        self.rtde = rtde
+        self.plan = plan
+        self.stats = LiveStats()
+        self._stopping = False
+        self._rates: collections.deque[tuple[float, int, int]] = collections.deque(maxlen=20)  # (wall time, joints, strain) for the rates
+        self._shown = 0
+        self._stream: tuple[float, float, int] | None = None  # (first time [s], last time [s], samples) the session was given
+
+    def stop(self, *_args) -> None:
+        """Ask the run to end (signal handler)."""
+        self._stopping = True
+
+    def _handle(self, data: bytes, sender: object = None) -> None:
+        message = feed_datagram(data, None if self.rtde is not None else self.sync, self.stats, sender)
+        if self.rtde is not None and message is not None:
+            self.rtde.route(message, self.sync)
+
+    def _drain_rtde(self) -> int:
+        """The RTDE samples read since the last call, into the synchronizer (counted as joint and strain messages)."""
+        if self.rtde is None:
+            return 0
+        count = self.rtde.drain(self.sync)
+        self.stats.joints += count
+        self.stats.strain += count if self.rtde.wrench else 0
+        return count
+
+    def _feed(self, final: bool = False) -> None:
+        self._drain_rtde()
+        batch = self.sync.pop(final)
+        if len(batch.time):
+            first, _, count = self._stream or (float(batch.time[0]), 0.0, 0)
+            self._stream = (first, float(batch.time[-1]), count + len(batch.time))
+            self.session.add_samples(batch)
+
+    def stream_rate_hz(self) -> float | None:
+        """The channel rate the stream shows on its own clock [Hz] (samples over time), or None before 1 s of it."""
+        if self._stream is None or self._stream[1] - self._stream[0] < 1.0:
+            return None
+        first, last, count = self._stream
+        return (count - 1) / (last - first)
+
+    def status_line(self) -> str:
+        """Rates, kept %, counts per configuration, rank and what is missing."""
+        now = time.monotonic()
+        self._rates.append((now, self.stats.joints, self.stats.strain))
+        t0, j0, s0 = self._rates[0]
+        span = max(now - t0, 1e-9)
+        p = self.session.progress()
+        per = " ".join(f"{k} {v}" for k, v in p.kept_by_configuration.items())
+        bad = self.stats.malformed + self.stats.oversized
+        text = (
+            f"t {p.last_time if p.last_time is not None else 0.0:8.2f} s | joints {(self.stats.joints - j0) / span:6.0f} Hz "
+            f"strain {(self.stats.strain - s0) / span:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} "
+            f"| rank {p.rank} of {p.full_rank}"
+        )
+        if bad:
+            text += f" | bad datagrams {bad}"
+        if self.stats.gaps:
+            text += f" | lost datagrams {self.stats.gaps}"
+        if self.plan is not None:
+            text += f" | {self.plan.at_rate(self.stream_rate_hz()).status(p)}"
+        if p.missing:
+            text += f" | missing: {p.missing}"
+        return text
+
+    def _show(self, line: str, end: str = "") -> None:
+        if self.status is None:  # the callers only show a line when there is a status stream
+            return
+        line = line[:240]
+        self.status.write("\r" + line.ljust(self._shown) + end)  # spaces clear a longer previous line
+        self.status.flush()
+        self._shown = 0 if end else len(line)
+
+    def run(self, idle_timeout_s: float | None = None, duration_s: float | None = None) -> LiveStats:
+        """Process messages until the run ends; return the counts.
+
+        Args:
+            idle_timeout_s: End after this long without any datagram [s]; None waits forever.
+            duration_s: End after this long in any case [s]; None for no limit.
+        """
+        start, cpu0 = time.monotonic(), time.process_time()
+        last_data = last_feed = last_status = start
+        previous = {}
+        if threading.current_thread() is threading.main_thread():
+            previous = {sig: signal.signal(sig, self.stop) for sig in _STOP_SIGNALS}
+        if self.rtde is not None:
+            self.rtde.start()
+        try:
+            while not self._stopping and not self.stats.ended:
+                datagrams = self.receiver.drain_from()
+                now = time.monotonic()
+                if self._drain_rtde():
+                    last_data = now
+                if self.rtde is not None and self.rtde.samples == 0 and now - start >= self.rtde.timeout_s:
+                    self.rtde.error = FeedTimeout("the first sample of the UR controller (RTDE)", self.rtde.timeout_s)
+                if self.rtde is not None and self.rtde.error is not None:
+                    break  # the controller's connection is lost: what was read is kept
+                if datagrams:
+                    last_data = now
+                    for data, sender in datagrams:
+                        self._handle(data, sender)
+                        if self.stats.ended:
+                            break
+                else:
+                    time.sleep(0.002)
+                if now - last_feed >= _BATCH_S:
+                    self._feed()
+                    last_feed = now
+                if self.status is not None and now - last_status >= self.status_interval_s:
+                    self._show(self.status_line())
+                    last_status = now
+                if idle_timeout_s is not None and now - last_data >= idle_timeout_s:
+                    break
+                if duration_s is not None and now - start >= duration_s:
+                    break
+        except KeyboardInterrupt:
+            pass
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+            if self.rtde is not None:
+                self.rtde.stop()
+        for data, sender in self.receiver.drain_from():  # whatever arrived with the end
+            self._handle(data, sender)
+        self._feed(final=True)
+        self.session.flush()
+        self.session.checkpoint()
+        if self.status is not None:
+            self._show(self.status_line(), end="\n")
+        self.stats.wall_s = time.monotonic() - start
+        self.stats.cpu_s = time.process_time() - cpu0
+        return self.stats
+
+
+def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
+    """Message counts and CPU use of a live run, one line each."""
+    lines = [
+        f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
+        f"{stats.malformed} malformed and {stats.oversized} oversized skipped, {_lost(stats)}"
+        f"{f', {stats.duplicates:,} duplicates dropped (a seq number received twice)' if stats.duplicates else ''}; "
+        f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
+        f"({100 * stats.cpu_s / max(stats.wall_s, 1e-9):.0f} % of one core)"
+    ]
+    if stats.first_malformed is not None:
+        lines.append(f"  the first skipped: {stats.first_malformed}")
+    if sync.dropped:
+        lines.append("strain samples not paired: " + ", ".join(f"{r}: {n:,}" for r, n in sync.dropped.items()))
+    return "\n".join(lines)
+
+
+def _lost(stats: LiveStats) -> str:
+    """The datagrams lost on the way, in words: counted from ``seq``, or not measurable without it."""
+    if not stats.seq.sequenced:
+        return "losses not counted (no datagram with a seq number)"
+    return f"{stats.gaps:,} lost on the way (gaps in seq)"

@@ -1,0 +1,67 @@
+"""A simulated recording of a payload moved continuously, with late and noisy joint readings.
+
+The payload's Newton-Euler wrench (:meth:`fts_calib.robot.tool.ToolConfiguration.dynamic_wrench`,
+from the planned positions, velocities and accelerations) goes through the simulated sensor
+(noise, 24-bit ADC); the joint readings are those of ``latency_s`` earlier (the row of time t
+holds the joints of t - latency_s, as a joint stream that lags the channels), with white noise
+of ``joint_noise`` [rad] and the rounding of a 20-bit encoder; the offsets may drift. Times in [s], angles in [rad].
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..robot.kinematics import Kinematics
+from ..robot.tool import ToolConfiguration
+from ..sources.recording import RecordingWriter
+from .drift import OffsetDrift
+from .sensor import SimulatedSensor
+
+ENCODER_STEP = 2 * np.pi / 2**20  # [rad] a 20-bit encoder's step
+
+
+def simulate_payload_motion(
+    path: str | Path,
+    kin: Kinematics,
+    payload: ToolConfiguration,
+    sensor: SimulatedSensor,
+    motion: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    rng: np.random.Generator | None,
+    latency_s: float = 0.0,
+    joint_noise: float = 0.0,
+    gravity: float | None = None,
+    drift: OffsetDrift | None = None,
+) -> Path:
+    """Write the recording of ``payload`` moved along ``motion`` (see the module docstring).
+
+    Args:
+        path: Recording to write (``.csv`` or ``.csv.gz``).
+        kin: Kinematics.
+        payload: The payload (its inertia: a point mass when None).
+        sensor: The simulated sensor.
+        motion: ``(time (N,), q, qd, qdd (N, n_joints))`` in [s, rad, rad/s, rad/s^2]
+            (e.g. :func:`fts_calib.payload.inertia_motion.payload_excitation`).
+        rng: Random generator of the sensor and joint noise (noiseless and unrounded when None).
+        latency_s: How late the joint readings are [s].
+        joint_noise: Standard deviation of the joint reading noise [rad].
+        gravity: Magnitude of gravity [m/s^2]; the robot model's when None.
+        drift: Offsets that move from the start of the motion (:class:`fts_calib.sim.drift.OffsetDrift`);
+            constant when None.
+
+    Returns:
+        The path written.
+    """
+    time, q, qd, qdd = (np.asarray(v, dtype=float) for v in motion)
+    state = kin.sensor_motion(q, qd, qdd)
+    g = np.einsum("nji,j->ni", state.R_world_sensor, kin.g_world(gravity))
+    wrench = payload.dynamic_wrench(g, state.omega, state.alpha, state.a)
+    if drift is not None:
+        wrench = wrench - drift.offsets(time - time[0], 0)  # the sensor reads W - delta D: its offsets moved
+    readings = np.stack([np.interp(time - latency_s, time, q[:, k]) for k in range(q.shape[1])], axis=1)
+    if rng is not None:
+        readings = np.round((readings + joint_noise * rng.standard_normal(readings.shape)) / ENCODER_STEP) * ENCODER_STEP
+    with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels) as writer:
+        writer.write(time, readings, sensor.channels(wrench, time=time, rng=rng), payload.name)
+    return Path(path)
