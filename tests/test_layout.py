@@ -1,4 +1,4 @@
-"""The stage layout of DESIGN.md: imports go one way, modules stay small, the API stays whole."""
+"""The stage layout (docs/architecture.md): imports go one way and never in a circle, one concept per module, the API stays whole."""
 
 import ast
 import builtins
@@ -9,7 +9,7 @@ import pytest
 import fts_calib
 
 PACKAGE = Path(fts_calib.__file__).resolve().parent
-#: The stages in import order: a stage imports only from stages before it (DESIGN.md, "Architecture").
+#: The stages in import order: a stage imports only from stages before it (docs/architecture.md).
 STAGES = (
     *("core", "model", "robot", "sources", "filters", "budget", "session"),
     *("planning", "payload", "service", "monitor", "sim", "report", "app"),
@@ -56,6 +56,56 @@ def _imports_of(source: str, dotted: str, is_package: bool) -> list[tuple[int, s
 def _stage(dotted: str) -> str | None:
     parts = dotted.split(".")
     return parts[1] if len(parts) > 1 and parts[1] in STAGES else None
+
+
+def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in edges.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            part = []
+            while True:
+                w = stack.pop()
+                part.append(w)
+                if w == v:
+                    break
+            if len(part) > 1:
+                found.append(sorted(part))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def _module_of(name: str, modules: set[str]) -> str | None:
+    """The module an imported dotted name lives in (``fts_calib.a.b.Name`` -> ``fts_calib.a.b``), or None."""
+    while name and name not in modules:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def test_no_module_imports_itself_through_others_not_even_lazily_or_for_typing():
+    """Every import counts (top level, inside functions, under TYPE_CHECKING): a circle means one concept split apart."""
+    modules = {_dotted(p) for p in _modules()}
+    edges = {
+        _dotted(p): {m for _, name in _imports(p) if (m := _module_of(name, modules)) is not None and m != _dotted(p)} for p in _modules()
+    }
+    edges = {m: {d for d in deps if d != "fts_calib"} for m, deps in edges.items() if m != "fts_calib"}
+    assert not _cycles(edges), f"import circles: {_cycles(edges)}"
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]  # the checker sees one
 
 
 def test_every_module_lives_in_a_stage():

@@ -159,7 +159,7 @@ def test_a_turn_within_three_declared_tolerances_is_never_named(ur5_recording, u
     assert not any(word in result.calibration.quality.fit["diagnosis"] for word in MOUNT_WORDS), result.calibration.quality.fit
     session = result.session
     chosen = session.estimator.model_in_use()[0]
-    per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)[1]
+    per_configuration = model_fit_sums(session.fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)[1]
     check = session.fit_check()
     assert mount(session, check, per_configuration) is None
     if tolerances > 1.0:  # the same data with the shipped file's tolerance (0.011 deg): named

@@ -72,7 +72,6 @@ from .exit_codes import ExitCode, writing
 from .trajectory import write_run
 
 
-# --- from app.demo_drift ---
 @dataclasses.dataclass(frozen=True)
 class DriftReport:
     """What the drifting demo found.
@@ -155,7 +154,6 @@ def _axes(values: np.ndarray, signed: bool = True) -> str:
     return ", ".join(f"{a} {v:{form}} {u}" for a, v, u in zip(WRENCH_AXES, values, WRENCH_UNITS, strict=True))
 
 
-# --- from app.demo ---
 #: The paper's validation: "the measurement error of the force Fx is less than 10%".
 PAPER_ERROR_PERCENT = 10.0
 

@@ -35,7 +35,6 @@ from ..sources.udp import LiveStats, Strain, UdpReceiver, feed_datagram
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import load_sensor, load_setup
 
-# --- from app.monitor_offsets ---
 #: Windows without contact before an automatic re-tare is trusted.
 MIN_UPDATES = 10
 #: Samples whose median time step sizes the windows (0.1 s), whatever batches they arrive in.
@@ -180,7 +179,6 @@ class OffsetFeed:
         }
 
 
-# --- from app.monitor ---
 def run(
     *,
     recording: str | Path | Sequence[str | Path],

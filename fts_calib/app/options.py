@@ -31,7 +31,6 @@ from ..model.offset_models import OFFSET_SETTINGS
 from ..sources.bag import JOINT_STAMPS, BagTopics
 from ..sources.ur import TIMEOUT_S
 
-# --- from app.feed_arguments ---
 #: Help text of the recording argument of calibrate, validate and replay.
 RECORDING_HELP = (
     "recording CSV (or .csv.gz); several CSVs read as one, in order (e.g. one per static pose: a.csv b.csv, or a quoted "
@@ -125,7 +124,6 @@ def add_ur(parser: argparse.ArgumentParser) -> None:
     )
 
 
-# --- from app.offset_arguments ---
 def add_offsets(parser: argparse.ArgumentParser) -> None:
     """--model and --offsets: the sensor model and the estimator's offset model (calibrate, live)."""
     parser.add_argument(
@@ -176,7 +174,6 @@ def add_return_pass(parser: argparse.ArgumentParser) -> None:
     )
 
 
-# --- from app.report_arguments ---
 def add_report_option(parser: argparse.ArgumentParser, what: str) -> None:
     """--report FILE.html: the one-page HTML report of the run (calibrate, live, validate)."""
     parser.add_argument(
@@ -214,7 +211,6 @@ def add_report(commands, add) -> None:
     )
 
 
-# --- from app.sensor_arguments ---
 def add_sensor(parser: argparse.ArgumentParser) -> None:
     """--sensor: the sensor configuration whose channel layout the data must have (calibrate, live)."""
     parser.add_argument(

@@ -34,7 +34,6 @@ from .options import (
     add_ur,
 )
 
-# --- from app.parser ---
 #: Image formats a plot may be written in (matplotlib's Agg backend; no suffix: PNG).
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
 
@@ -106,7 +105,6 @@ def add_address(text: str) -> tuple[str, int]:
     return (host or "127.0.0.1"), number
 
 
-# --- from app.monitor_arguments ---
 def add_monitor(commands, add: Callable[..., argparse.ArgumentParser], address: Callable[[str], tuple[str, int]]) -> None:
     """The ``monitor`` sub-command; ``add`` makes a sub-command's parser, ``address`` parses HOST:PORT (the parser module's)."""
     mon = add(
@@ -160,7 +158,6 @@ def add_monitor(commands, add: Callable[..., argparse.ArgumentParser], address: 
     )
 
 
-# --- from app.service_arguments ---
 #: fts_calib.payload.still.MIN_SPREAD_DEG [deg], written here: importing it would load the
 #: kinematics into the parser (tests/test_app.py checks the two defaults agree).
 MIN_SPREAD_DEG = 3.0
@@ -268,7 +265,6 @@ def add_export(commands) -> None:
     exp.add_argument("--world-frame", default="world", help="TF frame with z up (ros2, default world)")
 
 
-# --- from app.arguments ---
 def _robot_and_tool(parser: argparse.ArgumentParser, pipeline: bool = True, tool_required: bool = True, orientations: str = "") -> None:
     if orientations:  # the recording or feed (this text) may give the sensor's orientation instead of joints
         add_robot_or_orientation(parser, orientations)

@@ -33,7 +33,6 @@ from .exit_codes import ExitCode, using_udp, writing
 from .setup import load_robot_or_orientation, load_settings
 
 
-# --- from app.payload_motion ---
 def format_motion_payload(found: RecordedMotionPayload) -> str:
     """The estimate with its standard errors, with units."""
     est = found.estimate
@@ -155,7 +154,6 @@ def _write(found: RecordedMotionPayload, source: str, kin: Kinematics, output: s
     return ExitCode.OK
 
 
-# --- from app.payload ---
 def format_payload(estimate: PayloadEstimate, rows: int) -> str:
     """The estimate with its standard errors, with units; ``rows`` samples were read."""
     lines = [

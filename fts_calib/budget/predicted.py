@@ -49,7 +49,6 @@ from .propagation import AccuracyBudget, ErrorSource
 from .sensitivities import MotionUncertainty, dynamic_error_sources, stops, wrench_derivatives
 
 
-# --- from planning.accuracy ---
 class Plan(Protocol):
     """What a budget reads of a planned motion (:class:`fts_calib.planning.motion.Plan` is one)."""
 
@@ -127,7 +126,6 @@ def plan_budget(
     return sample_budget(kin, tool, joints, codes, rates, stop, x, sigma_w, C_bar, D, full_scale, weight=weight)
 
 
-# --- from planning.dynamic_accuracy ---
 def plan_jerk(plan: Plan) -> np.ndarray:
     """Joint jerks along a plan [rad/s^3], from its accelerations (central differences). Shape (N, n_joints)."""
     if len(plan.time) < 2:

@@ -58,7 +58,6 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
 from .propagation import ErrorSource
 
-# --- from robot.sensitivities ---
 #: The names of the sources :func:`load_error_sources` returns, in order.
 SOURCE_NAMES = ("tool mass", "tool centre of mass", "sensor mount", "joint encoders", "stream latency", "timing jitter")
 
@@ -146,7 +145,6 @@ def load_error_sources(
     return sources
 
 
-# --- from robot.dynamic_sensitivities ---
 #: The names of the sources :func:`dynamic_error_sources` returns.
 DYNAMIC_SOURCE_NAMES = ("tool inertia", "joint noise", "stream latency", "timing jitter")
 

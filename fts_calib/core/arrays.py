@@ -19,7 +19,6 @@ import numpy.typing as npt
 from .exceptions import ConfigError, ShapeError
 
 
-# --- from core.arrays ---
 def as_floats(value, name: str) -> np.ndarray:
     """``value`` as a float array; ShapeError naming ``name`` when it holds something else than numbers."""
     try:
@@ -93,7 +92,6 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-# --- from core.validation ---
 def number(field: str, value: object, unit: str = "", owner: str = "") -> float:
     """``value`` as a finite float.
 

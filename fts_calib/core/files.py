@@ -52,7 +52,6 @@ from .bounded import parse_yaml, read_bounded_text
 from .exceptions import ConfigError, FileFormatError, OutputInUse
 from .tables import utf8_safe
 
-# --- from core.outputs ---
 try:
     import fcntl
 except ImportError:  # pragma: no cover - not POSIX: outputs are written unlocked
@@ -332,7 +331,6 @@ def new_file_mode() -> int:
     return 0o666 & ~mask
 
 
-# --- from core.fileio ---
 _DUMPERS: list[Any] = []  # the YAML dumper class, made on first use (PyYAML imported then)
 
 
@@ -524,7 +522,6 @@ def is_number(text: str) -> bool:
     return True
 
 
-# --- from core.paths ---
 PathLike = str | Path
 
 

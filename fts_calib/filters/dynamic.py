@@ -93,7 +93,6 @@ from .quasi_static import PERIOD_SAMPLES, QuasiStaticFilter, StillSamples, quasi
 from .settings import DYNAMIC, FilterConfig, PipelineConfig
 
 
-# --- from pipeline.trust ---
 def inertial_moment(tool: Tool, codes: np.ndarray, omega: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     """``I alpha + omega x I omega`` per sample [N m], shape (N, 3) (zero for a tool without inertia)."""
     if len(codes) and codes[0] == codes[-1] and np.all(codes == codes[0]):  # one configuration (the usual block): no copies
@@ -212,7 +211,6 @@ def trust_weights(random: np.ndarray, systematic: np.ndarray, sigma_w: np.ndarra
     return 1.0 / (1.0 + rho * rho), ratio(systematic) <= max_ratio
 
 
-# --- from pipeline.dynamic ---
 #: The rules of the dynamic filter, in the order they are reported.
 DYNAMIC_RULES = ("derivative window cut", "expected wrench not trusted")
 #: Samples whose third differences set the noise levels (the first of the stream).

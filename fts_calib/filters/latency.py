@@ -52,7 +52,6 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
 from .quasi_static import joint_rates
 
-# --- from pipeline.latency ---
 _MIN_SPEED = 0.2  # [rad/s] a joint at least this fast: the wrench changes enough to show a lag
 _MIN_MOVE_SAMPLES = 20  # a move shorter than this gives no estimate of its own
 _OUTLIER = 5.0  # residuals beyond this many robust spreads are not "well predicted"
@@ -172,7 +171,6 @@ def estimate_latency(
     return LatencyEstimate(mean, stderr, k, int(good.sum()))
 
 
-# --- from pipeline.latency_fit ---
 #: Fewest samples for a latency estimate.
 MIN_SAMPLES = 200
 

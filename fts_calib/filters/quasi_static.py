@@ -60,7 +60,6 @@ from ..robot.tool import Tool, ToolLoad, dynamic_fraction, tool_load
 from ..sources.batch import SampleBatch
 from .settings import FilterConfig
 
-# --- from pipeline.qsfilter ---
 #: The rules, in the order they are reported.
 RULES = ("joint speed", "joint acceleration", "strain not stationary", "dynamic wrench")
 
@@ -395,7 +394,6 @@ class QuasiStaticFilter:
         return joints_ok & strain_ok, velocity, acceleration
 
 
-# --- from pipeline.still ---
 @dataclass(frozen=True)
 class StillSamples:
     """The samples the filter decided, which of them are quasi-static, and the load of those.

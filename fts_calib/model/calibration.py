@@ -41,7 +41,6 @@ from .parity import ParityModel
 from .region import LoadRegion, region_from_dict
 
 
-# --- from model.quality ---
 @dataclass(frozen=True)
 class Quality:
     """How good a calibration is.
@@ -200,7 +199,6 @@ def quality_from_dict(raw: Any, path: Path, n: int) -> Quality:
         raise FileFormatError(path, "quality", str(exc)) from None
 
 
-# --- from model.calibration ---
 #: Value of the ``format`` field of a calibration file.
 FORMAT = "fts-calib/1"
 

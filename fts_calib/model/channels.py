@@ -46,7 +46,6 @@ from ..core.bounded import MAX_CHANNELS
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, ShapeError, StructureError
 
-# --- from model.sensor ---
 #: Projection of the 8 bridge strains onto the 6 wrench-like combinations (paper eq 6).
 P = frozen(
     [
@@ -152,7 +151,6 @@ def wrench_from_strain(C, channels, D=None) -> np.ndarray:
     return out[0] if single else out
 
 
-# --- from model.channels ---
 #: Names a layout can have, in the order the documentation gives them.
 LAYOUT_NAMES = ("maltese-cross-8", "wrench-6", "projection")
 

@@ -80,7 +80,6 @@ from .offset_models import (
 )
 from .prior import Prior
 
-# --- from model.estimator ---
 #: What full rank needs, in words: the one advice text of the estimator and the excitation report.
 RANK_ADVICE = (
     "One tool centre of mass gives at most rank 4, two give 6, three non-collinear ones "
@@ -387,7 +386,6 @@ class OnlineEstimator(SampleSums):
         return restore_estimator(cls, state)
 
 
-# --- from model.estimator_state ---
 def merge_estimators(first: OnlineEstimator, other: OnlineEstimator) -> OnlineEstimator:
     """A new estimator holding the data of both (as one pass over both would).
 
@@ -502,7 +500,6 @@ def restore_estimator(cls: type[OnlineEstimator], state: Mapping) -> OnlineEstim
     return out
 
 
-# --- from model.model_fit ---
 def fit_chosen(est: OnlineEstimator, selection: Selection):
     """``(units, M, sums, (Theta, rank, condition, pseudo-inverse))`` of the chosen candidate on every unit."""
     units = est.units

@@ -65,7 +65,6 @@ from .least_squares import RCOND, gram, residual_sums, solve_normal
 from .offset_models import Candidate, candidates
 
 
-# --- from model.unit_sums ---
 class UnitSums:
     """Per-unit sums of ``z z^T`` with ``z = [W; phi(u); b]`` (see the module docstring).
 
@@ -176,7 +175,6 @@ class UnitSums:
         self.loads.restore(state.get("loads"))
 
 
-# --- from model.model_choice ---
 #: Relative eigenvalue threshold of the minimum-norm rule for the directions of a nonlinear
 #: family that no load excites: those at the data's round-off. Directions that strain noise
 #: fills a little, or that the nonlinearity itself excites weakly (a few 1e-8 to 1e-6 of the

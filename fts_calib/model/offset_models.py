@@ -60,7 +60,6 @@ from ..core import arrays as validation
 from ..core.exceptions import ConfigError
 from .least_squares import excitation_rank, residual_sums, solve_normal
 
-# --- from model.offset_basis ---
 #: The offset models, simplest first.
 OFFSET_MODELS = ("constant", "per-configuration", "drift")
 #: The value of the offset setting that chooses the model from the data.
@@ -407,7 +406,6 @@ def choose(
     return min(scores, key=lambda item: item[1])[0], scores
 
 
-# --- from model.offset_trace ---
 #: Points kept at most.
 TRACE_POINTS = 64
 

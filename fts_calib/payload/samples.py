@@ -68,7 +68,6 @@ from ..sources.udp import LiveStats, UdpReceiver, feed_datagram
 from .moving import MotionPayloadEstimate, fit_payload_regressor
 
 
-# --- from service.payload_recording ---
 @dataclass(frozen=True)
 class PayloadSamples:
     """The accepted samples of a payload recording.
@@ -150,7 +149,6 @@ def check_payload_samples(
     return PayloadSamples(samples, rows, found, rails)
 
 
-# --- from service.payload_motion_recording ---
 _LATENCY_TOLERANCE_S = 2e-5  # [s] a latency step below this ends the alternation (the estimate's own error: tests/test_latency.py)
 _ROUNDS = 5  # fits at most
 _MISSING = 1.5  # an interval above this many sample periods has a sample missing
@@ -380,7 +378,6 @@ def identify_payload_from_samples(
     return RecordedMotionPayload(estimate, read.rows, float(used[-1] - used[0]) if len(used) else 0.0, read.rails)
 
 
-# --- from service.payload_live ---
 #: Idle timeout of a live payload motion [s]: the longest wait for the first datagram, and for the next.
 IDLE_TIMEOUT_S = 10.0
 _PLACEHOLDER = "payload"  # the configuration of the samples before any tool message

@@ -45,7 +45,6 @@ from ..model.least_squares import RCOND, coefficient_stderr, information_rank
 from ..model.offset_models import OffsetBasis
 from ..robot.tool import Tool
 
-# --- from planning.drift_excitation ---
 #: The pause between configurations assumed, in [s] (that of ``fts-calib simulate``).
 TOOL_CHANGE_S = 2.0
 
@@ -132,7 +131,6 @@ def predict_drift(
     )
 
 
-# --- from planning.excitation ---
 _SPHERE_POINTS = 2000  # probe directions for the coverage angle (mean spacing about 4.5 deg)
 
 

@@ -60,7 +60,6 @@ from .planner import PlanResult, check_plan, plan_base, plan_calibration
 from .smooth import smooth_plan
 from .sweeps import MIN_CLEARANCE, SweepPattern, raster, spanned
 
-# --- from planning.sizing ---
 #: The rasters searched: levels, stops, dwell [s] and span, every combination.
 LEVELS = (2, 3, 4)
 STOPS = (2, 3, 4, 6)
@@ -203,7 +202,6 @@ def size_plan(
     )
 
 
-# --- from planning.continuous ---
 #: The continuous rasters searched: levels, stops and span, every combination.
 CONTINUOUS_LEVELS = (2, 3, 4, 5)
 CONTINUOUS_STOPS = (1, 2, 3)
@@ -417,7 +415,6 @@ def _round_up(value: float) -> float:
     return math.ceil(value * 10**digits) / 10**digits
 
 
-# --- from planning.smooth_sizing ---
 #: Motion per configuration tried [s], shortest first.
 DURATIONS_S = (4.0, 5.0, 6.0, 7.0, 8.0, 10.0, 13.0, 16.0, 20.0, 25.0, 30.0, 40.0, 60.0)
 _STALL = 0.05  # a budget less than this fraction below the best so far, twice running, ends the search

@@ -65,7 +65,6 @@ from .svg import (
 )
 
 
-# --- from app.report_region ---
 def region_section(content: ReportContent) -> str:
     """Per axis the calibration's load region [low, high] as a band (the margin lighter), the samples' known wrench as dots.
 
@@ -119,7 +118,6 @@ def region_section(content: ReportContent) -> str:
     return _figure(svg, side)
 
 
-# --- from app.report_html ---
 #: The sections of a report, in order: (id, heading).
 SECTIONS = (
     ("verdict", "Verdict"),

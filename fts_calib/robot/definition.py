@@ -49,7 +49,6 @@ from ..core.exceptions import ConfigError, FileFormatError, JointError
 from ..core.files import check_keys, fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir, locate
 
-# --- from robot.definition ---
 #: How far the sensor frame may be from its parent frame, in [m]: an adapter plate or a tool changer
 #: puts it centimetres away; a metre is none of them, and a mount written in mm (35 for 0.035) is 35 m.
 MAX_MOUNT_OFFSET = 1.0
@@ -406,7 +405,6 @@ def load_robot(path: str | Path) -> RobotDefinition:
         )
 
 
-# --- from robot.urdf ---
 def build_model(robot: RobotDefinition) -> pin.Model:
     """Pinocchio's model of the robot definition's URDF.
 

@@ -76,7 +76,6 @@ from .joints import (
 )
 
 
-# --- from robot._batch ---
 def _skew_columns(axis: np.ndarray) -> tuple[int, int, float] | None:
     """For an axis equal to +-e_i: the two other column indices (cyclic) and the sign."""
     for i in range(3):
@@ -235,7 +234,6 @@ class Chain:
         )
 
 
-# --- from robot.motion ---
 @dataclass(frozen=True)
 class SensorMotion:
     """Velocity and classical acceleration of the sensor frame, expressed in the sensor frame.
@@ -255,7 +253,6 @@ class SensorMotion:
     R_world_sensor: np.ndarray
 
 
-# --- from robot.kinematics ---
 class Kinematics:
     """Forward kinematics of a robot definition, for one reading or a batch.
 

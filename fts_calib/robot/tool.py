@@ -72,7 +72,6 @@ if TYPE_CHECKING:  # the in-controller path (a tool for gravity compensation) lo
     from .kinematics import Kinematics, SensorMotion
 
 
-# --- from robot.wrench ---
 def wrench_matrix(mass: float, p_sensor_com) -> np.ndarray:
     """The (6, 3) matrix ``[m I; m [c]x]`` of eqs 17-18: ``W = wrench_matrix @ g_sensor``.
 
@@ -138,7 +137,6 @@ def dynamic_wrench(mass: float, p_sensor_com, inertia_com, g_sensor, omega_senso
     return out[0] if single and out.shape[0] == 1 else out
 
 
-# --- from robot.tool ---
 #: Default magnitude of gravity in [m/s^2].
 STANDARD_GRAVITY = 9.81
 
@@ -437,7 +435,6 @@ def save_tool(tool: Tool, path: str | Path, header: str = "") -> Path:
     return atomic_write_text(path, comments + dump_yaml(data))
 
 
-# --- from robot.tool_wrench ---
 @dataclass(frozen=True)
 class ToolLoad:
     """The tool's load on the sensor at each sample.

@@ -56,7 +56,6 @@ from ..robot.tool import Tool, tool_load
 from ..sources.bag import BagTopics
 from ..sources.source import open_recording
 
-# --- from service.validate_offsets ---
 #: Slack on the calibration run's time span [s]: samples this far outside still use the
 #: drift model (the trace's first and last points are samples, not the run's exact ends).
 TIME_SLACK_S = 1.0
@@ -144,7 +143,6 @@ def _fitted_configurations(model: Mapping, names: Sequence[str]) -> set[str]:
     return {n for n in names if f"offset {n}" in columns}
 
 
-# --- from service.validate ---
 _PLOT_POINTS = 20_000  # samples kept for the plot, at most twice this
 _WINDOW_S = FilterConfig().derivative_window_s  # the joint-rate window [s]: the filter's, so both see the same rates
 

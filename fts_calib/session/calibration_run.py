@@ -72,7 +72,6 @@ from .plan_progress import PlanProgress
 from .session import CalibrationSession
 
 
-# --- from pipeline.calibrate ---
 class ProgressSink(Protocol):
     """Where a long job reports how far it is (the command line's progress bar is one)."""
 
@@ -402,7 +401,6 @@ class _Run:
         return session, problems, rows, lost
 
 
-# --- from pipeline.live ---
 _BATCH_S = 0.02  # how often paired samples go to the session [s]
 #: Signals that end a run like Ctrl-C: checkpoint and calibration written (SIGHUP: the terminal closed).
 _STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))

@@ -52,27 +52,53 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
+from ..budget.measured import KeptSamples
+from ..filters.dynamic import DynamicFilter
+from ..filters.quasi_static import QuasiStaticFilter
 from ..filters.sample_checks import BACKWARDS, NON_FINITE, OUTSIDE_LIMITS
-from ..model.channels import WRENCH_AXES
+from ..filters.settings import PipelineConfig
+from ..model.channels import WRENCH_AXES, ChannelLayout
 from ..model.determination import Determination, LoadSums, determine
+from ..model.estimator import OnlineEstimator
 from ..model.features import features
 from ..model.least_squares import load_information
 from ..model.offset_models import candidates
+from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
 from ..sources.bag import is_pose_run
 from ..sources.batch import UNKNOWN_TOOL
 from .fit import CLEARLY_BETTER, MAX_RATIO, FitAllowance, FitCheck, _ratios, fit_rows, implausible_tool, model_fit_sums, robot_allowance
 from .frame_rotation import beside, fitting_turns, mimicked_turn, mount_words, rotation_angle
 
-if TYPE_CHECKING:
-    from .session import CalibrationSession
+
+class Diagnosed(Protocol):
+    """What the diagnosis reads of a calibration session (:class:`~fts_calib.session.session.Diagnosed` is one).
+
+    The session's tool, kinematics, estimator, layout and settings; its filter (its noise floor);
+    per configuration the kept samples' counts, fit sums and gravity directions
+    (:func:`~fts_calib.session.session.add_kept`), the kept samples themselves, the sensor's full
+    scale [N, N m] (6,), and what gives the orientation (``feeds.source``) or None.
+    """
+
+    kin: Kinematics
+    tool: Tool
+    estimator: OnlineEstimator
+    layout: ChannelLayout
+    settings: PipelineConfig
+    filter: QuasiStaticFilter | DynamicFilter | None
+    kept: np.ndarray
+    full_scale: np.ndarray
+    fit_sums: np.ndarray
+    directions: np.ndarray
+    kept_samples: KeptSamples
+    orientation_source: str | None
+    joints_in_degrees: bool
 
 
-# --- from pipeline.advice ---
 #: Kept samples of a configuration before it counts in the advice.
 MIN_SAMPLES = 10
 #: The advice when nothing specific is missing.
@@ -225,7 +251,6 @@ def undetermined_words(groups: Sequence[Sequence[str]]) -> str:
     return "; ".join(words)
 
 
-# --- from pipeline.diagnosis ---
 #: Condition number of the known loads' information (scaled to a unit diagonal) above which an
 #: axis counts as weakly excited. A plan of ``fts-calib trajectory`` reads 50 to 700.
 WEAK_CONDITION = 1e4
@@ -256,14 +281,14 @@ class Cause:
     ratio: float = math.nan
 
 
-def _seen_span(session: CalibrationSession) -> tuple[int, int, np.ndarray]:
+def _seen_span(session: Diagnosed) -> tuple[int, int, np.ndarray]:
     """(affine rank of the seen configurations' centres of mass, configurations seen, every centre of mass (k, 3))."""
     coms = np.array([c.p_sensor_com for c in session.tool.configurations])
     seen = [k for k in range(len(coms)) if session.kept[k] >= MIN_SAMPLES]
     return (_span(coms[seen]) if seen else -1), len(seen), coms
 
 
-def missing_centres(session: CalibrationSession) -> bool:
+def missing_centres(session: Diagnosed) -> bool:
     """Whether the configurations recorded lack the centres of mass that the tool file has (cause 1).
 
     True when the seen configurations' centres of mass are one point or lie on one line, and
@@ -283,7 +308,7 @@ def _span(points: np.ndarray) -> int:
     return int(np.linalg.matrix_rank(points - points[0], tol=1e-6)) if len(points) > 1 else 0
 
 
-def weak_excitation(session: CalibrationSession) -> Cause | None:
+def weak_excitation(session: Diagnosed) -> Cause | None:
     """The weakly excited wrench axis, its condition number and the motion that excites it (cause 3), or None.
 
     Centres of mass on one line leave a direction that no motion excites (a tool file's
@@ -308,7 +333,7 @@ def weak_excitation(session: CalibrationSession) -> Cause | None:
     name, i = WRENCH_AXES[axis], axis % 3
     others = " or ".join(f"its {a} axis" for a in _AXES if a != _AXES[i])
     if axis < 3:
-        directions = session._directions.sum(axis=0)  # sum of [u; 1][u; 1]^T over the configurations
+        directions = session.directions.sum(axis=0)  # sum of [u; 1][u; 1]^T over the configurations
         n = max(directions[3, 3], 1.0)
         spread = math.sqrt(max(directions[i, i] / n - (directions[i, 3] / n) ** 2, 0.0))
         seen = f"; gravity's {_AXES[i]} component in the sensor frame has a standard deviation of {spread:.2g} g"
@@ -340,24 +365,24 @@ def _weak_axis(sums: np.ndarray) -> int:
     return int(np.argmax(inflation))
 
 
-def _kept(session: CalibrationSession):
+def _kept(session: Diagnosed):
     """The kept samples ``(time, W, channels, configuration, joints)``, or None when not all are at hand (a resumed session)."""
-    arrays = session._kept_samples.arrays()
+    arrays = session.kept_samples.arrays()
     return arrays if len(arrays[0]) and len(arrays[0]) == int(session.kept.sum()) else None
 
 
-def session_allowance(session: CalibrationSession) -> FitAllowance:
+def session_allowance(session: Diagnosed) -> FitAllowance:
     """What the robot file's mount and encoder tolerances and ``fit.floor`` add to the expected residual of the session's fit."""
     kin = session.kin
     return robot_allowance(kin.robot.accuracy, kin.n_joints, session.full_scale, session.settings.fit.floor)
 
 
-def _noise_cov(session: CalibrationSession) -> np.ndarray | None:
+def _noise_cov(session: Diagnosed) -> np.ndarray | None:
     noise = None if session.filter is None else session.filter.noise_floor
     return None if noise is None else session.layout.projected_noise(noise)
 
 
-def joint_units(session: CalibrationSession, check: FitCheck, per_configuration: bool, joints_in_degrees: bool) -> Cause | None:
+def joint_units(session: Diagnosed, check: FitCheck, per_configuration: bool, joints_in_degrees: bool) -> Cause | None:
     """The joint columns in the other unit, when read so the kept samples fit at the noise (cause 2), or None.
 
     Args:
@@ -416,7 +441,7 @@ def _clearly_fits(ratio: float, stated: float) -> bool:
     return ratio <= MAX_RATIO and ratio * CLEARLY_BETTER <= stated
 
 
-def mount(session: CalibrationSession, check: FitCheck, per_configuration: bool) -> Cause | None:
+def mount(session: Diagnosed, check: FitCheck, per_configuration: bool) -> Cause | None:
     """A sensor frame turned from the one assumed, when the turn makes the kept samples fit at the noise (cause 2), or None.
 
     The rotation ``R_sensor_assumed`` is found on the fit sums (:mod:`fts_calib.session.frame_rotation`):
@@ -436,7 +461,7 @@ def mount(session: CalibrationSession, check: FitCheck, per_configuration: bool)
         return None
     est, tool = session.estimator, session.tool
     chosen = est.model_in_use()[0]
-    sums = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, est.basis.n_configurations)[0]
+    sums = model_fit_sums(session.fit_sums, chosen.model, chosen.columns, est.basis.n_configurations)[0]
     allowance = session_allowance(session)
     turns = fitting_turns(tool, sums, noise_cov, per_configuration, allowance, check.expected, lambda r: _clearly_fits(r, check.max_ratio))
     if not turns:
@@ -455,7 +480,7 @@ def mount(session: CalibrationSession, check: FitCheck, per_configuration: bool)
     return Cause("mount", text, ratio)
 
 
-def drifting(session: CalibrationSession, check: FitCheck) -> Cause | None:
+def drifting(session: Diagnosed, check: FitCheck) -> Cause | None:
     """Offsets that drift during the run, when the drift model with every time power fits at the noise (with cause 4), or None.
 
     Args:
@@ -466,9 +491,9 @@ def drifting(session: CalibrationSession, check: FitCheck) -> Cause | None:
     drifts = [c for c in candidates(est.basis, est._present(), "drift") if c.model == "drift"]
     if not drifts or noise_cov is None or est.model_in_use()[0].model == "drift":
         return None
-    sums = model_fit_sums(session._fit_sums, "drift", drifts[-1].columns, est.basis.n_configurations)[0]
+    sums = model_fit_sums(session.fit_sums, "drift", drifts[-1].columns, est.basis.n_configurations)[0]
     matrices = [c.wrench_matrix for c in session.tool.configurations]
-    judged = _ratios(session.tool, matrices, sums, session._fit_sums[:, 9, 9], noise_cov, True, session_allowance(session))
+    judged = _ratios(session.tool, matrices, sums, session.fit_sums[:, 9, 9], noise_cov, True, session_allowance(session))
     if judged is None or not _clearly_fits(ratio := float(judged[0].max()), check.max_ratio):
         return None
     text = (
@@ -478,7 +503,7 @@ def drifting(session: CalibrationSession, check: FitCheck) -> Cause | None:
     return Cause("drift", text, ratio)
 
 
-def nonlinear(session: CalibrationSession, check: FitCheck, per_configuration: bool) -> Cause | None:
+def nonlinear(session: Diagnosed, check: FitCheck, per_configuration: bool) -> Cause | None:
     """A quadratic model of the kept samples that fits at the noise where the linear one does not (cause 4), or None.
 
     Args:
@@ -520,7 +545,7 @@ def nonlinear(session: CalibrationSession, check: FitCheck, per_configuration: b
     return Cause("nonlinear", text, worst)
 
 
-def quadratic_determination(session: CalibrationSession, per_configuration: bool) -> Determination:
+def quadratic_determination(session: Diagnosed, per_configuration: bool) -> Determination:
     """What the session's loads determine of a quadratic model (:mod:`fts_calib.model.determination`).
 
     The estimator's own sums of the weight-only loads when it keeps them (a model other than the
@@ -534,14 +559,14 @@ def quadratic_determination(session: CalibrationSession, per_configuration: bool
     if units is not None and units.loads.degree >= 2:
         return determine(units.loads.sums, "quadratic", per_configuration)
     loads = LoadSums(2)
-    kept = session._kept_samples.arrays()
+    kept = session.kept_samples.arrays()
     if len(kept[0]):
         loads.add(kept[1], kept[3])
     return determine(loads.sums, "quadratic", per_configuration)
 
 
 def cause(
-    session: CalibrationSession, check: FitCheck, per_configuration: bool, unexplained: str, joints_in_degrees: bool, linear: bool = True
+    session: Diagnosed, check: FitCheck, per_configuration: bool, unexplained: str, joints_in_degrees: bool, linear: bool = True
 ) -> Cause:
     """The cause of a poor fit, in the order of the module docstring (causes 2 to 5).
 

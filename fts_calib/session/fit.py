@@ -98,7 +98,6 @@ from ..model.channels import MALTESE_CROSS_8, WRENCH_AXES, WRENCH_UNITS, Channel
 from ..robot.definition import RobotAccuracy
 from ..robot.tool import Tool, wrench_matrix
 
-# --- from pipeline.fit_tolerance ---
 #: Largest accepted ratio of a configuration's residual RMS to the expected residual (noise and tolerances), per axis.
 #: A consistent fit over hundreds of samples gives 1 +- a few %: 3 leaves room for the
 #: unmodelled dynamics the filter lets through, wrong data give 1e3 to 1e7.
@@ -304,7 +303,6 @@ def expected_words(worst: str, expected: np.ndarray, noise, tolerance, floor) ->
     return ": " + "; ".join(parts) if parts else ""
 
 
-# --- from pipeline.tool_plausibility ---
 #: Largest plausible distance of a calibration tool's centre of mass from the sensor, in [m].
 MAX_COM_M = 1.0
 #: Smallest distance a unit correction may bring it to, in [m] (below, the unit is not guessed).
@@ -374,7 +372,6 @@ def implausible_tool(tool: Tool) -> str:
     return implausible_gravity(tool) or implausible_geometry(tool)
 
 
-# --- from pipeline.fit ---
 #: Tool configurations up to which every permutation of the labels is tried.
 MAX_PERMUTED = 4
 #: An alternative of the tool file is named only when its largest ratio is at most MAX_RATIO and this

@@ -53,6 +53,7 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -60,7 +61,7 @@ from ..budget.measured import KeptSamples, MovingSamples, with_measured_budget
 from ..budget.propagation import AccuracyBudget
 from ..core.arrays import as_floats, as_matrix, as_rows
 from ..core.deprecation import renamed
-from ..core.exceptions import ConfigError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
+from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
 from ..filters.dynamic import DynamicFilter, filtered, sample_filter
 from ..filters.latency import LatencyEstimate
 from ..filters.sample_checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
@@ -76,7 +77,7 @@ from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
 from ..robot.tool import STANDARD_GRAVITY, Tool, tool_load, weight_wrench
 from ..sources.batch import SampleBatch, configuration_codes
-from .checkpoint import read_checkpoint, restore_session, session_state, write_checkpoint
+from .checkpoint import read_checkpoint, write_checkpoint
 from .diagnosis import (
     RECORDING_KINDS,
     Cause,
@@ -92,7 +93,6 @@ from .fit import MAX_RATIO, UNEXPLAINED, FitCheck, check_fit, check_model_fit, f
 from .held_out import UNIT_GAP_S, held_out_units
 
 
-# --- from pipeline.progress ---
 @dataclass(frozen=True)
 class Progress:
     """Where a session stands.
@@ -125,7 +125,6 @@ class Progress:
         return self.kept / self.seen if self.seen else 0.0
 
 
-# --- from pipeline.provenance ---
 def session_provenance(kin: Kinematics, tool: Tool, kept: np.ndarray, source: str, filter_settings: FilterConfig | None) -> dict:
     """The provenance of a session's calibration, as plain data.
 
@@ -154,7 +153,6 @@ def session_provenance(kin: Kinematics, tool: Tool, kept: np.ndarray, source: st
     }
 
 
-# --- from pipeline.tool_load ---
 #: How far beyond the sensor's force full scale a tool's weight may be before it is refused: a
 #: calibration load stays within the range (a 2.5 kg tool is 0.5 of a 50 N sensor's); ten times
 #: it is no tool that sensor carries, while grams for kilograms make it a thousand times.
@@ -185,7 +183,6 @@ def check_tool_load(tool: Tool, full_scale: np.ndarray) -> None:
             raise ConfigError(f"configurations[{k}].mass", configuration.mass, "a weight within the sensor's range", message=message)
 
 
-# --- from pipeline.session ---
 __all__ = ["BACKWARDS", "BEFORE_CHECKPOINT", "NON_FINITE", "OUTSIDE_LIMITS", "UNKNOWN_TOOL", "CalibrationSession", "Progress"]
 
 _STAGE = 256  # single samples from add() are processed in groups of this size
@@ -247,7 +244,7 @@ class CalibrationSession:
         check_tool_load(tool, self.full_scale)  # a mass in grams fits the data exactly: only the sensor's range tells
         self.budget: AccuracyBudget | None = None
         self.latency: LatencyEstimate | None = None
-        self._kept_samples, self._moving = KeptSamples(), MovingSamples()  # for the measured budget and the latency
+        self.kept_samples, self._moving = KeptSamples(), MovingSamples()  # for the measured budget and the latency
         self.layout = channel_layout(layout)
         self.tool = tool
         self.settings = settings or PipelineConfig()
@@ -269,7 +266,7 @@ class CalibrationSession:
         self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
-        self._directions, self._fit_sums, self.kept_region = empty_sums(n, self.estimator.basis.n_drift, self.full_scale)  # kept_sums
+        self.directions, self.fit_sums, self.kept_region = empty_sums(n, self.estimator.basis.n_drift, self.full_scale)  # kept_sums
         self._staged: list[tuple] = []
         self._last: tuple[float, int, float | None] | None = None  # time, configuration, temperature of the last valid sample
         self._clock = clock
@@ -383,7 +380,7 @@ class CalibrationSession:
             units, static = held_out_units(codes, g), weight_wrench(self.tool, g, codes)
         columns = {"time": kept.time, "configuration": codes, "temperature": kept.temperature, "unit": units, "w_static": static}
         self.estimator.update_batch(W, kept.channels, weight, **columns)
-        self._kept_samples(kept.time, W, kept.channels, codes, kept.joints)
+        self.kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)
         add_kept(self, g, W, kept.channels, codes, kept.time, kept.temperature, fit)
@@ -453,7 +450,7 @@ class CalibrationSession:
             raise PoorFit(check, calibration)
         noise_floor = None if self.filter is None else self.filter.noise_floor
         accuracy = self.filter.budget_accuracy(self.kin) if isinstance(self.filter, DynamicFilter) else None  # the latency it fitted
-        kept, n_kept = self._kept_samples, int(self.kept.sum())
+        kept, n_kept = self.kept_samples, int(self.kept.sum())
         calibration, self.budget, self.latency = with_measured_budget(
             calibration, self.kin, self.tool, kept, n_kept, noise_floor, self._moving, self.full_scale, accuracy
         )
@@ -473,9 +470,68 @@ class CalibrationSession:
         """Write the checkpoint now (atomically); None without a checkpoint path."""
         if self.checkpoint_path is None:
             return None
-        state = session_state(self)
+        state = self.state()
         self._last_checkpoint = self._clock()
         return write_checkpoint(self.checkpoint_path, state)
+
+    def state(self) -> dict[str, Any]:
+        """What a checkpoint holds of a session: plain types, safe to write as JSON."""
+        last = self.checks.last_time
+        return {
+            "robot": self.kin.robot.name,
+            "tool": self.tool.name,
+            "source": self.source_record,
+            "configurations": self.tool.names,
+            "estimator": self.estimator.state(),
+            "kept": self.kept.tolist(),
+            "seen": self.seen,
+            **self.checks.state(),  # skipped, by reason, and at the rails
+            "directions": self.directions.tolist(),
+            "fit_sums": self.fit_sums.tolist(),
+            "last_time": None if last == -math.inf else last,
+            "filter": None if self.filter is None else self.filter.state(),
+            "region": self.kept_region.state(),
+        }
+
+    def _restore(self, state: dict[str, Any], path: Path, models: tuple[str, bool, Any]) -> None:
+        """Load a checkpoint's state into a new session (see the module docstring).
+
+        Args:
+            state: The checkpoint's content.
+            path: The checkpoint file, for messages.
+            models: ``(model setting, full_channels, full_scale)`` of the run.
+
+        Raises:
+            FileFormatError: A damaged checkpoint, or one of another channel layout or sensor model.
+        """
+        model, full_channels, full_scale = models
+        try:
+            self.estimator = estimator = OnlineEstimator.from_state(state["estimator"])
+            estimator.full_scale = None if full_scale is None else np.asarray(full_scale, dtype=float)
+            if "basis" in state["estimator"]:  # a checkpoint of an older version has constant offsets only
+                estimator.offsets = self.settings.offsets.model
+            m = 10 + estimator.basis.n_drift
+            self.fit_sums = np.zeros((len(self.tool.configurations), m, m))
+            self.kept = np.array(state["kept"], dtype=np.int64)
+            self.seen = int(state["seen"])
+            self.checks.restore(state)
+            self.directions = np.array(state["directions"], dtype=float)
+            if "fit_sums" in state:
+                self.fit_sums = np.array(state["fit_sums"], dtype=float).reshape(self.fit_sums.shape)
+            # a checkpoint of an older version holds no region: the calibration's is then that of the resumed part only
+            self.kept_region.restore(state.get("region"))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise FileFormatError(path, None, f"damaged checkpoint: {exc}") from None
+        saved = (self.estimator.model, self.estimator.full_channels)
+        if "model" in state["estimator"] and saved != (model, full_channels):  # older checkpoints: the linear model
+            raise FileFormatError(path, "estimator.model", f"is {saved[0]} but the run asks for {model}: resume with the same --model")
+        if self.estimator.layout != self.layout:
+            found, expected = self.estimator.layout.name, self.layout.name
+            raise FileFormatError(path, "estimator.channels", f"is of a {found} sensor but the sensor is {expected}: give its --sensor")
+        if state.get("last_time") is not None:
+            self.checks.last_time = self.checks.resume_time = float(state["last_time"])
+        if self.filter is not None and state.get("filter"):
+            self.filter.restore(state["filter"])
 
     @classmethod
     def resume(
@@ -519,11 +575,10 @@ class CalibrationSession:
             full_channels=full_channels,
             full_scale=full_scale,
         )
-        restore_session(session, state, path, (model, full_channels, full_scale))
+        session._restore(state, path, (model, full_channels, full_scale))
         return session
 
 
-# --- from pipeline.kept_sums ---
 def empty_sums(n_configurations: int, n_drift: int, full_scale) -> tuple[np.ndarray, np.ndarray, RegionBuilder]:
     """The empty sums of a new session: gravity directions and fit rows, per configuration, and its load region.
 
@@ -570,9 +625,9 @@ def add_kept(
     for c in np.unique(codes):
         mine = codes == c
         u = unit[mine]
-        session._directions[c] += u.T @ u
+        session.directions[c] += u.T @ u
         mine_fit = mine if fit is None else mine & fit
-        session._fit_sums[c] += rows[mine_fit].T @ rows[mine_fit]
+        session.fit_sums[c] += rows[mine_fit].T @ rows[mine_fit]
 
 
 def session_progress(session: CalibrationSession) -> Progress:
@@ -592,7 +647,7 @@ def session_progress(session: CalibrationSession) -> Progress:
         kept_by_configuration={name: int(n) for name, n in zip(session.tool.names, session.kept, strict=True)},
         rank=rank,
         condition_number=condition,
-        missing="" if rank == full else missing_words(session.tool, session.kept, session._directions),
+        missing="" if rank == full else missing_words(session.tool, session.kept, session.directions),
         skipped=session.all_skipped(),
         last_time=None if last == -math.inf else last,
         full_rank=full,
@@ -622,14 +677,14 @@ def session_fit_check(session: CalibrationSession, hint: str = "") -> FitCheck:
 def _checked(session: CalibrationSession, hint: str) -> tuple[FitCheck, Cause | None]:
     """The fit check of :func:`session_fit_check`, and the cause of a poor linear fit (None otherwise)."""
     noise = None if session.filter is None else session.filter.noise_floor
-    in_sums = session._fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
+    in_sums = session.fit_sums[:, 9, 9]  # samples the sums hold (the last entry of y is 1)
     missing = int(session.kept.sum() - round(float(in_sums.sum())))
     # resumed from a checkpoint of a version without fit sums: a part is not judged (dynamic: only near-still samples are in them)
     if missing > 0 and session.settings.filter.mode != DYNAMIC:
         reason = f"{missing:,} kept samples came from a checkpoint without fit sums: run again with --restart to check the fit"
         return FitCheck("unchecked", math.nan, {}, np.full(6, math.nan), reason), None
     chosen = session.estimator.model_in_use()[0]
-    sums, per_configuration = model_fit_sums(session._fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
+    sums, per_configuration = model_fit_sums(session.fit_sums, chosen.model, chosen.columns, session.estimator.basis.n_configurations)
     allowance = session_allowance(session)
     linear = check_fit(session.tool, sums, in_sums, noise, hint, session.layout, per_configuration, allowance)  # noise: >= step/sqrt(12)
     dynamic = session.filter.fit_residuals() if isinstance(session.filter, DynamicFilter) else None
@@ -654,7 +709,7 @@ def _moving_words(session: CalibrationSession) -> str:
     still, kept = session.filter, int(session.kept.sum())
     if still is None or isinstance(still, DynamicFilter):
         return ""
-    time, _, _, codes, _ = session._kept_samples.arrays()
+    time, _, _, codes, _ = session.kept_samples.arrays()
     if len(time) != kept:  # resumed: the kept samples are not all at hand
         return ""
     starts = 1 + int(np.count_nonzero((np.diff(codes) != 0) | (np.diff(time) > UNIT_GAP_S))) if kept else 0
@@ -706,11 +761,10 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
     undetermined = session.estimator.undetermined(session.tool.names)
     moving = _moving_words(session)
     said = "; ".join(w for w in (hint, moving, "" if weak is None else weak.text) if w)
-    words = missing_words(session.tool, session.kept, session._directions, undetermined, said, refused)
+    words = missing_words(session.tool, session.kept, session.directions, undetermined, said, refused)
     return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)
 
 
-# --- from pipeline.health ---
 def with_health(session: CalibrationSession, calibration: Calibration, noise_floor: np.ndarray | None) -> Calibration:
     """The calibration with its ``health`` section, learnt from the session's kept samples, when the layout has one.
 
@@ -726,7 +780,7 @@ def with_health(session: CalibrationSession, calibration: Calibration, noise_flo
         session.layout,
         calibration.C,
         calibration.D,
-        session._kept_samples.arrays()[2],
+        session.kept_samples.arrays()[2],
         session.full_scale,
         noise_floor,
         resolution,

@@ -74,7 +74,6 @@ from .batch import DUPLICATE, UNKNOWN_TOOL, SampleBatch, repeated_rows
 from .recording import MAX_NOTES
 from .synchronizer import Synchronizer
 
-# --- from feeds.bag_log ---
 JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64_ARRAY = "std_msgs/msg/Float64MultiArray"
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
@@ -197,7 +196,6 @@ def bag_size(path: Path) -> int:
     return path.stat().st_size
 
 
-# --- from feeds.bag_checks ---
 #: Largest offset between the joints' clock and the channels' clock, in [s]: a latency is milliseconds.
 MAX_CLOCK_OFFSET_S = 1.0
 #: Joint stamps spanning less than this share of their log times' span do not move.
@@ -268,7 +266,6 @@ def check_clocks(path: Path, topics: BagTopics, joints: list, channels: list, wr
         )
 
 
-# --- from feeds.bag_pose ---
 #: The gimbal's joints (fts_calib.robot.orientation.GIMBAL_JOINTS, written here: importing it
 #: would load pinocchio into the parser of the command line; tests check they agree).
 GIMBAL_JOINTS = ("yaw", "pitch", "roll")
@@ -302,7 +299,6 @@ def missing_pose_topic(path: Path, topics: BagTopics, available: dict, listing: 
     )
 
 
-# --- from feeds.bag ---
 #: Messages read between two pairings of the streams (about 1 MiB of samples in memory).
 CHUNK_MESSAGES = 20_000
 #: Joint messages looked at, at the start of a bag, for one that holds every robot joint.

@@ -54,7 +54,6 @@ from ..core.files import is_number
 from .batch import DUPLICATE, UNKNOWN_TOOL, SampleBatch, repeated_rows
 from .writer import RecordingWriter, strain_columns
 
-# --- from feeds.row_notes ---
 #: Problems kept with their line for reporting; the others are only counted.
 MAX_NOTES = 10
 
@@ -159,7 +158,6 @@ def value_problems(
     return found, {"non-finite": len(bad), "out of range": len(large), "backwards": len(back)}, float(latest[-1])
 
 
-# --- from feeds.recording ---
 __all__ = ["MALFORMED", "UNKNOWN_TOOL", "RecordingReader", "RecordingWriter", "strain_columns"]
 
 

@@ -59,7 +59,6 @@ from ..core.bounded import LimitError, loads_json
 from ..core.exceptions import ConfigError, FtsCalibWarning, ProtocolError
 from .synchronizer import Synchronizer
 
-# --- from feeds.protocol ---
 #: Largest datagram accepted, in bytes (a joints message of a 7-joint arm is ~250 bytes).
 MAX_DATAGRAM = 8192
 #: Deepest nesting of a datagram's JSON (the messages nest two levels: an object holding a list or an object).
@@ -255,7 +254,6 @@ def encode(message: Message) -> bytes:
     return json.dumps(obj, separators=(",", ":")).encode("utf-8")
 
 
-# --- from feeds.udp ---
 _RECV_BUFFER = 1 << 22  # socket receive buffer [bytes]
 
 #: Host texts that mean every interface.
