@@ -25,10 +25,10 @@ from fts_calib.model.features import features, monomials
 from fts_calib.robot.tool import wrench_matrix
 from fts_calib.session.held_out import held_out_units
 
+from .paper import FULL_SCALE, TABLE_1
+
 #: Counts per mV/V of the simulated ADC: the paper's Table 1 then reads about 2,000 counts at 50 N.
 COUNTS_PER_MVV = 5000.0
-#: Full scale [N, N, N, N m, N m, N m] (the paper's sensor).
-FULL_SCALE = np.array([50.0] * 3 + [5.0] * 3)
 #: Five centres of mass [m] of a movable weight: the paper's tool's three and two more, not all in one plane.
 CENTRES = [[0.12, 0.0, 0.0], [0.08, 0.06, 0.0], [0.08, 0.0, 0.06], [0.08, -0.06, 0.0], [0.08, 0.0, -0.06]]
 #: A jig that determines a quadratic model: two masses [kg] (to 82 % of the moment's full scale), each at the five centres.
@@ -39,17 +39,6 @@ PAPER_JIG = [(2.0, c) for c in CENTRES[:3]]
 OTHER_TOOL = [(1.4, [0.07, 0.015, -0.025])]
 #: The jig's first mass alone at the five centres (one mass: no quadratic model, its |F|^2 is constant).
 TOOL = [(2.0, c) for c in CENTRES]
-#: Table 1 of the paper (rows Fx..Mz, per mV/V).
-TABLE_1 = np.array(
-    [
-        [-0.0783, 115.9959, 0.9697, 116.2178, 1.3307, 115.8044, 0.2828, 115.5825],
-        [-261.2932, 0.4277, -0.7689, -1.1942, 260.2123, -2.8367, -0.3119, -1.2148],
-        [-1.8840, -1.9708, -268.3156, -0.5501, -2.5808, 2.0404, 263.8509, 0.6196],
-        [2.8420, -0.0162, 2.8130, -0.0295, 2.7539, -0.0427, 2.7829, -0.0294],
-        [0.1194, 2.7478, 0.0584, 0.0326, -0.1015, -2.7470, -0.0405, -0.0318],
-        [-0.0495, -0.0221, 0.0971, 2.7913, 0.0981, 0.0448, -0.0485, -2.7686],
-    ]
-)
 
 
 @dataclass

@@ -1,33 +1,45 @@
-"""Tables 1 and 2 of the paper (../shared/paper.md), typed in as test vectors.
+"""The paper's printed numbers as test vectors, read from ``tests/data/paper_tables.yaml``.
 
-`test_paper_tables.py` checks these numbers against the paper's text when it is present.
+Tables 1 and 2 (the calibration matrices of the jig and of the in situ method), the projection
+P of eq 6 and the sensor's nominal range; the data file says where each comes from, and
+``test_paper_tables.py`` checks it against the package and the shipped files.
 """
 
+from pathlib import Path
+
 import numpy as np
+import yaml
+
+#: The data file: every number as the paper prints it.
+DATA_FILE = Path(__file__).resolve().parent / "data" / "paper_tables.yaml"
+DATA = yaml.safe_load(DATA_FILE.read_text(encoding="utf-8"))
+
+
+def _frozen(rows) -> np.ndarray:
+    array = np.array(rows, dtype=float)
+    array.setflags(write=False)  # shared by every test: a test that changes it would change the others'
+    return array
+
+
+def _matrix(key: str) -> np.ndarray:
+    """A table's numbers, shape (6, 8): its printed rows without their labels."""
+    return _frozen([row[1:] for row in DATA[key]["rows"]])
+
 
 #: Table 1: calibration matrix from offline jig measurements; rows Fx..Mz, columns Delta1..8.
-TABLE_1 = np.array(
-    [
-        [-0.0783, 115.9959, 0.9697, 116.2178, 1.3307, 115.8044, 0.2828, 115.5825],
-        [-261.2932, 0.4277, -0.7689, -1.1942, 260.2123, -2.8367, -0.3119, -1.2148],
-        [-1.8840, -1.9708, -268.3156, -0.5501, -2.5808, 2.0404, 263.8509, 0.6196],
-        [2.8420, -0.0162, 2.8130, -0.0295, 2.7539, -0.0427, 2.7829, -0.0294],
-        [0.1194, 2.7478, 0.0584, 0.0326, -0.1015, -2.7470, -0.0405, -0.0318],
-        [-0.0495, -0.0221, 0.0971, 2.7913, 0.0981, 0.0448, -0.0485, -2.7686],
-    ]
-)
+TABLE_1 = _matrix("table_1")
 
 #: Table 2: calibration matrix from the in situ online method.
-TABLE_2 = np.array(
-    [
-        [3.0923, 115.3273, 4.7326, 115.7136, -2.1440, 115.6176, -3.7843, 115.2313],
-        [-259.3593, 0.4145, 14.1101, -0.3564, 258.7215, -1.6980, -14.7478, -0.9271],
-        [-7.7659, -2.8778, -263.0028, -1.2387, 3.2590, 1.7686, 258.4959, 0.1295],
-        [3.4190, -0.2087, 3.1167, -0.1291, 2.0776, -0.1821, 2.3799, -0.2618],
-        [-0.6157, 2.7617, 0.9176, -0.0135, 0.5943, -2.5584, -0.9390, 0.2169],
-        [-0.1800, 0.2929, -0.1008, 2.9374, 0.1539, 0.1548, 0.0747, -2.4897],
-    ]
-)
+TABLE_2 = _matrix("table_2")
 
-#: Half of the last printed digit: the rounding of both tables.
+#: The tables by their number in the paper.
+TABLES = {1: TABLE_1, 2: TABLE_2}
+
+#: The projection P of eq 6, shape (6, 8).
+PROJECTION = _frozen(DATA["projection"]["rows"])
+
+#: The sensor's nominal range (full scale) per wrench axis [N, N, N, N m, N m, N m].
+FULL_SCALE = _frozen([DATA["nominal_range"]["force"]] * 3 + [DATA["nominal_range"]["moment"]] * 3)
+
+#: Half of the last printed digit (four decimals): the rounding of both tables.
 ROUNDING = 5e-5
