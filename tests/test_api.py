@@ -30,7 +30,8 @@ from fts_calib.core.resources import resolve
 from fts_calib.sim.runs import simulate_batches
 from fts_calib.sim.sensor import load_simulated_sensor
 
-#: Modules the in-controller path must not load (STYLE.md: pandas, ruckig, matplotlib, rosbags; and Pinocchio, coal, PyYAML).
+#: Modules the in-controller path must not load: pandas, ruckig, matplotlib and rosbags (imported inside the functions that need
+#: them), and Pinocchio, coal, PyYAML.
 HEAVY = ("pandas", "ruckig", "matplotlib", "rosbags", "pinocchio", "coal", "yaml")
 ATOL_POSE = 1e-12  # [m] and [-]: the same forward kinematics, only the construction differs
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import subprocess
 import sys
 import types
 from pathlib import Path
@@ -32,6 +33,8 @@ MAX_IMAGE_BYTES = 300_000
 PAGES_FROM_OTHER_BRANCHES: set[str] = set()
 LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)\)|!\[[^\]]*\]\(([^)\s]+)\)")
 FENCED = re.compile(r"^```(\w*)\n(.*?)^```", re.M | re.S)
+#: Files beside a checkout that the repository must not cite (spelt in pieces, so that this file does not cite them).
+OUTSIDE = (*(stem + ".md" for stem in ("DESIGN", "STYLE", "paper")), "../" + "shared")
 
 
 def _pages() -> list[Path]:
@@ -65,7 +68,7 @@ def test_every_link_resolves_inside_the_repository(page):
     for match in LINK.finditer(text):
         target = match.group(1) or match.group(2)
         path_part, _, anchor = target.partition("#")
-        if re.match(r"^[a-z][a-z0-9+.-]*:", path_part) or "../shared" in target:
+        if re.match(r"^[a-z][a-z0-9+.-]*:", path_part):
             bad.append(f"{target}: leaves the repository")
             continue
         resolved = (page.parent / path_part).resolve() if path_part else page
@@ -87,9 +90,17 @@ def test_the_index_and_the_readme_link_every_docs_page():
     assert {f"docs/{name}" for name in pages} | {"docs/README.md"} <= readme, "README.md links every docs page"
 
 
-def test_no_page_mentions_the_shared_folder():
-    for page in _pages():
-        assert "../shared" not in page.read_text(encoding="utf-8"), page
+def test_no_tracked_file_cites_a_file_outside_the_repository():
+    """A clone holds what git tracks and nothing beside it: no code, test, doc or comment may send a reader elsewhere."""
+    listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True)
+    if listed.returncode != 0:
+        pytest.skip(f"not a git checkout: {listed.stderr.decode(errors='replace').strip()}")
+    tracked = [ROOT / name for name in listed.stdout.decode().split("\0") if name]
+    assert README in tracked, "git ls-files lists the repository's files"
+    cited = [
+        f"{path.relative_to(ROOT)}: {name}" for path in tracked if path.is_file() for name in OUTSIDE if name.encode() in path.read_bytes()
+    ]
+    assert not cited, "tracked files cite files outside the repository (cite docs/ or tests/data/ instead):\n" + "\n".join(cited)
 
 
 def test_the_readme_picture_is_small_and_a_png():

@@ -1,4 +1,4 @@
-"""The ``live`` command: calibrate from live UDP feeds of joints and strains (the live protocol of DESIGN.md), or a UR arm through RTDE."""
+"""The ``live`` command: calibrate from live UDP feeds of joints and strains (docs/formats.md), or a UR arm through RTDE."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Simulated robot logs: a run written as a ROS 2 bag (MCAP or sqlite3), as a robot's logger would.
 
-The bag follows the robot-log contract of DESIGN.md (:mod:`fts_calib.sources.bag`): joint
+The bag follows the robot-log contract of :mod:`fts_calib.sources.bag` (docs/formats.md): joint
 states with header stamps, the channels as ``std_msgs/msg/Float64MultiArray`` at their log
 time or as ``geometry_msgs/msg/WrenchStamped`` with header stamps (6 channels), and the tool
 configuration as ``std_msgs/msg/String`` when it changes; or, for a run without a robot, the

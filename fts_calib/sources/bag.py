@@ -1,4 +1,4 @@
-"""The robot-log contract of a ROS 2 bag (DESIGN.md): message types, topic names, bag arguments.
+"""The robot-log contract of a ROS 2 bag (docs/formats.md): message types, topic names, bag arguments.
 
 Read and written with the ``rosbags`` library (pure Python: no ROS install); bags that do
 not embed their message definitions are read with ROS 2 Humble's standard ones. Stamps are
@@ -22,7 +22,7 @@ and noted.
 ROS 2 bags (MCAP or sqlite3) as a feed: joint states and channels, synchronised into SampleBatch.
 
 Bags are read with the ``rosbags`` library (pure Python: no ROS install). The robot-log
-contract of DESIGN.md, topic names being options (:class:`BagTopics`):
+contract (docs/formats.md), topic names being options (:class:`BagTopics`):
 
 - joints: ``sensor_msgs/msg/JointState`` (default ``/joint_states``), stamped by their
   header; positions in [rad], mapped to the robot's joints by name (other names, e.g. a
@@ -95,7 +95,7 @@ def is_bag(path: str | Path) -> bool:
 
 @dataclass(frozen=True)
 class BagTopics:
-    """Topic names of a robot log (the defaults are DESIGN.md's).
+    """Topic names of a robot log (the defaults are the contract's: docs/formats.md).
 
     Attributes:
         joints: ``sensor_msgs/msg/JointState`` topic.
