@@ -2,6 +2,7 @@
 
 import ast
 import builtins
+import re
 from pathlib import Path
 
 import pytest
@@ -9,6 +10,8 @@ import pytest
 import fts_calib
 
 PACKAGE = Path(fts_calib.__file__).resolve().parent
+#: The contributors' reference of the layout: its stages and every module's concept.
+ARCHITECTURE = Path(__file__).resolve().parents[1] / "docs" / "architecture.md"
 #: The stages in import order: a stage imports only from stages before it (docs/architecture.md).
 STAGES = (
     *("core", "model", "robot", "sources", "filters", "budget", "session"),
@@ -169,3 +172,57 @@ def test_every_exception_lives_in_core_exceptions():
     exported = {name for name in fts_calib.__all__ if name in defined}
     assert {"FtsCalibError", "FtsCalibWarning", "ShapeError", "ConfigError", "FileFormatError", "RecordingError"} <= exported
     assert len(fts_calib.__all__) <= 40, f"{len(fts_calib.__all__)} names in fts_calib.__all__: at most 40 (the rest: from their stage)"
+
+
+def test_the_architecture_page_lists_the_stages_in_order_and_every_module():
+    """docs/architecture.md stays the layout's reference: its stage table in import order, one row per module, no row for a gone one."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    assert " ← ".join(STAGES) in text, "the import order line"
+    overview = text[text.index("## Stages in import order") : text.index("## Modules")]
+    assert re.findall(r"^\| `(\w+)` \| ", overview, flags=re.M) == list(STAGES), "the stage table, in import order"
+    listed = re.findall(r"^\| `(\w+/\w+\.py)` \| ", text, flags=re.M)
+    modules = {p.relative_to(PACKAGE).as_posix() for p in _modules() if p.parent != PACKAGE and p.name != "__init__.py"}
+    assert len(listed) == len(set(listed)), "a module listed twice"
+    assert not modules - set(listed), f"modules docs/architecture.md does not list: {sorted(modules - set(listed))}"
+    assert not set(listed) - modules, f"docs/architecture.md lists modules that do not exist: {sorted(set(listed) - modules)}"
+
+
+def _stage_imports() -> dict[str, set[str]]:
+    """Per stage, the other stages and the modules of them (``stage/module.py``) its modules import."""
+    modules = {_dotted(p) for p in _modules()}
+    found: dict[str, set[str]] = {stage: set() for stage in STAGES}
+    for path in _modules():
+        stage = _stage(_dotted(path))
+        for _, name in _imports(path) if stage else ():
+            target = _module_of(name, modules)
+            if target and (other := _stage(target)) and other != stage:
+                parts = target.split(".")[1:]  # a stage's package itself (its __init__) names the stage alone
+                found[stage] |= {other} | ({"/".join(parts) + ".py"} if len(parts) > 1 else set())
+    return found
+
+
+def test_the_architecture_page_says_what_each_stage_imports():
+    """The 'imports from' column names each stage imported, whole (`robot`) or the modules of it imported (`robot/tool.py`)."""
+    overview = ARCHITECTURE.read_text(encoding="utf-8")
+    overview = overview[overview.index("## Stages in import order") : overview.index("## Modules")]
+    rows = {m.group(1): m.group(2) for m in re.finditer(r"^\| `(\w+)` \|[^|]*\| ([^|]*) \|", overview, flags=re.M)}
+    wrong = []
+    for stage, imported in _stage_imports().items():
+        said = rows[stage]
+        before = set(STAGES[: STAGES.index(stage)])
+        if said.startswith("every stage before it"):
+            names = before
+        elif said.startswith("everything"):
+            names = set(STAGES) - {stage}
+        else:
+            names = set(re.findall(r"`([\w/.]+)`", said))
+        stages = {n for n in imported if "/" not in n}
+        whole = {n for n in names if "/" not in n}
+        partly = {n.split("/")[0] for n in names if "/" in n}
+        if stages != whole | partly:
+            wrong.append(f"{stage} imports {sorted(stages)}, the page says {said!r}")
+        for stage_named in partly:
+            modules = {n for n in imported if n.startswith(stage_named + "/")}
+            if not modules <= names:
+                wrong.append(f"{stage} imports {sorted(modules)} of {stage_named}, the page says {said!r}")
+    assert not wrong, "docs/architecture.md, the stage table's 'imports from':\n" + "\n".join(wrong)
