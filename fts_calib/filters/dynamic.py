@@ -87,7 +87,7 @@ from ..robot.definition import RobotAccuracy
 from ..robot.kinematics import Kinematics, SensorMotion
 from ..robot.tool import Tool, ToolLoad, tool_load
 from ..sources.batch import SampleBatch
-from .joint_rates import JointMotion, joint_motion, kernel_gains
+from .joint_rates import JointMotion, joint_rates, kernel_gains
 from .latency import LatencyFit
 from .quasi_static import PERIOD_SAMPLES, QuasiStaticFilter, StillSamples, quasi_static, sample_period
 from .settings import DYNAMIC, FilterConfig, PipelineConfig
@@ -395,7 +395,9 @@ class DynamicFilter:
         window, dt = settings.dynamic_window_s, self._dt or 0.0
         if exact is None:
             # a sample without a whole window is dropped, and so is one whose jerk window reaches one: their rates are never used
-            motion = joint_motion(buf.time, buf.joints, window, dt, self._continuous, self.latency_s, settings.dynamic_order, cut=False)
+            motion = joint_rates(
+                buf.time, buf.joints, window, dt, self._continuous, settings.dynamic_order, self.latency_s, cut=False, check=True
+            )
             half = max(1, int(round(window / 2 / dt))) if dt > 0 else 1
             gains = kernel_gains(window, dt, settings.dynamic_order) if dt > 0 else (0.0, 0.0, 0.0, 0.0)
             check = motion.acceleration if motion.check is None else motion.check

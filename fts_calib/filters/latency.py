@@ -50,7 +50,7 @@ import numpy as np
 from ..model.calibration import Calibration
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
-from .quasi_static import joint_rates
+from .joint_rates import joint_rates
 
 _MIN_SPEED = 0.2  # [rad/s] a joint at least this fast: the wrench changes enough to show a lag
 _MIN_MOVE_SAMPLES = 20  # a move shorter than this gives no estimate of its own
@@ -134,7 +134,8 @@ def estimate_latency(
     bounds = [*np.nonzero(new)[0], len(time)]
     for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
         part = slice(start, stop)
-        velocity, acceleration = joint_rates(time[part], joints[part], window_s, dt, kin.continuous)
+        rates = joint_rates(time[part], joints[part], window_s, dt, kin.continuous, order=2)
+        velocity, acceleration = rates.velocity, rates.acceleration
         half = int(math.ceil(window_s / dt / 2)) + 1
         moving = np.max(np.abs(velocity), axis=1) >= min_speed
         moving[:half], moving[-half:] = False, False
