@@ -103,3 +103,18 @@ def test_the_payload_smoothing_is_the_biweight_kernel_and_leaves_out_windows_wit
     i = 100
     expected = kernel @ values[i - 25 : i + 26] / kernel.sum()
     np.testing.assert_allclose(smoothed_like_acceleration(t, values, 0.05, DT)[0][i], expected, rtol=0, atol=1e-12)
+
+
+def test_the_predicted_budget_propagates_the_noise_through_the_estimators_kernels(rng):
+    """The budget's joint-noise term takes the dynamic filter's kernels: the rates of white noise are those kernels applied."""
+    from fts_calib.budget.sensitivities import MotionUncertainty
+
+    uncertainty = MotionUncertainty(joint_rate_hz=1000.0, window_s=0.3, order=5)
+    kernels = uncertainty.kernels()
+    noise = rng.standard_normal((2000, 1))
+    out = joint_rates(np.arange(2000) * DT, noise, 0.3, DT, order=5, cut=False)
+    i = 1000
+    for row, name in enumerate(("joints", "velocity", "acceleration")):
+        expected = kernels[row] @ noise[i - 150 : i + 151, 0]
+        scale = np.abs(kernels[row]).sum()  # the largest a kernel can make of unit readings
+        assert abs(getattr(out, name)[i, 0] - expected) <= 1e-12 * scale, name

@@ -104,17 +104,31 @@ def whole_windows(time: np.ndarray, half: int, dt: float, complete: bool = False
 
 
 @lru_cache(maxsize=32)
-def _kernels(half: int, dt: float, shift: float, order: int) -> np.ndarray:
-    """The (3, 2 half + 1) kernels of position, velocity and acceleration at offset ``shift`` [s] of a local polynomial."""
+def rate_kernels(half: int, dt: float, shift_s: float, order: int) -> np.ndarray:
+    """The kernels of the local polynomial: position, velocity and acceleration at ``shift_s`` after the window's middle.
+
+    ``estimate_i = sum_k K[:, k + half] q_{i+k}``, k = -half .. half.
+
+    Args:
+        half: Samples each side of the middle.
+        dt: Sample period [s].
+        shift_s: Where the polynomial is evaluated, after the middle [s].
+        order: Degree of the polynomial.
+
+    Returns:
+        Shape (3, 2 half + 1), in [1, 1/s, 1/s^2], read-only.
+    """
     scale = half * dt  # conditioning: offsets within [-1, 1]
     x = np.arange(-half, half + 1) * dt / scale
     fit = np.linalg.pinv(np.column_stack([x**k for k in range(order + 1)]))  # (order + 1, w): coefficients in x
-    s = shift / scale
+    s = shift_s / scale
     powers = np.arange(order + 1)
     position = (s**powers) @ fit
     velocity = (powers[1:] * s ** (powers[1:] - 1)) @ fit[1:] / scale
     acceleration = (powers[2:] * (powers[2:] - 1) * s ** (powers[2:] - 2)) @ fit[2:] / scale**2
-    return np.stack([position, velocity, acceleration])
+    kernels = np.stack([position, velocity, acceleration])
+    kernels.setflags(write=False)  # cached: one array for every caller
+    return kernels
 
 
 @lru_cache(maxsize=32)
@@ -135,13 +149,13 @@ def kernel_gains(window_s: float, dt: float, order: int = 3) -> tuple[float, flo
         ratio of the largest error to the largest estimate along a jump of the jerk, computed here).
     """
     half = max(2, int(round(window_s / 2 / dt)))
-    k = _kernels(half, dt, 0.0, order)
+    k = rate_kernels(half, dt, 0.0, order)
     t = np.arange(-3 * half, 3 * half + 1) * dt
     jump = np.maximum(t, 0.0)  # a jerk of 1 from t = 0: positions t^3 / 6, acceleration t
     estimate = np.convolve(jump**3 / 6.0, k[2][::-1], mode="same")
     error = np.abs(estimate - jump)[half:-half]
     snap = np.abs(estimate[2 * half :] - 2 * estimate[half:-half] + estimate[: -2 * half]) / (half * dt) ** 2
-    narrow = _kernels(max(2, half // 3), dt, 0.0, order)[2]
+    narrow = rate_kernels(max(2, half // 3), dt, 0.0, order)[2]
     return float(np.linalg.norm(k[1])), float(np.linalg.norm(k[2])), float(2.0 * error.max() / snap.max()), float(np.linalg.norm(narrow))
 
 
@@ -184,11 +198,11 @@ def joint_rates(
     half = half_window(window_s, dt)
     full = np.zeros(n, dtype=bool)
     if half >= 1 and 2 * half >= order and n >= 2 * half + 1:
-        kernels = _kernels(half, float(dt), float(shift_s), order)
+        kernels = rate_kernels(half, float(dt), float(shift_s), order)
         if check:
             third = max(2, half // 3)
             wide = np.zeros_like(kernels[2])
-            wide[half - third : half + third + 1] = _kernels(third, float(dt), float(shift_s), order)[2]
+            wide[half - third : half + third + 1] = rate_kernels(third, float(dt), float(shift_s), order)[2]
             kernels = np.vstack([kernels, wide[None]])
         inner = slice(half, n - half)
         origin = q[half]  # the FFT's rounding is relative to the values: take the first window's out
