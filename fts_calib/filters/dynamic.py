@@ -88,7 +88,7 @@ from ..robot.kinematics import Kinematics, SensorMotion
 from ..robot.tool import Tool, ToolLoad, tool_load
 from ..sources.batch import SampleBatch
 from .joint_rates import JointMotion, joint_rates, kernel_gains
-from .latency import LatencyFit
+from .latency import LatencyFit, wrench_rate
 from .quasi_static import PERIOD_SAMPLES, QuasiStaticFilter, StillSamples, quasi_static, sample_period
 from .settings import DYNAMIC, FilterConfig, PipelineConfig
 
@@ -419,8 +419,8 @@ class DynamicFilter:
         if self._levers is None:
             self._levers = joint_levers(kin, motion.joints[at[0]])
         moving = load.w_sensor
-        rate = np.gradient(moving, rows.time[index], axis=0) if len(index) > 1 else np.zeros_like(moving)
-        rate = np.where(np.isfinite(rate), rate, np.inf)
+        rate = wrench_rate(rows.time[index], moving)
+        rate = np.where(np.isfinite(rate), rate, np.inf)  # a repeated time stamp: the latency's error unbounded there
         omega = load.motion.omega if load.motion is not None else np.zeros((len(index), 3))
         alpha = load.motion.alpha if load.motion is not None else np.zeros((len(index), 3))
         bias, noise, latency, sigma_w = bias[index], self._joint_noise(kin), self._latency_sigma(kin), self.sigma_w()

@@ -11,7 +11,7 @@ aligned by the stream latency, give the sensor frame's motion (joint rates by
 :func:`fts_calib.filters.joint_rates.joint_rates`, then :meth:`Kinematics.sensor_motion`), and
 :func:`fts_calib.payload.moving.fit_payload_motion` the payload. The latency starts at
 the pipeline's ``live.latency_s`` and is then estimated from the residuals of the payload just
-identified (:func:`latency_step`: the regression of :mod:`fts_calib.filters.latency` with the
+identified (:func:`fts_calib.filters.latency.latency_regression` on the fit's residuals, with the
 offsets' drift left out), the joints re-aligned and the payload fitted again, until the
 latency moves by less than 20 us. Samples within half a derivative window of the recording's ends, or of a
 sample missing (a row refused, a datagram lost), are left out (their rates come from a cut or uneven window).
@@ -54,6 +54,7 @@ import numpy as np
 from ..core import arrays as validation
 from ..core.exceptions import FeedTimeout, PayloadError
 from ..filters.joint_rates import joint_rates, smoothed_like_acceleration
+from ..filters.latency import latency_regression, latency_sums, wrench_rate
 from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
 from ..filters.sample_checks import SampleChecks
 from ..filters.settings import PipelineConfig
@@ -207,7 +208,7 @@ def _regressor(time, g, omega, alpha, a, window_s: float, dt: float) -> np.ndarr
     return smoothed.reshape(rest.shape) + inertial.body_regressor(zero, zero, alpha, a)
 
 
-def latency_step(
+def _latency_left(
     time: np.ndarray, measured: np.ndarray, regressor: np.ndarray, estimate: MotionPayloadEstimate, block_samples: int
 ) -> tuple[float, float]:
     """How much later the joints still are than the fit assumed, from its residuals.
@@ -231,23 +232,12 @@ def latency_step(
     predicted = regressor @ estimate.parameters
     middle = (time[0] + time[-1]) / 2
     residual = measured - predicted - estimate.offsets - np.outer(time - middle, estimate.offset_rate)
-    with np.errstate(divide="ignore", invalid="ignore"):  # repeated time stamps: no slope there
-        rate = np.gradient(predicted, time, axis=0)
-    ok = np.all(np.isfinite(rate), axis=1)
-    weight = 1.0 / np.maximum(estimate.residual_rms, 1e-15) ** 2
-    num = np.sum(residual[ok] * rate[ok] * weight, axis=1)
-    den = np.sum(rate[ok] ** 2 * weight, axis=1)
-    if not len(den) or np.sum(den) <= 0:
-        return 0.0, math.inf
-    step = float(np.sum(num) / np.sum(den))
-    blocks = max(len(den) // max(block_samples, 1), 1)
-    edges = np.linspace(0, len(den), blocks + 1).astype(int)[:-1]
-    block_num, block_den = np.add.reduceat(num, edges), np.add.reduceat(den, edges)
-    good = block_den > 0
-    if good.sum() < 2:
-        return step, math.inf
-    each, w = block_num[good] / block_den[good], block_den[good]
-    return step, math.sqrt(float(np.sum(w * (each - step) ** 2) / np.sum(w)) / (good.sum() - 1))
+    rate = wrench_rate(time, predicted)
+    ok = np.all(np.isfinite(rate), axis=1)  # repeated time stamps: no slope there
+    rs, ss = latency_sums(residual[ok], rate[ok], 1.0 / np.maximum(estimate.residual_rms, 1e-15) ** 2)
+    blocks = max(len(ss) // max(block_samples, 1), 1)
+    step = latency_regression(rs, ss, np.linspace(0, len(ss), blocks + 1).astype(int)[:-1])
+    return (0.0, math.inf) if step is None else (step.latency_s, step.stderr_s)
 
 
 def identify_payload_from_motion(
@@ -331,7 +321,7 @@ def identify_payload_from_samples(
         estimate = fit_payload_regressor(wrench[keep], regressor[keep], axes, where, final, block, time[keep])
         if final:
             break
-        step, stderr_lag = latency_step(time[keep], wrench[keep], regressor[keep], estimate, block)
+        step, stderr_lag = _latency_left(time[keep], wrench[keep], regressor[keep], estimate, block)
         lag += step
         # the last fit is the one checked: with the joints aligned (what is left is below the tolerance)
         final = abs(step) < _LATENCY_TOLERANCE_S or round_ == _ROUNDS - 2
