@@ -54,8 +54,8 @@ class JointMotion:
     """Joint motion at the channels' times (one row per sample).
 
     Attributes:
-        joints: Positions [rad], shape (N, n_joints): the polynomial's in whole windows, the
-            readings (moved by ``shift_s``) elsewhere.
+        joints: Positions [rad], shape (N, n_joints): the polynomial's in whole windows; elsewhere
+            the readings, moved by ``shift_s`` with the cut-window fit's rates (as read without it).
         velocity: Velocities [rad/s], shape (N, n_joints).
         acceleration: Accelerations [rad/s^2], shape (N, n_joints).
         full: Which samples had a whole regular window (the others: the cut-window fit), shape (N,) bool.
