@@ -14,7 +14,7 @@ import pytest
 from fts_calib.core.exceptions import FileFormatError, InsufficientExcitation, PoorFit
 from fts_calib.core.resources import resolve
 from fts_calib.filters.dynamic import DynamicFilter, nominal_c, third_difference_noise, trust_weights
-from fts_calib.filters.joint_rates import joint_motion, kernel_gains
+from fts_calib.filters.joint_rates import joint_rates, kernel_gains
 from fts_calib.filters.settings import FilterConfig, PipelineConfig, load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.session.calibration_run import calibrate_recording
@@ -144,7 +144,7 @@ def test_the_derivative_filter_is_exact_on_a_quintic_and_shifts_by_the_latency()
     t = np.arange(0.0, 2.0, 0.001)
     coefficients = np.array([0.3, -0.2, 0.5, 0.1, -0.05, 0.02])
     q = np.polynomial.polynomial.polyval(t, coefficients)[:, None]
-    out = joint_motion(t, q, 0.3, 0.001, None, shift_s=0.008, order=5)
+    out = joint_rates(t, q, 0.3, 0.001, None, shift_s=0.008, order=5)
     later = t + 0.008
     inner = out.full
     d1, d2 = np.polynomial.polynomial.polyder(coefficients), np.polynomial.polynomial.polyder(coefficients, 2)
@@ -153,7 +153,7 @@ def test_the_derivative_filter_is_exact_on_a_quintic_and_shifts_by_the_latency()
     np.testing.assert_allclose(out.velocity[inner, 0], np.polynomial.polynomial.polyval(later[inner], d1), atol=1e-9)
     np.testing.assert_allclose(out.acceleration[inner, 0], np.polynomial.polynomial.polyval(later[inner], d2), atol=1e-8)
     # without the cut-window fit (the dynamic filter drops those samples): the same whole windows, the readings and no rates elsewhere
-    bare = joint_motion(t, q, 0.3, 0.001, None, shift_s=0.008, order=5, cut=False)
+    bare = joint_rates(t, q, 0.3, 0.001, None, shift_s=0.008, order=5, cut=False)
     for name in ("joints", "velocity", "acceleration"):
         np.testing.assert_array_equal(getattr(bare, name)[inner], getattr(out, name)[inner])
     np.testing.assert_array_equal(bare.joints[~inner], q[~inner])
@@ -164,7 +164,7 @@ def test_noise_gains_are_those_of_the_kernels(rng):
     """White joint noise reaches velocity and acceleration with the gains the trust rule uses (Monte Carlo, 5 %)."""
     t = np.arange(0.0, 20.0, 0.001)
     noise = 1e-5 * rng.standard_normal((len(t), 4))
-    out = joint_motion(t, noise, 0.3, 0.001, None, order=5)
+    out = joint_rates(t, noise, 0.3, 0.001, None, order=5)
     gain_v, gain_a, _, _ = kernel_gains(0.3, 0.001, 5)
     assert np.std(out.velocity[out.full]) == pytest.approx(gain_v * 1e-5, rel=0.05)
     assert np.std(out.acceleration[out.full]) == pytest.approx(gain_a * 1e-5, rel=0.05)

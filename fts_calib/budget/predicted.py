@@ -41,6 +41,7 @@ import numpy as np
 
 from ..filters.dynamic import acceleration_bias, inertial_moment, joint_levers, predicted_error, trust_weights
 from ..filters.joint_rates import kernel_gains
+from ..filters.latency import wrench_rate
 from ..filters.settings import FilterConfig
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
@@ -196,7 +197,7 @@ def filter_weights(kin: Kinematics, tool: Tool, plan: Plan, sigma_w, uncertainty
     noise = np.full(kin.n_joints, uncertainty.joint_noise)
     # the planned acceleration is exact: the narrower window's check adds nothing, the snap's term stays
     bias = np.vstack([acceleration_bias(plan.qdd, plan.qdd, half, 1.0 / plan.rate, gains, noise)] * n_conf)
-    rate = np.vstack([np.gradient(load.w_sensor[codes == c], plan.time, axis=0) for c in range(n_conf)])
+    rate = np.vstack([wrench_rate(plan.time, load.w_sensor[codes == c]) for c in range(n_conf)])
     random, systematic = predicted_error(
         tool,
         codes,

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import arrays as validation
+from ..filters.joint_rates import rate_kernels
 from ..robot.definition import RobotAccuracy
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
@@ -192,14 +193,11 @@ class MotionUncertainty:
     def kernels(self) -> np.ndarray:
         """The centred polynomial's kernels of ``(q, qdot, qddot)`` at the window's middle, shape (3, 2h + 1).
 
-        ``estimate_i = sum_k K[k] q_{i+k}``, k = -h .. h, at the readings' period; [1, 1/s, 1/s^2].
+        ``estimate_i = sum_k K[k] q_{i+k}``, k = -h .. h, at the readings' period; [1, 1/s, 1/s^2]
+        (the dynamic filter's: :func:`fts_calib.filters.joint_rates.rate_kernels`).
         """
         dt = 1.0 / self.joint_rate_hz
-        half = max(2, int(round(self.window_s / 2 / dt)))
-        x = np.arange(-half, half + 1) / half  # offsets in units of the half window
-        fit = np.linalg.pinv(np.column_stack([x**k for k in range(self.order + 1)]))  # (order + 1, w)
-        scale = half * dt
-        return np.stack([fit[0], fit[1] / scale, 2.0 * fit[2] / scale**2])
+        return rate_kernels(max(2, int(round(self.window_s / 2 / dt))), dt, 0.0, self.order)
 
     def estimate_covariance(self) -> np.ndarray:
         """Covariance of the errors of one joint's ``(q, qdot, qddot)`` estimates, [rad, rad/s, rad/s^2]^2. Shape (3, 3).

@@ -87,8 +87,8 @@ from ..robot.definition import RobotAccuracy
 from ..robot.kinematics import Kinematics, SensorMotion
 from ..robot.tool import Tool, ToolLoad, tool_load
 from ..sources.batch import SampleBatch
-from .joint_rates import JointMotion, joint_motion, kernel_gains
-from .latency import LatencyFit
+from .joint_rates import JointMotion, joint_rates, kernel_gains
+from .latency import LatencyFit, wrench_rate
 from .quasi_static import PERIOD_SAMPLES, QuasiStaticFilter, StillSamples, quasi_static, sample_period
 from .settings import DYNAMIC, FilterConfig, PipelineConfig
 
@@ -395,7 +395,9 @@ class DynamicFilter:
         window, dt = settings.dynamic_window_s, self._dt or 0.0
         if exact is None:
             # a sample without a whole window is dropped, and so is one whose jerk window reaches one: their rates are never used
-            motion = joint_motion(buf.time, buf.joints, window, dt, self._continuous, self.latency_s, settings.dynamic_order, cut=False)
+            motion = joint_rates(
+                buf.time, buf.joints, window, dt, self._continuous, settings.dynamic_order, self.latency_s, cut=False, check=True
+            )
             half = max(1, int(round(window / 2 / dt))) if dt > 0 else 1
             gains = kernel_gains(window, dt, settings.dynamic_order) if dt > 0 else (0.0, 0.0, 0.0, 0.0)
             check = motion.acceleration if motion.check is None else motion.check
@@ -417,8 +419,8 @@ class DynamicFilter:
         if self._levers is None:
             self._levers = joint_levers(kin, motion.joints[at[0]])
         moving = load.w_sensor
-        rate = np.gradient(moving, rows.time[index], axis=0) if len(index) > 1 else np.zeros_like(moving)
-        rate = np.where(np.isfinite(rate), rate, np.inf)
+        rate = wrench_rate(rows.time[index], moving)
+        rate = np.where(np.isfinite(rate), rate, np.inf)  # a repeated time stamp: the latency's error unbounded there
         omega = load.motion.omega if load.motion is not None else np.zeros((len(index), 3))
         alpha = load.motion.alpha if load.motion is not None else np.zeros((len(index), 3))
         bias, noise, latency, sigma_w = bias[index], self._joint_noise(kin), self._latency_sigma(kin), self.sigma_w()

@@ -1,43 +1,52 @@
-r"""The constant latency between the joint and channel streams, estimated from the moving samples.
+r"""The constant latency between the joint and channel streams: one regression, three uses.
 
-When the joint readings are ``tau`` late (the row of time t holds the joints of t - tau),
-the wrench predicted from them along a motion is late too: with the measured wrench
-``W_meas = C Delta + D`` and the tool's moving wrench predicted from the readings
-(:func:`fts_calib.robot.tool.tool_load`, the one dynamic model: mass, centre of mass,
-inertia, joint rates estimated from the readings as the filter does),
+When the joint readings are ``tau`` late (the row of time t holds the joints of t - tau), the
+wrench predicted from them along a motion is late too: with ``W_meas`` the measured wrench
+and ``W_pred`` the tool's (or payload's) wrench predicted from the readings,
 
 .. math::
 
-    W_{meas}(t) - W_{pred}(t) \approx \tau\, \dot W_{pred}(t),
+    W_{meas}(t) - W_{pred}(t) \approx \tau\, \dot W_{pred}(t), \qquad
+    \hat\tau = \frac{\sum_{i,j} w_j r_{ij} s_{ij}}{\sum_{i,j} w_j s_{ij}^2},
 
-a regression of the residual on the predicted wrench's rate, each axis scaled by its full
-scale. Only moving samples whose dynamic part is well predicted count: every joint's rate
-estimate from a whole window, a joint moving faster than ``min_speed``, and the residual
-within a few times its robust spread after a first fit. One estimate per move (a stretch
-of moving samples) gives the uncertainty: the weighted spread of the moves' estimates over
-the square root of their number, so correlated model errors within a move do not make it
-look better than it is. Times in [s], rates in [rad/s].
+the least squares of the residuals ``r`` on the predicted wrench's rate ``s``
+(:func:`wrench_rate`), over samples i and axes j weighted by ``w_j``
+(:func:`latency_regression`). Its standard error comes from groups of consecutive samples
+when the errors correlate within them (the weighted spread of the groups' estimates over the
+square root of their number less one), or, where only sums are kept, from the residual sum of
+squares (the samples taken as independent):
 
-The joint stream's latency fitted with the calibration, from the dynamic filter's moving samples.
+- the measured stream latency of every calibration (:func:`estimate_latency`): the moving
+  samples whose dynamic part is well predicted (every joint's rates from a whole window, a
+  joint faster than ``min_speed``), the calibration's wrench against the tool's moving wrench
+  (:func:`fts_calib.robot.tool.tool_load`, joint rates by the quasi-static filter's quadratic),
+  each axis scaled by its full scale; a first fit, then the residuals beyond five robust spreads
+  left out and one group per move (a stretch of moving samples), so correlated model errors
+  within a move do not make it look better than it is;
+- payload from motion (:func:`fts_calib.payload.samples.identify_payload_from_samples`): the
+  residuals of the payload just identified (its offsets' drift left out), each axis weighted by
+  its residual spread, groups of eight joint-rate windows; the joints are re-aligned by the
+  step and the payload fitted again until the step is below 20 us;
+- the dynamic filter (:class:`LatencyFit`): the latency fitted with the calibration, from sums.
+  Fitting the calibration to ``W + tau dW/dt`` (axes scaled by their full scale ``FS``,
+  regressors ``x = [P Delta; e_c]``, one offset per tool configuration) is the same regression
+  on the parts of ``W`` and ``dW/dt`` the regressors do not explain: with ``S`` the weighted sums
+  of ``z z^T``, ``z = [x; W / FS; dW/dt / FS]``,
+  ``A = S_WW - S_Wx S_xx^+ S_xW``, ``B = S_WV - S_Wx S_xx^+ S_xV``, ``E = S_VV - S_Vx S_xx^+ S_xV``,
 
-Joints read ``tau`` late shift the expected wrench by ``tau dW/dt`` to first order. Fitting
-the calibration to ``W + tau dW/dt`` (axes scaled by their full scale ``FS``, regressors
-``x = [P Delta; e_c]``, one offset per tool configuration) leaves a residual quadratic in
-``tau``; with ``S`` the weighted sums of ``z z^T``, ``z = [x; W / FS; dW/dt / FS]``, and the
-parts of ``W`` and ``dW/dt`` the regressors do not explain
-(``A = S_WW - S_Wx S_xx^+ S_xW``, ``B = S_WV - S_Wx S_xx^+ S_xV``, ``E = S_VV - S_Vx S_xx^+ S_xV``):
+  .. math::
 
-.. math::
+      \mathrm{RSS}(\tau) = \mathrm{tr} A + 2\tau\,\mathrm{tr} B + \tau^2\,\mathrm{tr} E, \qquad
+      \hat\tau = -\mathrm{tr} B / \mathrm{tr} E, \qquad
+      \sigma_\tau^2 = \frac{\mathrm{RSS}(\hat\tau)}{6 (n - p)\,\mathrm{tr} E}.
 
-    \mathrm{RSS}(\tau) = \mathrm{tr} A + 2\tau\,\mathrm{tr} B + \tau^2\,\mathrm{tr} E, \qquad
-    \hat\tau = -\mathrm{tr} B / \mathrm{tr} E, \qquad
-    \sigma_\tau^2 = \frac{\mathrm{RSS}(\hat\tau)}{6 (n - p)\,\mathrm{tr} E}.
+  ``tau`` is the latency *left* after the one the filter applied: ``calibrate`` with
+  ``filter.latency_s: auto`` reads the recording again with it applied
+  (:func:`fts_calib.session.calibration_run.calibrate_recording`). The standard error takes the
+  samples as independent: optimistic where the errors correlate over the derivative window.
+  Only sums are kept: memory does not grow with the stream.
 
-``tau`` is the latency *left* after the one the filter applied: ``calibrate`` with
-``filter.latency_s: auto`` reads the recording again with it applied
-(:func:`fts_calib.session.calibration_run.calibrate_recording`). The standard error takes the
-samples as independent: optimistic where the errors correlate over the derivative window.
-Only sums are kept: memory does not grow with the stream. Times [s].
+Times in [s], rates in [rad/s], wrenches in [N, N m].
 """
 
 from __future__ import annotations
@@ -50,7 +59,7 @@ import numpy as np
 from ..model.calibration import Calibration
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
-from .quasi_static import joint_rates
+from .joint_rates import joint_rates
 
 _MIN_SPEED = 0.2  # [rad/s] a joint at least this fast: the wrench changes enough to show a lag
 _MIN_MOVE_SAMPLES = 20  # a move shorter than this gives no estimate of its own
@@ -89,6 +98,84 @@ class LatencyEstimate:
             "moves": self.moves,
             "samples": self.samples,
         }
+
+
+@dataclass(frozen=True)
+class LatencyStep:
+    """A least-squares latency (:func:`latency_regression`).
+
+    Attributes:
+        latency_s: How much later the joints are than the prediction assumed [s].
+        stderr_s: Its standard error [s] (inf when nothing gives one: fewer than two groups).
+        groups: Groups that gave an estimate of their own (1 without groups).
+    """
+
+    latency_s: float
+    stderr_s: float
+    groups: int
+
+
+def wrench_rate(time: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The time derivative of a wrench along samples, by central differences [N/s, N m/s], shaped like ``w`` (N, 6).
+
+    Not finite where a time stamp repeats (a sample logged twice has no step); zeros with fewer than two samples.
+    """
+    if len(time) < 2:
+        return np.zeros_like(w)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.gradient(w, time, axis=0)
+
+
+def latency_sums(residual: np.ndarray, rate: np.ndarray, weight: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's terms of the regression: ``sum_j w_j r_j s_j`` and ``sum_j w_j s_j^2``.
+
+    Args:
+        residual: Measured less predicted wrench, shape (N, 6) (scaled as the caller weighs the axes).
+        rate: The predicted wrench's time derivative (:func:`wrench_rate`), finite, shape (N, 6).
+        weight: Weight of each axis, shape (6,); None: 1.
+
+    Returns:
+        ``(rs (N,), ss (N,))``.
+    """
+    if weight is None:
+        return np.sum(residual * rate, axis=1), np.sum(rate * rate, axis=1)
+    return np.sum(residual * rate * weight, axis=1), np.sum(rate**2 * weight, axis=1)
+
+
+def latency_regression(
+    rs: np.ndarray | float, ss: np.ndarray | float, starts: np.ndarray | None = None, rr: float | None = None, dof: int = 1
+) -> LatencyStep | None:
+    """The least-squares latency of ``W_meas - W_pred ~ tau dW_pred/dt`` and its standard error (module docstring).
+
+    Args:
+        rs: The samples' ``sum_j w_j r_j s_j`` (:func:`latency_sums`), shape (n,), or their sum.
+        ss: The samples' ``sum_j w_j s_j^2``, shape (n,), or their sum.
+        starts: The first sample of each group of consecutive samples (a move, a block), ascending,
+            shape (K,): the standard error from the spread of the groups' estimates (weighted by
+            their ``ss``), the groups without a rate left out.
+        rr: Without groups: the weighted sum of the squared residuals, for the standard error of
+            independent residuals ``sqrt(RSS(tau) / dof / ss)``, ``RSS(tau) = rr - 2 tau rs + tau^2 ss``.
+        dof: The residuals' degrees of freedom (with ``rr``).
+
+    Returns:
+        The latency [s] with its standard error, or None when the predicted wrench does not change (``ss`` sums to 0).
+    """
+    total, cross = float(np.sum(ss)), float(np.sum(rs))
+    if not total > 0:
+        return None
+    tau = cross / total
+    if starts is not None:
+        group_rs, group_ss = np.add.reduceat(rs, starts), np.add.reduceat(ss, starts)
+        good = group_ss > 0
+        k = int(good.sum())
+        if k < 2:
+            return LatencyStep(tau, math.inf, k)
+        each, w = group_rs[good] / group_ss[good], group_ss[good]
+        return LatencyStep(tau, math.sqrt(float(np.sum(w * (each - tau) ** 2) / np.sum(w)) / (k - 1)), k)
+    if rr is None:
+        return LatencyStep(tau, math.inf, 1)
+    rss = max(rr - 2 * tau * cross + tau * tau * total, 0.0)
+    return LatencyStep(tau, math.sqrt(rss / dof / total), 1)
 
 
 def estimate_latency(
@@ -134,7 +221,8 @@ def estimate_latency(
     bounds = [*np.nonzero(new)[0], len(time)]
     for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
         part = slice(start, stop)
-        velocity, acceleration = joint_rates(time[part], joints[part], window_s, dt, kin.continuous)
+        rates = joint_rates(time[part], joints[part], window_s, dt, kin.continuous, order=2)
+        velocity, acceleration = rates.velocity, rates.acceleration
         half = int(math.ceil(window_s / dt / 2)) + 1
         moving = np.max(np.abs(velocity), axis=1) >= min_speed
         moving[:half], moving[-half:] = False, False
@@ -142,9 +230,8 @@ def estimate_latency(
             continue
         predicted = tool_load(kin, tool, joints[part], codes[part], velocity, acceleration).w_sensor / full_scale
         measured = calibration.wrench(channels[part], region_check=False) / full_scale
-        with np.errstate(divide="ignore", invalid="ignore"):  # repeated time stamps: no slope there
-            slope = np.gradient(predicted, time[part], axis=0)
-        moving &= np.all(np.isfinite(slope), axis=1)
+        slope = wrench_rate(time[part], predicted)
+        moving &= np.all(np.isfinite(slope), axis=1)  # repeated time stamps: no slope there
         label = np.cumsum(np.concatenate([[True], moving[1:] & ~moving[:-1]])) + start
         residual.append((measured - predicted)[moving])
         rate.append(slope[moving])
@@ -152,23 +239,20 @@ def estimate_latency(
     if not residual:
         return None
     r, s, m = np.concatenate(residual), np.concatenate(rate), np.concatenate(move)
-    tau = float(np.sum(r * s) / np.sum(s * s))
-    spread = np.abs(r - tau * s)
+    rs, ss = latency_sums(r, s)
+    first = latency_regression(rs, ss)
+    if first is None:
+        return None
+    spread = np.abs(r - first.latency_s * s)
     scale = 1.4826 * np.median(spread, axis=0) + 1e-15
     good = np.all(spread <= _OUTLIER * scale, axis=1)
-    estimates, weights = [], []
-    for label in np.unique(m[good]):
-        mine = good & (m == label)
-        if mine.sum() >= _MIN_MOVE_SAMPLES and np.sum(s[mine] ** 2) > 0:
-            weights.append(float(np.sum(s[mine] ** 2)))
-            estimates.append(float(np.sum(r[mine] * s[mine]) / weights[-1]))
-    if not estimates:
+    _, counts = np.unique(m[good], return_counts=True)  # the moves' good samples (labels ascend: each move is one run)
+    counted = np.repeat(counts >= _MIN_MOVE_SAMPLES, counts)
+    starts = np.concatenate([[0], np.cumsum(counts[counts >= _MIN_MOVE_SAMPLES])[:-1]]).astype(np.int64)
+    step = latency_regression(rs[good][counted], ss[good][counted], starts) if counted.any() else None
+    if step is None:
         return None
-    w, e = np.array(weights), np.array(estimates)
-    mean = float(np.sum(w * e) / np.sum(w))
-    k = len(e)
-    stderr = math.sqrt(float(np.sum(w * (e - mean) ** 2) / np.sum(w)) / (k - 1)) if k > 1 else math.inf
-    return LatencyEstimate(mean, stderr, k, int(good.sum()))
+    return LatencyEstimate(step.latency_s, step.stderr_s, step.groups, int(good.sum()))
 
 
 #: Fewest samples for a latency estimate.
@@ -234,13 +318,9 @@ class LatencyFit:
         def part(a: slice, b: slice) -> float:
             return float(np.trace(S[a, b] - S[a, x] @ inverse @ S[x, b]))
 
-        A, B, E = part(w, w), part(w, v), part(v, v)
-        if not E > 0:
-            return None
-        tau = -B / E
-        rss = max(A + 2 * tau * B + tau * tau * E, 0.0)
-        dof = max(self.count - p, 1)
-        return tau, math.sqrt(rss / (6 * dof) / E)
+        # the regression on what the calibration's regressors leave of W and dW/dt: residual -W, rate dW/dt
+        step = latency_regression(-part(w, v), part(v, v), rr=part(w, w), dof=6 * max(self.count - p, 1))
+        return None if step is None else (step.latency_s, step.stderr_s)
 
     def residuals(self, tau: float) -> tuple[dict[int, np.ndarray], np.ndarray] | None:
         """The fit's residual per configuration at the latency ``tau`` [s] (the dynamic fit check), and its C_bar.

@@ -5,7 +5,8 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
 1. *joint speed*: every joint slower than ``max_joint_speed`` [rad/s];
 2. *joint acceleration*: every joint accelerating less than ``max_joint_acceleration``
    [rad/s^2]; both estimated from the joint readings by a least-squares quadratic over
-   ``derivative_window_s`` (the feeds carry no velocities), and both must hold at every
+   ``derivative_window_s`` (:func:`fts_calib.filters.joint_rates.joint_rates`: the feeds carry
+   no velocities), and both must hold at every
    sample of the strain window around the sample (the first milliseconds of a
    jerk-limited motion hardly show in a difference estimate);
 3. *strain stationary*: the standard deviation of every bridge over ``strain_window_s``
@@ -58,6 +59,7 @@ from ..model.channel_limits import ChannelLimits, GridWatch
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, ToolLoad, dynamic_fraction, tool_load
 from ..sources.batch import SampleBatch
+from .joint_rates import joint_rates, window_bounds
 from .settings import FilterConfig
 
 #: The rules, in the order they are reported.
@@ -84,13 +86,6 @@ class Decided:
     still: np.ndarray
     joint_velocity: np.ndarray
     joint_acceleration: np.ndarray
-
-
-def window_bounds(time: np.ndarray, index: np.ndarray, half: float) -> tuple[np.ndarray, np.ndarray]:
-    """First and last sample indices within ``half`` [s] of each sample ``index``."""
-    left = np.searchsorted(time, time[index] - half, side="left")
-    right = np.searchsorted(time, time[index] + half, side="right") - 1
-    return left, right
 
 
 def windowed_std(values: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -139,88 +134,6 @@ def sample_period(time: np.ndarray) -> float:
         time: Sample times in [s], at least 101 of them. Shape (N,).
     """
     return float(np.median(np.diff(time[: PERIOD_SAMPLES + 1])))
-
-
-def joint_rates(
-    time: np.ndarray, joints: np.ndarray, window_s: float, dt: float, continuous: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Joint velocity and acceleration at every sample, estimated from readings alone.
-
-    A least-squares quadratic through the samples of a window of ``window_s`` centred on
-    each sample (Savitzky-Golay: with 1e-6 rad of reading noise at 1 kHz and a 50 ms window,
-    about 1.4e-3 rad/s^2 of acceleration noise, twenty times less than a second difference);
-    where the window is cut by the edges, a gap or irregular sampling, a least-squares
-    quadratic through the samples there are, evaluated at the sample (not at the middle of
-    the cut window). Continuous joints are unwrapped first.
-
-    Args:
-        time: Sample times [s], non-decreasing. Shape (N,).
-        joints: Joint readings [rad]. Shape (N, n_joints).
-        window_s: Width of the window [s].
-        dt: The stream's sample period [s] (0: the fit over the samples there are everywhere).
-        continuous: Which joints are continuous. Shape (n_joints,).
-
-    Returns:
-        ``(velocity [rad/s], acceleration [rad/s^2])``, each (N, n_joints).
-    """
-    joints = np.array(joints, dtype=float)
-    if continuous is not None and np.any(continuous) and len(joints) > 1:
-        joints[:, continuous] = np.unwrap(joints[:, continuous], axis=0)
-    n = len(time)
-    velocity, acceleration = np.zeros_like(joints), np.zeros_like(joints)
-    fitted = np.zeros(n, dtype=bool)
-    half = int(round(window_s / 2 / dt)) if dt > 0 else 0
-    if half >= 1 and n >= 2 * half + 1:
-        offsets = np.arange(-half, half + 1) * dt
-        kernels = np.linalg.pinv(np.column_stack([np.ones_like(offsets), offsets, offsets * offsets]))
-        windows = np.lib.stride_tricks.sliding_window_view(joints, 2 * half + 1, axis=0)  # (n - 2 half, joints, 2 half + 1)
-        inner = slice(half, n - half)
-        velocity[inner] = windows @ kernels[1]
-        acceleration[inner] = 2.0 * (windows @ kernels[2])
-        span = time[2 * half :] - time[: n - 2 * half]
-        fitted[inner] = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
-    rest = np.nonzero(~fitted)[0]
-    for block in range(0, len(rest), 4096):  # bounded memory: (block, window, joints) at a time
-        index = rest[block : block + 4096]
-        velocity[index], acceleration[index] = _local_rates(time, joints, index, window_s / 2)
-    return velocity, acceleration
-
-
-_LOCAL_POINTS = 32  # samples of a cut window the local quadratic is fitted through, at most
-
-
-def _local_rates(time: np.ndarray, joints: np.ndarray, index: np.ndarray, half: float) -> tuple[np.ndarray, np.ndarray]:
-    """Joint rates at samples ``index`` from a least-squares quadratic over the samples within ``half`` [s], evaluated at the sample.
-
-    At the sample, not at the middle of the window: where the window is cut (a stream's end, a
-    gap), a difference over it is the velocity half a cut window earlier or later, short of the
-    sample's by that time the acceleration (at a stream ending while it speeds up, a joint just
-    over the speed limit passed). Two sample times give their slope and no acceleration, one gives zeros.
-    """
-    left, right = window_bounds(time, index, half)
-    width = int(np.max(right - left)) + 1
-    # every stride-th sample of the window: at 5 kHz a 50 ms window holds 250, and a quadratic
-    # through 32 of them is as good a fit at an eighth of the work (live feeds cut windows often)
-    cols = left[:, None] + np.arange(0, width, max(1, -(-width // _LOCAL_POINTS)))
-    valid = cols <= right[:, None]
-    cols = np.minimum(cols, len(time) - 1)
-    x = np.where(valid, (time[cols] - time[index, None]) / half, 0.0)  # (m, w), within [-1, 1]
-    y = np.where(valid[:, :, None], joints[cols] - joints[index, None, :], 0.0)  # (m, w, joints)
-    distinct = 1 + np.sum((np.diff(time[cols], axis=1) > 0) & valid[:, 1:], axis=1)
-    powers = np.stack([valid, x, x * x], axis=-1).astype(float)  # (m, w, 3); masked rows are zero
-    normal = np.swapaxes(powers, 1, 2) @ powers
-    moments = np.swapaxes(powers, 1, 2) @ y  # (m, 3, joints)
-    velocity, acceleration = np.zeros((len(index), joints.shape[1])), np.zeros((len(index), joints.shape[1]))
-    two = distinct == 2
-    if np.any(two):
-        n, sx, sxx = normal[two, 0, 0], normal[two, 0, 1], normal[two, 1, 1]
-        velocity[two] = (n[:, None] * moments[two, 1] - sx[:, None] * moments[two, 0]) / (n * sxx - sx * sx)[:, None] / half
-    three = distinct >= 3
-    if np.any(three):
-        coefficients = np.linalg.solve(normal[three], moments[three])
-        velocity[three] = coefficients[:, 1] / half
-        acceleration[three] = 2.0 * coefficients[:, 2] / half**2
-    return velocity, acceleration
 
 
 class QuasiStaticFilter:
@@ -314,7 +227,8 @@ class QuasiStaticFilter:
     def _joint_rates(self, time, joints) -> tuple[np.ndarray, np.ndarray]:
         if self._dt is None and len(time) > PERIOD_SAMPLES:
             self._dt = sample_period(time)
-        return joint_rates(time, joints, self.settings.derivative_window_s, self._dt or 0.0, self._continuous)
+        motion = joint_rates(time, joints, self.settings.derivative_window_s, self._dt or 0.0, self._continuous, order=2)
+        return motion.velocity, motion.acceleration
 
     def _still(self, buf: SampleBatch, index):
         """Joint rules at ``index``: (speed ok, acceleration ok, velocity, acceleration, window bounds).

@@ -9,7 +9,7 @@ the origin of S), and the calibrated measurement adds the unknown wrench offsets
     W_{meas} = Y(\omega, \alpha, a - g)\,\pi + d
 
 with the sensor frame's motion from the joint readings (velocities and accelerations by
-:func:`fts_calib.filters.quasi_static.joint_rates`, a least-squares quadratic over the filter's
+:func:`fts_calib.filters.joint_rates.joint_rates`, a least-squares quadratic over the filter's
 ``derivative_window_s``: no phase lag) and the kinematics. The offsets are estimated with the
 payload (16 unknowns; 22 with a linear drift of the offsets along the motion, when the sample
 times are given, as from a recording: a sensor warming up moves its moments by 1e-3 N m in

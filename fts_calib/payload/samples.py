@@ -8,10 +8,10 @@ Payload from a recorded continuous motion: the sensor's motion from the joint re
 The recording's rows (:func:`fts_calib.payload.samples.read_payload_samples`: one
 payload, bad rows and railed channels refused) give the calibrated wrench; the joint readings,
 aligned by the stream latency, give the sensor frame's motion (joint rates by
-:func:`fts_calib.filters.quasi_static.joint_rates`, then :meth:`Kinematics.sensor_motion`), and
+:func:`fts_calib.filters.joint_rates.joint_rates`, then :meth:`Kinematics.sensor_motion`), and
 :func:`fts_calib.payload.moving.fit_payload_motion` the payload. The latency starts at
 the pipeline's ``live.latency_s`` and is then estimated from the residuals of the payload just
-identified (:func:`latency_step`: the regression of :mod:`fts_calib.filters.latency` with the
+identified (:func:`fts_calib.filters.latency.latency_regression` on the fit's residuals, with the
 offsets' drift left out), the joints re-aligned and the payload fitted again, until the
 latency moves by less than 20 us. Samples within half a derivative window of the recording's ends, or of a
 sample missing (a row refused, a datagram lost), are left out (their rates come from a cut or uneven window).
@@ -53,7 +53,9 @@ import numpy as np
 
 from ..core import arrays as validation
 from ..core.exceptions import FeedTimeout, PayloadError
-from ..filters.quasi_static import PERIOD_SAMPLES, joint_rates, sample_period
+from ..filters.joint_rates import joint_rates, smoothed_like_acceleration
+from ..filters.latency import latency_regression, latency_sums, wrench_rate
+from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
 from ..filters.sample_checks import SampleChecks
 from ..filters.settings import PipelineConfig
 from ..model.calibration import Calibration
@@ -151,7 +153,6 @@ def check_payload_samples(
 
 _LATENCY_TOLERANCE_S = 2e-5  # [s] a latency step below this ends the alternation (the estimate's own error: tests/test_latency.py)
 _ROUNDS = 5  # fits at most
-_MISSING = 1.5  # an interval above this many sample periods has a sample missing
 
 
 @dataclass(frozen=True)
@@ -191,61 +192,23 @@ def aligned_joints(time: np.ndarray, joints: np.ndarray, latency_s: float, conti
     return np.stack([np.interp(time + latency_s, time, joints[:, k]) for k in range(joints.shape[1])], axis=1)
 
 
-def smoothed_like_rates(time: np.ndarray, values: np.ndarray, window_s: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """``values`` smoothed as the joint accelerations are: by the biweight kernel of the joint-rate window.
-
-    A least-squares quadratic over a window of half-width h (:func:`joint_rates`) gives the
-    second derivative of the readings smoothed by the biweight kernel ``(1 - t^2/h^2)^2``
-    (its weights integrated twice): about ``alpha + h^2/14 alpha''``, 1 % of the inertia on a
-    jerk-limited motion at h = 25 ms if the wrench were not smoothed alike.
-
-    Args:
-        time: Sample times [s]. Shape (N,).
-        values: Samples, shape (N, k).
-        window_s: The joint-rate window [s].
-        dt: The sample period [s].
-
-    Returns:
-        ``(smoothed (N, k), whether each sample's window is whole and evenly sampled, no
-        interval in it above 1.5 periods (N,))``; the others keep their value.
-    """
-    half = int(round(window_s / 2 / dt)) if dt > 0 else 0
-    n = len(values)
-    if half < 1 or n < 2 * half + 1:
-        return values, np.zeros(n, dtype=bool)
-    offsets = np.arange(-half, half + 1) / (half + 1)
-    kernel = (1.0 - offsets**2) ** 2
-    kernel /= kernel.sum()
-    out = values.copy()
-    inner = slice(half, n - half)
-    windows = np.lib.stride_tricks.sliding_window_view(values, 2 * half + 1, axis=0)  # (n - 2 half, k, 2 half + 1)
-    out[inner] = windows @ kernel
-    whole = np.zeros(n, dtype=bool)
-    span = time[2 * half :] - time[: n - 2 * half]
-    # no sample missing in the window either (a datagram lost, a row refused): the kernels take the samples as evenly
-    # spaced, and one missing shifts half the window by a period: up to 2.2 rad/s^2 of acceleration at 1 rad/s, 1 kHz, 50 ms
-    missing = np.concatenate([[0], np.cumsum(np.diff(time) > _MISSING * dt)])
-    whole[inner] = (np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt) & (missing[2 * half :] == missing[: n - 2 * half])
-    return out, whole
-
-
 def _regressor(time, g, omega, alpha, a, window_s: float, dt: float) -> np.ndarray:
     """The regressor seen through the joint-rate window: its terms in gravity and speed smoothed, (N, 6, 10).
 
     The regressor is linear in the accelerations: ``Y(g, omega, alpha, a) = Y(g, omega, 0, 0) +
     Y(0, 0, alpha, a)``. The accelerations from the joint-rate estimates are already smoothed
     by the window's kernel, and the measured wrench is smoothed by it
-    (:func:`smoothed_like_rates`); the terms in gravity and speed are smoothed here, so that
+    (:func:`fts_calib.filters.joint_rates.smoothed_like_acceleration`); the terms in gravity and speed are smoothed here, so that
     every term of the model sees the same smoothing (in the simulation this takes the inertia's
     bias from about 1 % to 0.2 %).
     """
     zero = np.zeros_like(g)
     rest = inertial.body_regressor(g, omega, zero, zero)
-    smoothed, _ = smoothed_like_rates(time, rest.reshape(len(time), -1), window_s, dt)
+    smoothed, _ = smoothed_like_acceleration(time, rest.reshape(len(time), -1), window_s, dt)
     return smoothed.reshape(rest.shape) + inertial.body_regressor(zero, zero, alpha, a)
 
 
-def latency_step(
+def _latency_left(
     time: np.ndarray, measured: np.ndarray, regressor: np.ndarray, estimate: MotionPayloadEstimate, block_samples: int
 ) -> tuple[float, float]:
     """How much later the joints still are than the fit assumed, from its residuals.
@@ -269,23 +232,12 @@ def latency_step(
     predicted = regressor @ estimate.parameters
     middle = (time[0] + time[-1]) / 2
     residual = measured - predicted - estimate.offsets - np.outer(time - middle, estimate.offset_rate)
-    with np.errstate(divide="ignore", invalid="ignore"):  # repeated time stamps: no slope there
-        rate = np.gradient(predicted, time, axis=0)
-    ok = np.all(np.isfinite(rate), axis=1)
-    weight = 1.0 / np.maximum(estimate.residual_rms, 1e-15) ** 2
-    num = np.sum(residual[ok] * rate[ok] * weight, axis=1)
-    den = np.sum(rate[ok] ** 2 * weight, axis=1)
-    if not len(den) or np.sum(den) <= 0:
-        return 0.0, math.inf
-    step = float(np.sum(num) / np.sum(den))
-    blocks = max(len(den) // max(block_samples, 1), 1)
-    edges = np.linspace(0, len(den), blocks + 1).astype(int)[:-1]
-    block_num, block_den = np.add.reduceat(num, edges), np.add.reduceat(den, edges)
-    good = block_den > 0
-    if good.sum() < 2:
-        return step, math.inf
-    each, w = block_num[good] / block_den[good], block_den[good]
-    return step, math.sqrt(float(np.sum(w * (each - step) ** 2) / np.sum(w)) / (good.sum() - 1))
+    rate = wrench_rate(time, predicted)
+    ok = np.all(np.isfinite(rate), axis=1)  # repeated time stamps: no slope there
+    rs, ss = latency_sums(residual[ok], rate[ok], 1.0 / np.maximum(estimate.residual_rms, 1e-15) ** 2)
+    blocks = max(len(ss) // max(block_samples, 1), 1)
+    step = latency_regression(rs, ss, np.linspace(0, len(ss), blocks + 1).astype(int)[:-1])
+    return (0.0, math.inf) if step is None else (step.latency_s, step.stderr_s)
 
 
 def identify_payload_from_motion(
@@ -350,7 +302,7 @@ def identify_payload_from_samples(
         raise PayloadError(f"{where}: {len(samples)} usable rows, too few for a motion")
     time = samples.time
     dt = sample_period(time) if len(time) > PERIOD_SAMPLES else float(np.median(np.diff(time)))
-    wrench, smooth = smoothed_like_rates(time, calibration.wrench(samples.channels), window_s, dt)
+    wrench, smooth = smoothed_like_acceleration(time, calibration.wrench(samples.channels), window_s, dt)
     g_world = kin.g_world()
     middle = len(time) // 2
     block = max(int(round(8 * window_s / dt)), 40)  # samples per block of the standard errors: eight joint-rate windows
@@ -358,8 +310,8 @@ def identify_payload_from_samples(
     final = not fit_latency
     for round_ in range(_ROUNDS):
         joints = aligned_joints(time, samples.joints, lag, kin.continuous)
-        velocity, acceleration = joint_rates(time, joints, window_s, dt, kin.continuous)
-        motion = kin.sensor_motion(joints, velocity, acceleration)
+        rates = joint_rates(time, joints, window_s, dt, kin.continuous, order=2)
+        motion = kin.sensor_motion(joints, rates.velocity, rates.acceleration)
         R = motion.R_world_sensor
         g = np.einsum("nji,j->ni", R, g_world)
         keep = smooth.copy()
@@ -369,7 +321,7 @@ def identify_payload_from_samples(
         estimate = fit_payload_regressor(wrench[keep], regressor[keep], axes, where, final, block, time[keep])
         if final:
             break
-        step, stderr_lag = latency_step(time[keep], wrench[keep], regressor[keep], estimate, block)
+        step, stderr_lag = _latency_left(time[keep], wrench[keep], regressor[keep], estimate, block)
         lag += step
         # the last fit is the one checked: with the joints aligned (what is left is below the tolerance)
         final = abs(step) < _LATENCY_TOLERANCE_S or round_ == _ROUNDS - 2

@@ -14,7 +14,7 @@ The ``validate`` job: measured against expected wrench over a recording (the pap
 The recording should come from another motion and another tool than the calibration. For
 every sample, the *expected* wrench is the tool's, from the kinematics: by default the
 Newton-Euler wrench of the moving tool, with joint velocities and accelerations estimated
-from the readings as the quasi-static filter does (:func:`fts_calib.filters.quasi_static.joint_rates`);
+from the readings as the quasi-static filter does (:func:`fts_calib.filters.joint_rates.joint_rates`);
 with ``dynamic=False`` the static weight alone (paper eqs 17-18: what the paper compared, its
 error then includes the uncompensated dynamics). The *measured* wrench is ``C strain + D``
 with each calibration, ``D`` being its offset model's where it applies (each
@@ -43,7 +43,8 @@ import numpy as np
 
 from ..core.arrays import frozen
 from ..core.exceptions import ConfigError
-from ..filters.quasi_static import PERIOD_SAMPLES, joint_rates, sample_period
+from ..filters.joint_rates import half_window, joint_rates
+from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
 from ..filters.sample_checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, RAILED, RailTally, forward_in_time, refuse_railed, valid_values
 from ..filters.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
 from ..model.calibration import Calibration
@@ -336,8 +337,8 @@ def expected_wrench(
     """
     if not dynamic:
         return tool_load(kin, tool, readings, codes).static
-    velocity, acceleration = joint_rates(time, readings, _WINDOW_S, dt, kin.continuous)
-    return tool_load(kin, tool, readings, codes, velocity, acceleration).w_sensor
+    rates = joint_rates(time, readings, _WINDOW_S, dt, kin.continuous, order=2)
+    return tool_load(kin, tool, readings, codes, rates.velocity, rates.acceleration).w_sensor
 
 
 def validate_recording(
@@ -438,7 +439,7 @@ def validate_recording(
             last_time = float(new[0][-1])
             if dt == 0.0 and len(new[0]) > PERIOD_SAMPLES:
                 dt = sample_period(new[0])
-                half = int(round(_WINDOW_S / 2 / dt)) if dt > 0 else 0
+                half = half_window(_WINDOW_S, dt)
             rows = join(context, waiting, new)
             first = 0 if context is None else len(context[0])
             last = len(rows[0]) - half  # the last rows wait for their right-hand window
