@@ -12,7 +12,7 @@ readings [rad].
 The names below are loaded on first use (PEP 562), so that the in-controller path
 (``from fts_calib import Calibration, WrenchReader``) imports neither Pinocchio nor
 pandas, ruckig, matplotlib or rosbags. Everything else stays importable from its stage,
-e.g. ``from fts_calib.planning.sizing import size_plan``.
+e.g. ``from fts_calib.planning.sizing import size_motion``.
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
 """Continuous plans: no dwell, limits and clearance kept, fewer configurations refused naming what they reach, files round-trip."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import yaml
@@ -7,7 +9,7 @@ import yaml
 from fts_calib import TrajectoryError
 from fts_calib.app.cli import main
 from fts_calib.core.resources import resolve
-from fts_calib.planning import sizing as continuous
+from fts_calib.planning import sizing
 from fts_calib.planning.planner import plan_calibration
 from fts_calib.planning.sizing import with_configurations
 from fts_calib.planning.sweeps import SweepPattern
@@ -57,9 +59,8 @@ def test_a_configuration_count_outside_the_tool_is_refused(paper_tool):
 
 def test_one_configuration_with_an_unreachable_target_is_refused_naming_what_is_reachable(tmp_path, capsys, monkeypatch):
     """The search over every continuous raster, on a grid of two (the refusal is the same for the 60 the command searches)."""
-    monkeypatch.setattr(continuous, "LEVELS", (3,))
-    monkeypatch.setattr(continuous, "STOPS", (1, 2))
-    monkeypatch.setattr(continuous, "SPANS", (0.35,))
+    grid = dataclasses.replace(sizing.MOTION_KINDS["continuous"], levels=(3,), stops=(1, 2), spans=(0.35,))
+    monkeypatch.setitem(sizing.MOTION_KINDS, "continuous", grid)
     out = tmp_path / "plan"
     common = ["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--rate", "25", "--no-plot"]
     code = main([*common, "--motion", "continuous", "--configurations", "1", "--target-error", "0.05"])

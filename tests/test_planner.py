@@ -1,5 +1,6 @@
 """Calibration trajectories: shipped plans re-checked independently, reproduction, checks."""
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from fts_calib.core.exceptions import JointError
 from fts_calib.core.resources import resolve
 from fts_calib.filters.settings import load_pipeline_config
 from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.planning import sizing
 from fts_calib.planning.excitation import predict_excitation
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.planner import plan_calibration
@@ -98,6 +100,7 @@ def test_planning_again_reproduces_the_shipped_trajectories(robot, setup):
     # the issue's figures: UR5 <= 15 s and Kinova <= 30 s of motion per configuration (53.4 s and 94.7 s before)
     assert plan.duration <= {"kinova": 30.0}.get(robot, 15.0)
     assert run.budget is not None and run.budget.largest_percent <= DEFAULT_TARGET_PERCENT and run.excitation.rank == 7
+    assert run.sized is not None and run.sized.kind == "stop" and run.sized.pattern == plan.pattern
 
 
 def test_a_target_below_what_the_tool_and_mount_allow_names_the_term(setup):
@@ -107,6 +110,21 @@ def test_a_target_below_what_the_tool_and_mount_allow_names_the_term(setup):
     for target in (0.0, float("inf")):  # before: inf sized a plan, printed 'inf % on Fx' and 'nan %', and exited 1
         with pytest.raises(TrajectoryError, match=r"target error .* % of full scale \(--target-error\) but expected a finite value > 0"):
             plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, SweepPattern(), 50.0, target_percent=target)
+
+
+def test_the_sizer_refuses_an_unknown_motion_and_candidates_beyond_the_robots_limits(setup, ur5, monkeypatch):
+    """One sizer for every motion: it names the kinds it knows, and the longest candidate when none fits the robot."""
+    tool, sensor, pipeline = setup
+    checker = CollisionChecker(ur5, tool.shape, ur5.sweep_joints[0])
+    sim = sensor.simulated
+    nominal = (sim.C_bar, sim.D, np.full(6, 1e-3), sensor.full_scale)
+    with pytest.raises(TrajectoryError, match="motion 'spiral' but expected one of stop, continuous, smooth"):
+        sizing.size_motion("spiral", ur5, checker, tool, nominal, pipeline.filter, 0.05, 50.0, 1000.0)
+    too_short = dataclasses.replace(sizing.MOTION_KINDS["smooth"], durations_s=(0.5, 1.0))  # [s] shorter than the ramps
+    monkeypatch.setitem(sizing.MOTION_KINDS, "smooth", too_short)
+    smooth = SweepPattern(2, 1, 0.0, continuous=True, smooth=True)
+    with pytest.raises(TrajectoryError, match="no smooth motion of at most 1 s fits ur5's limits"):
+        plan_trajectories(resolve("ur5", "robots"), tool, sensor, pipeline.filter, 1e-5, smooth, 50.0, target_percent=0.05)
 
 
 def test_a_noisier_sensor_needs_a_longer_plan(setup):

@@ -15,7 +15,7 @@ from fts_calib.core.resources import resolve
 from fts_calib.filters.dynamic import nominal_c
 from fts_calib.filters.settings import FilterConfig, PipelineConfig
 from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.planning import sizing as smooth_sizing
+from fts_calib.planning import sizing
 from fts_calib.planning.motion import plan_sweeps
 from fts_calib.planning.planner import check_plan, plan_base
 from fts_calib.planning.smooth import smooth_plan
@@ -147,7 +147,8 @@ def test_five_seconds_of_the_sized_ur5_smooth_motion_calibrate_within_the_budget
 
 def test_trajectory_motion_smooth_writes_a_sized_plan_and_refuses_too_few_configurations(tmp_path, capsys, monkeypatch):
     """The command: sized to the target, plan.yaml states a smooth continuous motion; 2 configurations refused naming what each reaches."""
-    monkeypatch.setattr(smooth_sizing, "DURATIONS_S", (5.0,))  # one of the 13 the command tries: the same refusal, sooner
+    shorter = dataclasses.replace(sizing.MOTION_KINDS["smooth"], durations_s=(5.0,))  # one of the 13 the command tries
+    monkeypatch.setitem(sizing.MOTION_KINDS, "smooth", shorter)  # the same refusal, sooner
     out = tmp_path / "plan"
     common = ["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--rate", "50", "--no-plot", "--motion", "smooth"]
     assert main([*common, "--target-error", "0.08"]) == 0, capsys.readouterr()

@@ -30,7 +30,7 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from .excitation import TOOL_CHANGE_S, ExcitationReport, predict_excitation
 from .planner import PlanResult, plan_calibration
-from .sizing import ContinuousSizing, SizedPlan, size_continuous, size_plan, size_smooth, with_configurations
+from .sizing import Sizing, size_motion, with_configurations
 from .sweeps import MIN_CLEARANCE, SweepPattern
 
 
@@ -63,7 +63,7 @@ class TrajectoryRun:
     files: list[Path]
     strain_unit: str = "raw"
     budget: AccuracyBudget | None = None
-    sized: SizedPlan | ContinuousSizing | None = None
+    sized: Sizing | None = None
     uncertainty: MotionUncertainty | None = None
     full_configurations: int = 0
 
@@ -93,9 +93,9 @@ def plan_trajectories(
         pattern: Raster of stops; with ``target_percent``, only its margin is used.
         rate: Sample rate [Hz].
         min_clearance: Required clearance [m].
-        target_percent: Size the raster to this accuracy, [% of full scale]
-            (:func:`fts_calib.planning.sizing.size_plan`, or for a continuous ``pattern``
-            :func:`fts_calib.planning.sizing.size_continuous`); None to plan ``pattern`` as it is.
+        target_percent: Size the motion of ``pattern``'s kind (stop, continuous or smooth) to
+            this accuracy, [% of full scale] (:func:`fts_calib.planning.sizing.size_motion`);
+            None to plan ``pattern`` as it is (not a smooth one).
         configurations: Plan for the tool's first this many configurations (fewer tool
             changes; continuous motion only, the inertial torques then carry what eqs 19-20
             leave unseen); None for all.
@@ -125,44 +125,37 @@ def plan_trajectories(
             "too few configurations",
         )
     tool = with_configurations(tool, configurations)
-    sized: SizedPlan | ContinuousSizing | None = None
-    if pattern.continuous:
-        uncertainty = motion_uncertainty(filter_config, sensor.rate_hz) if uncertainty is None else uncertainty
-        if pattern.smooth:
-            if target_percent is None:
-                raise TrajectoryError("a smooth plan is sized to a target: expected --target-error, not a raster", "invalid target")
-            args = (
-                kin,
-                checker,
-                tool,
-                nominal,
-                target_percent,
-                rate,
-                sensor.rate_hz,
-                uncertainty,
-                min_clearance,
-                pattern.margin,
-                full_tool,
-            )
-            result, sized = size_smooth(*args)
-        elif target_percent is None:
-            result = plan_calibration(kin, checker, pattern, rate, min_clearance)
-        else:
-            result, sized = size_continuous(
-                kin, checker, tool, nominal, target_percent, rate, sensor.rate_hz, uncertainty, min_clearance, pattern.margin, full_tool
-            )
-        # the samples the dynamic filter's trust rule keeps
+    sized: Sizing | None = None
+    if pattern.smooth and target_percent is None:
+        raise TrajectoryError("a smooth plan is sized to a target: expected --target-error, not a raster", "invalid target")
+    if not pattern.continuous:
+        uncertainty = None  # stop and go: the still samples have no dynamic terms
+    elif uncertainty is None:
+        uncertainty = motion_uncertainty(filter_config, sensor.rate_hz)
+    if target_percent is None:
+        result = plan_calibration(kin, checker, pattern, rate, min_clearance)
+    else:
+        kind = "smooth" if pattern.smooth else "continuous" if pattern.continuous else "stop"
+        result, sized = size_motion(
+            kind,
+            kin,
+            checker,
+            tool,
+            nominal,
+            filter_config,
+            target_percent,
+            rate,
+            sensor.rate_hz,
+            uncertainty,
+            min_clearance,
+            pattern.margin,
+            full_tool,
+        )
+    if uncertainty is not None:  # a continuous plan: the samples the dynamic filter's trust rule keeps
         kept = filter_weights(kin, tool, result.plan, nominal[2], uncertainty).reshape(len(tool.configurations), -1) > 0
         still = np.asarray(kept.any(axis=0))
         budget = dynamic_plan_budget(kin, tool, result.plan, *nominal, sample_rate_hz=sensor.rate_hz, uncertainty=uncertainty)
     else:
-        uncertainty = None
-        if target_percent is None:
-            result = plan_calibration(kin, checker, pattern, rate, min_clearance)
-        else:
-            result, sized = size_plan(
-                kin, checker, tool, nominal, filter_config, target_percent, rate, sensor.rate_hz, min_clearance, pattern.margin
-            )
         still = predicted_still(result.plan, filter_config)
         kept = np.repeat(still[None, :], len(tool.configurations), axis=0)
         budget = plan_budget(kin, tool, result.plan, still, *nominal, sample_rate_hz=sensor.rate_hz)
