@@ -63,7 +63,7 @@ from ..robot.tool import Tool, load_tool
 from ..sources.bag import BagTopics
 from ..sources.batch import SampleBatch
 from ..sources.recording_set import RecordingSet, describe_files
-from ..sources.source import open_recording, orientation_source, recording_paths
+from ..sources.source import ArraySource, open_recording, orientation_source, recording_paths
 from ..sources.synchronizer import Synchronizer
 from ..sources.udp import LiveStats, UdpReceiver, feed_datagram
 from ..sources.ur import RtdePoller
@@ -297,22 +297,14 @@ def calibrate(
         model=spec.model,
         full_channels=spec.full_channels,
     )
-    if isinstance(recording_or_arrays, SampleBatch):
-        batch = recording_or_arrays
-        session.add_samples(dataclasses.replace(batch, joints=np.radians(batch.joints)) if joints_in_degrees else batch)
-    elif isinstance(recording_or_arrays, Mapping):
-        arrays = recording_or_arrays
-        missing = [key for key in ("time", "joints", "channels", "configuration") if key not in arrays]
-        if missing:
-            given = ", ".join(map(str, arrays)) or "none"
-            raise ShapeError(f"recording_or_arrays has no {missing}: expected time, joints, channels and configuration (given: {given})")
-        joints = np.radians(np.asarray(arrays["joints"], dtype=float)) if joints_in_degrees else arrays["joints"]
-        session.add_batch(arrays["time"], joints, arrays["channels"], arrays["configuration"], arrays.get("temperature"))
-    else:
+    if not isinstance(recording_or_arrays, (SampleBatch, Mapping)):
         raise ShapeError(
             f"recording_or_arrays is a {type(recording_or_arrays).__name__}: expected a recording path (or a list of them), "
             "a SampleBatch, or a mapping with time, joints, channels and configuration"
         )
+    with ArraySource(recording_or_arrays, kin.joint_names, tool.names, "arrays in memory") as arrays:
+        for batch in arrays:
+            session.add_samples(dataclasses.replace(batch, joints=np.radians(batch.joints)) if joints_in_degrees else batch)
     session.flush()
     session.joints_in_degrees = joints_in_degrees
     return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)
