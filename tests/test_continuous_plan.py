@@ -118,6 +118,7 @@ def test_live_shows_the_progress_of_a_continuous_plan_from_moving_samples(tmp_pa
     from fts_calib.session.session import CalibrationSession
     from fts_calib.sim.runs import simulate_batches
     from fts_calib.sim.sensor import load_simulated_sensor
+    from fts_calib.sources.live_feed import LiveFeed
     from fts_calib.sources.synchronizer import Synchronizer
     from fts_calib.sources.udp import UdpReceiver
 
@@ -139,7 +140,7 @@ def test_live_shows_the_progress_of_a_continuous_plan_from_moving_samples(tmp_pa
     receiver = UdpReceiver("127.0.0.1", 0)
     try:
         sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
-        status = LiveRunner(session, receiver, sync, plan=plan).status_line()
+        status = LiveRunner(session, LiveFeed(receiver, sync), plan=plan).status_line()
     finally:
         receiver.close()
     fraction = min(1.0, kept / plan.expected["A"])

@@ -210,6 +210,7 @@ def test_live_feeds_calibrate_in_dynamic_mode(ur5, paper_tool, seed, tmp_path):
     import threading
 
     from fts_calib.session.calibration_run import LiveRunner
+    from fts_calib.sources.live_feed import LiveFeed, StreamEnd
     from fts_calib.sources.sender import ReplayOptions, replay
     from fts_calib.sources.synchronizer import Synchronizer
     from fts_calib.sources.udp import UdpReceiver
@@ -228,9 +229,10 @@ def test_live_feeds_calibrate_in_dynamic_mode(ur5, paper_tool, seed, tmp_path):
     reference = calibrate_recording(path, ur5, paper_tool, settings, layout=SPEC.layout, full_scale=SPEC.full_scale, model="linear")
     session = CalibrationSession(ur5, paper_tool, settings, full_scale=SPEC.full_scale, model="linear")
     receiver = UdpReceiver("127.0.0.1", 0)
-    runner = LiveRunner(session, receiver, Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names))
+    sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
+    runner = LiveRunner(session, LiveFeed(receiver, sync, end=StreamEnd(idle_timeout_s=10.0)))
     result = {}
-    thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=10.0)))
+    thread = threading.Thread(target=lambda: result.update(stats=runner.run()))
     thread.start()
     try:
         replay(path, *receiver.address, ReplayOptions(speed=4.0))  # the session keeps up: at 20x a loaded machine drops datagrams

@@ -32,6 +32,7 @@ from fts_calib.model.calibration import load_calibration
 from fts_calib.session.calibration_run import LiveRunner
 from fts_calib.session.session import CalibrationSession
 from fts_calib.sources.batch import repeated_rows
+from fts_calib.sources.live_feed import LiveFeed, StreamEnd
 from fts_calib.sources.synchronizer import Synchronizer
 from fts_calib.sources.udp import MAX_NESTING, LiveStats, SeqGaps, Strain, UdpReceiver, encode, feed_datagram, listen_host
 
@@ -307,9 +308,9 @@ def test_hostile_datagrams_do_not_end_a_live_run(ur5, paper_tool):
     receiver = UdpReceiver("127.0.0.1", 0)
     session = CalibrationSession(ur5, paper_tool, source="test")
     sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
-    runner = LiveRunner(session, receiver, sync)
+    runner = LiveRunner(session, LiveFeed(receiver, sync, end=StreamEnd(idle_timeout_s=DEADLINE_S)))
     result = {}
-    thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=DEADLINE_S)))
+    thread = threading.Thread(target=lambda: result.update(stats=runner.run()))
     thread.start()
     try:
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:

@@ -20,6 +20,7 @@ import yaml
 from fts_calib import ConfigError, load_calibration
 from fts_calib.session.calibration_run import LiveRunner, calibrate_recording
 from fts_calib.session.session import CalibrationSession
+from fts_calib.sources.live_feed import LiveFeed, StreamEnd
 from fts_calib.sources.sender import ReplayOptions, messages, replay
 from fts_calib.sources.synchronizer import Synchronizer
 from fts_calib.sources.udp import UdpReceiver, encode
@@ -46,9 +47,9 @@ def _run_live(kin, tool, recording, options, garbage=()):
     receiver = UdpReceiver("127.0.0.1", 0)
     session = CalibrationSession(kin, tool, source="test")
     sync = Synchronizer(kin.joint_names, kin.continuous, 0.05, options.latency_s, configurations=tool.names)
-    runner = LiveRunner(session, receiver, sync)
+    runner = LiveRunner(session, LiveFeed(receiver, sync, end=StreamEnd(idle_timeout_s=10.0)))
     result = {}
-    thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=10.0)))
+    thread = threading.Thread(target=lambda: result.update(stats=runner.run()))
     thread.start()
     try:
         host, port = receiver.address

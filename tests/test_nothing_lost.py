@@ -20,6 +20,7 @@ from fts_calib.core.resources import data_dir
 from fts_calib.session.calibration_run import LiveRunner, format_stats
 from fts_calib.session.checkpoint import HASHED_BYTES, live_source, recording_source
 from fts_calib.session.session import CalibrationSession
+from fts_calib.sources.live_feed import LiveFeed, StreamEnd
 from fts_calib.sources.sender import ReplayOptions, messages, replay
 from fts_calib.sources.synchronizer import Synchronizer
 from fts_calib.sources.udp import End, LiveStats, SeqGaps, Strain, ToolChange, UdpReceiver, encode, feed_datagram
@@ -329,7 +330,7 @@ def test_sighup_ends_live_with_its_checkpoint_and_calibration_written(tmp_path, 
     def feed():
         try:
             wait_for(lambda: receivers, "the receiver")
-            wait_for(lambda: isinstance(getattr(signal.getsignal(signal.SIGHUP), "__self__", None), LiveRunner), "the SIGHUP handler")
+            wait_for(lambda: isinstance(getattr(signal.getsignal(signal.SIGHUP), "__self__", None), LiveFeed), "the SIGHUP handler")
             receiver, sent = receivers[0], 0
 
             def caught_up(count):
@@ -422,12 +423,13 @@ def _live_run(ur5, paper_tool, datagrams):
     receiver = UdpReceiver("127.0.0.1", 0)
     sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
     status = io.StringIO()
-    runner = LiveRunner(CalibrationSession(ur5, paper_tool), receiver, sync, status=status, status_interval_s=0.0)
+    feed = LiveFeed(receiver, sync, end=StreamEnd(idle_timeout_s=DEADLINE_S), status_interval_s=0.0)
+    runner = LiveRunner(CalibrationSession(ur5, paper_tool), feed, status=status)
     try:
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
             for data in datagrams:
                 sock.sendto(data, receiver.address)
-        stats = runner.run(idle_timeout_s=DEADLINE_S)  # ends on the 'end' message
+        stats = runner.run()  # ends on the 'end' message
     finally:
         receiver.close()
     return stats, status.getvalue(), sync

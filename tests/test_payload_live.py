@@ -166,6 +166,63 @@ def test_seconds_of_motion_or_ctrl_c_end_the_collection(ur5, moving, end):
     assert motion.address == f"udp://127.0.0.1:{bound[0][1]}"
 
 
+def test_sigterm_ends_the_collection_and_identifies_what_was_collected(tmp_path, moving):
+    """``payload --motion --listen`` in its own process, sent the motion without its 'end', then SIGTERM once it shows
+    90 % of the samples: it stops listening and identifies the payload from what it collected, as on Ctrl-C (before,
+    SIGTERM killed it: nothing written). The idle timeout (600 s) is far beyond the deadline: only SIGTERM ends it."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from fts_calib.sources.sender import messages
+    from fts_calib.sources.udp import End, encode
+
+    from .helpers import DEADLINE_S, wait_for
+
+    path, calibration, _ = moving
+    rows = len(path.read_text().splitlines()) - 1  # the header
+    cal = save_calibration(calibration, tmp_path / "cal.yaml")
+    out = tmp_path / "gripper.yaml"
+    command = [sys.executable, "-m", "fts_calib.app.cli", "payload", "--motion", "--listen", "127.0.0.1:0", "--idle-timeout", "600"]
+    command += ["--calibration", str(cal), "--robot", "ur5", "-o", str(out), "--name", "gripper"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    shown = bytearray()  # the progress line, rewritten after carriage returns: read as it comes
+    reader = threading.Thread(target=lambda: [shown.extend(chunk) for chunk in iter(lambda: os.read(process.stderr.fileno(), 65536), b"")])
+    try:
+        first = process.stdout.readline().decode()
+        port = int(re.search(r"udp://127\.0\.0\.1:(\d+)", first).group(1))
+        reader.start()
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            start, t0 = time.monotonic(), None
+            for t, message in messages(path, ReplayOptions()):
+                if isinstance(message, End):
+                    break  # no end: the signal ends the collection
+                t0 = t if t0 is None else t0
+                ahead = start + (t - t0) / 4.0 - time.monotonic()  # 4x the recording's pace, as replay --speed 4
+                if ahead > 0:
+                    time.sleep(ahead)
+                sock.sendto(encode(message), ("127.0.0.1", port))
+
+        def collected() -> int:
+            counts = re.findall(r"\| ([\d,]+) samples \|", shown.decode(errors="replace"))
+            return int(counts[-1].replace(",", "")) if counts else 0
+
+        wait_for(lambda: collected() >= 0.9 * rows, "90 % of the motion's samples collected")
+        process.send_signal(signal.SIGTERM)
+        stdout, _ = process.communicate(timeout=DEADLINE_S)
+        reader.join(timeout=DEADLINE_S)
+    finally:
+        process.kill()
+    text = stdout.decode()
+    assert process.returncode == ExitCode.OK, (process.returncode, first + text, shown.decode(errors="replace")[-2000:])
+    assert "; stopped after" in text and "ended by the sender" not in text, text
+    used = int(re.search(r"payload from ([\d,]+) samples of motion", text).group(1).replace(",", ""))
+    assert used >= 0.85 * rows and out.exists(), text  # what was collected (the windows at its ends left out)
+    assert load_tool(out).configuration("gripper").mass > 0
+
+
 def test_the_parser_defaults_are_the_services():
     from fts_calib.app import parser as service_arguments
     from fts_calib.payload import samples as payload_live

@@ -68,6 +68,7 @@ def test_a_plan_file_with_a_rate_or_duration_not_above_zero_is_refused_by_name(t
 def test_the_live_status_line_shows_the_plan(ur5, paper_tool):
     from fts_calib.session.calibration_run import LiveRunner
     from fts_calib.session.session import CalibrationSession
+    from fts_calib.sources.live_feed import LiveFeed
     from fts_calib.sources.synchronizer import Synchronizer
     from fts_calib.sources.udp import UdpReceiver
 
@@ -75,7 +76,7 @@ def test_the_live_status_line_shows_the_plan(ur5, paper_tool):
     receiver = UdpReceiver("127.0.0.1", 0)
     try:
         sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
-        runner = LiveRunner(CalibrationSession(ur5, paper_tool, source="test"), receiver, sync, plan=plan)
+        runner = LiveRunner(CalibrationSession(ur5, paper_tool, source="test"), LiveFeed(receiver, sync), plan=plan)
         assert "| ~40 s of motion left; mount A" in runner.status_line()
     finally:
         receiver.close()
@@ -102,22 +103,24 @@ def test_live_refuses_the_plan_of_another_robot_and_a_file_that_is_not_a_plan(tm
 def test_the_live_runner_measures_the_stream_rate_on_the_stream_clock(ur5, paper_tool):
     from fts_calib.session.calibration_run import LiveRunner
     from fts_calib.session.session import CalibrationSession
+    from fts_calib.sources.live_feed import LiveFeed
     from fts_calib.sources.synchronizer import Synchronizer
     from fts_calib.sources.udp import UdpReceiver
 
     receiver = UdpReceiver("127.0.0.1", 0)
     try:
         sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
-        runner = LiveRunner(CalibrationSession(ur5, paper_tool, source="test"), receiver, sync)
+        feed = LiveFeed(receiver, sync)
+        runner = LiveRunner(CalibrationSession(ur5, paper_tool, source="test"), feed)
         sync.add_tool(0.0, "A")
         for k in range(301):  # 3 s at 100 Hz, joints and strains on one clock
             t = 0.01 * k
             sync.add_joints(t, dict.fromkeys(ur5.joint_names, 0.1))
             sync.add_strain(t, [0.0] * 8)
             if k == 50:
-                runner._feed()
+                runner.session.add_samples(feed.place())
                 assert runner.stream_rate_hz() is None  # under 1 s of stream
-        runner._feed(final=True)
+        runner.session.add_samples(feed.place(final=True))
         assert runner.stream_rate_hz() == pytest.approx(100.0, rel=0.02)
     finally:
         receiver.close()

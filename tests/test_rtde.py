@@ -25,6 +25,7 @@ from fts_calib.session.session import CalibrationSession
 from fts_calib.sim.runs import simulate_batches
 from fts_calib.sim.sensor import simulated_sensor
 from fts_calib.sources.batch import SampleBatch
+from fts_calib.sources.live_feed import LiveFeed, StreamEnd
 from fts_calib.sources.recording import RecordingReader
 from fts_calib.sources.synchronizer import Synchronizer
 from fts_calib.sources.udp import End, Joints, Strain, ToolChange, UdpReceiver, encode
@@ -238,9 +239,9 @@ def test_live_with_rtde_joints_and_strain_datagrams_gives_the_calibration_of_cal
     receiver = UdpReceiver("127.0.0.1", 0)
     session = CalibrationSession(ur5, paper_tool, source="test")
     sync = Synchronizer(ur5.joint_names, ur5.continuous, 0.05, 0.0, configurations=paper_tool.names)
-    runner = LiveRunner(session, receiver, sync, rtde=poller)
+    runner = LiveRunner(session, LiveFeed(receiver, sync, poller, end=StreamEnd(idle_timeout_s=30.0)))
     result = {}
-    thread = threading.Thread(target=lambda: result.update(stats=runner.run(idle_timeout_s=30.0)))
+    thread = threading.Thread(target=lambda: result.update(stats=runner.run()))
     thread.start()
     try:
         host_t = controller_t + host_minus_controller
@@ -297,7 +298,7 @@ def test_a_lost_connection_ends_the_live_run_with_what_was_read(ur5, paper_tool)
     sync = Synchronizer(ur5.joint_names, ur5.continuous, configurations=paper_tool.names)
     sync.add_tool(-np.inf, "A")
     try:
-        stats = LiveRunner(session, receiver, sync, rtde=poller).run(idle_timeout_s=30.0)
+        stats = LiveRunner(session, LiveFeed(receiver, sync, poller, end=StreamEnd(idle_timeout_s=30.0))).run()
     finally:
         receiver.close()
     assert "connection lost" in str(poller.error) and not stats.ended

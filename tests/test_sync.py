@@ -117,3 +117,53 @@ def test_without_a_length_the_first_message_sets_it():
     sync.add_strain(0.2, [1.0] * 6)
     assert sync.pop().channels.shape == (1, 7) and sync.n_channels == 7
     assert sync.dropped == {f"{WRONG_LENGTH} 7": 1}
+
+
+# --- the strain stream alone (no joints expected) ----------------------------------------------------------
+
+
+def _strains(sync, times):
+    for t in times:
+        sync.add_strain(t, [t] * 8)
+
+
+def test_without_joints_a_hold_of_zero_places_each_strain_on_arrival_and_drops_the_late_ones():
+    """The health monitor's stream: in arrival order, a strain at or before the newest one is late (dropped, counted)."""
+    sync = Synchronizer([], hold_s=0.0)
+    assert sync.strain_only
+    _strains(sync, [0.0, 0.02, 0.01, 0.03, 0.03, 0.05])  # 0.01 arrives after 0.02; 0.03 twice
+    out = sync.pop()
+    assert out.time.tolist() == [0.0, 0.02, 0.03, 0.05] and out.joints.shape == (4, 0)
+    assert out.channels[:, 0].tolist() == out.time.tolist()
+    assert sync.dropped == {LATE: 2}
+    assert out.configuration.tolist() == [-1] * 4  # no tool announced: unknown, not dropped
+
+
+def test_without_joints_what_is_placed_does_not_depend_on_how_often_it_is_popped(rng):
+    """Reordered strains with a hold of 30 ms: popped after every message, every tenth, or once, the same samples."""
+    times = np.arange(0.0, 2.0, 0.001)
+    order = np.argsort(times + rng.uniform(0.0, 0.04, len(times)))  # up to 40 ms late: some beyond the hold
+    results = []
+    for every in (1, 10, len(times)):
+        sync = Synchronizer([], hold_s=0.03)
+        placed = []
+        for k, t in enumerate(times[order]):
+            sync.add_strain(t, [t] * 8)
+            if (k + 1) % every == 0:
+                placed.append(sync.pop().time)
+        placed.append(sync.pop(final=True).time)
+        got = np.concatenate(placed)
+        assert np.all(np.diff(got) > 0), "placed in time order"
+        results.append((got.tolist(), dict(sync.dropped)))
+    assert results[0] == results[1] == results[2] and results[0][1].get(LATE, 0) > 0, results[0][1]
+
+
+def test_without_joints_an_infinite_hold_places_every_strain_at_the_end_in_time_order():
+    """The tare window's stream: nothing placed (nor late) before the final pop, then all of it, sorted."""
+    sync = Synchronizer([], hold_s=math.inf)
+    sync.add_tool(-math.inf, "B")
+    _strains(sync, [0.3, 0.1, 0.2, 0.1])
+    assert len(sync.pop()) == 0
+    out = sync.pop(final=True)
+    assert out.time.tolist() == [0.1, 0.1, 0.2, 0.3] and not sync.dropped
+    assert [sync.configurations[k] for k in out.configuration] == ["B"] * 4

@@ -19,12 +19,16 @@ from ..session.calibration_run import LiveRunner, format_stats
 from ..session.checkpoint import check_start, live_source
 from ..session.plan_progress import load_plan_progress
 from ..session.session import CalibrationSession
+from ..sources.live_feed import LiveFeed, StreamEnd, stop_signals
 from ..sources.synchronizer import Synchronizer
 from ..sources.udp import UdpReceiver, listen_host
 from ..sources.ur import TIMEOUT_S, RtdePoller, connect_ur
 from .calibrate import format_counts, format_fit
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import load_prior, load_sensor, load_setup
+
+#: Signals that end a ``live`` run like Ctrl-C: checkpoint and calibration written (SIGHUP: the terminal closed).
+LIVE_SIGNALS = stop_signals(("SIGINT", "SIGTERM", "SIGHUP"))
 
 
 def run(
@@ -114,6 +118,7 @@ def run(
         Ctrl-C, SIGTERM and SIGHUP end the run the same way: checkpoint and calibration written.
     """
     checkpoint = Path(checkpoint or f"{output}.checkpoint.json")
+    ending = StreamEnd(idle_timeout_s=idle_timeout_s, signals=LIVE_SIGNALS)  # before any work: a wrong timeout wastes nothing
     host, port = listen
     host = listen_host(host, listen_any, port)  # before any work: a refused address wastes nothing
     inputs = {"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor}
@@ -179,11 +184,8 @@ def run(
         "Ctrl-C or an 'end' message writes the calibration",
         flush=True,
     )
-    try:
-        runner = LiveRunner(session, receiver, sync, status=None if quiet else sys.stderr, rtde=rtde, plan=expected)
-        stats = runner.run(idle_timeout_s=idle_timeout_s)
-    finally:
-        receiver.close()
+    with LiveFeed(receiver, sync, rtde, end=ending) as feed:
+        stats = LiveRunner(session, feed, status=None if quiet else sys.stderr, plan=expected).run()
     if rtde is not None and rtde.samples == 0 and isinstance(rtde.error, FeedTimeout):
         if not resume:  # a checkpoint of nothing would only stand in the way of the next run
             checkpoint.unlink(missing_ok=True)

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import math
 import sys
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -28,10 +27,11 @@ from ..monitor.offset_watch import OffsetWatch
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
 from ..service.reader import WrenchReader
+from ..sources.live_feed import FeedStatus, LiveFeed, StreamEnd
 from ..sources.recording_set import describe_files
 from ..sources.source import open_recording, recording_paths
 from ..sources.synchronizer import Synchronizer
-from ..sources.udp import LiveStats, Strain, UdpReceiver, feed_datagram
+from ..sources.udp import UdpReceiver
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import load_sensor, load_setup
 
@@ -208,8 +208,8 @@ def run(
             atomically; None for none.
         false_alarms_per_hour: False-alarm budget of the tests, per hour of service.
         listen: ``(host, port)`` of the live UDP feed to watch instead of a recording (its
-            strain datagrams, :mod:`fts_calib.sources.udp`), until an 'end' datagram, Ctrl-C
-            or ``idle_timeout_s``; None: a recording.
+            strain datagrams, :mod:`fts_calib.sources.udp`), until an 'end' datagram, Ctrl-C,
+            SIGTERM or ``idle_timeout_s`` (:mod:`fts_calib.sources.live_feed`); None: a recording.
         listen_any: Bind every interface (see :func:`fts_calib.sources.udp.listen_host`).
         rate_hz: Sample rate of the live feed [Hz] (a recording's is measured).
         idle_timeout_s: Stop listening after this many seconds without a datagram; None: never.
@@ -391,73 +391,48 @@ def _listen(
 ) -> tuple[HealthMonitor, float, int]:
     """Watch the live feed's strain datagrams; returns the monitor, the time span [s] and the samples skipped.
 
-    Datagrams are decoded by the bounded protocol parser (a malformed one is counted, never
-    fatal); a strain sample of another number of channels, or not after the last one, is skipped.
-    The status line (standard error, once a second) shows the samples, the health and the
-    largest statistics of the last block. With ``offsets`` (a payload and its robot), the
-    strains are paired with the joint datagrams by the synchronizer first, and the offset
+    The one live loop reads the feed (:mod:`fts_calib.sources.live_feed`: until an 'end'
+    datagram, Ctrl-C, SIGTERM or ``idle_timeout_s``). Datagrams are decoded by the bounded
+    protocol parser (a malformed one is counted, never fatal); a strain sample of another
+    number of channels, or not after the last one, is skipped (the strains alone, placed on
+    arrival). The status line (standard error, once a second) shows the samples, the health
+    and the largest statistics of the last block. With ``offsets`` (a payload and its robot),
+    the strains are paired with the joint datagrams by the synchronizer first, and the offset
     state shows too.
     """
     host, port = address
     monitor = HealthMonitor(parity, rate_hz, false_alarms_per_hour=false_alarms_per_hour)
-    stats = LiveStats()
-    with using_udp(host, port):
-        receiver = UdpReceiver(host, port, listen_any)
-    print(f"listening on udp://{receiver.address[0]}:{receiver.address[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
-    n, skipped = parity.n_channels, 0
-    first = last = None
-    sync = None
+    n = parity.n_channels
     if offsets is not None:
         sync = Synchronizer(offsets.kin.joint_names, offsets.kin.continuous, configurations=offsets.tool.names, n_channels=n)
-    quiet_since = status_at = time.monotonic()
-    try:
-        while not stats.ended:
-            datagrams = receiver.drain_from()
-            now = time.monotonic()
-            if not datagrams:
-                if idle_timeout_s is not None and now - quiet_since > idle_timeout_s:
-                    break
-                time.sleep(0.002)  # the receiver's thread queues what arrives meanwhile
-                continue
-            quiet_since = now
-            if sync is not None:
-                for data, sender in datagrams:
-                    feed_datagram(data, sync, stats, sender)
-                first, last = _paired(sync.pop(final=stats.ended), monitor, region, offsets, first, last)
-                datagrams = []
-            for data, sender in datagrams:
-                message = feed_datagram(data, None, stats, sender)
-                if not isinstance(message, Strain):
-                    continue
-                if len(message.strain) != n or (last is not None and message.t <= last):
-                    skipped += 1
-                    continue
-                monitor.update(message.t, message.strain)
-                region.add_one(message.strain)
-                first = message.t if first is None else first
-                last = message.t
-            if not quiet and now - status_at >= 1.0:
-                status_at = now
-                gain, jump = monitor.last_statistics
-                faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
-                offset = "" if offsets is None else f"; {offsets.status()}"
-                print(
-                    f"\r{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f}); "
-                    f"malformed {stats.malformed:,}{offset}",
-                    end="",
-                    file=sys.stderr,
-                    flush=True,
-                )
-    except KeyboardInterrupt:
-        pass
-    finally:
-        receiver.close()
-    if sync is not None:
-        first, last = _paired(sync.pop(final=True), monitor, region, offsets, first, last)
-        skipped += sum(sync.dropped.values())
+    else:
+        sync = Synchronizer([], n_channels=n, hold_s=0.0)  # the strains alone, each placed on arrival
+    with using_udp(host, port):
+        receiver = UdpReceiver(host, port, listen_any)
+
+    def listening(bound: tuple[str, int]) -> None:
+        print(f"listening on udp://{bound[0]}:{bound[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
+
+    def show(counts: FeedStatus) -> None:
+        gain, jump = monitor.last_statistics
+        faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
+        offset = "" if offsets is None else f"; {offsets.status()}"
+        print(
+            f"\r{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f}); "
+            f"malformed {counts.malformed:,}{offset}",
+            end="",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    end = StreamEnd(idle_timeout_s=idle_timeout_s)
+    first = last = None
+    with LiveFeed(receiver, sync, end=end, on_status=None if quiet else show, status_interval_s=1.0, on_listening=listening) as feed:
+        for batch in feed:
+            first, last = _paired(batch, monitor, region, offsets, first, last)
     if not quiet:
         print(file=sys.stderr)
-    skipped += stats.malformed + stats.oversized
+    skipped = sum(sync.dropped.values()) + feed.stats.malformed + feed.stats.oversized
     return monitor, 0.0 if first is None or last is None else last - first, skipped
 
 

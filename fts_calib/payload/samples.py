@@ -19,13 +19,14 @@ Times in [s].
 
 Payload from a live continuous motion: the joint and strain datagrams collected, then identified as a recording.
 
-The live protocol over UDP (:mod:`fts_calib.sources.udp`, :mod:`fts_calib.sources.udp`):
-joint readings (or the sensor's orientation, without a robot) and strains, paired by the
-synchronizer as ``live`` pairs them (:class:`fts_calib.sources.synchronizer.Synchronizer`: joints
-interpolated at the strain times, the pipeline's ``live.latency_s`` taken off their stamps,
-no interpolation across a gap longer than ``live.max_gap_s``). Collection ends on the
-sender's ``end`` message, after ``seconds`` of motion (by the feed's own time stamps), on
-Ctrl-C, or when the feed falls silent for ``idle_timeout_s`` after it had started; a feed
+The live protocol over UDP (:mod:`fts_calib.sources.udp`), read by the one live loop
+(:class:`fts_calib.sources.live_feed.LiveFeed`): joint readings (or the sensor's orientation,
+without a robot) and strains, paired by the synchronizer as ``live`` pairs them
+(:class:`fts_calib.sources.synchronizer.Synchronizer`: joints interpolated at the strain times,
+the pipeline's ``live.latency_s`` taken off their stamps, no interpolation across a gap longer
+than ``live.max_gap_s``). Collection ends where every live stream ends: on the sender's
+``end`` message, after ``seconds`` of motion (by the feed's own time stamps), on Ctrl-C or
+SIGTERM, or when the feed falls silent for ``idle_timeout_s`` after it had started; a feed
 that sends nothing at all within ``idle_timeout_s`` is a :class:`FeedTimeout`. Malformed,
 oversized and duplicated datagrams are counted and skipped (:func:`fts_calib.sources.udp.feed_datagram`).
 The samples then go through the checks and the identification of a recording
@@ -44,7 +45,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import arrays as validation
-from ..core.exceptions import FeedTimeout, PayloadError
+from ..core.exceptions import PayloadError
 from ..filters.joint_rates import joint_rates, smoothed_like_acceleration
 from ..filters.latency import latency_regression, latency_sums, wrench_rate
 from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
@@ -64,9 +64,10 @@ from ..model.channels import CALIBRATION_HINT, check_channels
 from ..robot import inertial
 from ..robot.kinematics import Kinematics
 from ..sources.batch import SampleBatch
+from ..sources.live_feed import LiveFeed, StreamEnd
 from ..sources.source import open_recording
 from ..sources.synchronizer import Synchronizer
-from ..sources.udp import LiveStats, UdpReceiver, feed_datagram
+from ..sources.udp import LiveStats, UdpReceiver
 from .moving import MotionPayloadEstimate, fit_payload_regressor
 
 
@@ -333,7 +334,6 @@ def identify_payload_from_samples(
 #: Idle timeout of a live payload motion [s]: the longest wait for the first datagram, and for the next.
 IDLE_TIMEOUT_S = 10.0
 _PLACEHOLDER = "payload"  # the configuration of the samples before any tool message
-_FEED_S = 0.02  # [s] how often the synchronizer places samples
 _PROGRESS_S = 0.5  # [s] how often the progress is shown
 _TURN_STEP_S = 0.02  # [s] of the feed between the orientations that measure the turning
 #: An axis turned less than this fraction of the most turned one is shown as not yet turned about.
@@ -453,65 +453,22 @@ def collect_motion(
     if seconds is not None:
         validation.positive("seconds", seconds, "s")
     validation.positive("idle_timeout_s", idle_timeout_s, "s")
-    receiver = UdpReceiver(host, port)
-    host, port = receiver.address[:2]
-    address = f"udp://{host}:{port}"
     sync = Synchronizer(kin.joint_names, kin.continuous, settings.live.max_gap_s, settings.live.latency_s, n_channels=n_channels)
     sync.add_tool(-math.inf, _PLACEHOLDER)
     progress, turning, batches = MotionProgress(), _Turning(kin), []
-
-    def place(final: bool = False) -> None:
-        batch = sync.pop(final=final)
-        if len(batch):
+    end = StreamEnd(idle_timeout_s=idle_timeout_s, first_timeout_s=idle_timeout_s, stream_s=seconds)
+    show = None if on_progress is None else (lambda _counts: on_progress(progress))
+    feed = LiveFeed(UdpReceiver(host, port), sync, end=end, on_status=show, status_interval_s=_PROGRESS_S, on_listening=on_listening)
+    progress.stats = feed.stats
+    with feed:
+        for batch in feed:
             batches.append(batch)
             turning.add(batch)
-            progress.samples += len(batch)
-            progress.seconds = float(batch.time[-1] - batches[0].time[0])
-            progress.turned_rad = turning.total
-
-    stats = progress.stats
-    start, cpu0 = time.monotonic(), time.process_time()
-    try:
-        if on_listening is not None:
-            on_listening((host, port))
-        last_data = last_feed = last_shown = time.monotonic()
-        while not stats.ended and (seconds is None or progress.seconds < seconds):
-            datagrams = receiver.drain_from()
-            now = time.monotonic()
-            for data, sender in datagrams:
-                feed_datagram(data, sync, stats, sender)
-                if stats.ended:
-                    break
-            if datagrams:
-                last_data = now
-            else:
-                time.sleep(0.005)
-            if now - last_feed >= _FEED_S:
-                place()
-                last_feed = now
-            if on_progress is not None and now - last_shown >= _PROGRESS_S:
-                on_progress(progress)
-                last_shown = now
-            if now - last_data >= idle_timeout_s:
-                if not stats.received:
-                    hint = (
-                        "check that the sender runs and sends to this host and port (its address, not 127.0.0.1, when it runs "
-                        "on another machine: then --listen this host's address), and that no firewall drops UDP"
-                    )
-                    raise FeedTimeout(f"the first datagram on {address}", idle_timeout_s, hint)
-                break  # the feed fell silent: what was collected is identified
-    except KeyboardInterrupt:
-        pass  # Ctrl-C ends the motion: what was collected is identified
-    finally:
-        receiver.close()
-    for data, sender in receiver.drain_from():  # whatever arrived with the end
-        feed_datagram(data, sync, stats, sender)
-    place(final=True)
+            progress.samples, progress.seconds, progress.turned_rad = feed.samples, feed.stream_s, turning.total
     if on_progress is not None:
         on_progress(progress)
     samples = SampleBatch.concatenate(batches) if batches else SampleBatch.empty(len(kin.joint_names), n_channels or 8)
-    stats.wall_s, stats.cpu_s = time.monotonic() - start, time.process_time() - cpu0
-    return LiveMotion(samples, list(sync.configurations), stats, sync, address)
+    return LiveMotion(samples, list(sync.configurations), feed.stats, sync, feed.description)
 
 
 def identify_live_motion(

@@ -32,7 +32,6 @@ from __future__ import annotations
 import dataclasses
 import datetime
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,9 +51,10 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
 from ..session.fit import MAX_RATIO
 from ..sources.batch import SampleBatch
+from ..sources.live_feed import LiveFeed, StreamEnd
 from ..sources.source import open_recording
 from ..sources.synchronizer import Synchronizer
-from ..sources.udp import LiveStats, Strain, UdpReceiver, feed_datagram
+from ..sources.udp import UdpReceiver
 
 
 @dataclass(frozen=True)
@@ -296,7 +296,12 @@ def tare_live(
     on_listening: Callable[[tuple[str, int]], None] | None = None,
     limits: ChannelLimits | None = None,
 ) -> TareResult:
-    """Re-tare from a live window of ``seconds`` [s] (> 0) on the UDP protocol (see :mod:`fts_calib.session.calibration_run`).
+    """Re-tare from a live window of ``seconds`` [s] (> 0) on the UDP protocol (:mod:`fts_calib.sources.live_feed`).
+
+    The window ends early on the sender's ``end``, Ctrl-C or SIGTERM (what came is used).
+    With ``kin`` the strains are paired with the joints; without, the strains alone are
+    taken (joint datagrams are counted and ignored). Every sample is placed when the window
+    ends, in time order (datagrams arrive out of order).
 
     ``on_listening`` is called with the bound (host, port) once the socket listens (port 0
     picks a free one), before the window starts. ``limits``: the channels' declared
@@ -304,44 +309,31 @@ def tare_live(
     """
     validation.positive("seconds", seconds, "s")
     settings = settings or PipelineConfig()
-    receiver = UdpReceiver(host, port)
-    host, port = receiver.address[:2]
-    sync = None if kin is None else Synchronizer(kin.joint_names, kin.continuous, settings.live.max_gap_s, settings.live.latency_s)
-    if sync is not None and configuration is not None:  # mounted throughout: the sender need not announce it
+    joint_names = [] if kin is None else kin.joint_names  # none: the strains alone
+    continuous = None if kin is None else kin.continuous
+    # an infinite hold: nothing is placed (nor dropped as late) before the window ends
+    sync = Synchronizer(joint_names, continuous, settings.live.max_gap_s, settings.live.latency_s, hold_s=math.inf)
+    if kin is not None and configuration is not None:  # mounted throughout: the sender need not announce it
         sync.add_tool(-math.inf, configuration)
-    stats = LiveStats()
-    strains: list[tuple[float, ...]] = []
-    times: list[float] = []
-    try:
-        if on_listening is not None:
-            on_listening((host, port))
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            for data in receiver.drain():
-                message = feed_datagram(data, sync, stats)
-                if isinstance(message, Strain):
-                    strains.append(message.strain)
-                    times.append(message.t)
-            time.sleep(0.005)
-    finally:
-        receiver.close()
-    reason = f"re-tare from a live window of {seconds:g} s on udp://{host}:{port}, {_what(tool, configuration)}"
-    if not strains:
+    feed = LiveFeed(UdpReceiver(host, port), sync, end=StreamEnd(duration_s=seconds), on_listening=on_listening)
+    with feed:
+        batches = list(feed)
+    stats = feed.stats
+    reason = f"re-tare from a live window of {seconds:g} s on {feed.description}, {_what(tool, configuration)}"
+    if not stats.strain:
         heard = f"{stats.received:,} datagrams, none of them strain" if stats.received else "no datagram at all"
-        raise InsufficientExcitation(0, 1, f"{heard} on udp://{host}:{port} in {seconds:g} s: is the sender running, to this port?")
+        raise InsufficientExcitation(0, 1, f"{heard} on {feed.description} in {seconds:g} s: is the sender running, to this port?")
     what = _what(tool, configuration)
     names = [configuration or "(none)"]
-    if sync is None:
-        order = np.argsort(np.array(times), kind="stable")  # datagrams may arrive out of order
-        s = np.array(strains, dtype=float).reshape(len(strains), -1)[order]
-        window = SampleBatch(np.array(times)[order], np.zeros((len(s), 0)), s, np.zeros(len(s), dtype=np.int64))
+    synced = SampleBatch.concatenate(batches) if batches else SampleBatch.empty(len(joint_names), calibration.layout.n_channels)
+    if kin is None:  # the strains alone, all of one (named) load
+        window = dataclasses.replace(synced, configuration=np.zeros(len(synced), dtype=np.int64), temperature=None)
         within, rails = _within_rails(window, limits, names)
         noise = check_window(calibration, within, settings)
-        result = _apply(calibration, within.channels, np.zeros((len(within), 6)), reason, len(s), noise, what, rails)
+        result = _apply(calibration, within.channels, np.zeros((len(within), 6)), reason, stats.strain, noise, what, rails)
         return dataclasses.replace(result, rails=rails)
-    synced = sync.pop(final=True)
     _mounted(kin, tool, configuration)
     within, rails = _within_rails(synced, limits, names)
-    noise = check_window(calibration, within, settings, kin.continuous if kin is not None else None)
+    noise = check_window(calibration, within, settings, kin.continuous)
     strain, load = _known_load(kin, tool, configuration, settings, within)
-    return dataclasses.replace(_apply(calibration, strain, load, reason, len(strains), noise, what, rails), rails=rails)
+    return dataclasses.replace(_apply(calibration, strain, load, reason, stats.strain, noise, what, rails), rails=rails)

@@ -59,7 +59,7 @@ import numpy as np
 
 from ..budget.measured import KeptSamples, MovingSamples, with_measured_budget
 from ..budget.propagation import AccuracyBudget
-from ..core.arrays import as_floats, as_matrix, as_rows
+from ..core.arrays import as_matrix
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
 from ..filters.dynamic import DynamicFilter, filtered, sample_filter
@@ -77,6 +77,7 @@ from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
 from ..robot.tool import STANDARD_GRAVITY, Tool, tool_load, weight_wrench
 from ..sources.batch import SampleBatch, configuration_codes
+from ..sources.source import array_batch
 from .checkpoint import read_checkpoint, write_checkpoint
 from .diagnosis import (
     RECORDING_KINDS,
@@ -316,14 +317,8 @@ class CalibrationSession:
             ShapeError: The arrays do not have one row per time, or not ``n_channels`` channels.
             UnknownToolConfiguration: A configuration that is not in the tool file.
         """
-        readings, _ = self.kin.joint_array(joints)
-        t = as_floats(t, "t").reshape(-1)
-        codes = configuration_codes(configuration, len(t), self.tool.names)
-        channels = as_rows(channels, len(t), "channels")  # its width is check_channels' to name, with the sensor
-        if not (len(readings) == len(t) == len(channels) == len(codes)):
-            counts = f"{len(t)} times, {len(readings)} joint readings, {len(channels)} rows of channels and {len(codes)} configurations"
-            raise ShapeError(f"add_batch: {counts}: expected one of each per sample")
-        self.add_samples(SampleBatch(t, readings, channels, codes, temperature))
+        batch, _ = array_batch(t, joints, channels, configuration, temperature, self.kin.joint_names, self.tool.names, "add_batch")
+        self.add_samples(batch)
 
     def add_samples(self, batch: SampleBatch, rates=None) -> None:
         """Add a batch from a feed (configuration indices in the tool's order), in time order.

@@ -72,6 +72,7 @@ from ..core.exceptions import BagError, ConfigError, FileFormatError, UnknownToo
 from ..core.files import load_yaml
 from .batch import DUPLICATE, UNKNOWN_TOOL, SampleBatch, repeated_rows
 from .recording import MAX_NOTES
+from .recording_set import describe_files
 from .synchronizer import Synchronizer
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -404,6 +405,11 @@ class BagReader:
     def tool_names(self) -> list[str]:
         """Tool configuration names, by index."""
         return list(self.tool_codes)
+
+    @property
+    def description(self) -> str:
+        """The bags in words, for messages and provenance: each ``PATH`` or ``PATH:CONFIGURATION``, in reading order."""
+        return describe_files([p.path if p.configuration is None else f"{p.path}:{p.configuration}" for p in self.parts])
 
     @property
     def bytes_read(self) -> int:

@@ -307,6 +307,11 @@ class RecordingReader:
         return list(self.tool_codes)
 
     @property
+    def description(self) -> str:
+        """The recording in words, for messages and provenance: its path."""
+        return str(self.path)
+
+    @property
     def bytes_read(self) -> int:
         """Bytes of the file read so far (for progress)."""
         try:

@@ -198,6 +198,11 @@ class RecordingSet:
         return list(self.tool_codes)
 
     @property
+    def description(self) -> str:
+        """The files in words, for messages and provenance (:func:`describe_files`)."""
+        return describe_files(self.paths)
+
+    @property
     def bytes_read(self) -> int:
         """Bytes of the files read so far (for progress)."""
         return sum(r.size for r in self._done) + (self._current.bytes_read if self._current is not None else 0)

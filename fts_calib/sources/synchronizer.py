@@ -10,6 +10,14 @@ before its time. A strain sample is dropped, and counted, when it cannot be plac
 the first joint sample or after the last one, inside a joint gap longer than
 ``max_gap_s`` (the synchronizer refuses to interpolate across it), before any tool
 message, or arriving after later strain samples were already placed.
+
+With no joints expected (``joint_names`` empty: a sensor alone, for a re-tare with nothing
+mounted or the health monitor) the strain stream is its own frontier: a strain sample is
+placed once a strain sample ``hold_s`` later has arrived (with ``hold_s`` 0, on arrival; with
+an infinite ``hold_s``, only at the final :meth:`Synchronizer.pop`), in time order. One that
+arrives at or behind that frontier is late, and dropped and counted, so what is placed does
+not depend on how often :meth:`Synchronizer.pop` is called. Its joints have no column, and its
+tool configuration is the last one announced, or -1 before any (a sensor alone needs none).
 """
 
 from __future__ import annotations
@@ -36,12 +44,13 @@ class Synchronizer:
     """Pairs the two streams (see the module docstring).
 
     Args:
-        joint_names: Joint names, in the robot's order.
+        joint_names: Joint names, in the robot's order; empty for the strain stream alone (see
+            the module docstring).
         continuous: Which joints are continuous (interpolated along the shorter arc). Shape (n,).
         max_gap_s: Longest joint gap interpolated across [s].
         latency_s: How late the joint stamps are relative to the strain stamps [s].
-        hold_s: How far the joint stream must pass a strain time before it is placed [s];
-            ``max_gap_s`` when None.
+        hold_s: How far the joint stream (the strain stream, with no joints) must pass a
+            strain time before it is placed [s]; ``max_gap_s`` when None.
         configurations: The tool's configuration names, in order: a placed sample's
             configuration is its index there (-1 for a name not in it). None: indices in
             order of first announcement (names in :attr:`configurations`).
@@ -78,9 +87,16 @@ class Synchronizer:
         self._strain: list[tuple[float, tuple[float, ...], float | None]] = []
         self._tools: list[tuple[float, str]] = []
         self._placed_until = -math.inf
+        self._empty_batch: SampleBatch | None = None
+        self._newest_strain = -math.inf  # the latest strain time accepted so far [s] (the frontier with no joints)
         self.dropped: Counter[str] = Counter()
         self.joint_messages = 0
         self.strain_messages = 0
+
+    @property
+    def strain_only(self) -> bool:
+        """No joints are expected: the strain stream alone is placed (see the module docstring)."""
+        return not self.joint_names
 
     def add_joints(self, t: float, joints: dict[str, float]) -> bool:
         """Add a joint message; False (nothing added) when its joints are not exactly the robot's.
@@ -110,9 +126,10 @@ class Synchronizer:
         if len(strain) != self.n_channels:
             self._drop(f"{WRONG_LENGTH} {self.n_channels}", 1)
             return
-        if t <= self._placed_until:
+        if t <= self._placed_until or (self.strain_only and t <= self._newest_strain - self.hold_s):
             self._drop(LATE, 1)
             return
+        self._newest_strain = max(self._newest_strain, t)
         self._strain.append((t, tuple(strain), temperature))
 
     def add_tool(self, t: float, name: str) -> None:
@@ -144,24 +161,30 @@ class Synchronizer:
     def pop(self, final: bool = False) -> SampleBatch:
         """Place every strain sample the joint stream has passed (all of them when ``final``)."""
         self._merge_joints()
-        width = 8 if self.n_channels is None else self.n_channels  # no message yet: the paper's sensor
-        empty = SampleBatch.empty(len(self.joint_names), width)
         if not self._strain:
-            return empty
+            return self._empty()
         self._strain.sort(key=lambda s: s[0])
-        frontier = math.inf if final else (self._joint_t[-1] - self.hold_s if len(self._joint_t) else -math.inf)
+        if final:
+            frontier = math.inf
+        elif self.strain_only:
+            frontier = self._newest_strain - self.hold_s
+        else:
+            frontier = self._joint_t[-1] - self.hold_s if len(self._joint_t) else -math.inf
         count = bisect.bisect_right([s[0] for s in self._strain], frontier)
         ready, self._strain = self._strain[:count], self._strain[count:]
         if not ready:
-            return empty
+            return self._empty()
         t = np.array([s[0] for s in ready])
         strain = np.array([s[1] for s in ready], dtype=float)
         heat = None if all(s[2] is None for s in ready) else np.array([math.nan if s[2] is None else s[2] for s in ready])
         self._placed_until = max(self._placed_until, float(t[-1]))
+        if self.strain_only:
+            codes = configuration_indices(self._tool_at(t), self.configurations)
+            return SampleBatch(t, np.zeros((len(t), 0)), strain, codes, heat)
         jt, jq = self._joint_t, self._joint_q
         if len(jt) == 0:
             self._drop(BEFORE_JOINTS, len(t))
-            return empty
+            return self._empty()
         right = np.searchsorted(jt, t, side="left")
         exact = (right < len(jt)) & (jt[np.minimum(right, len(jt) - 1)] == t)
         left = np.where(exact, right, right - 1)  # an exact stamp interpolates with itself
@@ -188,6 +211,13 @@ class Synchronizer:
         self._joint_t, self._joint_q = jt[keep_from:], jq[keep_from:]
         codes = configuration_indices(tools, self.configurations)
         return SampleBatch(t[ok], readings[ok], strain[ok], codes[ok], None if heat is None else heat[ok])
+
+    def _empty(self) -> SampleBatch:
+        """No sample, in this stream's shape (one batch per shape, shared: a live loop asks 50 times a second)."""
+        width = 8 if self.n_channels is None else self.n_channels  # no message yet: the paper's sensor
+        if self._empty_batch is None or self._empty_batch.channels.shape[1] != width:
+            self._empty_batch = SampleBatch.empty(len(self.joint_names), width)
+        return self._empty_batch
 
     def _tool_at(self, t: np.ndarray) -> list[str | None]:
         if not self._tools:

@@ -464,7 +464,8 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
 
     Args:
         data: The datagram's bytes.
-        sync: Where joint, strain and tool messages go; None to only decode and count.
+        sync: Where joint, strain and tool messages go; None to only decode and count. One
+            that expects no joints (``sync.strain_only``) counts the joint messages and takes the rest.
         stats: Counts to update (received, per kind, malformed, oversized, ended, seq gaps).
         sender: Who sent it (its address), whose ``seq`` numbers it continues.
 
@@ -490,7 +491,7 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
         if sync is not None:
             sync.add_strain(message.t, message.strain, message.temperature)
     elif isinstance(message, Joints):
-        if sync is None or sync.add_joints(message.t, message.q):
+        if sync is None or sync.strain_only or sync.add_joints(message.t, message.q):  # counted; no joints expected
             stats.joints += 1
         else:
             stats.malformed += 1  # not exactly the robot's joints
@@ -516,7 +517,7 @@ def _feed_orientation(message: Orientation, sync: Synchronizer | None, stats: Li
     """An orientation datagram as the gimbal's joints (a run without a robot); malformed when a robot's joints are expected."""
     from ..robot.orientation import GIMBAL_JOINTS, gimbal_angles
 
-    if sync is None:
+    if sync is None or sync.strain_only:
         stats.joints += 1
     elif tuple(sync.joint_names) == GIMBAL_JOINTS:
         angles = gimbal_angles(np.array(message.R).reshape(3, 3))[0]
