@@ -5,8 +5,9 @@ It records, in a folder:
 - ``tests.txt``: every test id pytest collects;
 - ``help/<command>.txt``: every command's ``--help``;
 - ``api.txt``: every public name of every module with its signature (``module.name(signature)``), and ``fts_calib.__all__``;
-- ``outputs/``: what ``demo``, ``calibrate``, ``validate``, ``payload``, ``tare`` and ``export`` print and write on the
-  shipped data (simulated with fixed seeds), with the numbers and words only: timings, times of day, versions and
+- ``outputs/``: what ``demo``, ``calibrate``, ``validate``, ``payload`` (still and ``--motion``), ``tare``, ``monitor``
+  (``--robot --tool --auto-tare`` on a recording shifted 0.5 N) and ``export`` print and write on the shipped data
+  (simulated with fixed seeds), with the numbers and words only: timings, times of day, versions and
   temporary paths are blanked.
 
 ``compare`` then lists what differs between two snapshots, with a rename map (old module -> new) for the API and tests.
@@ -96,6 +97,50 @@ def _api() -> list[str]:
     return lines
 
 
+def _simulate_motion(path: Path) -> None:
+    """The validation payload moved along the payload excitation, joints 8 ms late and noisy, offsets drifting (seed 7)."""
+    import numpy as np
+
+    from fts_calib.core.resources import resolve
+    from fts_calib.payload.inertia_motion import payload_excitation
+    from fts_calib.robot.definition import load_robot
+    from fts_calib.robot.kinematics import Kinematics
+    from fts_calib.robot.tool import load_tool
+    from fts_calib.sim.drift import OffsetDrift
+    from fts_calib.sim.payload_run import simulate_payload_motion
+    from fts_calib.sim.sensor import load_simulated_sensor
+
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    home = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] the UR5's payload pose of the tests
+    motion = payload_excitation(kin, home, seconds=10.0, amplitude=1.0)
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    rng = np.random.default_rng(7)
+    simulate_payload_motion(path, kin, payload, sensor, motion, rng, 0.008, 1e-5, drift=OffsetDrift.typical())
+
+
+def _shift(recording: Path, calibration: Path, shifted: Path, copy: Path) -> None:
+    """The recording with every wrench shifted by 0.5 N on Fx, and a copy of the calibration for monitor to re-tare."""
+    import csv
+
+    import numpy as np
+
+    from fts_calib.model.calibration import load_calibration
+
+    cal = load_calibration(calibration)
+    shift_channels = np.linalg.pinv(cal.C) @ np.array([0.5, 0.0, 0.0, 0.0, 0.0, 0.0])  # [N]
+    with open(recording, newline="") as source, open(shifted, "w", newline="") as target:
+        reader, writer = csv.reader(source), csv.writer(target)
+        header = next(reader)
+        writer.writerow(header)
+        columns = [header.index(f"strain_{k + 1}") for k in range(len(shift_channels))]
+        for row in reader:
+            for k, column in enumerate(columns):
+                row[column] = repr(float(row[column]) + float(shift_channels[k]))
+            writer.writerow(row)
+    copy.write_bytes(calibration.read_bytes())
+
+
 def take(folder: Path) -> None:
     """Write the snapshot into ``folder``."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -161,6 +206,28 @@ def take(folder: Path) -> None:
                     "tared.yaml",
                 ],
             ),  # fmt: skip
+            ("simulate_motion", None),
+            (
+                "payload_motion",
+                ["payload", "--motion", "--calibration", "cal.yaml", "--robot", "ur5", "motion.csv", "-o", "motion_tool.yaml"],
+            ),  # fmt: skip
+            ("shift", None),
+            (
+                "monitor",
+                [
+                    "monitor",
+                    "--calibration",
+                    "monitor_cal.yaml",
+                    "--robot",
+                    "ur5",
+                    "--tool",
+                    "paper_tool",
+                    "--auto-tare",
+                    "--json",
+                    "monitor.json",
+                    "shifted.csv",
+                ],
+            ),  # fmt: skip
             ("export_c", ["export", "--format", "c-header", "--calibration", "cal.yaml", "-o", "cal.h"]),
             ("export_json", ["export", "--format", "json", "--calibration", "cal.yaml", "-o", "cal.json"]),
             ("export_ros2", ["export", "--format", "ros2", "--calibration", "cal.yaml", "-o", "cal_ros2.yaml"]),
@@ -172,6 +239,12 @@ def take(folder: Path) -> None:
 
                 text = gzip.open(ROOT / "trajectories" / "ur5" / "A.csv.gz", "rt").read()
                 (work / "vplan" / "V.csv").write_text(re.sub(r",A$", ",V", text, flags=re.M))
+            if name == "simulate_motion":
+                _simulate_motion(work / "motion.csv")
+                continue
+            if name == "shift":
+                _shift(work / "rec.csv", work / "cal.yaml", work / "shifted.csv", work / "monitor_cal.yaml")
+                continue
             (outputs / f"{name}.txt").write_text(_clean(_run(work, argv), work))
         for path in sorted(work.rglob("*")):
             if (
