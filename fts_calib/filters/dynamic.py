@@ -79,7 +79,6 @@ import math
 import numpy as np
 
 from ..core.arrays import cross
-from ..core.exceptions import ShapeError
 from ..model.channel_limits import ChannelLimits, GridWatch
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
 from ..model.sensor_config import SensorSpec
@@ -89,7 +88,7 @@ from ..robot.tool import Tool, ToolLoad, tool_load
 from ..sources.batch import SampleBatch
 from .joint_rates import JointMotion, joint_rates, kernel_gains
 from .latency import LatencyFit, wrench_rate
-from .quasi_static import PERIOD_SAMPLES, QuasiStaticFilter, StillSamples, quasi_static, sample_period
+from .quasi_static import PERIOD_SAMPLES, StillSamples, sample_period
 from .settings import DYNAMIC, FilterConfig, PipelineConfig
 
 
@@ -473,42 +472,6 @@ def _whole(full: np.ndarray, half: int) -> np.ndarray:
 def nominal_c(spec: SensorSpec) -> np.ndarray | None:
     """A sensor file's nominal C (6 x n, raw channels to [N, N m]): its simulation section's, or None without one."""
     return None if spec.simulated is None else spec.layout.c_from_c_bar(spec.simulated.C_bar)
-
-
-def sample_filter(
-    settings: PipelineConfig, kin: Kinematics, use_filter: bool, full_scale, layout: ChannelLayout, n_configurations: int
-) -> QuasiStaticFilter | DynamicFilter | None:
-    """The session's sample filter of ``settings.filter.mode`` (None: every valid sample kept).
-
-    Args:
-        settings: Pipeline settings (the filter's, the channels' limits, the nominal C).
-        kin: Kinematics (its continuous joints).
-        use_filter: False: no filter.
-        full_scale: Full scale per axis [N, N m], shape (6,).
-        layout: The channel layout.
-        n_configurations: The tool's configurations.
-    """
-    if not use_filter:
-        return None
-    if settings.filter.mode == DYNAMIC:
-        limits = settings.checks.limits
-        return DynamicFilter(settings.filter, kin.continuous, limits, settings.nominal_c, full_scale, layout, n_configurations)
-    return QuasiStaticFilter(settings.filter, kin.continuous, settings.checks.limits)
-
-
-def filtered(
-    filter_: QuasiStaticFilter | DynamicFilter, kin: Kinematics, tool: Tool, batch: SampleBatch, final: bool, rates=None
-) -> StillSamples:
-    """The samples ``filter_`` decides now, with their wrench and weight (exact ``rates``: see :meth:`DynamicFilter.samples`).
-
-    Raises:
-        ShapeError: Exact rates given to the quasi-static filter (it estimates its own).
-    """
-    if isinstance(filter_, DynamicFilter):
-        return filter_.samples(kin, tool, batch, final, rates)
-    if rates is not None:
-        raise ShapeError("exact joint rates are for filter.mode 'dynamic': the quasi-static filter estimates its own")
-    return quasi_static(filter_, kin, tool, batch, final)
 
 
 #: The smallest latency uncertainty the second read of ``latency_s: auto`` assumes [s].

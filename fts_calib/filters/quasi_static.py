@@ -322,6 +322,8 @@ class StillSamples:
         weight: The estimator's weight of each kept sample, shape (k,), or None: all 1.
         static_model: Which kept samples the fit check's static model (eqs 17-18) holds for,
             shape (k,) bool, or None: all (the quasi-static filter's).
+        still: The quasi-static filter's rules 1-3 (joints and strain still), before the dynamic
+            rule, shape (m,) bool; None for another filter.
     """
 
     decided: SampleBatch
@@ -330,6 +332,7 @@ class StillSamples:
     w_sensor: np.ndarray | None
     weight: np.ndarray | None = None
     static_model: np.ndarray | None = None
+    still: np.ndarray | None = None
 
     @property
     def samples(self) -> SampleBatch:
@@ -353,9 +356,9 @@ def quasi_static(filter_: QuasiStaticFilter, kin: Kinematics, tool: Tool | None,
     keep = decided.still.copy()
     if tool is None:
         g = kin.g_sensor(still.joints, None).reshape(-1, 3) if len(still) else np.zeros((0, 3))
-        return StillSamples(decided.samples, keep, g, None)
+        return StillSamples(decided.samples, keep, g, None, still=decided.still)
     velocity, acceleration = decided.joint_velocity[decided.still], decided.joint_acceleration[decided.still]
     load = tool_load(kin, tool, still.joints, still.configuration, velocity, acceleration)
     ok = filter_.dynamic_rule(load, still.configuration, tool)
     keep[decided.still] = ok
-    return StillSamples(decided.samples, keep, load.g_sensor[ok], load.static[ok])
+    return StillSamples(decided.samples, keep, load.g_sensor[ok], load.static[ok], still=decided.still)

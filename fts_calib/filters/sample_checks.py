@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections import Counter
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -194,7 +195,7 @@ class SampleChecks:
     """The checks of one stream, with what they skipped (see the module docstring).
 
     Args:
-        kin: Kinematics of the robot (joint limits).
+        kin: Kinematics of the robot (joint limits); None for a stream without joints (no joint check).
         max_abs_channel: Largest plausible magnitude of a channel reading, in raw units
             (``checks.max_abs_channel`` of the pipeline settings).
         limits: The channels' declared (or already detected) resolution and rails; None for none.
@@ -207,7 +208,7 @@ class SampleChecks:
         watch: Detects rails not declared in the samples accepted (created with the first batch).
     """
 
-    def __init__(self, kin: Kinematics, max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL, limits: ChannelLimits | None = None):
+    def __init__(self, kin: Kinematics | None, max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL, limits: ChannelLimits | None = None):
         self.kin = kin
         self.max_abs_channel = float(max_abs_channel)
         self.limits = limits
@@ -247,7 +248,9 @@ class SampleChecks:
         ok &= known
         # only the samples still in: an inf or a corrupt row must not look like degrees
         outside = np.zeros(len(time), dtype=bool)
-        _, outside[ok], degrees = self.kin.reading_problems(batch.joints[ok])
+        degrees: Sequence[str] = ()  # no kinematics: no joint to check
+        if self.kin is not None:
+            _, outside[ok], degrees = self.kin.reading_problems(batch.joints[ok])
         self._count(OUTSIDE_LIMITS, outside)
         ok &= ~outside
         if degrees and not self._warned_degrees:

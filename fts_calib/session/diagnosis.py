@@ -89,7 +89,6 @@ class Diagnosed(Protocol):
     estimator: OnlineEstimator
     layout: ChannelLayout
     settings: PipelineConfig
-    filter: QuasiStaticFilter | DynamicFilter | None
     kept: np.ndarray
     full_scale: np.ndarray
     fit_sums: np.ndarray
@@ -97,6 +96,10 @@ class Diagnosed(Protocol):
     kept_samples: KeptSamples
     orientation_source: str | None
     joints_in_degrees: bool
+
+    @property
+    def filter(self) -> QuasiStaticFilter | DynamicFilter | None:
+        """The session's filter (its noise floor), or None."""
 
 
 #: Kept samples of a configuration before it counts in the advice.

@@ -62,8 +62,10 @@ from ..budget.propagation import AccuracyBudget
 from ..core.arrays import as_matrix
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
-from ..filters.dynamic import DynamicFilter, filtered, sample_filter
+from ..filters.chain import NO_FILTER, FilterChain, filter_chain
+from ..filters.dynamic import DynamicFilter
 from ..filters.latency import LatencyEstimate
+from ..filters.quasi_static import QuasiStaticFilter, StillSamples
 from ..filters.sample_checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
 from ..filters.settings import DYNAMIC, FilterConfig, PipelineConfig
 from ..model.calibration import Calibration
@@ -75,7 +77,7 @@ from ..model.prior import Prior
 from ..model.region import RegionBuilder
 from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
-from ..robot.tool import STANDARD_GRAVITY, Tool, tool_load, weight_wrench
+from ..robot.tool import STANDARD_GRAVITY, Tool, weight_wrench
 from ..sources.batch import SampleBatch, configuration_codes
 from ..sources.source import array_batch
 from .checkpoint import read_checkpoint, write_checkpoint
@@ -263,8 +265,9 @@ class CalibrationSession:
             full_channels=full_channels,
             full_scale=full_scale,
         )
-        self.filter = sample_filter(self.settings, kin, use_filter, self.full_scale, self.layout, n)  # filter.mode: quasi-static or dynamic
-        self.checks = SampleChecks(kin, self.settings.checks.max_abs_channel, self.settings.checks.limits)
+        # the checks, then filter.mode's filter (quasi-static or dynamic) or none
+        mode = None if use_filter else NO_FILTER
+        self.chain: FilterChain = filter_chain(self.settings, kin, mode, self.layout, self.full_scale, n)
         self.kept = np.zeros(n, dtype=np.int64)
         self.seen = 0
         self.directions, self.fit_sums, self.kept_region = empty_sums(n, self.estimator.basis.n_drift, self.full_scale)  # kept_sums
@@ -273,6 +276,16 @@ class CalibrationSession:
         self._clock = clock
         self._last_checkpoint = clock()
         self._on_kept = on_kept
+
+    @property
+    def checks(self) -> SampleChecks:
+        """The chain's checks, with what they skipped."""
+        return self.chain.checks
+
+    @property
+    def filter(self) -> QuasiStaticFilter | DynamicFilter | None:
+        """The chain's filter (None: every valid sample kept)."""
+        return self.chain.filter
 
     @property
     def skipped(self) -> Counter[str]:
@@ -345,28 +358,21 @@ class CalibrationSession:
     def _process(self, batch: SampleBatch, rates=None) -> None:
         check_channels(self.layout, batch.channels.shape[1], self.source or "the samples")
         self.seen += len(batch)
-        ok = self.checks.accept(batch)
-        if ok.any():
-            i = int(np.flatnonzero(ok)[-1])  # the end of the run so far: where the calibration's D belongs
-            self._last = (
-                float(batch.time[i]),
-                int(batch.configuration[i]),
-                None if batch.temperature is None else float(batch.temperature[i]),
+        step = self.chain.samples(batch, self.tool, rates=rates)
+        valid = step.checked
+        if len(valid):
+            self._last = (  # the end of the run so far: where the calibration's D belongs
+                float(valid.time[-1]),
+                int(valid.configuration[-1]),
+                None if valid.temperature is None else float(valid.temperature[-1]),
             )
-            valid = batch.select(ok)
             self._moving.add(valid.time, valid.joints, valid.channels, valid.configuration)
-            self._accumulate(valid, False, None if rates is None else (np.asarray(rates[0])[ok], np.asarray(rates[1])[ok]))
+            self._accumulate(step.still)
         self._maybe_checkpoint()
 
-    def _accumulate(self, batch: SampleBatch, final: bool, rates=None) -> None:
-        weight = fit = None
-        if self.filter is not None:
-            still = filtered(self.filter, self.kin, self.tool, batch, final, rates)
-            kept, g, W, weight = still.samples, still.g_sensor, still.w_sensor, still.weight
-            fit = still.static_model  # the dynamic filter's: the samples the fit check's static model holds for
-        else:
-            load = tool_load(self.kin, self.tool, batch.joints, batch.configuration)
-            kept, g, W = batch, load.g_sensor, load.static
+    def _accumulate(self, still: StillSamples) -> None:
+        kept, g, W, weight = still.samples, still.g_sensor, still.w_sensor, still.weight
+        fit = still.static_model  # the dynamic filter's: the samples the fit check's static model holds for
         if not len(kept) or W is None:
             return
         codes = kept.configuration
@@ -384,16 +390,13 @@ class CalibrationSession:
         """Decide the samples the filter still holds (call when the stream ends)."""
         self._flush_staged()
         if self.filter is not None:
-            self._accumulate(SampleBatch.empty(self.kin.n_joints, self.layout.n_channels), final=True)
+            self._accumulate(self.chain.flush(self.tool))
 
     # -- output -------------------------------------------------------------------------
 
     def all_skipped(self) -> dict[str, int]:
         """Samples not kept, by reason: the session's checks and the filter's rules."""
-        out = dict(self.checks.skipped)
-        if self.filter is not None:
-            out.update({f"filter: {rule}": n for rule, n in self.filter.rejected.items() if n})
-        return out
+        return self.chain.skipped()
 
     def progress(self) -> Progress:
         """Counts, rank and what is missing, in words."""
