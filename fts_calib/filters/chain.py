@@ -28,9 +28,9 @@ takes that part from here, never a rule of its own:
 - the joint-speed rule over a window of samples (:func:`fts_calib.filters.quasi_static.window_moves`):
   the offset watch's windows without motion (:mod:`fts_calib.monitor.offset_watch`).
 
-Without kinematics (a tare window of the strains alone, no robot) the checks leave out the
-joint limits, and the joint rules see no joint (a column at rest): the strain rule alone
-decides; no load is known (gravity NaN). Units: time [s], joints [rad], wrenches
+Without kinematics (a tare window without a robot) the checks leave out the joint limits, the
+joint rules take the stream's joint columns as they are (none continuous; a stream of the
+strains alone has none: the strain rule alone decides), and no load is known (gravity NaN). Units: time [s], joints [rad], wrenches
 [N, N, N, N m, N m, N m], gravity [m/s^2].
 """
 
@@ -86,6 +86,7 @@ class FilterChain:
         filter_: The stream's filter, or None (:data:`NO_FILTER`).
         derivative_window_s: The joint-rate window of the still rules [s] (``filter.derivative_window_s``).
         n_channels: The sensor's channels.
+        n_joints: Without kinematics: the stream's joint columns.
 
     Attributes:
         kin: The kinematics (None: no joints).
@@ -101,12 +102,14 @@ class FilterChain:
         filter_: QuasiStaticFilter | DynamicFilter | None,
         derivative_window_s: float,
         n_channels: int,
+        n_joints: int = 0,
     ):
         self.kin = kin
         self.checks = checks
         self.filter = filter_
         self.derivative_window_s = derivative_window_s
         self.n_channels = n_channels
+        self.n_joints = n_joints
 
     @property
     def mode(self) -> str:
@@ -157,16 +160,17 @@ class FilterChain:
             raise ShapeError("exact joint rates are for filter.mode 'dynamic': the quasi-static filter estimates its own")
         if filter_ is None:
             return self._all(checked, tool)
-        if self.kin is None:  # no joints: the strain rule alone, no load known
-            at_rest = dataclasses.replace(checked, joints=np.zeros((len(checked), 1)))
-            decided = filter_.process(at_rest, final=final)
+        if self.kin is None:  # the joint columns as they are (none: a column at rest), no load known
+            if not checked.joints.shape[1]:
+                checked = dataclasses.replace(checked, joints=np.zeros((len(checked), 1)))
+            decided = filter_.process(checked, final=final)
             still = decided.still.copy()
             return StillSamples(decided.samples, still, np.full((int(still.sum()), 3), np.nan), None, still=decided.still)
         return quasi_static(filter_, self.kin, tool, checked, final)
 
     def flush(self, tool: Tool | None = None) -> StillSamples:
         """Decide the samples the filter still holds (the stream has ended)."""
-        n_joints = 0 if self.kin is None else self.kin.n_joints
+        n_joints = self.n_joints if self.kin is None else self.kin.n_joints
         return self.decide(SampleBatch.empty(n_joints, self.n_channels), tool, final=True)
 
     def skipped(self) -> dict[str, int]:
@@ -195,6 +199,7 @@ def filter_chain(
     layout: ChannelLayout = MALTESE_CROSS_8,
     full_scale=None,
     n_configurations: int = 1,
+    n_joints: int = 0,
 ) -> FilterChain:
     """The filter chain of one stream (see the module docstring).
 
@@ -208,6 +213,7 @@ def filter_chain(
         full_scale: The sensor's full scale per axis [N, N, N, N m, N m, N m], shape (6,) (the
             dynamic filter's noise without a nominal C); the sensor file's default when None.
         n_configurations: The tool's configurations (the dynamic filter's latency fit).
+        n_joints: Without kinematics: the joint columns of the stream (none continuous); 0 for the strains alone.
 
     Raises:
         ConfigError: An unknown mode, or the dynamic filter without kinematics.
@@ -217,7 +223,7 @@ def filter_chain(
         raise ConfigError("mode", mode, " or ".join(CHAIN_MODES))
     limits = settings.checks.limits
     checks = SampleChecks(kin, settings.checks.max_abs_channel, limits)
-    continuous = np.zeros(1, dtype=bool) if kin is None else kin.continuous
+    continuous = np.zeros(max(n_joints, 1), dtype=bool) if kin is None else kin.continuous
     filter_: QuasiStaticFilter | DynamicFilter | None = None
     if mode == DYNAMIC:
         if kin is None:
@@ -226,4 +232,4 @@ def filter_chain(
         filter_ = DynamicFilter(settings.filter, continuous, limits, settings.nominal_c, scale, layout, n_configurations)
     elif mode == QUASI_STATIC:
         filter_ = QuasiStaticFilter(settings.filter, continuous, limits)
-    return FilterChain(kin, checks, filter_, settings.filter.derivative_window_s, layout.n_channels)
+    return FilterChain(kin, checks, filter_, settings.filter.derivative_window_s, layout.n_channels, n_joints)

@@ -4,9 +4,11 @@ The frequent use the paper stresses: offsets drift, C does not, so before use th
 held still a moment and D is estimated again (:func:`fts_calib.model.retare.estimate_offsets`)
 with C_bar kept. With nothing mounted, the known load is zero; with a known tool
 configuration on, it is that configuration's weight at the orientation the kinematics give
-(paper eqs 17-18), and only the quasi-static samples count; samples with a channel at its
-rail (declared, or detected in the recording: :mod:`fts_calib.model.channel_limits`) are
-refused and counted. The calibration keeps its
+(paper eqs 17-18), and only the quasi-static samples count. The window goes through the filter
+chain of every job (:func:`fts_calib.filters.chain.filter_chain`, quasi-static whatever the
+pipeline's ``filter.mode``): the checks refuse and count bad samples and those with a channel at
+its rail (declared, or detected in the window: :mod:`fts_calib.model.channel_limits`), and the
+filter's rules judge the rest. The calibration keeps its
 previous offsets, and when and why they were replaced, in ``offset_history``; the result
 also says how far the offsets drifted since the calibration run (against the offsets it
 ended with, the first of the history) and over how long (from the calibration's time).
@@ -40,12 +42,12 @@ import numpy as np
 
 from ..core import arrays as validation
 from ..core.exceptions import ConfigError, InsufficientExcitation, ResultRefused
-from ..filters.quasi_static import RULES, QuasiStaticFilter, quasi_static
-from ..filters.sample_checks import RailTally, refuse_railed
-from ..filters.settings import PipelineConfig
+from ..filters.chain import FilterChain, filter_chain
+from ..filters.quasi_static import RULES, StillSamples
+from ..filters.settings import QUASI_STATIC, PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits, detect_limits
-from ..model.channels import CALIBRATION_HINT, WRENCH_AXES, WRENCH_UNITS, check_channels
+from ..model.channels import CALIBRATION_HINT, WRENCH_AXES, WRENCH_UNITS, ChannelLayout, check_channels
 from ..model.retare import OffsetEstimate, estimate_offsets
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
@@ -83,30 +85,64 @@ class TareResult:
     rails: tuple[str, ...] = ()
 
 
-def _within_rails(samples: SampleBatch, limits: ChannelLimits | None, names) -> tuple[SampleBatch, tuple[str, ...]]:
-    """The samples with no channel at its rail (declared, or detected in them), and the tally's lines."""
-    if not len(samples):
-        return samples, ()
-    found = detect_limits(samples.channels, limits)
-    tally = RailTally(found.n_channels)
-    keep = refuse_railed(samples.channels, samples.configuration, samples.time, found, tally)
-    return samples.select(keep), tuple(tally.lines(names))
+@dataclass(frozen=True)
+class _Window:
+    """A tare window through the filter chain (quasi-static): what its checks and rules said.
+
+    Attributes:
+        chain: The chain it went through (its filter's counts by rule and noise floor).
+        checked: The samples that passed the checks (no channel at its rail, declared or detected in the window).
+        still: The filter's decisions over them (rules 1-3; with a mounted tool, rule 4 and its load).
+        rails: One line per channel whose samples were refused at its rail.
+    """
+
+    chain: FilterChain
+    checked: SampleBatch
+    still: StillSamples
+    rails: tuple[str, ...]
+
+
+def _through_chain(
+    window: SampleBatch,
+    kin: Kinematics | None,
+    tool: Tool | None,
+    settings: PipelineConfig,
+    limits: ChannelLimits | None,
+    names: list[str],
+    layout: ChannelLayout,
+) -> _Window:
+    """The window through the quasi-static filter chain; the rails not declared in ``limits`` are detected in the window.
+
+    Args:
+        window: The samples, in time order; ``configuration`` indexes ``names`` (the mounted one's index with a tool).
+        kin: Kinematics, or None for the strains alone.
+        tool: The mounted tool (its load judged by rule 4 and kept), or None for nothing mounted.
+        settings: Pipeline settings (the filter's thresholds).
+        limits: The channels' declared resolution and rails.
+        names: The configuration names ``window.configuration`` indexes, for the rails' lines.
+        layout: The calibration's channel layout.
+    """
+    finite = np.all(np.isfinite(window.channels), axis=1)
+    if kin is not None:
+        finite &= np.all(np.isfinite(window.joints), axis=1)
+    found = detect_limits(window.channels[finite], limits) if finite.any() else limits
+    n_joints = window.joints.shape[1]
+    chain = filter_chain(settings.with_limits(found).with_filter_mode(QUASI_STATIC), kin, layout=layout, n_joints=n_joints)
+    step = chain.samples(window, tool, final=True)
+    rails = () if chain.checks.rails is None else tuple(chain.checks.rails.lines(names))
+    return _Window(chain, step.checked, step.still, rails)
 
 
 #: Smallest share of a tare window's samples that must pass the quasi-static rules 1-3.
 MIN_STILL_FRACTION = 0.5
 
 
-def check_window(
-    calibration: Calibration, samples: SampleBatch, settings: PipelineConfig, continuous: np.ndarray | None = None
-) -> np.ndarray:
+def check_window(calibration: Calibration, window: _Window) -> np.ndarray:
     """Check that a tare window is still (see the module docstring); returns the strain noise it shows.
 
     Args:
         calibration: The calibration being re-tared (its C maps the noise to wrenches).
-        samples: The window, in time order (joints may be absent: zero columns).
-        settings: Pipeline settings (the filter's thresholds).
-        continuous: Which joints are continuous, shape (n_joints,); none when None.
+        window: The window through the filter chain (:func:`_through_chain`).
 
     Returns:
         The expected noise of each wrench axis, [N, N, N, N m, N m, N m], shape (6,): the
@@ -117,22 +153,21 @@ def check_window(
         ResultRefused: Fewer than :data:`MIN_STILL_FRACTION` of the samples are still; the
             message gives the share and what each rule rejected.
     """
-    if not len(samples):  # nothing to judge: the estimate says there is no sample
+    if not len(window.checked):  # nothing to judge: the estimate says there is no sample
         return np.zeros(6)
-    joints = samples.joints if samples.joints.shape[1] else np.zeros((len(samples), 1))  # no joints: the strain rule alone
-    batch = dataclasses.replace(samples, joints=joints)
-    moving = np.zeros(joints.shape[1], dtype=bool) if continuous is None or not samples.joints.shape[1] else continuous
-    filter_ = QuasiStaticFilter(settings.filter, moving)
-    still = filter_.process(batch, final=True).still
+    still = window.still.keep if window.still.still is None else window.still.still  # rules 1-3
     share = float(np.mean(still)) if len(still) else 0.0
+    filter_ = window.chain.filter
+    rejected = {} if filter_ is None else filter_.rejected
     if share < MIN_STILL_FRACTION:
-        counts = ", ".join(f"{rule}: {filter_.rejected[rule]:,}" for rule in RULES[:3] if filter_.rejected[rule])
+        counts = ", ".join(f"{rule}: {rejected[rule]:,}" for rule in RULES[:3] if rejected.get(rule))
         raise ResultRefused(
             f"refused to re-tare (nothing written): the window is not still: {100 * share:.0f} % of its {len(still):,} samples "
             f"pass the quasi-static rules (rejected by {counts or 'none'}), at least {100 * MIN_STILL_FRACTION:.0f} % must: "
             "record a few seconds with the arm at rest (a calibration recording is no tare window)"
         )
-    floor = np.zeros(calibration.layout.n_channels) if filter_.noise_floor is None else filter_.noise_floor
+    noise_floor = window.chain.noise_floor
+    floor = np.zeros(calibration.layout.n_channels) if noise_floor is None else noise_floor
     sigma = np.sqrt(np.maximum(np.einsum("ij,j,ij->i", calibration.C, floor * floor, calibration.C), 0.0))
     fit = calibration.quality.fit if calibration.quality is not None else None
     recorded = fit.get("expected_residual") if isinstance(fit, dict) else None
@@ -192,19 +227,14 @@ def _mounted(kin: Kinematics | None, tool: Tool | None, configuration: str | Non
     return index
 
 
-def _known_load(
-    kin: Kinematics | None,
-    tool: Tool | None,
-    configuration: str | None,
-    settings: PipelineConfig,
-    samples: SampleBatch,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The strains to use and the load on the sensor for each (zero with nothing mounted)."""
-    index = _mounted(kin, tool, configuration)
-    if tool is None or index is None or kin is None:
-        return samples.channels, np.zeros((len(samples), 6))
-    mounted = dataclasses.replace(samples, configuration=np.full(len(samples), index))
-    still = quasi_static(QuasiStaticFilter(settings.filter, kin.continuous), kin, tool, mounted, final=True)
+def _known_load(window: _Window, mounted: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The strains to use and the load on the sensor for each.
+
+    With nothing mounted every checked sample, at zero load; with a tool the quasi-static ones, at its weight.
+    """
+    if not mounted:
+        return window.checked.channels, np.zeros((len(window.checked), 6))
+    still = window.still
     return still.samples.channels, still.w_sensor if still.w_sensor is not None else np.zeros((0, 6))
 
 
@@ -274,14 +304,16 @@ def tare_recording(
         raise InsufficientExcitation(0, 1, f"{path} has no usable row")
     samples = SampleBatch.concatenate(chunks)
     check_channels(calibration.layout, samples.channels.shape[1], str(path), CALIBRATION_HINT)
-    finite = np.all(np.isfinite(samples.channels), axis=1) & (np.all(np.isfinite(samples.joints), axis=1) if kin is not None else True)
-    within, rails = _within_rails(samples.select(finite), limits, reader.tool_names or ["(none)"])
-    _mounted(kin, tool, configuration)  # a wrong argument is said before the data are judged
-    noise = check_window(calibration, within, settings, None if kin is None else kin.continuous)
-    strain, load = _known_load(kin, tool, configuration, settings, within)
+    index = _mounted(kin, tool, configuration)  # a wrong argument is said before the data are judged
+    names = reader.tool_names or ["(none)"]
+    if index is not None and tool is not None:  # mounted throughout, whatever the recording's tool column says
+        samples, names = dataclasses.replace(samples, configuration=np.full(len(samples), index)), tool.names
+    window = _through_chain(samples, kin, tool if index is not None else None, settings, limits, names, calibration.layout)
+    noise = check_window(calibration, window)
+    strain, load = _known_load(window, index is not None)
     what = _what(tool, configuration)
-    result = _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {what}", seen, noise, what, rails)
-    return dataclasses.replace(result, rails=rails)
+    result = _apply(calibration, strain, load, f"re-tare from {Path(path).name}, {what}", seen, noise, what, window.rails)
+    return dataclasses.replace(result, rails=window.rails)
 
 
 def tare_live(
@@ -324,16 +356,14 @@ def tare_live(
         heard = f"{stats.received:,} datagrams, none of them strain" if stats.received else "no datagram at all"
         raise InsufficientExcitation(0, 1, f"{heard} on {feed.description} in {seconds:g} s: is the sender running, to this port?")
     what = _what(tool, configuration)
-    names = [configuration or "(none)"]
+    index = _mounted(kin, tool, configuration)
     synced = SampleBatch.concatenate(batches) if batches else SampleBatch.empty(len(joint_names), calibration.layout.n_channels)
-    if kin is None:  # the strains alone, all of one (named) load
-        window = dataclasses.replace(synced, configuration=np.zeros(len(synced), dtype=np.int64), temperature=None)
-        within, rails = _within_rails(window, limits, names)
-        noise = check_window(calibration, within, settings)
-        result = _apply(calibration, within.channels, np.zeros((len(within), 6)), reason, stats.strain, noise, what, rails)
-        return dataclasses.replace(result, rails=rails)
-    _mounted(kin, tool, configuration)
-    within, rails = _within_rails(synced, limits, names)
-    noise = check_window(calibration, within, settings, kin.continuous)
-    strain, load = _known_load(kin, tool, configuration, settings, within)
-    return dataclasses.replace(_apply(calibration, strain, load, reason, stats.strain, noise, what, rails), rails=rails)
+    # one load throughout (nothing, or the configuration mounted): the sender need not announce it
+    window = dataclasses.replace(synced, configuration=np.full(len(synced), 0 if index is None else index, dtype=np.int64))
+    if kin is None:  # the strains alone
+        window = dataclasses.replace(window, temperature=None)
+    mounted, names = (None, ["(none)"]) if index is None or tool is None else (tool, tool.names)
+    through = _through_chain(window, kin, mounted, settings, limits, names, calibration.layout)
+    noise = check_window(calibration, through)
+    strain, load = _known_load(through, index is not None)
+    return dataclasses.replace(_apply(calibration, strain, load, reason, stats.strain, noise, what, through.rails), rails=through.rails)
