@@ -14,7 +14,8 @@ The ``validate`` job: measured against expected wrench over a recording (the pap
 The recording should come from another motion and another tool than the calibration. For
 every sample, the *expected* wrench is the tool's, from the kinematics: by default the
 Newton-Euler wrench of the moving tool, with joint velocities and accelerations estimated
-from the readings as the quasi-static filter does (:func:`fts_calib.filters.joint_rates.joint_rates`);
+from the readings as the quasi-static filter does (:func:`fts_calib.filters.joint_rates.joint_rates`
+over the filter chain's ``derivative_window_s``);
 with ``dynamic=False`` the static weight alone (paper eqs 17-18: what the paper compared, its
 error then includes the uncompensated dynamics). The *measured* wrench is ``C strain + D``
 with each calibration, ``D`` being its offset model's where it applies (each
@@ -28,12 +29,15 @@ split into the samples whose *expected* wrench lies inside that region and those
 (:class:`RegionErrors`): a model is determined only on the loads it was fitted on, and the
 region is a box with magnitude caps, so the split says where the errors were measured, not more.
 
-The recording streams in chunks; statistics are accumulated and the series for the plot are
+Every sample goes through the checks of the filter chain (:mod:`fts_calib.filters.chain`:
+bad values, rails, time order, joint limits; skipped and counted) and no filter: every valid
+sample is compared. The recording streams in chunks; statistics are accumulated and the series for the plot are
 thinned as they grow, so memory does not grow with the recording's length.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -43,10 +47,10 @@ import numpy as np
 
 from ..core.arrays import frozen
 from ..core.exceptions import ConfigError
+from ..filters.chain import NO_FILTER, filter_chain
 from ..filters.joint_rates import half_window, joint_rates
 from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
-from ..filters.sample_checks import BACKWARDS, NON_FINITE, OUT_OF_RANGE, RAILED, RailTally, forward_in_time, refuse_railed, valid_values
-from ..filters.settings import DEFAULT_MAX_ABS_CHANNEL, FilterConfig
+from ..filters.settings import PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits
 from ..model.channels import CALIBRATION_HINT, WRENCH_AXES, check_channels
@@ -145,7 +149,6 @@ def _fitted_configurations(model: Mapping, names: Sequence[str]) -> set[str]:
 
 
 _PLOT_POINTS = 20_000  # samples kept for the plot, at most twice this
-_WINDOW_S = FilterConfig().derivative_window_s  # the joint-rate window [s]: the filter's, so both see the same rates
 
 
 @dataclass(frozen=True)
@@ -319,7 +322,14 @@ class _Thinner:
 
 
 def expected_wrench(
-    kin: Kinematics, tool: Tool, time: np.ndarray, readings: np.ndarray, codes: np.ndarray, dt: float, dynamic: bool
+    kin: Kinematics,
+    tool: Tool,
+    time: np.ndarray,
+    readings: np.ndarray,
+    codes: np.ndarray,
+    dt: float,
+    dynamic: bool,
+    window_s: float,
 ) -> np.ndarray:
     """The tool's wrench on the sensor at each sample, from the joint readings alone.
 
@@ -331,13 +341,15 @@ def expected_wrench(
         codes: Configuration index of each sample, shape (N,).
         dt: The stream's sample period [s], for the joint-rate estimates.
         dynamic: Newton-Euler wrench of the moving tool (True) or its weight alone (False).
+        window_s: The joint-rate window [s]: the filter chain's (:attr:`fts_calib.filters.chain.FilterChain.derivative_window_s`),
+            so that the expected wrench sees the rates the filter sees.
 
     Returns:
         Shape (N, 6), [N, N m].
     """
     if not dynamic:
         return tool_load(kin, tool, readings, codes).static
-    rates = joint_rates(time, readings, _WINDOW_S, dt, kin.continuous, order=2)
+    rates = joint_rates(time, readings, window_s, dt, kin.continuous, order=2)
     return tool_load(kin, tool, readings, codes, rates.velocity, rates.acceleration).w_sensor
 
 
@@ -348,9 +360,10 @@ def validate_recording(
     calibrations: Sequence[Calibration],
     full_scale: np.ndarray,
     dynamic: bool = True,
-    max_abs_channel: float = DEFAULT_MAX_ABS_CHANNEL,
+    max_abs_channel: float | None = None,
     topics: BagTopics | None = None,
     limits: ChannelLimits | None = None,
+    settings: PipelineConfig | None = None,
 ) -> ValidationResult:
     """Compare measured and expected wrenches over a recording (see the module docstring).
 
@@ -363,10 +376,13 @@ def validate_recording(
         full_scale: Full scale per axis [N, N, N, N m, N m, N m], shape (6,).
         dynamic: Include the moving tool's dynamics in the expected wrench.
         max_abs_channel: Largest plausible magnitude of a channel, in raw units: a sample
-            beyond it is skipped as a bad sample (``checks.max_abs_channel``).
+            beyond it is skipped as a bad sample; None: the settings' ``checks.max_abs_channel``.
         topics: Topic names of a bag; the defaults when None.
         limits: The channels' range (the sensor file's): a sample with a channel at its rail
-            is skipped and counted (:func:`fts_calib.filters.sample_checks.refuse_railed`); None: none.
+            is skipped and counted; None: the settings' ``checks.limits``.
+        settings: Pipeline settings: the checks' and the joint-rate window; the defaults when None.
+            Every sample goes through the checks of the filter chain
+            (:meth:`fts_calib.filters.chain.FilterChain.accept`), no filter: every valid sample is compared.
 
     Raises:
         RecordingError: The recording cannot be read (missing, empty, a missing column).
@@ -377,29 +393,29 @@ def validate_recording(
         message = f"{len(calibrations)} calibrations given but expected one or two"
         raise ConfigError("calibrations", len(calibrations), "one or two calibrations", message=message)
     full_scale = np.asarray(full_scale, dtype=float)
+    settings = settings or PipelineConfig()
+    if limits is not None:
+        settings = settings.with_limits(limits)
+    if max_abs_channel is not None:
+        settings = dataclasses.replace(settings, checks=dataclasses.replace(settings.checks, max_abs_channel=max_abs_channel))
+    chain = filter_chain(settings, kin, NO_FILTER, calibrations[0].layout)
+    window_s = chain.derivative_window_s
     errors = [_Errors() for _ in calibrations]
     splits = [None if cal.region is None else _RegionSplit(cal.region) for cal in calibrations]
     between = _Errors()
     plot = _Thinner(_PLOT_POINTS)
-    skipped: Counter[str] = Counter()
-    rails = None if limits is None else RailTally(limits.n_channels)
     offsets = [ValidationOffsets(cal, tool.names) for cal in calibrations]
     samples = 0
     dt, half = 0.0, 0
-    last_time = -np.inf
     # rows already compared that the next rows' rate windows need, and rows not compared yet
     context: tuple[np.ndarray, ...] | None = None
     waiting: tuple[np.ndarray, ...] | None = None
-
-    def skip(reason: str, count: int) -> None:
-        if count:
-            skipped[reason] += count
 
     def compare(rows: tuple[np.ndarray, ...], first: int, last: int) -> None:
         """Compare rows ``first:last``; the rows around them serve the rate estimates."""
         nonlocal samples
         t, q, s, k, T = rows
-        W = expected_wrench(kin, tool, t, q, k, dt, dynamic)[first:last]
+        W = expected_wrench(kin, tool, t, q, k, dt, dynamic, window_s)[first:last]
         heat = None if np.isnan(T[first:last]).all() else T[first:last]
         measured = [  # the region is reported below, split by the expected wrench: no warning per chunk
             cal.wrench(s[first:last], region_check=False) - cal.D + off.offsets(t[first:last], k[first:last], heat)
@@ -418,28 +434,19 @@ def validate_recording(
         parts = [p for p in parts if p is not None]
         return tuple(np.concatenate(columns) for columns in zip(*parts, strict=True))
 
-    with open_recording(path, kin.joint_names, tool.names, max_abs_channel, topics, kin.continuous) as reader:
+    with open_recording(path, kin.joint_names, tool.names, settings.checks.max_abs_channel, topics, kin.continuous) as reader:
         for chunk in reader:
             t, q, s, k = chunk.time, chunk.joints, chunk.channels, chunk.configuration
             T = np.full(len(t), np.nan) if chunk.temperature is None else chunk.temperature
             for cal in calibrations:  # each calibration reads the channels of its own layout
                 check_channels(cal.layout, s.shape[1], str(reader.path), CALIBRATION_HINT)
-            finite, ok = valid_values(t, q, s, max_abs_channel)
-            skip(NON_FINITE, int((~finite).sum()))
-            skip(OUT_OF_RANGE, int((finite & ~ok).sum()))
-            within = np.ones(len(t), dtype=bool)
-            within[ok] = refuse_railed(s[ok], k[ok], t[ok], limits, rails)
-            skip(RAILED, int((ok & ~within).sum()))
-            ok &= within
-            forward = ok & forward_in_time(t, ok, last_time)
-            skip(BACKWARDS, int((ok & ~forward).sum()))
+            forward = chain.accept(chunk)  # the chain's checks: bad values, rails, time order, joint limits
             if not forward.any():
                 continue
             new = (t[forward], q[forward], s[forward], k[forward], T[forward])
-            last_time = float(new[0][-1])
             if dt == 0.0 and len(new[0]) > PERIOD_SAMPLES:
                 dt = sample_period(new[0])
-                half = half_window(_WINDOW_S, dt)
+                half = half_window(window_s, dt)
             rows = join(context, waiting, new)
             first = 0 if context is None else len(context[0])
             last = len(rows[0]) - half  # the last rows wait for their right-hand window
@@ -449,8 +456,10 @@ def validate_recording(
                 waiting = tuple(a[last:] for a in rows)
             else:
                 waiting = join(waiting, new)
+        skipped = Counter(chain.checks.skipped)
         for reason, count in reader.skipped.items():
-            skip(reason, count)
+            if count:
+                skipped[reason] += count
         problems = reader.notes()
         rows_read = reader.rows_read
     if waiting is not None and len(waiting[0]):
@@ -468,7 +477,7 @@ def validate_recording(
         measured=measured,
         problems=problems,
         rows_read=rows_read,
-        rails=[] if rails is None else rails.lines(tool.names),
+        rails=[] if chain.checks.rails is None else chain.checks.rails.lines(tool.names),
         offsets=[off.words for off in offsets],
         regions=[None if split is None else split.result(full_scale) for split in splits],
     )
