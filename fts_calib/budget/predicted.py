@@ -34,7 +34,6 @@ or two configurations then reach at best. Units: N, N m, % of each axis's full s
 
 from __future__ import annotations
 
-import math
 from typing import Protocol
 
 import numpy as np
@@ -42,6 +41,7 @@ import numpy as np
 from ..filters.dynamic import acceleration_bias, inertial_moment, joint_levers, predicted_error, trust_weights
 from ..filters.joint_rates import kernel_gains
 from ..filters.latency import wrench_rate
+from ..filters.quasi_static import held_still
 from ..filters.settings import FilterConfig
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool, tool_load
@@ -73,9 +73,6 @@ class Plan(Protocol):
     def rate(self) -> float:
         """Sample rate [Hz]."""
 
-    def still(self, max_speed: float, max_acceleration: float) -> np.ndarray:
-        """Samples where every joint is slow and steady, shape (N,) bool."""
-
 
 __all__ = ["SYSTEMATIC", "KeptSamples", "measured_budget", "plan_budget", "predicted_still", "sample_budget"]
 
@@ -86,15 +83,12 @@ SYSTEMATIC = ("tool mass", "tool centre of mass", "sensor mount")
 def predicted_still(plan: Plan, filter_config: FilterConfig) -> np.ndarray:
     """Samples of a plan the quasi-static filter would keep, shape (N,) bool.
 
-    Joints slow and steady, and at least half a strain window away from any motion (the
-    stationarity test needs the whole window).
+    The filter's joint rules held over the strain window (:func:`fts_calib.filters.quasi_static.held_still`)
+    on the plan's exact rates: joints slow and steady at every sample within half a strain window
+    (the stationarity test needs the whole window still).
     """
-    still = plan.still(filter_config.max_joint_speed, filter_config.max_joint_acceleration)
-    half = int(math.ceil(filter_config.strain_window_s * plan.rate / 2))
-    if half:
-        moving = np.convolve((~still).astype(float), np.ones(2 * half + 1), mode="same") > 0
-        still = still & ~moving
-    return still
+    speed_ok, accel_ok, _, _ = held_still(plan.time, plan.qd, plan.qdd, filter_config)
+    return speed_ok & accel_ok
 
 
 def plan_budget(

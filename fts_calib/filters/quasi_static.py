@@ -125,6 +125,54 @@ def windowed_std(values: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.
     return np.sqrt(np.maximum(var, 0.0))
 
 
+def held_still(
+    time: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, settings: FilterConfig, index: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rules 1 and 2 held over the strain window around each sample: the joints slow and steady throughout it.
+
+    The one form of the joint rules: the filter applies it to the rates it estimates, a plan's
+    prediction (:func:`fts_calib.budget.predicted.predicted_still`) to its exact rates.
+
+    Args:
+        time: Sample times [s], in order. Shape (N,).
+        velocity: Joint velocities [rad/s]. Shape (N, n_joints).
+        acceleration: Joint accelerations [rad/s^2]. Shape (N, n_joints).
+        settings: The thresholds (``max_joint_speed``, ``max_joint_acceleration``, ``strain_window_s``).
+        index: The samples judged (their windows may reach the others), shape (m,); None: all.
+
+    Returns:
+        ``(speed ok (m,), acceleration ok (m,), first (m,), last (m,))``: whether every sample of
+        the window passes rule 1, rule 2, and the window's first and last sample indices.
+    """
+    index = np.arange(len(time)) if index is None else index
+    slow = np.max(np.abs(velocity), axis=1) <= settings.max_joint_speed
+    steady = np.max(np.abs(acceleration), axis=1) <= settings.max_joint_acceleration
+    left, right = window_bounds(time, index, settings.strain_window_s / 2)
+    bad_speed = np.concatenate([[0], np.cumsum(~slow)])
+    bad_accel = np.concatenate([[0], np.cumsum(~steady)])
+    return bad_speed[right + 1] == bad_speed[left], bad_accel[right + 1] == bad_accel[left], left, right
+
+
+def window_moves(time: np.ndarray, joints: np.ndarray, settings: FilterConfig) -> bool:
+    """Rule 1 over a window of samples: does a joint travel farther than ``max_joint_speed`` allows in it?
+
+    The window lasts as many sample periods as it holds samples (each stands for one period); a
+    joint that travels more than ``max_joint_speed`` times that was faster than the rule allows
+    at some sample. For the windows of a stream judged whole, not sample by sample (the offset
+    watch in service: :mod:`fts_calib.monitor.offset_watch`).
+
+    Args:
+        time: Sample times of the window [s], in order. Shape (B,).
+        joints: Joint readings [rad]. Shape (B, n_joints) (no column: nothing moves).
+        settings: The thresholds (``max_joint_speed``).
+    """
+    n = len(time)
+    if n < 2 or not joints.shape[1]:
+        return False
+    duration = (float(time[-1]) - float(time[0])) * n / (n - 1)
+    return bool(np.any(np.ptp(joints, axis=0) > settings.max_joint_speed * duration))
+
+
 def sample_period(time: np.ndarray) -> float:
     """A stream's sample period in [s], from its first intervals (the median of the first 100).
 
@@ -236,15 +284,8 @@ class QuasiStaticFilter:
         The rules hold over the whole strain window, not only at the sample: the first
         milliseconds of a jerk-limited motion hardly show in any estimate.
         """
-        settings = self.settings
         velocity_all, acceleration_all = self._joint_rates(buf.time, buf.joints)
-        slow = np.max(np.abs(velocity_all), axis=1) <= settings.max_joint_speed
-        steady = np.max(np.abs(acceleration_all), axis=1) <= settings.max_joint_acceleration
-        s_left, s_right = window_bounds(buf.time, index, settings.strain_window_s / 2)
-        bad_speed = np.concatenate([[0], np.cumsum(~slow)])
-        bad_accel = np.concatenate([[0], np.cumsum(~steady)])
-        speed_ok = bad_speed[s_right + 1] == bad_speed[s_left]
-        accel_ok = bad_accel[s_right + 1] == bad_accel[s_left]
+        speed_ok, accel_ok, s_left, s_right = held_still(buf.time, velocity_all, acceleration_all, self.settings, index)
         return speed_ok, accel_ok, velocity_all[index], acceleration_all[index], s_left, s_right
 
     def _judged(self, time: np.ndarray, s_left: np.ndarray, s_right: np.ndarray) -> np.ndarray:

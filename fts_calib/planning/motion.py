@@ -74,13 +74,6 @@ class Plan:
         """The motion as the trajectory of one tool configuration (what a trajectory file holds)."""
         return TrajectoryFile(self.joint_names, self.time, self.q, self.qd, self.qdd, configuration)
 
-    def still(self, max_speed: float, max_acceleration: float) -> np.ndarray:
-        """Quasi-static samples: every joint slower than ``max_speed`` [rad/s].
-
-        And accelerating less than ``max_acceleration`` [rad/s^2]. Shape (N,) bool.
-        """
-        return np.all(np.abs(self.qd) <= max_speed, axis=1) & np.all(np.abs(self.qdd) <= max_acceleration, axis=1)
-
 
 def plan_sweeps(kin: Kinematics, home: np.ndarray, ranges: np.ndarray, pattern: SweepPattern, rate: float) -> Plan:
     """Plan and sample the sweep motion from home, through every stop, back to home.
