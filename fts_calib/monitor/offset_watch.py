@@ -11,7 +11,8 @@ block mean ``m`` and the tracked offset error predicted to the block ``delta^``:
     |m_i - \hat\delta_i| \le k\,\sigma_i / \sqrt{B} + a_i \quad\text{for every axis } i
 
 and a scatter of its samples within twice the noise (and, when the joints are given, no joint
-travelling more than ``STILL_RAD`` in it: a constant speed's steady dynamics), is a window without contact (``sigma``:
+faster than the quasi-static filter's rule 1 allows over the window,
+:func:`fts_calib.filters.quasi_static.window_moves`: a constant speed's steady dynamics), is a window without contact (``sigma``:
 the wrench noise per sample; ``a``: the payload's allowance, what the payload known to a
 tolerance adds, plus the fastest drift believed times the time since the last update, at most
 10 s of it). Only
@@ -31,14 +32,14 @@ import math
 import numpy as np
 
 from ..core.exceptions import ConfigError, ShapeError
+from ..filters.quasi_static import window_moves
+from ..filters.settings import FilterConfig
 from ..model.calibration import Calibration
 
 #: Longest time since the last update over which the fastest believed drift widens the window test [s].
 MAX_GAP_S = 10.0
 #: Largest share of a window's error the tracker takes (however long since the last update).
 MAX_ALPHA = 0.5
-#: Largest joint travel within a window of a still robot [rad] (beyond it the window is motion: refused).
-STILL_RAD = 1e-3
 
 
 class OffsetWatch:
@@ -52,6 +53,8 @@ class OffsetWatch:
         time_constant_s: Time constant of the tracker [s] (alpha-beta gains for it).
         max_rate: Fastest offset drift believed, per second, shape (6,); 5 N/min and 0.5 N m/min
             when None (a drift faster than this is taken for a contact).
+        still: The filter settings whose joint-speed rule judges a window's motion (the pipeline's
+            ``filter``); the defaults when None.
 
     Attributes:
         offset: The tracked offset error, shape (6,).
@@ -61,7 +64,16 @@ class OffsetWatch:
         in_contact: Whether the last window was a contact.
     """
 
-    def __init__(self, noise, allowance=None, block: int = 100, k: float = 6.0, time_constant_s: float = 1.0, max_rate=None):
+    def __init__(
+        self,
+        noise,
+        allowance=None,
+        block: int = 100,
+        k: float = 6.0,
+        time_constant_s: float = 1.0,
+        max_rate=None,
+        still: FilterConfig | None = None,
+    ):
         self.noise = np.asarray(noise, dtype=float).reshape(-1)
         if self.noise.shape != (6,) or np.any(~np.isfinite(self.noise) | (self.noise <= 0)):
             raise ConfigError("noise", self.noise.tolist(), "six positive wrench noises per sample [N, N m]")
@@ -70,6 +82,7 @@ class OffsetWatch:
             raise ConfigError("offset watch", [block, k, time_constant_s], "block >= 2, k > 0, time constant > 0")
         self.block, self.k, self.time_constant_s = block, k, time_constant_s
         self.max_rate = np.array([5 / 60] * 3 + [0.5 / 60] * 3) if max_rate is None else np.asarray(max_rate, dtype=float).reshape(6)
+        self.still = still or FilterConfig()
         self.offset, self.rate = np.zeros(6), np.zeros(6)
         self._time: float | None = None
         self._left_time, self._left_rho = np.zeros(0), np.zeros((0, 6))  # samples waiting for a full block
@@ -88,9 +101,10 @@ class OffsetWatch:
             time: Sample times [s], shape (N,).
             w_measured: The measured wrench, [N, N, N, N m, N m, N m], shape (N, 6).
             w_payload: The payload's own wrench on the sensor, same units, shape (N, 6).
-            joints: The joints [rad], shape (N, n_joints), or None: a window in which a joint travels
-                more than :data:`STILL_RAD` is motion (the payload's static wrench leaves out its
-                dynamics, steady at a constant speed), refused. None: no joints, only the spread tells.
+            joints: The joints [rad], shape (N, n_joints), or None: a window in which a joint moves
+                faster than the quasi-static joint-speed rule allows (:func:`fts_calib.filters.quasi_static.window_moves`)
+                is motion (the payload's static wrench leaves out its dynamics, steady at a constant
+                speed), refused. None: no joints, only the spread tells.
         """
         time = np.asarray(time, dtype=float).reshape(-1)
         rho = np.asarray(w_measured, dtype=float) - np.asarray(w_payload, dtype=float)
@@ -102,9 +116,9 @@ class OffsetWatch:
             q = np.vstack([self._left_q, q]) if self._left_q.shape[1] == q.shape[1] else np.zeros((len(time), 0))
         full = len(time) - len(time) % self.block
         for start in range(0, full, self.block):
-            window, travel = rho[start : start + self.block], np.ptp(q[start : start + self.block], axis=0)
-            moving = bool(np.any(travel > STILL_RAD))
-            self._window(float(time[start : start + self.block].mean()), window.mean(axis=0), window.std(axis=0), moving)
+            at, window = time[start : start + self.block], rho[start : start + self.block]
+            moving = window_moves(at, q[start : start + self.block], self.still)
+            self._window(float(at.mean()), window.mean(axis=0), window.std(axis=0), moving)
         self._left_time, self._left_rho, self._left_q = time[full:].copy(), rho[full:].copy(), q[full:].copy()
 
     def _window(self, t: float, mean: np.ndarray, spread: np.ndarray, moving: bool = False) -> None:
