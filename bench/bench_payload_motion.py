@@ -4,7 +4,7 @@ The shipped 1.4 kg validation payload moved by the wrist motion of
 :func:`fts_calib.payload.inertia_motion.payload_excitation` (jerk-limited, no dwell),
 joints 8 ms late with 1e-5 rad of noise on a 20-bit encoder, the simulated sensor's noise
 and 24-bit ADC, offsets drifting as a sensor warming up (:meth:`OffsetDrift.typical`);
-identified by :func:`identify_payload_from_motion` (latency estimated).
+identified by :func:`fts_calib.payload.identify.identify_payload` as a motion (latency estimated).
 Prints, per motion length: the largest error over the seeds of mass [%], centre of mass [mm],
 inertia [% of its largest principal moment: the error's largest singular value], the
 scatter of the seeds over the reported standard errors (per parameter: min-max), and the
@@ -21,9 +21,9 @@ import numpy as np
 from fts_calib.core.exceptions import PayloadError
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration
+from fts_calib.payload.estimate import NAMES
+from fts_calib.payload.identify import identify_payload
 from fts_calib.payload.inertia_motion import payload_excitation
-from fts_calib.payload.moving import NAMES
-from fts_calib.payload.samples import identify_payload_from_motion
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
@@ -51,7 +51,7 @@ def main(seeds: int) -> None:
                 path = simulate_payload_motion(Path(folder) / "run.csv", kin, payload, sensor, motion, rng, 0.008, 1e-5, drift=drift)
                 t0 = time.perf_counter()
                 try:
-                    est = identify_payload_from_motion(path, kin, calibration).estimate
+                    est = identify_payload(path, kin, calibration, "moving")
                 except PayloadError as error:
                     refused.append(str(error).split(": ", 1)[1][:120])
                     continue

@@ -7,9 +7,8 @@ import time
 
 import numpy as np
 
-from fts_calib import Calibration
+from fts_calib import Calibration, identify_payload
 from fts_calib.core.resources import resolve
-from fts_calib.payload.still import identify_payload
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool

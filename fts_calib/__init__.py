@@ -44,7 +44,8 @@ if TYPE_CHECKING:  # type checkers and IDEs see the names; at run time __getattr
     from .model.channels import ChannelLayout
     from .model.estimator import OnlineEstimator
     from .model.sensor_config import SensorSpec, load_sensor_config
-    from .payload.still import PayloadEstimate, identify_payload
+    from .payload.estimate import PayloadEstimate
+    from .payload.identify import identify_payload
     from .planning.trajectory_run import plan_trajectories
     from .robot.definition import RobotDefinition, load_robot
     from .robot.kinematics import Kinematics
@@ -71,7 +72,7 @@ _WHERE = {
     "InsufficientExcitation": ".core.exceptions",
     "Kinematics": ".robot.kinematics",
     "OnlineEstimator": ".model.estimator",
-    "PayloadEstimate": ".payload.still",
+    "PayloadEstimate": ".payload.estimate",
     "PoorFit": ".core.exceptions",
     "Quality": ".model.calibration",
     "RecordingError": ".core.exceptions",
@@ -88,7 +89,7 @@ _WHERE = {
     "WrenchReader": ".service.reader",
     "calibrate": ".session.calibration_run",
     "export": ".service.exports",
-    "identify_payload": ".payload.still",
+    "identify_payload": ".payload.identify",
     "load_calibration": ".model.calibration",
     "load_robot": ".robot.definition",
     "load_sensor_config": ".model.sensor_config",

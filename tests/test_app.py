@@ -107,7 +107,7 @@ def test_a_run_function_raises_the_error_the_command_line_maps(tmp_path, ur5_joi
 
     one_pose = _recording(tmp_path / "one.csv", ur5_joints)
     with pytest.raises(PayloadError, match="see it along one direction"):
-        payload.run(recording=one_pose, calibration=CALIBRATION, robot="ur5", output=tmp_path / "p.yaml")
+        payload.run(source=one_pose, calibration=CALIBRATION, robot="ur5", output=tmp_path / "p.yaml")
 
 
 # --- the exit-code table --------------------------------------------------------------------------------------------

@@ -373,7 +373,7 @@ def test_a_resumed_session_keeps_its_railed_counts(lowcost, ur5, paper_tool, tmp
 
 def test_payload_refuses_railed_samples_and_finds_the_mass(lowcost, ur5, paper_tool, tmp_path, rng):
     from fts_calib.model.calibration import Calibration
-    from fts_calib.payload.still import identify_payload_from_recording
+    from fts_calib.payload.identify import identify_payload
     from fts_calib.sources.recording import RecordingWriter
 
     _, sensor = lowcost
@@ -390,11 +390,11 @@ def test_payload_refuses_railed_samples_and_finds_the_mass(lowcost, ur5, paper_t
         writer.write(time, joints, counts, "A")
     railed = int(np.sum(np.any((counts <= 0) | (counts >= 1023), axis=1)))
     # random poses: some closer than the 15° a payload wizard asks for; they determine it all the same
-    found = identify_payload_from_recording(path, ur5, Calibration(linear.C_bar, linear.D_readings))
+    found = identify_payload(path, ur5, Calibration(linear.C_bar, linear.D_readings), "still")
     assert len(found.rails) == 1 and found.rails[0].startswith("strain_7 at its rail 1023 in ")
     assert found.rails[0].endswith(f": {railed:,} samples")
     # the pressed poses would pull the mass by about 60 N / 9.81 m/s^2 over a sixth of the samples
     # (1 kg); without them: the noise of 1 count through C (about 0.4 N on a force axis) over
     # the samples left, and the rounding bias of each pose (|C_i| / sqrt(12), over >= 2 poses)
     mass = paper_tool.configurations[0].mass
-    assert abs(found.estimate.mass - mass) < 0.05 * mass, found.estimate
+    assert abs(found.mass - mass) < 0.05 * mass, found

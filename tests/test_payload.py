@@ -3,9 +3,8 @@
 import numpy as np
 import pytest
 
-from fts_calib import ShapeError
+from fts_calib import ShapeError, identify_payload
 from fts_calib.core.exceptions import PayloadError
-from fts_calib.payload.still import identify_payload
 from fts_calib.robot.tool import load_tool, save_tool
 from fts_calib.sim.sensor import load_simulated_sensor
 

@@ -1,7 +1,6 @@
 """``payload --motion --listen``: a simulated motion replayed as datagrams gives the payload of the
 recording; a silent feed times out (exit 18) naming the address; the options are checked."""
 
-import dataclasses
 import re
 import socket
 import threading
@@ -14,13 +13,15 @@ from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration, save_calibration
+from fts_calib.payload.identify import identify_payload
 from fts_calib.payload.inertia_motion import payload_excitation
-from fts_calib.payload.samples import identify_payload_from_motion, identify_payload_from_samples, read_payload_samples
+from fts_calib.payload.samples import read_payload
 from fts_calib.robot.tool import load_tool
 from fts_calib.sim.drift import OffsetDrift
 from fts_calib.sim.payload_run import simulate_payload_motion
 from fts_calib.sim.sensor import load_simulated_sensor
 from fts_calib.sources.sender import ReplayOptions, replay
+from fts_calib.sources.source import ArraySource
 
 HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] tests/test_payload_motion.py's pose
 LATENCY_S, JOINT_NOISE = 0.008, 1e-5  # [s], [rad] joints late and noisy (issue 22's)
@@ -63,7 +64,7 @@ def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_p
     recording's to 0.01 of its standard errors (seen: identical; JSON carries the floats exactly), and within
     the issue's targets. The progress and the summary are shown; the tool file is written."""
     path, calibration, payload = moving
-    reference = identify_payload_from_motion(path, ur5, calibration).estimate
+    reference = identify_payload(path, ur5, calibration, "moving")
     cal = save_calibration(calibration, tmp_path / "cal.yaml")
 
     bound, listening = [], threading.Event()
@@ -120,12 +121,11 @@ def test_samples_lost_on_the_way_leave_their_windows_out(ur5, moving):
     the targets and 8 standard errors of the truth (11 seeds: mass 0.003 %, centre of mass 0.003 mm, inertia
     1.6 %, at most 3.4 standard errors; the payload moved by at most 4.2 of them from the whole recording's)."""
     path, calibration, payload = moving
-    read = read_payload_samples(path, ur5, calibration)
-    kept = np.random.default_rng(7).random(len(read.samples)) > 0.002
-    lost = dataclasses.replace(read, samples=read.samples.select(kept))
-    found = identify_payload_from_samples(lost, "lost", ur5, calibration)
-    est = found.estimate
-    assert 0.8 * len(read.samples) <= est.samples <= 0.95 * len(read.samples)  # about 20 windows of 51 samples left out
+    read = read_payload(path, ur5, calibration)
+    kept = np.random.default_rng(7).random(len(read.checked)) > 0.002
+    lost = ArraySource(read.checked.select(kept), tool_names=["payload"], description="lost")
+    est = identify_payload(lost, ur5, calibration, "moving")
+    assert 0.8 * len(read.checked) <= est.samples <= 0.95 * len(read.checked)  # about 20 windows of 51 samples left out
     _within_targets(est.mass, est.com, est.inertia_com, payload)
     truth = _derived(payload.mass, payload.p_sensor_com, payload.inertia_com)
     assert np.all(np.abs(_derived(est.mass, est.com, est.inertia_com) - truth) <= 8 * est.stderr)

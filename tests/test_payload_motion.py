@@ -9,9 +9,9 @@ import pytest
 from fts_calib.core.exceptions import PayloadError
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration
+from fts_calib.payload.identify import identify_payload
 from fts_calib.payload.inertia_motion import payload_excitation
 from fts_calib.payload.moving import fit_payload_motion
-from fts_calib.payload.samples import identify_payload_from_motion
 from fts_calib.planning.motion import sample_motion
 from fts_calib.robot import inertial
 from fts_calib.robot.tool import ToolConfiguration, dynamic_wrench, load_tool
@@ -103,7 +103,7 @@ def test_a_realistic_recording_meets_the_targets_with_consistent_standard_errors
     errors, stderrs = [], []
     for child in np.random.SeedSequence(seed).spawn(3):
         path, calibration = _recording(tmp_path, ur5_module, payload, motion, np.random.default_rng(child), drift=OffsetDrift.typical())
-        est = identify_payload_from_motion(path, ur5_module, calibration).estimate
+        est = identify_payload(path, ur5_module, calibration, "moving")
         assert abs(est.mass - payload.mass) <= 0.005 * payload.mass, est.mass
         assert np.max(np.abs(est.com - payload.p_sensor_com)) <= 1e-3, est.com
         error = est.inertia_com - payload.inertia_com
@@ -145,7 +145,7 @@ def test_a_turn_of_the_last_joint_only_is_refused_naming_the_inertia_it_misses(t
     path, calibration = _recording(tmp_path, ur5_module, payload, turn, rng, "turn.csv")
     missing = r"does not determine the payload: the inertia about the centre of mass Iyy .*, Iyz .*, Izz"
     with pytest.raises(PayloadError, match=missing) as error:
-        identify_payload_from_motion(path, ur5_module, calibration)
+        identify_payload(path, ur5_module, calibration, "moving")
     assert ". The inertia about y and z is not excited: turn the sensor about its y and z axes" in str(error.value)
     assert "Ixx" not in str(error.value) and "mass (" not in str(error.value) and "com " not in str(error.value)
     g, omega, alpha, a = _moving(ur5_module, turn)  # noiseless: not seen at all
@@ -158,7 +158,7 @@ def test_a_small_motion_is_refused_naming_the_joint_to_move(tmp_path, ur5_module
     path, calibration = _recording(tmp_path, ur5_module, payload, small, rng, "small.csv")
     advice = r"Iyy \(± .* kg·m², above .*\).*turn the sensor about its y (and z )?ax.*y: rotate shoulder_pan_joint"
     with pytest.raises(PayloadError, match=advice):
-        identify_payload_from_motion(path, ur5_module, calibration)
+        identify_payload(path, ur5_module, calibration, "moving")
 
 
 def test_cli_payload_from_motion_writes_the_inertia_and_refuses_a_turn_of_one_joint(tmp_path, ur5_module, payload, motion, rng, capsys):

@@ -163,6 +163,37 @@ def add_monitor(commands, add: Callable[..., argparse.ArgumentParser], address: 
 MIN_SPREAD_DEG = 3.0
 #: fts_calib.payload.samples.IDLE_TIMEOUT_S [s], written here for the same reason (checked alike).
 IDLE_TIMEOUT_S = 10.0
+#: fts_calib.payload.identify.MOTIONS, written here for the same reason (checked alike).
+MOTIONS = ("auto", "still", "moving")
+
+
+class PayloadMotion(argparse.Action):
+    """``payload --motion {auto,still,moving}``; a bare ``--motion`` (the flag of the release before) is True.
+
+    The command warns about a bare one and takes it for ``moving``. A recording right after a bare
+    ``--motion`` is the SOURCE (``--motion rec.csv`` read as before).
+    """
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        """Store the choice, True for a bare ``--motion``; a recording after it becomes the SOURCE."""
+        if values is not None and values not in MOTIONS:
+            if getattr(namespace, "source", None) is not None:
+                parser.error(f"argument --motion: invalid choice: {values!r} (choose from {', '.join(MOTIONS)})")
+            namespace.source, values = values, None
+        setattr(namespace, self.dest, True if values is None else values)
+
+
+class PayloadSource(argparse.Action):
+    """``payload``'s SOURCE: kept when a bare ``--motion`` took it already; two are refused."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        """Store the SOURCE unless ``--motion`` stored it (two sources: an error)."""
+        given = getattr(namespace, self.dest, None)
+        if values is None or values == given:
+            return
+        if given is not None:
+            parser.error(f"two sources, {given} and {values}: give one (--motion takes {', '.join(MOTIONS)})")
+        setattr(namespace, self.dest, values)
 
 
 def add_tare(commands) -> None:
@@ -189,22 +220,29 @@ def add_tare(commands) -> None:
 
 
 def add_payload(commands) -> None:
-    """``payload``: identify an unknown payload's mass and centre of mass from still poses."""
+    """``payload``: identify an unknown payload's mass and centre of mass (and inertia, moving) from a source."""
     pay = add_command(
         commands,
         "payload",
         "identify an unknown payload: mass, centre of mass, offsets",
-        "From a recording of the payload held still in orientations that tilt gravity about two axes: its mass, "
-        "centre of mass (in the sensor frame) and the offsets, with standard errors, written as a tool file for "
-        "gravity compensation. Judges the whole set (the spread of the gravity directions, the fit's conditioning) "
-        "and refuses one that cannot determine the payload, saying what is missing. With --motion, from a short "
-        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated; "
-        "with --motion --listen, from the live feeds (joints and strain datagrams) until the sender's end, --seconds or Ctrl-C.",
+        "From a recording (or the live feed of udp://HOST:PORT) of the payload held still in orientations that tilt "
+        "gravity about two axes: its mass, centre of mass (in the sensor frame) and the offsets, with standard errors, "
+        "written as a tool file for gravity compensation. Judges the whole set (the spread of the gravity directions, "
+        "the fit's conditioning) and refuses one that cannot determine the payload, saying what is missing. From a short "
+        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated. "
+        "Which of the two the data are is decided from them and said (--motion still or moving forces it); a live feed "
+        "is collected until the sender's end, --seconds or Ctrl-C.",
         "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml\n"
         "  fts-calib payload --calibration calibration.yaml gripper_tcp.csv --mount 0 0 0.785 -o gripper.yaml   # tcp_rx,tcp_ry,tcp_rz\n"
-        "  fts-calib payload --motion --listen 5005 --seconds 10 --calibration calibration.yaml --robot ur5 -o gripper.yaml",
+        "  fts-calib payload udp://127.0.0.1:5005 --seconds 10 --calibration calibration.yaml --robot ur5 -o gripper.yaml",
     )
-    pay.add_argument("recording", nargs="?", help="recording of the payload in several still orientations (or moving, with --motion)")
+    pay.add_argument(
+        "source",
+        nargs="?",
+        action=PayloadSource,
+        metavar="SOURCE",
+        help="recording of the payload (still in several orientations, or moving), or udp://HOST:PORT for a live feed",
+    )
     pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
     add_robot_or_orientation(pay, note="; to estimate a small mount rotation: --estimate-mount")
     pay.add_argument("-o", "--output", required=True, help="tool file to write")
@@ -214,21 +252,25 @@ def add_payload(commands) -> None:
     )
     pay.add_argument(
         "--motion",
-        action="store_true",
-        help="the recording is a continuous motion (no still poses): identify the inertia too, physically consistent",
+        nargs="?",
+        action=PayloadMotion,
+        default="auto",
+        metavar="{auto,still,moving}",
+        help="still poses, or a continuous motion (the inertia too, physically consistent); default auto: decided from the "
+        "data, and said (a bare --motion, the flag of the release before: moving)",
     )
     pay.add_argument(
-        "--listen", type=add_address, metavar="HOST:PORT", help="with --motion: collect the motion from a live feed on this address instead"
+        "--listen", type=add_address, metavar="HOST:PORT", help="the release before's live source: now the SOURCE udp://HOST:PORT"
     )
     pay.add_argument(
-        "--seconds", type=float, help="with --listen: end after this many seconds of motion (default: the sender's end or Ctrl-C)"
+        "--seconds", type=float, help="with a live SOURCE: end after this many seconds of motion (default: the sender's end or Ctrl-C)"
     )
     pay.add_argument(
         "--idle-timeout",
         dest="idle_timeout_s",
         type=float,
         default=IDLE_TIMEOUT_S,
-        help=f"with --listen: the longest wait for a datagram in s; none at all is a timeout (default {IDLE_TIMEOUT_S:g})",
+        help=f"with a live SOURCE: the longest wait for a datagram in s; none at all is a timeout (default {IDLE_TIMEOUT_S:g})",
     )
     pay.add_argument(
         "--min-spread",

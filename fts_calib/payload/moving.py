@@ -38,20 +38,40 @@ undetermined when the data do not see it at all, or its standard error exceeds
 :data:`MAX_STDERR_MASS` of the mass, :data:`MAX_STDERR_COM`, or :data:`MAX_STDERR_INERTIA` of
 the inertia's scale (its largest principal moment, within ``m (3 cm)^2`` and ``m (5 cm)^2``):
 two standard errors within 0.5 % of the mass, 1 mm and 10 % of the inertia.
+
+From recorded or collected samples (:func:`fit_motion_samples`, after the filter chain's checks:
+:mod:`fts_calib.payload.samples`): the calibrated wrench, and the sensor frame's motion from the
+joint readings aligned by the stream latency (joint rates by
+:func:`fts_calib.filters.joint_rates.joint_rates` over the chain's ``derivative_window_s``, then
+:meth:`Kinematics.sensor_motion`). The latency starts at the one given (the pipeline's
+``live.latency_s`` for a recording, 0 for a live feed: its synchronizer applied it) and is then
+estimated from the residuals of the payload just identified
+(:func:`fts_calib.filters.latency.latency_regression` on the fit's residuals, with the offsets'
+drift left out), the joints re-aligned and the payload fitted again, until the latency moves by
+less than 20 us. Samples within half a derivative window of the samples' ends, or of a sample
+missing (a row refused, a datagram lost), are left out (their rates come from a cut or uneven
+window). Times in [s].
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.arrays import as_samples, frozen
+from ..core.arrays import as_samples
 from ..core.exceptions import PayloadError, ShapeError
+from ..filters.joint_rates import joint_rates, smoothed_like_acceleration
+from ..filters.latency import latency_regression, latency_sums, wrench_rate
+from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
+from ..model.calibration import Calibration
 from ..robot import inertial
-from ..robot.tool import STANDARD_GRAVITY, Tool, ToolConfiguration
+from ..robot.kinematics import Kinematics
+from ..robot.tool import STANDARD_GRAVITY
+from ..sources.batch import SampleBatch
+from .estimate import MOVING, NAMES, PAIRS, PayloadEstimate
 
 #: Largest standard error of the mass, relative to it, that counts as determined (two of them: 0.5 %).
 MAX_STDERR_MASS = 0.0025
@@ -63,89 +83,12 @@ _INERTIA_FLOOR_M = 0.03  # [m] the inertia's scale is at least m times this squa
 _INERTIA_CEILING_M = 0.05  # [m] and at most m times this squared (an estimate the data do not support sets no scale)
 _SIZE_M = 0.1  # [m] a payload's size: scales the parameters to compare what the data see of each
 _UNSEEN = 1e-10  # singular value of the scaled design, relative to the largest: a direction the data do not see
-#: Names of the derived parameters, in the order of :attr:`MotionPayloadEstimate.stderr`.
-NAMES = ("mass", "com x", "com y", "com z", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
-_PAIRS = ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))
-
-
-@dataclass(frozen=True)
-class MotionPayloadEstimate:
-    """A payload identified from a continuous motion.
-
-    Attributes:
-        mass: [kg].
-        com: Centre of mass in the sensor frame [m]. Shape (3,).
-        inertia_com: Inertia about the centre of mass, axes of S [kg m^2]. Shape (3, 3).
-        stderr: Standard errors of :data:`NAMES` (mass [kg], com [m], inertia elements
-            [kg m^2]). Shape (10,).
-        offsets: Wrench offsets [N, N, N, N m, N m, N m] (at the middle of the motion when they
-            drift). Shape (6,).
-        stderr_offsets: Same units. Shape (6,).
-        offset_rate: How fast the offsets drift [N/s, N m/s] (zeros when not estimated). Shape (6,).
-        parameters: The ten inertial parameters (:mod:`fts_calib.robot.inertial`). Shape (10,).
-        unconstrained: The unconstrained least-squares parameters. Shape (10,).
-        constrained: Whether the consistency constraint moved the estimate.
-        residual_rms: Per axis [N, N m]. Shape (6,).
-        samples: Samples used.
-        latency_s: Latency of the joint stream applied [s] (recordings; 0 for arrays).
-        stderr_latency_s: Its standard error [s] (inf when not estimated).
-    """
-
-    mass: float
-    com: np.ndarray
-    inertia_com: np.ndarray
-    stderr: np.ndarray
-    offsets: np.ndarray
-    stderr_offsets: np.ndarray
-    offset_rate: np.ndarray
-    parameters: np.ndarray
-    unconstrained: np.ndarray
-    constrained: bool
-    residual_rms: np.ndarray
-    samples: int
-    latency_s: float = 0.0
-    stderr_latency_s: float = math.inf
-
-    def __post_init__(self):
-        names = ("com", "inertia_com", "stderr", "offsets", "stderr_offsets", "offset_rate", "parameters", "unconstrained", "residual_rms")
-        for name in names:
-            object.__setattr__(self, name, frozen(getattr(self, name)))
-
-    @property
-    def stderr_mass(self) -> float:
-        """[kg]."""
-        return float(self.stderr[0])
-
-    @property
-    def stderr_com(self) -> np.ndarray:
-        """[m], shape (3,)."""
-        return self.stderr[1:4]
-
-    @property
-    def stderr_inertia(self) -> np.ndarray:
-        """Standard errors of the inertia about the centre of mass [kg m^2], shape (3, 3)."""
-        out = np.zeros((3, 3))
-        for k, (i, j) in enumerate(_PAIRS):
-            out[i, j] = out[j, i] = self.stderr[4 + k]
-        return out
-
-    def tool(self, name: str = "payload", gravity: float = STANDARD_GRAVITY) -> Tool:
-        """The payload as a tool with one configuration, with its inertia (for :func:`fts_calib.robot.tool.save_tool`).
-
-        A body on the consistency boundary (a principal moment of zero, or one equal to the sum
-        of the other two) can miss it by rounding; its principal moments are put back on it.
-        """
-        values, vectors = np.linalg.eigh((self.inertia_com + self.inertia_com.T) / 2)
-        values = np.maximum(values, 1e-9 * max(float(values[2]), 0.0))  # a moment of zero would come back as -1e-20
-        values[2] = min(values[2], values[0] + values[1])
-        inertia = (vectors * values) @ vectors.T
-        return Tool(name=name, gravity=gravity, configurations=(ToolConfiguration(name, self.mass, self.com, inertia),))
 
 
 def _derived(pi: np.ndarray) -> np.ndarray:
     """``[m, c (3), I_c elements (6)]`` of parameters ``pi`` (10,)."""
     mass, c, inertia = inertial.body(pi)
-    return np.concatenate([[mass], c, [inertia[i, j] for i, j in _PAIRS]])
+    return np.concatenate([[mass], c, [inertia[i, j] for i, j in PAIRS]])
 
 
 def _derived_jacobian(pi: np.ndarray) -> np.ndarray:
@@ -166,7 +109,7 @@ def fit_payload_motion(
     check: bool = True,
     block_samples: int = 400,
     time=None,
-) -> MotionPayloadEstimate:
+) -> PayloadEstimate:
     """Identify a payload's ten inertial parameters and the offsets from samples of a motion (module docstring).
 
     Args:
@@ -208,7 +151,7 @@ def fit_payload_regressor(
     check: bool = True,
     block_samples: int = 400,
     time=None,
-) -> MotionPayloadEstimate:
+) -> PayloadEstimate:
     """:func:`fit_payload_motion` from the regressor itself (e.g. filtered like the measurement).
 
     Args:
@@ -269,19 +212,26 @@ def fit_payload_regressor(
     rate = offsets[6:] / half_s if len(offsets) > 6 and half_s > 0 else np.zeros(6)
     mass, com, inertia = inertial.body(pi)
     stderr = np.sqrt(np.maximum(np.diag((G := _derived_jacobian(pi)) @ cov @ G.T), 0.0))
-    return MotionPayloadEstimate(
+    stderr_inertia = np.zeros((3, 3))
+    for k, (i, j) in enumerate(PAIRS):
+        stderr_inertia[i, j] = stderr_inertia[j, i] = stderr[4 + k]
+    return PayloadEstimate(
         mass=mass,
+        stderr_mass=float(stderr[0]),
         com=com,
-        inertia_com=inertia,
-        stderr=stderr,
+        stderr_com=stderr[1:4],
         offsets=offsets[:6],
         stderr_offsets=np.sqrt(np.maximum(np.diag(full_cov)[10:16], 0.0)),
+        residual_rms=np.sqrt(np.mean(residual**2, axis=0)),
+        samples=len(W),
+        motion=MOVING,
+        inertia_com=inertia,
+        stderr_inertia=stderr_inertia,
         offset_rate=rate,
         parameters=pi,
         unconstrained=pi_hat,
         constrained=constrained,
-        residual_rms=np.sqrt(np.mean(residual**2, axis=0)),
-        samples=len(W),
+        latency_s=0.0,
     )
 
 
@@ -340,7 +290,7 @@ def _check_determined(derived: np.ndarray, stderr: np.ndarray, where: str, joint
     """Refuse parameters whose standard error is beyond the module's bounds."""
     mass = abs(float(derived[0]))
     inertia = np.zeros((3, 3))
-    for k, (i, j) in enumerate(_PAIRS):
+    for k, (i, j) in enumerate(PAIRS):
         inertia[i, j] = inertia[j, i] = derived[4 + k]
     largest = min(float(np.max(np.abs(np.linalg.eigvalsh(inertia)))), mass * _INERTIA_CEILING_M**2)  # a wild estimate sets no scale
     inertia_scale = max(largest, mass * _INERTIA_FLOOR_M**2)
@@ -378,7 +328,7 @@ def _refuse(names: list[str], weak: Mapping[str, tuple[float, float]], where: st
         if joint_axes:
             hint += " (" + "; ".join(_joint_for(k, joint_axes) for k in axes) + ")"
         if len(inertia) == 6 and not others:
-            hint += " (held still, the payload's mass and centre of mass come from the still poses: leave out --motion)"
+            hint += " (held still, the payload's mass and centre of mass come from the still poses: --motion still)"
         advice.append(hint)
     raise PayloadError(
         f"{where} does not determine the payload: {'; '.join(parts)}. " + "; ".join(advice)[0].upper() + "; ".join(advice)[1:]
@@ -390,3 +340,130 @@ def _joint_for(axis: int, joint_axes: Mapping[str, np.ndarray]) -> str:
     name, best = max(((n, abs(float(np.asarray(v)[axis]))) for n, v in joint_axes.items()), key=lambda item: item[1])
     angle = math.degrees(math.acos(min(best, 1.0)))
     return f"{_AXES[axis]}: rotate {name}" + ("" if angle < 5 else f", {angle:.0f}° off that axis at the motion's middle")
+
+
+_LATENCY_TOLERANCE_S = 2e-5  # [s] a latency step below this ends the alternation (the estimate's own error: tests/test_latency.py)
+_ROUNDS = 5  # fits at most
+
+
+def aligned_joints(time: np.ndarray, joints: np.ndarray, latency_s: float, continuous: np.ndarray) -> np.ndarray:
+    """The joints at each sample's time when the readings are ``latency_s`` late: read at ``t + latency_s``.
+
+    Args:
+        time: Sample times [s], non-decreasing. Shape (N,).
+        joints: Joint readings [rad]. Shape (N, n_joints).
+        latency_s: How late the readings are [s] (the row of time t holds the joints of t - latency_s).
+        continuous: Which joints are continuous (unwrapped before interpolating). Shape (n_joints,).
+
+    Returns:
+        Shape (N, n_joints); rows whose ``t + latency_s`` is outside the recording take its end value.
+    """
+    joints = np.array(joints, dtype=float)
+    if np.any(continuous) and len(joints) > 1:
+        joints[:, continuous] = np.unwrap(joints[:, continuous], axis=0)
+    if latency_s == 0.0:
+        return joints
+    return np.stack([np.interp(time + latency_s, time, joints[:, k]) for k in range(joints.shape[1])], axis=1)
+
+
+def _regressor(time, g, omega, alpha, a, window_s: float, dt: float) -> np.ndarray:
+    """The regressor seen through the joint-rate window: its terms in gravity and speed smoothed, (N, 6, 10).
+
+    The regressor is linear in the accelerations: ``Y(g, omega, alpha, a) = Y(g, omega, 0, 0) +
+    Y(0, 0, alpha, a)``. The accelerations from the joint-rate estimates are already smoothed
+    by the window's kernel, and the measured wrench is smoothed by it
+    (:func:`fts_calib.filters.joint_rates.smoothed_like_acceleration`); the terms in gravity and speed are smoothed here, so that
+    every term of the model sees the same smoothing (in the simulation this takes the inertia's
+    bias from about 1 % to 0.2 %).
+    """
+    zero = np.zeros_like(g)
+    rest = inertial.body_regressor(g, omega, zero, zero)
+    smoothed, _ = smoothed_like_acceleration(time, rest.reshape(len(time), -1), window_s, dt)
+    return smoothed.reshape(rest.shape) + inertial.body_regressor(zero, zero, alpha, a)
+
+
+def _latency_left(
+    time: np.ndarray, measured: np.ndarray, regressor: np.ndarray, estimate: PayloadEstimate, block_samples: int
+) -> tuple[float, float]:
+    """How much later the joints still are than the fit assumed, from its residuals.
+
+    The regression of :mod:`fts_calib.filters.latency` (``W_meas - W_pred ~ tau dW_pred/dt``,
+    each axis weighted by its residual spread) on the fit's own residuals, which leave out the
+    offsets' drift (``estimate_latency`` takes constant offsets: a sensor warming up moved its
+    estimate by 0.15 ms); its standard error from the spread of the estimates of blocks of
+    ``block_samples``.
+
+    Args:
+        time: Sample times [s]. Shape (N,).
+        measured: Measured wrenches [N, N m]. Shape (N, 6).
+        regressor: The fit's regressor. Shape (N, 6, 10).
+        estimate: The fit.
+        block_samples: Samples per block.
+
+    Returns:
+        ``(latency step [s], its standard error [s])`` (0 and inf when the motion shows none).
+    """
+    predicted = regressor @ estimate.parameters
+    middle = (time[0] + time[-1]) / 2
+    residual = measured - predicted - estimate.offsets - np.outer(time - middle, estimate.offset_rate)
+    rate = wrench_rate(time, predicted)
+    ok = np.all(np.isfinite(rate), axis=1)  # repeated time stamps: no slope there
+    rs, ss = latency_sums(residual[ok], rate[ok], 1.0 / np.maximum(estimate.residual_rms, 1e-15) ** 2)
+    blocks = max(len(ss) // max(block_samples, 1), 1)
+    step = latency_regression(rs, ss, np.linspace(0, len(ss), blocks + 1).astype(int)[:-1])
+    return (0.0, math.inf) if step is None else (step.latency_s, step.stderr_s)
+
+
+def fit_motion_samples(
+    samples: SampleBatch,
+    kin: Kinematics,
+    calibration: Calibration,
+    window_s: float = 0.05,
+    latency_s: float = 0.0,
+    fit_latency: bool = True,
+    where: str = "the motion",
+) -> PayloadEstimate:
+    """Identify mass, centre of mass, inertia and offsets from the samples of a continuous motion (module docstring).
+
+    Args:
+        samples: The samples that passed the checks (time [s], joints [rad], channels), in time order.
+        kin: Kinematics of the robot (its model's gravity is used).
+        calibration: The sensor's calibration.
+        window_s: Window of the joint-rate estimates [s] (the filter chain's ``derivative_window_s``).
+        latency_s: How late the joint readings still are [s]: the start.
+        fit_latency: Estimate the remaining latency (else ``latency_s`` is used as is).
+        where: What the samples are, for the messages (a path, ``udp://HOST:PORT``).
+
+    Raises:
+        PayloadError: Too few samples, or a motion that does not determine the payload.
+    """
+    if len(samples) < 3:
+        raise PayloadError(f"{where}: {len(samples)} usable rows, too few for a motion")
+    time = samples.time
+    dt = sample_period(time) if len(time) > PERIOD_SAMPLES else float(np.median(np.diff(time)))
+    wrench, smooth = smoothed_like_acceleration(time, calibration.wrench(samples.channels), window_s, dt)
+    g_world = kin.g_world()
+    middle = len(time) // 2
+    block = max(int(round(8 * window_s / dt)), 40)  # samples per block of the standard errors: eight joint-rate windows
+    lag, stderr_lag = float(latency_s), math.inf
+    final = not fit_latency
+    for round_ in range(_ROUNDS):
+        joints = aligned_joints(time, samples.joints, lag, kin.continuous)
+        rates = joint_rates(time, joints, window_s, dt, kin.continuous, order=2)
+        motion = kin.sensor_motion(joints, rates.velocity, rates.acceleration)
+        R = motion.R_world_sensor
+        g = np.einsum("nji,j->ni", R, g_world)
+        keep = smooth.copy()
+        keep &= (time + lag >= time[0]) & (time + lag <= time[-1])
+        axes = {name: R[middle].T @ kin.joint_axis_world(joints[middle], name) for name in kin.joint_names}
+        regressor = _regressor(time, g, motion.omega, motion.alpha, motion.a, window_s, dt)
+        estimate = fit_payload_regressor(wrench[keep], regressor[keep], axes, where, final, block, time[keep])
+        if final:
+            break
+        step, stderr_lag = _latency_left(time[keep], wrench[keep], regressor[keep], estimate, block)
+        lag += step
+        # the last fit is the one checked: with the joints aligned (what is left is below the tolerance)
+        final = abs(step) < _LATENCY_TOLERANCE_S or round_ == _ROUNDS - 2
+    used = time[keep]
+    duration_s = float(used[-1] - used[0]) if len(used) else 0.0
+    return dataclasses.replace(estimate, latency_s=lag, stderr_latency_s=stderr_lag, duration_s=duration_s)

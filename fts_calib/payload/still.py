@@ -1,4 +1,4 @@
-r"""Payload identification: mass, centre of mass and offsets of an unknown tool.
+r"""Payload identification from still poses: mass, centre of mass and offsets of an unknown tool.
 
 From calibrated wrenches measured with the tool held still in several orientations, and the
 gravity the sensor sees in each (from the kinematics), the model is linear in the unknowns
@@ -26,71 +26,18 @@ mass say how well the set determines them: 100 poses tilted within 25° of verti
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..core.arrays import as_samples, frozen
+from ..core.arrays import as_samples
 from ..core.exceptions import PayloadError, ShapeError
-from ..filters.quasi_static import QuasiStaticFilter, quasi_static
-from ..filters.settings import FilterConfig
-from ..model.calibration import Calibration
-from ..model.channel_limits import ChannelLimits
-from ..robot.kinematics import Kinematics
-from ..robot.tool import STANDARD_GRAVITY, Tool, ToolConfiguration
-from .samples import read_payload_samples
+from .estimate import STILL, PayloadEstimate
 
 _SAME_POSE_DEG = 5.0  # gravity directions closer than this are one orientation
 #: Smallest RMS spread of the gravity directions along each of two axes [deg] (``--min-spread``).
 MIN_SPREAD_DEG = 3.0
 _MAX_CONDITION = 1e8  # scaled normal matrix above this: the payload is not determined
-
-
-@dataclass(frozen=True)
-class PayloadEstimate:
-    """An identified payload.
-
-    Attributes:
-        mass: [kg].
-        stderr_mass: [kg].
-        com: Centre of mass in the sensor frame [m]. Shape (3,).
-        stderr_com: [m]. Shape (3,).
-        offsets: Wrench offsets [N, N, N, N m, N m, N m]. Shape (6,).
-        stderr_offsets: Same units. Shape (6,).
-        mount_rotation: Small rotation of the sensor mount [rad], shape (3,), or None.
-        stderr_mount_rotation: [rad], shape (3,), or None.
-        residual_rms: Per axis [N, N m]. Shape (6,).
-        poses: Gravity direction of each orientation found (unit), shape (K, 3).
-        samples: Samples used.
-        spread_deg: RMS spread of the gravity directions along the two principal axes
-            [deg], largest first, shape (2,) (:func:`orientation_spread`).
-        condition: Condition number of the scaled normal matrix of the fit.
-    """
-
-    mass: float
-    stderr_mass: float
-    com: np.ndarray
-    stderr_com: np.ndarray
-    offsets: np.ndarray
-    stderr_offsets: np.ndarray
-    mount_rotation: np.ndarray | None
-    stderr_mount_rotation: np.ndarray | None
-    residual_rms: np.ndarray
-    poses: np.ndarray
-    samples: int
-    spread_deg: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
-    condition: float = 0.0
-
-    def __post_init__(self):
-        for name in ("com", "stderr_com", "offsets", "stderr_offsets", "residual_rms", "poses", "spread_deg"):
-            object.__setattr__(self, name, frozen(getattr(self, name)))
-
-    def tool(self, name: str = "payload", gravity: float = STANDARD_GRAVITY) -> Tool:
-        """The payload as a tool with one configuration (to save with :func:`fts_calib.robot.tool.save_tool`)."""
-        return Tool(name=name, gravity=gravity, configurations=(ToolConfiguration(name, self.mass, self.com),))
 
 
 def group_orientations(g_sensor: np.ndarray, same_deg: float = _SAME_POSE_DEG) -> tuple[np.ndarray, np.ndarray]:
@@ -185,8 +132,11 @@ def _weighted_solve(A: np.ndarray, y: np.ndarray, sigma: np.ndarray):
     return x, cov, condition
 
 
-def identify_payload(w_measured, g_sensor, mount: bool = False, min_spread_deg: float = MIN_SPREAD_DEG) -> PayloadEstimate:
+def fit_payload_still(w_measured, g_sensor, mount: bool = False, min_spread_deg: float = MIN_SPREAD_DEG) -> PayloadEstimate:
     """Identify a payload from still samples in several orientations (see the module docstring).
+
+    The arrays' form (``fts_calib.identify_payload(w_measured, g_sensor)`` calls it); from a
+    recording or a live feed: :func:`fts_calib.payload.identify.identify_payload`.
 
     Args:
         w_measured: Calibrated wrenches with the payload on [N, N m], shape (N, 6).
@@ -237,13 +187,15 @@ def identify_payload(w_measured, g_sensor, mount: bool = False, min_spread_deg: 
         stderr_com=np.sqrt(np.maximum(np.diag(cov_c), 0.0)),
         offsets=x[4:10],
         stderr_offsets=stderr[4:10],
+        residual_rms=np.sqrt(np.mean(residual**2, axis=0)),
+        samples=len(W),
+        motion=STILL,
         mount_rotation=delta,
         stderr_mount_rotation=None if cov_delta is None else np.sqrt(np.maximum(np.diag(cov_delta) * chi2, 0.0)),
-        residual_rms=np.sqrt(np.mean(residual**2, axis=0)),
         poses=poses,
-        samples=len(W),
         spread_deg=spread,
         condition=float(condition),
+        gravity=float(np.median(np.linalg.norm(g, axis=1))),  # the magnitude the mass was weighed against
     )
 
 
@@ -273,57 +225,3 @@ def _with_mount(A: np.ndarray, W: np.ndarray, g: np.ndarray, x: np.ndarray, sigm
     delta = theta[10:]
     residual = W - np.einsum("nij,j->ni", _design(g - np.cross(delta, g)), theta[:10])
     return theta[:10], cov[:10, :10], delta.copy(), cov[10:, 10:], residual
-
-
-@dataclass(frozen=True)
-class RecordedPayload:
-    """A payload identified from a recording.
-
-    Attributes:
-        estimate: Mass, centre of mass, offsets and their standard errors.
-        rows: Samples read from the recording.
-        rails: One line per channel whose samples were refused at its rail
-            (:meth:`fts_calib.filters.sample_checks.RailTally.lines`).
-    """
-
-    estimate: PayloadEstimate
-    rows: int
-    rails: tuple[str, ...] = ()
-
-
-def identify_payload_from_recording(
-    path: str | Path,
-    kin: Kinematics,
-    calibration: Calibration,
-    settings: FilterConfig | None = None,
-    mount: bool = False,
-    min_spread_deg: float = MIN_SPREAD_DEG,
-    limits: ChannelLimits | None = None,
-) -> RecordedPayload:
-    """Identify an unknown payload from a recording of it held still in several orientations.
-
-    The quasi-static samples (the filter's rules without the dynamic one, the payload being
-    unknown) give the measured wrench through ``calibration`` and gravity in the sensor
-    frame through the kinematics (the robot model's gravity).
-
-    Args:
-        path: Recording (CSV or CSV.gz, or a ROS 2 bag: :mod:`fts_calib.sources.source`) of one payload: one
-            name in its configuration column (any name; more than one is refused).
-        kin: Kinematics of the robot.
-        calibration: The sensor's calibration.
-        settings: Filter thresholds; the defaults when None.
-        mount: Also estimate a small rotation of the sensor mount.
-        min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes, in [deg].
-        limits: The channels' declared resolution and rails; what is not declared is
-            detected in the recording. Samples with a channel at its rail are refused.
-
-    Raises:
-        RecordingError: The recording cannot be read.
-        PayloadError: No usable row, more than one configuration name, or orientations that
-            cannot determine the payload.
-    """
-    read = read_payload_samples(path, kin, calibration, limits)
-    samples = read.samples
-    still = quasi_static(QuasiStaticFilter(settings or FilterConfig(), kin.continuous, read.limits), kin, None, samples, final=True)
-    estimate = identify_payload(calibration.wrench(still.samples.channels), still.g_sensor, mount=mount, min_spread_deg=min_spread_deg)
-    return RecordedPayload(estimate, len(samples), read.rails)
