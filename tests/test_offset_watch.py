@@ -47,3 +47,18 @@ def test_forecast_and_retare_in_the_history():
 def test_bad_noise_is_refused():
     with pytest.raises(ConfigError, match="noise"):
         OffsetWatch([1.0, 1.0, 1.0])
+
+
+def test_a_window_is_motion_by_the_filters_joint_speed_rule(rng):
+    """The joints turning at 0.02 rad/s (twice the quasi-static filter's 0.01 rad/s) over quiet wrenches: every
+    window is motion, refused; with a pipeline whose filter allows 0.03 rad/s the same windows update the tracker."""
+    from fts_calib.filters.settings import FilterConfig
+
+    time = np.arange(2000) / 1000.0  # [s] 20 windows of 100 samples
+    measured = NOISE * rng.standard_normal((2000, 6))  # [N, N m] no contact, no offset error
+    joints = np.outer(time, [0.0, 0.02, 0.0])  # [rad]
+    default, loose = OffsetWatch(NOISE), OffsetWatch(NOISE, still=FilterConfig(max_joint_speed=0.03))
+    for watch in (default, loose):
+        watch.update_batch(time, measured, np.zeros((2000, 6)), joints)
+    assert default.updates == 0 and default.contacts == 20, (default.updates, default.contacts)
+    assert loose.updates == 20 and loose.contacts == 0, (loose.updates, loose.contacts)

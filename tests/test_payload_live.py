@@ -58,11 +58,13 @@ def _within_targets(mass, com, inertia, payload):
     assert np.linalg.norm(inertia - payload.inertia_com, 2) <= 0.1 * np.linalg.norm(payload.inertia_com, 2), inertia
 
 
-def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_path, ur5, moving, monkeypatch, capsys):
+@pytest.mark.parametrize("spelling", ["--listen", "udp://"])
+def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_path, ur5, moving, monkeypatch, capsys, spelling):
     """The motion replayed at 4x as datagrams, after two malformed ones: the synchronizer pairs every strain
     sample with the joints of its own stamp (interpolation with weight 0), so the live payload is the
     recording's to 0.01 of its standard errors (seen: identical; JSON carries the floats exactly), and within
-    the issue's targets. The progress and the summary are shown; the tool file is written."""
+    the issue's targets. The progress and the summary are shown; the tool file is written. The same with the
+    release before's ``--motion --listen HOST:PORT`` (warned about) and the SOURCE ``udp://HOST:PORT`` (auto: a motion)."""
     path, calibration, payload = moving
     reference = identify_payload(path, ur5, calibration, "moving")
     cal = save_calibration(calibration, tmp_path / "cal.yaml")
@@ -94,7 +96,8 @@ def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_p
     sender.start()
     out = tmp_path / "gripper.yaml"
     try:
-        args = ["payload", "--motion", "--listen", "127.0.0.1:0", "--idle-timeout", "20", "--calibration", str(cal), "--robot", "ur5"]
+        source = ["--motion", "--listen", "127.0.0.1:0"] if spelling == "--listen" else ["udp://127.0.0.1:0"]
+        args = ["payload", *source, "--idle-timeout", "20", "--calibration", str(cal), "--robot", "ur5"]
         code = main([*args, "-o", str(out), "--name", "gripper"])
     finally:
         listening.set()
@@ -104,6 +107,10 @@ def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_p
     assert f"listening on udp://127.0.0.1:{bound[0][1]} until the sender's end or Ctrl-C" in captured.out and bound[0][1] != 0
     assert "ended by the sender" in captured.out and "2 malformed and 0 oversized skipped" in captured.out, captured.out
     assert "motion " in captured.err and "turned about the sensor's x" in captured.err, captured.err
+    if spelling == "--listen":
+        assert "warning: --listen 127.0.0.1:0 is now the SOURCE udp://127.0.0.1:0: fts-calib payload udp://" in captured.err
+    else:
+        assert "decided from the data: a continuous motion" in captured.out and "warning" not in captured.err, captured
     written = load_tool(out).configuration("gripper")
     live = _derived(written.mass, written.p_sensor_com, written.inertia_com)
     recorded = _derived(reference.mass, reference.com, reference.inertia_com)
