@@ -189,7 +189,7 @@ MOVED_MODULES = {
     "fts_calib.service.export": "fts_calib.service.exports",
     "fts_calib.service.health": "fts_calib.monitor.health",
     "fts_calib.service.offset_watch": "fts_calib.monitor.offset_watch",
-    "fts_calib.service.payload": "fts_calib.payload.still",
+    "fts_calib.service.payload": "fts_calib.payload.identify",  # identify_payload and PayloadEstimate, as the release before
     "fts_calib.service.payload_live": "fts_calib.payload.samples",
     "fts_calib.service.payload_motion": "fts_calib.payload.moving",
     "fts_calib.service.payload_motion_recording": "fts_calib.payload.samples",
