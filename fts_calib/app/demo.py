@@ -447,11 +447,11 @@ def _report(
     say("time: " + ", ".join(f"{name} {s:.1f} s" for name, s in seconds.items()) + f"; total {sum(seconds.values()):.1f} s")
 
 
-def run(*, out: str | Path = "out", seed: int = 0, quick: bool = False, drift: bool = False) -> int:
+def run(*, output: str | Path = "out", seed: int = 0, quick: bool = False, drift: bool = False) -> int:
     """Run the demo and print what it finds (``fts-calib demo``); see :func:`run_demo`.
 
     Args:
-        out: Folder for everything written.
+        output: Folder for everything written.
         seed: Seed of the sensor noise and of the validation motion.
         quick: A smaller run (3 levels x 4 stops at 100 Hz).
         drift: The sensor's offsets drift during the run, and the calibration models them.
@@ -459,6 +459,6 @@ def run(*, out: str | Path = "out", seed: int = 0, quick: bool = False, drift: b
     Returns:
         0.
     """
-    with writing(out):
-        run_demo(out, seed, quick, drift=drift)
+    with writing(output):
+        run_demo(output, seed, quick, drift=drift)
     return ExitCode.OK

@@ -66,6 +66,9 @@ DEFAULT_MAX_ABS_CHANNEL = 1e9
 #: The sample filter's modes (``filter.mode``): still samples only, or every trusted moving one.
 QUASI_STATIC, DYNAMIC = "quasi-static", "dynamic"
 FILTER_MODES = (QUASI_STATIC, DYNAMIC)
+#: What ``--filter`` takes: a mode, or ``none`` (every valid sample kept, no filter).
+NO_FILTER = "none"
+FILTER_CHOICES = (*FILTER_MODES, NO_FILTER)
 #: Filter keys that take ``auto`` (None).
 _AUTO_KEYS = ("max_strain_std", "latency_s", "joint_noise", "latency_uncertainty_s")
 
