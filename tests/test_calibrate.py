@@ -175,3 +175,16 @@ def test_a_robot_with_continuous_joints_calibrates(tmp_path, capsys):
     )
     assert "fit consistent" in capsys.readouterr().out
     assert load_calibration(tmp_path / "cal.yaml").quality.rank == 7
+
+
+def test_the_default_filter_keeps_the_still_samples_of_a_recording_with_stops_and_says_so(ur5_recording, ur5, paper_tool):
+    """filter.mode auto (the shipped default): a recording with stops is the quasi-static filter's, as before, and the result says why."""
+    from fts_calib.filters.settings import PipelineConfig
+
+    auto = calibrate_recording(ur5_recording, ur5, paper_tool, PipelineConfig())
+    forced = calibrate_recording(ur5_recording, ur5, paper_tool, PipelineConfig().with_filter_mode("quasi-static"))
+    assert auto.decided == (
+        "filter: quasi-static (--filter auto: the arm holds still at its stops; --filter dynamic calibrates the moving samples too)",
+    )
+    assert not forced.decided and auto.session.settings.filter.mode == "quasi-static"
+    np.testing.assert_array_equal(auto.calibration.C, forced.calibration.C)

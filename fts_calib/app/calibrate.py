@@ -13,6 +13,7 @@ from ..core.exceptions import ConfigError, FeedTimeout, FtsCalibError, Insuffici
 from ..core.files import check_outputs
 from ..core.tables import table
 from ..filters.dynamic import DynamicFilter, nominal_c
+from ..filters.settings import AUTO_FILTER
 from ..model.calibration import save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.prior import describe as describe_prior
@@ -229,6 +230,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
     lines = [f"recording {recording}: {result.rows:,} rows in {result.seconds:.2f} s ({rate / 1000:,.0f}k rows/s)"]
+    lines += list(result.decided)
     lines += format_counts(result.session)
     if result.detected:
         lines.append(f"detected in the data, not declared in the sensor file: {', '.join(result.detected)}; calibrated again with it")
@@ -403,6 +405,8 @@ def _calibrate_live(setup: Setup, source: SourceOptions, outputs: OutputOptions,
     print(format_stats(stats, feed.sync))
     if rtde is not None:
         print(format_rtde(rtde))
+    if setup.use_filter and settings.filter.mode == AUTO_FILTER:
+        print("filter: quasi-static (--filter auto: a live feed is read once: its still samples; --filter dynamic for no stops)")
     print("\n".join(format_counts(session)))
     found = None if session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
     if found is not None:  # a live stream cannot be read again without them
