@@ -20,7 +20,7 @@ from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
 #: Words of the diagnoses that only a fitting alternative of the tool file, the joints or the mount may give.
-GUESSES = ("not m", "the mass of configuration", "labels permuted", "degrees", "--joints-in-degrees", "sensor.rpy", "--mount")
+GUESSES = ("not m", "the mass of configuration", "labels permuted", "degrees", "--joint-unit", "sensor.rpy", "--mount")
 
 
 def _record(tmp_path, name, ur5, tool, trajectories, seed, **sensor_changes):

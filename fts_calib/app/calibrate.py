@@ -34,6 +34,8 @@ from .exit_codes import ExitCode, using_udp, writing
 from .report import format_budget, format_model_selection, format_offsets
 from .setup import OutputOptions, Setup, SourceOptions
 
+#: What ``--joint-unit`` says of the joint columns: degrees, rad, or None: decided from the data.
+JOINTS_IN_DEGREES = {"deg": True, "rad": False, "auto": None}
 #: The calibration file written when -o is not given.
 DEFAULT_OUTPUT = "calibration.yaml"
 
@@ -98,7 +100,7 @@ def run(
         checkpoint=checkpoint,
         resume=outputs.resume,
         restart=outputs.restart,
-        joints_in_degrees=source.joint_unit == "deg",
+        joints_in_degrees=JOINTS_IN_DEGREES[source.joint_unit],
         progress=bar,
         accept_poor_fit=accept_poor_fit,
         topics=source.topics,

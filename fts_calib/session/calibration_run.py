@@ -128,7 +128,7 @@ def calibrate_recording(
     use_filter: bool = True,
     checkpoint: str | Path | None = None,
     resume: bool = False,
-    joints_in_degrees: bool = False,
+    joints_in_degrees: bool | None = None,
     progress: ProgressSink | None = None,
     restart: bool = False,
     on_kept=None,
@@ -153,7 +153,9 @@ def calibrate_recording(
         checkpoint: Checkpoint file, or None.
         resume: Continue from ``checkpoint``; it must be of this recording (the same first
             MiB, at least as long).
-        joints_in_degrees: The joint columns are in degrees (converted to rad).
+        joints_in_degrees: The joint columns are in degrees (True: converted to rad) or rad (False);
+            None: decided from the first rows (:func:`fts_calib.filters.clock.degrees_found`;
+            the result's ``decided`` says when they were found in degrees).
         progress: A progress bar over the file's bytes, or None (its ``total`` is set here).
         accept_poor_fit: Keep a calibration whose fit check is poor (its quality records the
             verdict) instead of refusing it.
@@ -216,7 +218,9 @@ def calibrate_recording(
         progress.close()
     # what is really missing comes first: a configuration all of whose rows were unreadable
     hint = "; ".join(lost)
-    session.joints_in_degrees = joints_in_degrees  # the diagnosis of a poor fit tries the joints in rad
+    session.joints_in_degrees = run.degrees  # the diagnosis of a poor fit tries the joints in the other unit
+    if run.degrees_found:
+        decided.insert(0, f"joints: degrees (--joint-unit auto: {run.degrees_found}): converted to rad; --joint-unit rad forces rad")
     try:
         calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
     except (InsufficientExcitation, PoorFit) as exc:
@@ -255,7 +259,7 @@ def calibrate(
     sensor="sensor",
     settings=None,
     use_filter: bool = True,
-    joints_in_degrees: bool = False,
+    joints_in_degrees: bool | None = None,
     accept_poor_fit: bool = False,
     prior: Prior | None = None,
 ) -> Calibration:
@@ -282,7 +286,8 @@ def calibrate(
         settings: Pipeline settings: a :class:`~fts_calib.filters.settings.PipelineConfig`,
             a shipped name or a YAML path; the shipped ``pipeline`` when None.
         use_filter: Keep only the quasi-static samples (False: every valid one).
-        joints_in_degrees: The joint readings are in degrees.
+        joints_in_degrees: The joint readings are in degrees (True) or rad (False); None: a
+            recording's are decided from its first rows (degrees converted), arrays are in rad.
         accept_poor_fit: Return a calibration whose fit check is poor instead of raising.
         prior: Shrink C_bar toward a known calibration (:mod:`fts_calib.model.prior`).
 
@@ -348,7 +353,7 @@ def calibrate(
         for batch in arrays:
             session.add_samples(dataclasses.replace(batch, joints=np.radians(batch.joints)) if joints_in_degrees else batch)
     session.flush()
-    session.joints_in_degrees = joints_in_degrees
+    session.joints_in_degrees = bool(joints_in_degrees)
     return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)
 
 
@@ -365,12 +370,21 @@ def _counting(files: RecordingSet, per_file: np.ndarray, on_kept):
 
 
 class _Run:
-    """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice."""
+    """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice.
+
+    Attributes:
+        degrees: The joint columns were read as degrees (given, or found).
+        degrees_found: Why the joint unit not given was found to be degrees ('' when not).
+    """
 
     def __init__(self, paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models):
         self.paths, self.kin, self.tool = paths, kin, tool
         self.use_filter, self.checkpoint, self.topics, self.layout = use_filter, checkpoint, topics, layout
         self.joints_in_degrees, self.progress, self.models = joints_in_degrees, progress, models
+        self.degrees, self.degrees_found = bool(joints_in_degrees), ""
+
+    def _found(self, words: str) -> None:
+        self.degrees, self.degrees_found = True, words
 
     def read(self, resume: bool, settings: PipelineConfig, on_kept) -> tuple[CalibrationSession, list[str], int, list[str]]:
         """The session after the whole recording (with these settings).
@@ -412,9 +426,8 @@ class _Run:
                     **self.models,
                 )
             session.orientation_source = orientation_source(reader, kin.joint_names)
-            degrees = self.joints_in_degrees
-            chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if degrees else c for c in reader)
-            for chunk in clock_checked(reader.path, chunks, kin, settings.filter if self.use_filter else None, degrees):
+            checked = settings.filter if self.use_filter else None
+            for chunk in clock_checked(reader.path, reader, kin, checked, self.joints_in_degrees, self._found):
                 session.add_samples(chunk)
                 if progress is not None:
                     progress.update(reader.bytes_read, reader.rows_read)

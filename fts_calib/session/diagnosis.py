@@ -106,7 +106,7 @@ GENERIC = "more quasi-static samples"
 GENERIC_DYNAMIC = "more moving samples the dynamic filter trusts"
 #: What to look at when the checks refused every sample, by the reason they counted.
 REFUSED = {
-    OUTSIDE_LIMITS: "joint readings in degrees? they must be in rad: joints_in_degrees=True, --joints-in-degrees",
+    OUTSIDE_LIMITS: "joint readings in degrees? they must be in rad: --joint-unit deg, joints_in_degrees=True",
     NON_FINITE: "NaN or infinite joints or channels",
     BACKWARDS: "the times must not decrease",
     UNKNOWN_TOOL: "the configuration names must be those of the tool file",
@@ -423,8 +423,8 @@ def joint_units(session: Diagnosed, check: FitCheck, per_configuration: bool, jo
     if judged is None or not _clearly_fits(float(judged[0].max()), check.max_ratio):
         return None
     if joints_in_degrees:
-        return Cause("joint units", "the joint columns are in rad already: run without --joints-in-degrees")
-    return Cause("joint units", "the joint columns are in degrees: pass --joints-in-degrees (joints_in_degrees=True)")
+        return Cause("joint units", "the joint columns are in rad already: give --joint-unit rad (joints_in_degrees=False)")
+    return Cause("joint units", "the joint columns are in degrees: give --joint-unit deg (joints_in_degrees=True)")
 
 
 def _still(time: np.ndarray, joints: np.ndarray, max_speed: float, window_s: float = 0.2, most: int = 64) -> np.ndarray:
