@@ -189,12 +189,14 @@ _declare(
     dest="window_s",
     type=float,
     default=2.0,
+    metavar="SECONDS",
     help="with a live source: the length of the window read, in s (default 2)",
 )
 _declare(
     "--rate",
     dest="rate_hz",
     type=float,
+    metavar="HZ",
     help="sample rate in Hz (default: measured from the time stamps of the source, and said)",
 )
 _declare(
@@ -567,6 +569,7 @@ _declare(
     "--false-alarms",
     dest="false_alarms_per_hour",
     type=float,
+    metavar="PER_HOUR",
     default=1e-3,
     help="false-alarm budget per hour of service (default 1e-3)",
 )

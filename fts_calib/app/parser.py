@@ -414,7 +414,7 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
     "tare": [
         ("source", [_LIVE_SOURCE]),
         ("input", [use("calibration", help="calibration file to update")]),
-        ("output", [use("output", ": where to write (default: update the calibration file)")]),
+        ("output", [use("output", ": the calibration updated (default: the --calibration file, in place)")]),
         (
             "setup",
             [
@@ -436,12 +436,9 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
         ),
         (
             "payload (ros2)",
-            [
-                use("payload"),
-                use("configuration", " (the payload's; default: its first)"),
-                use("sensor", " (ati: the full scale it states as max)"),
-            ],
+            [use("payload"), use("configuration", " (the payload's; default: its first)")],
         ),
+        ("sensor (ati)", [use("sensor", " (here: the full scale an ATI file states as max)")]),
         ("advanced: names", _uses("name", "sensor-frame", "world-frame")),
     ],
     "monitor": [
@@ -467,8 +464,8 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
                 use("auto-tare"),
             ],
         ),
-        ("advanced: health", _uses("false-alarms", use("sensor", " (here: its full scale)"), "tare-threshold")),
-        ("advanced: live sources (udp://)", _uses("rate", "idle-timeout", "listen-any", "quiet")),
+        ("advanced: health", _uses("false-alarms", "rate", use("sensor", " (here: its full scale)"), "tare-threshold")),
+        ("advanced: live sources (udp://)", _uses("idle-timeout", "listen-any", "quiet")),
     ],
 }
 
