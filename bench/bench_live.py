@@ -1,6 +1,6 @@
 """Benchmark: the live path under 5 kHz strain plus 1 kHz joint messages on loopback.
 
-Starts `fts-calib live` in a child process, sends it the two streams for DURATION seconds
+Starts `fts-calib calibrate udp://127.0.0.1:PORT` in a child process, sends it the two streams for DURATION seconds
 (default 20) from this process, paced in 1 ms bursts, then `end`; prints what was sent,
 what the live process received and used, and its CPU use. Asserts nothing.
 Run: .venv/bin/python bench/bench_live.py [DURATION]
@@ -37,13 +37,12 @@ def main():
                 sys.executable,
                 "-m",
                 "fts_calib.app.cli",
-                "live",
+                "calibrate",
+                f"udp://127.0.0.1:{port}",
                 "--robot",
                 "ur5",
                 "--tool",
                 "paper_tool",
-                "--listen",
-                f"127.0.0.1:{port}",
                 "-o",
                 str(out),
                 "--quiet",

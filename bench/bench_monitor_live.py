@@ -1,4 +1,4 @@
-"""CPU of ``fts-calib monitor --listen`` fed 1 kHz of strain datagrams over loopback UDP.
+"""CPU of ``fts-calib monitor udp://127.0.0.1:PORT`` fed 1 kHz of strain datagrams over loopback UDP.
 
 Starts the command on a free port, sends 10 s of simulated service (the paper's sensor,
 8 channels) at 1 kHz, then 'end', and prints the command's CPU time per second of feed:
@@ -46,7 +46,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     t, w = service_wrenches(args.seconds, RATE_HZ, rng)
     datagrams = [encode(Strain(float(ti), tuple(float(v) for v in row))) for ti, row in zip(t, sensor.channels(w, t, rng), strict=True)]
-    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(path), "--listen", "127.0.0.1:0", "--quiet"]
+    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(path), "udp://127.0.0.1:0", "--quiet"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
     assert process.stdout is not None
     port = int(re.search(r":(\d+);", process.stdout.readline()).group(1))

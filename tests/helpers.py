@@ -131,3 +131,8 @@ class FakeRtdeServer:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def live_calibrate(output, *extra: str, address: str = "127.0.0.1:0") -> list[str]:
+    """The command line of a live calibration of the UR5 with the paper's tool: ``calibrate udp://ADDRESS ... -o OUTPUT``."""
+    return ["calibrate", f"udp://{address}", "--robot", "ur5", "--tool", "paper_tool", "-o", str(output), *extra]

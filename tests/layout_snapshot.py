@@ -166,7 +166,7 @@ def take(folder: Path) -> None:
         for name in ("configs", "robots", "trajectories"):
             (work / name).symlink_to(ROOT / name)
         steps = [
-            ("demo", ["demo", "--out", "demo"]),
+            ("demo", ["demo", "-o", "demo"]),
             ("simulate", ["simulate", "--robot", "ur5", "--tool", "paper_tool", "--trajectory", "trajectories/ur5", "-o", "rec.csv"]),
             ("calibrate", ["calibrate", "--robot", "ur5", "--tool", "paper_tool", "rec.csv", "-o", "cal.yaml"]),
             (

@@ -1,5 +1,6 @@
 """The app stage: each command runs from Python with the CLI's defaults; errors exit with their family's code."""
 
+import argparse
 import inspect
 import json
 import shutil
@@ -12,9 +13,12 @@ from fts_calib.app import cli, export, robots, setup, tare, trajectory
 from fts_calib.app import parser as arguments
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import EXIT_CODES, ExitCode, error_line, exit_code
+from fts_calib.app.setup import Setup, SourceOptions
 from fts_calib.core import exceptions
 from fts_calib.core.exceptions import FtsCalibError, PayloadError
 from fts_calib.core.resources import resolve
+
+from .helpers import live_calibrate
 
 CALIBRATION = resolve("paper_table1_calibration", "configs")
 GRAVITY_ELSEWHERE = 9.7803  # [m/s²] at the equator: not the default, so the export must read it from the tool file
@@ -42,22 +46,77 @@ def ur5_joints():
 # --- the Python entry points, with the defaults of the command line ---------------------------------------------
 
 
-@pytest.mark.parametrize("command", sorted(arguments.COMMANDS))
-def test_every_option_is_a_parameter_of_the_run_function_with_the_same_default(command):
+def _run_of(command):
     import importlib
 
-    run = importlib.import_module(f"fts_calib.app.{command}").run
+    return importlib.import_module(f"fts_calib.app.{cli.RUNS.get(command, command)}").run
+
+
+@pytest.mark.parametrize("command", sorted(arguments.COMMANDS))
+def test_every_option_reaches_the_run_function_with_the_same_default(command):
+    """Each option is a keyword parameter of ``run`` or a field of a dataclass ``run`` takes (its Setup, SourceOptions, ...):
+    the command line and Python take the same arguments, by name, with the same defaults."""
+    import dataclasses
+
+    run = _run_of(command)
     parameters = inspect.signature(run).parameters
-    actions = [a for a in _subparsers()[command]._actions if a.dest != "help"]
-    assert {a.dest for a in actions} == set(parameters), f"options of '{command}' and parameters of its run() differ"
+    parts = cli.parts(run)
+    fields = {f.name: (name, f) for name, kind in parts.items() for f in dataclasses.fields(kind)}
+    actions = [a for a in _subparsers()[command]._actions if a.dest != "help" and a.help != argparse.SUPPRESS]  # old spellings apart
+    reached = set()
     for action in actions:
-        parameter = parameters[action.dest]
         required = action.required or (not action.option_strings and action.nargs is None)
+        if action.dest in fields:
+            part, field = fields[action.dest]
+            reached.add(part)
+            # a field's None is the command's own default (calibrate's output: calibration.yaml), said in its help
+            assert action.default == field.default or field.default is None, (
+                f"{command}: {action.dest}: {action.default!r} != {field.default!r}"
+            )
+            continue
+        assert action.dest in parameters, (
+            f"{command}: the option {action.dest} is neither a parameter of run() nor a field of {sorted(parts)}"
+        )
+        parameter = parameters[action.dest]
+        reached.add(action.dest)
         if required:
             assert parameter.default is inspect.Parameter.empty, f"{command}: {action.dest} is required on the command line only"
         else:
             assert parameter.default == action.default, f"{command}: default of {action.dest} differs: {parameter.default!r}"
-        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY, f"{command}: {action.dest} is not keyword-only"
+    assert reached == set(parameters), f"{command}: parameters of run() no option reaches: {set(parameters) - reached}"
+
+
+@pytest.mark.parametrize("command", sorted(set(arguments.COMMANDS) - {"payload"}))  # payload: its own options, merged later
+def test_each_help_shows_at_most_six_options_before_the_advanced_groups(command):
+    from fts_calib.app.options import ADVANCED, MAIN_OPTIONS
+
+    parser = _subparsers()[command]
+    shown = 0
+    for group in parser._action_groups:
+        if (group.title or "").startswith(ADVANCED):
+            break
+        shown += sum(1 for a in group._group_actions if a.option_strings and a.dest != "help" and a.help != argparse.SUPPRESS)
+    assert shown <= MAIN_OPTIONS, f"{command} shows {shown} options before its advanced groups"
+    titles = [group.title or "" for group in parser._action_groups]
+    advanced = [k for k, title in enumerate(titles) if title.startswith(ADVANCED)]
+    assert advanced == list(range(advanced[0], len(titles))) if advanced else True, (
+        f"{command}: a main group after an advanced one: {titles}"
+    )
+
+
+def test_one_meaning_per_flag():
+    """A flag is declared once (options.OPTIONS), whichever commands take it; the payload command's own parser is apart."""
+    from fts_calib.app.options import OPTIONS
+    from fts_calib.app.parser import COMMAND_OPTIONS
+
+    flags = [flag for option in OPTIONS.values() for flag in option.flags]
+    assert len(flags) == len(set(flags)), sorted(f for f in flags if flags.count(f) > 1)
+    for command, groups in COMMAND_OPTIONS.items():
+        for _, uses in groups:
+            for item in uses:
+                assert item.option is OPTIONS[item.option.name], f"{command}: {item.option.name} is not the declared option"
+                assert set(item.changes) <= {"required", "default", "choices", "nargs", "help", "metavar", "dest", "action", "flags"}
 
 
 def test_robots_from_python(capsys):
@@ -69,7 +128,8 @@ def test_robots_from_python(capsys):
 
 def test_trajectory_from_python_with_the_defaults(tmp_path, capsys):
     out = tmp_path / "traj"
-    assert trajectory.run(robot="ur5", tool="paper_tool", out=out, rate_hz=50.0, plot=False) == ExitCode.OK
+    setup = Setup(robot_file="ur5", tool_file="paper_tool")
+    assert trajectory.run(setup, trajectory.Sweeps(rate_hz=50.0), output=out, plot=False) == ExitCode.OK
     text = capsys.readouterr().out
     assert "predicted rank 7 of 7" in text and "predicted accuracy budget" in text and "sized to the target 0.05 %" in text
     assert "largest error: " in text and "largest from strain noise alone" in text
@@ -77,12 +137,12 @@ def test_trajectory_from_python_with_the_defaults(tmp_path, capsys):
 
 
 def test_export_from_python_takes_gravity_from_the_payload_file(tmp_path, capsys):
-    assert export.run(fmt="json", calibration=CALIBRATION, output=tmp_path / "c.json") == 0
+    assert export.run(Setup(), calibration=CALIBRATION, output=tmp_path / "c.json") == 0  # json: the suffix says
     assert json.loads((tmp_path / "c.json").read_text())["D"] == load_calibration(CALIBRATION).D.tolist()
     tool = yaml.safe_load(resolve("paper_tool", "configs").read_text())
     tool["gravity"] = GRAVITY_ELSEWHERE
     (tmp_path / "tool.yaml").write_text(yaml.safe_dump(tool))
-    assert export.run(fmt="ros2", calibration=CALIBRATION, output=tmp_path / "r.yaml", payload=tmp_path / "tool.yaml") == 0
+    assert export.run(Setup(), fmt="ros2", calibration=CALIBRATION, output=tmp_path / "r.yaml", payload=tmp_path / "tool.yaml") == 0
     params = yaml.safe_load((tmp_path / "r.yaml").read_text())
     filter_tool = params["force_torque_sensor_broadcaster"]["ros__parameters"]["sensor_filter_chain"]["filter1"]["params"]["tool"]
     assert filter_tool["mass"] == tool["configurations"][0]["mass"]
@@ -97,7 +157,7 @@ def test_load_setup_gives_kinematics_tool_and_settings():
 
 def test_tare_from_python_updates_the_file_in_place(tmp_path, ur5_joints, capsys):
     path = shutil.copy(CALIBRATION, tmp_path / "cal.yaml")
-    assert tare.run(calibration=path, recording=_recording(tmp_path / "still.csv", ur5_joints)) == 0
+    assert tare.run(Setup(), SourceOptions(_recording(tmp_path / "still.csv", ur5_joints)), calibration=path) == 0
     assert len(load_calibration(path).offset_history) == 1
     assert "re-tare from 300 samples" in capsys.readouterr().out
 
@@ -238,19 +298,7 @@ def test_network_mistakes_are_one_line_with_their_code(tmp_path, capsys):
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as busy:
         busy.bind(("127.0.0.1", 0))
         port = busy.getsockname()[1]
-        live = [
-            "live",
-            "--robot",
-            "ur5",
-            "--tool",
-            "paper_tool",
-            "--listen",
-            f"127.0.0.1:{port}",
-            "-o",
-            str(tmp_path / "l.yaml"),
-            "--idle-timeout",
-            "1",
-        ]
+        live = live_calibrate(tmp_path / "l.yaml", "--idle-timeout", "1", address=f"127.0.0.1:{port}")
         assert cli.main(live) == ExitCode.FILE_ACCESS
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and f"cannot use udp://127.0.0.1:{port}: Address already in use" in err, err

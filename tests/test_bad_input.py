@@ -5,6 +5,7 @@ run lost to one cell, or a message that sent the user the wrong way. Recordings 
 variants of the small simulated UR5 recording of ``conftest.py`` (9,009 rows at 100 Hz).
 """
 
+import dataclasses
 import gzip
 import shutil
 import warnings
@@ -102,9 +103,27 @@ def test_a_sound_clock_passes_and_a_glitch_does_not_trip_the_speed_rule(ur5, ur5
 def test_joint_columns_in_degrees_are_named_as_such(ur5, ur5_recording):
     with RecordingReader(ur5_recording, ur5.joint_names, None) as reader:
         first = next(iter(reader))
-    with pytest.raises(RecordingError, match=r"the joint columns look like degrees .* pass --joints-in-degrees") as caught:
+    with pytest.raises(RecordingError, match=r"the joint columns look like degrees .* give --joint-unit deg") as caught:
         check_clock(ur5_recording, first.time, np.degrees(first.joints), ur5, PipelineConfig().filter)
     assert caught.value.column in ur5.joint_names
+
+
+def test_joint_columns_in_degrees_are_found_when_the_unit_is_not_given(ur5, ur5_recording):
+    """The refusal's rule, as a decision: degrees found (and said), converted; rad read as it is; a unit given taken as given."""
+    from fts_calib.filters.clock import clock_checked, degrees_found
+
+    with RecordingReader(ur5_recording, ur5.joint_names, None) as reader:
+        chunks = list(reader)
+    degrees = [dataclasses.replace(c, joints=np.degrees(c.joints)) for c in chunks]
+    assert degrees_found(chunks[0].time, chunks[0].joints, ur5) == ""
+    said = []
+    converted = list(clock_checked(ur5_recording, degrees, ur5, PipelineConfig().filter, None, said.append))
+    assert len(said) == 1 and said[0].startswith("|wrist_3_joint| up to 180, beyond a turn in rad, moving at "), said
+    np.testing.assert_allclose(converted[0].joints, chunks[0].joints, rtol=0, atol=1e-12)
+    assert list(clock_checked(ur5_recording, chunks, ur5, PipelineConfig().filter, None, said.append))[0] is chunks[0]
+    assert len(said) == 1  # rad: nothing said
+    with pytest.raises(RecordingError, match="look like degrees"):
+        list(clock_checked(ur5_recording, degrees, ur5, PipelineConfig().filter, False))
 
 
 # -- one bad value never loses a run -----------------------------------------------------

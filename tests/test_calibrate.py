@@ -121,30 +121,23 @@ def test_joint_columns_in_degrees(tmp_path, ur5_recording, capsys):
     path = tmp_path / "deg.csv"
     path.write_text("".join(out_lines))
     assert header[1] == "shoulder_pan_joint"
-    # refused by the clock check before anything is solved: the speeds are 57x the velocity limits
-    assert (
-        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
-        == ExitCode.RECORDING
-    )
+    calibrate = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", "--quiet"]
+    assert main([*calibrate, str(ur5_recording), "-o", str(tmp_path / "rad.yaml")]) == 0
+    capsys.readouterr()
+    # the default (--joint-unit auto): found in degrees by the clock check's rule (57x the velocity limits), converted, said
+    assert main([*calibrate, str(path), "-o", str(tmp_path / "c.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[1].startswith("joints: degrees (--joint-unit auto: |wrist_3_joint| up to 180, beyond a turn in rad,"), out
+    degrees, rad = load_calibration(tmp_path / "c.yaml"), load_calibration(tmp_path / "rad.yaml")
+    np.testing.assert_allclose(degrees.C, rad.C, rtol=0, atol=1e-12 * np.abs(rad.C).max())  # the same samples, the same sums
+    # rad forced: refused before anything is solved, naming the unit
+    assert main([*calibrate, str(path), "-o", str(tmp_path / "r.yaml"), "--joint-unit", "rad"]) == ExitCode.RECORDING
     captured = capsys.readouterr()
-    assert "the joint columns look like degrees" in captured.err and "--joints-in-degrees" in captured.err
-    assert (
-        main(
-            [
-                "calibrate",
-                "--robot",
-                "ur5",
-                "--tool",
-                "paper_tool",
-                str(path),
-                "-o",
-                str(tmp_path / "c.yaml"),
-                "--quiet",
-                "--joints-in-degrees",
-            ]
-        )
-        == 0
-    )
+    assert "the joint columns look like degrees" in captured.err and "--joint-unit deg" in captured.err
+    # degrees given, the old way too (warned)
+    assert main([*calibrate, str(path), "-o", str(tmp_path / "d.yaml"), "--joint-unit", "deg"]) == 0
+    assert main([*calibrate, str(path), "-o", str(tmp_path / "o.yaml"), "--joints-in-degrees"]) == 0
+    assert "--joints-in-degrees is now --joint-unit deg" in capsys.readouterr().err
 
 
 def test_a_robot_with_continuous_joints_calibrates(tmp_path, capsys):
@@ -175,3 +168,16 @@ def test_a_robot_with_continuous_joints_calibrates(tmp_path, capsys):
     )
     assert "fit consistent" in capsys.readouterr().out
     assert load_calibration(tmp_path / "cal.yaml").quality.rank == 7
+
+
+def test_the_default_filter_keeps_the_still_samples_of_a_recording_with_stops_and_says_so(ur5_recording, ur5, paper_tool):
+    """filter.mode auto (the shipped default): a recording with stops is the quasi-static filter's, as before, and the result says why."""
+    from fts_calib.filters.settings import PipelineConfig
+
+    auto = calibrate_recording(ur5_recording, ur5, paper_tool, PipelineConfig())
+    forced = calibrate_recording(ur5_recording, ur5, paper_tool, PipelineConfig().with_filter_mode("quasi-static"))
+    assert auto.decided == (
+        "filter: quasi-static (--filter auto: the arm holds still at its stops; --filter dynamic calibrates the moving samples too)",
+    )
+    assert not forced.decided and auto.session.settings.filter.mode == "quasi-static"
+    np.testing.assert_array_equal(auto.calibration.C, forced.calibration.C)

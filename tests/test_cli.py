@@ -29,7 +29,7 @@ def test_every_command_has_help_with_an_example(command, capsys):
 
 @pytest.mark.slow  # the whole quick demo, about 5 s a seed: left out of the seed sweep (test_demo.py tells why)
 def test_demo_command_runs_quick(tmp_path, capsys, seed):
-    assert main(["demo", "--out", str(tmp_path), "--quick", "--seed", str(seed)]) == 0
+    assert main(["demo", "-o", str(tmp_path), "--quick", "--seed", str(seed)]) == 0
     out = capsys.readouterr().out
     assert "[5/5] validating" in out and "largest validation error" in out
     cal = load_calibration(tmp_path / "calibration.yaml")

@@ -20,7 +20,7 @@ from fts_calib.sim.runs import simulate_recording
 from fts_calib.sim.sensor import load_simulated_sensor
 
 #: Words of the diagnoses that only a fitting alternative of the tool file, the joints or the mount may give.
-GUESSES = ("not m", "the mass of configuration", "labels permuted", "degrees", "--joints-in-degrees", "sensor.rpy", "--mount")
+GUESSES = ("not m", "the mass of configuration", "labels permuted", "degrees", "--joint-unit", "sensor.rpy", "--mount")
 
 
 def _record(tmp_path, name, ur5, tool, trajectories, seed, **sensor_changes):
@@ -135,3 +135,25 @@ def test_the_weak_excitation_threshold_is_above_what_a_plan_reads(ur5_recording,
     known = np.r_[0:6, 12 : len(sums)]
     rank, condition = information_rank(sums[np.ix_(known, known)])
     assert rank == len(known) and condition < WEAK_CONDITION / 10
+
+
+def test_a_dynamic_run_is_never_told_to_hold_the_arm_still(ur5, paper_tool):
+    """The quasi-static advice ('hold the arm still at the stops') is for the quasi-static filter; the dynamic one's names its own."""
+    from fts_calib.filters.dynamic import nominal_c
+    from fts_calib.filters.settings import PipelineConfig
+    from fts_calib.model.sensor_config import load_sensor_config
+    from fts_calib.session.diagnosis import missing_words
+    from fts_calib.session.session import CalibrationSession
+
+    spec = load_sensor_config(resolve("sensor", "configs"))
+    missing = {}
+    for mode in ("quasi-static", "dynamic"):
+        settings = PipelineConfig().with_filter_mode(mode).with_nominal_c(nominal_c(spec))
+        missing[mode] = CalibrationSession(ur5, paper_tool, settings, layout=spec.layout).progress().missing  # the status line's
+    few = np.array([3, 0, 0])  # a few samples of A: below what counts
+    missing["dynamic refusal"] = missing_words(paper_tool, few, np.zeros((3, 4, 4)), dynamic=True)
+    missing["quasi-static refusal"] = missing_words(paper_tool, few, np.zeros((3, 4, 4)))
+    for mode in ("quasi-static", "quasi-static refusal"):
+        assert "hold the arm still at the stops" in missing[mode], missing
+    for mode in ("dynamic", "dynamic refusal"):
+        assert "hold the arm still" not in missing[mode] and "no moving sample the dynamic filter trusts yet" in missing[mode], missing

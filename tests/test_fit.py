@@ -104,7 +104,7 @@ def test_a_wrong_gravity_is_named_although_c_absorbs_it(ur5_recording, ur5, pape
 def test_joints_in_degrees_on_a_file_in_rad_is_named(ur5_recording, ur5, paper_tool):
     result = calibrate_recording(ur5_recording, ur5, paper_tool, joints_in_degrees=True)
     assert isinstance(result.error, PoorFit), result.error
-    assert "run without --joints-in-degrees" in result.error.check.diagnosis
+    assert "give --joint-unit rad" in result.error.check.diagnosis
 
 
 def test_drifting_offsets_are_refused_under_constant_offsets_and_fit_under_auto(tmp_path, short_plan, ur5, paper_tool, seed):

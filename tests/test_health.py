@@ -235,7 +235,7 @@ def test_cli_monitor_listens_to_the_live_feed(parity, sensor, calibrated, tmp_pa
     rng = np.random.default_rng(31)
     t, w = service_wrenches(3.0, 1000.0, rng)
     broken = inject_fault(sensor.channels(w, t, rng), t, "frozen", 4, 1.5)
-    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(cal), "--listen", "127.0.0.1:0", "--quiet"]
+    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(cal), "udp://127.0.0.1:0", "--quiet"]
     command += ["--json", str(tmp_path / "live.json"), "--idle-timeout", "20"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -290,7 +290,7 @@ def test_monitor_offsets_do_not_depend_on_how_the_feed_is_batched(calibrated, ur
     """The recording shifted 0.8 N on Fx and drifting 1 N/min on Fy, fed in batches of 1, 7, 100, 1000 samples or all:
     the same windows, the same re-tares at the same times, the same tracked offset as one batch."""
     from fts_calib.app.monitor import OffsetFeed
-    from fts_calib.app.setup import load_sensor, load_setup
+    from fts_calib.app.setup import Setup, load_setup
     from fts_calib.monitor.offset_watch import OffsetWatch
     from fts_calib.sources.source import open_recording
 
@@ -300,11 +300,13 @@ def test_monitor_offsets_do_not_depend_on_how_the_feed_is_batched(calibrated, ur
     t, q, s, codes = (np.concatenate([getattr(c, k) for c in chunks]) for k in ("time", "joints", "channels", "configuration"))
     drift = np.array([0.8, 0.0, 0.0, 0.0, 0.0, 0.0]) + np.outer(t - t[0], [0.0, 1.0 / 60, 0.0, 0.0, 0.0, 0.0])  # [N]
     s = s + drift @ np.linalg.pinv(calibrated.C).T  # channels that read the drift as a wrench
-    parity, full_scale = ParityModel.from_dict(calibrated.health), load_sensor("sensor").full_scale
+    parity = ParityModel.from_dict(calibrated.health)
     results = {}
     for auto_tare in (False, True):
         for size in (1, 7, 100, 1000, len(t)):
-            feed = OffsetFeed(calibrated, tmp_path / f"{size}.yaml", parity, kin, payload, None, full_scale, auto_tare, 1.0)
+            feed = OffsetFeed(
+                calibrated, tmp_path / f"{size}.yaml", parity, Setup(robot_file="ur5", tool_file="paper_tool"), auto_tare, 1.0
+            )
             for start in range(0, len(t), size):
                 feed.add(t[start : start + size], q[start : start + size], s[start : start + size], codes[start : start + size])
             feed.finish()
@@ -340,7 +342,7 @@ def test_cli_monitor_listens_with_joints_and_tracks_the_offset(calibrated, ur5_r
     from fts_calib.sources.udp import End, Joints, Strain, ToolChange, encode
 
     cal = calibrated.save(tmp_path / "cal.yaml")
-    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(cal), "--listen", "127.0.0.1:0"]
+    command = [sys.executable, "-m", "fts_calib.app.cli", "monitor", "--calibration", str(cal), "udp://127.0.0.1:0"]
     command += ["--robot", "ur5", "--tool", "paper_tool", "--quiet", "--json", str(tmp_path / "m.json"), "--idle-timeout", "20"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

@@ -36,7 +36,7 @@ from fts_calib.sources.live_feed import LiveFeed, StreamEnd
 from fts_calib.sources.synchronizer import Synchronizer
 from fts_calib.sources.udp import MAX_NESTING, LiveStats, SeqGaps, Strain, UdpReceiver, encode, feed_datagram, listen_host
 
-from .helpers import DEADLINE_S, FakeRtdeServer, wait_for
+from .helpers import DEADLINE_S, FakeRtdeServer, live_calibrate, wait_for
 
 
 def _error(capsys):
@@ -354,15 +354,13 @@ def _fake_rtde_module(monkeypatch, receiver):
 
 def _live_ur(tmp_path, *extra):
     return [
-        "live",
+        "calibrate",
+        "ur://127.0.0.1",
+        "udp://127.0.0.1:0",
         "--robot",
         "ur5",
         "--tool",
         "paper_tool",
-        "--ur",
-        "127.0.0.1",
-        "--listen",
-        "127.0.0.1:0",
         "-o",
         str(tmp_path / "c.yaml"),
         *extra,
@@ -387,7 +385,7 @@ def test_a_host_that_accepts_and_says_nothing_is_named_within_the_timeout(tmp_pa
     assert code == ExitCode.TIMEOUT == 18
     assert not list(tmp_path.iterdir())
     assert capsys.readouterr().err.strip() == (
-        f"fts-calib live: error: no answer within 0.3 s: waited for the UR controller at 127.0.0.1:{server.port} (RTDE) to answer "
+        f"fts-calib calibrate: error: no answer within 0.3 s: waited for the UR controller at 127.0.0.1:{server.port} (RTDE) to answer "
         "RTDE's protocol request; is HOST the robot's controller, with RTDE enabled? (--ur-timeout sets the wait)"
     )
 
@@ -402,7 +400,7 @@ def test_a_controller_that_connects_and_never_publishes_is_named(tmp_path, monke
         monkeypatch.setattr("fts_calib.sources.ur.RTDE_PORT", server.port)
         code = _in_thread(_live_ur(tmp_path, "--ur-timeout", "0.3", "--quiet"))
     assert code == ExitCode.TIMEOUT
-    assert _error(capsys) == "fts-calib live: error: no answer within 0.3 s: waited for the first sample of the UR controller (RTDE)"
+    assert _error(capsys) == "fts-calib calibrate: error: no answer within 0.3 s: waited for the first sample of the UR controller (RTDE)"
     assert not list(tmp_path.iterdir()), "nothing written: the next run starts afresh"
 
 
@@ -428,7 +426,7 @@ def test_ctrl_c_ends_a_wait_on_a_silent_controller(tmp_path):
         finally:
             proc.kill()
     assert proc.returncode == ExitCode.INTERRUPTED, err
-    assert err.strip() == "fts-calib live: interrupted"
+    assert err.strip() == "fts-calib calibrate: interrupted"
 
 
 # -- exposure -----------------------------------------------------------------------------
@@ -436,13 +434,13 @@ def test_ctrl_c_ends_a_wait_on_a_silent_controller(tmp_path):
 
 @pytest.mark.parametrize("address", ["0:5005", "0.0.0.0:5005"])
 def test_binding_every_interface_needs_listen_any(tmp_path, capsys, address):
-    code = main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", address, "-o", str(tmp_path / "c.yaml")])
+    code = main(["calibrate", f"udp://{address}", "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path / "c.yaml")])
     assert code == ExitCode.CONFIG
     assert _error(capsys) == (
-        f"fts-calib live: error: --listen {address} would bind every network interface: any host that reaches this one could send "
-        "datagrams into the calibration. Listen on loopback (--listen 127.0.0.1:5005, the default) when the sender runs here; "
-        "otherwise say so: this host's address on the sender's network (--listen 192.168.1.20:5005), or every interface with "
-        "--listen-any (live)"
+        f"fts-calib calibrate: error: udp://{address} would bind every network interface: any host that reaches this one could send "
+        "datagrams into the calibration. Listen on loopback (udp://127.0.0.1:5005) when the sender runs here; "
+        "otherwise say so: this host's address on the sender's network (udp://192.168.1.20:5005), or every interface with "
+        "--listen-any"
     )
     assert not (tmp_path / "c.yaml.checkpoint.json").exists()
 
@@ -457,22 +455,7 @@ def test_listen_any_reaches_the_socket_and_is_warned_about(tmp_path, monkeypatch
 
     monkeypatch.setattr(udp, "listen_host", loopback_instead)
     monkeypatch.setattr(udp, "_is_loopback", lambda host: False)
-    out = tmp_path / "c.yaml"
-    argv = [
-        "live",
-        "--robot",
-        "ur5",
-        "--tool",
-        "paper_tool",
-        "--listen-any",
-        "--listen",
-        "127.0.0.1:0",
-        "--idle-timeout",
-        "0.1",
-        "--quiet",
-        "-o",
-        str(out),
-    ]
+    argv = live_calibrate(tmp_path / "c.yaml", "--listen-any", "--idle-timeout", "0.1", "--quiet")
     assert main(argv) == ExitCode.CHECK_FAILED  # no data came: no calibration
     err = capsys.readouterr().err
     assert re.search(r"fts-calib: warning: listening on udp://127\.0\.0\.1:\d+, beyond loopback: any host that reaches this one", err)

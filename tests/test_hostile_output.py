@@ -25,6 +25,8 @@ from fts_calib.model.calibration import Calibration, save_calibration
 from fts_calib.sim.sensor import load_simulated_sensor
 from fts_calib.sources.recording import RecordingWriter
 
+from .helpers import live_calibrate
+
 
 def _error_line(capsys):
     """Stderr of a failed command: its error line (warnings before it are allowed)."""
@@ -124,10 +126,10 @@ def test_a_second_live_run_on_the_same_output_is_refused_naming_the_first(tmp_pa
     output = tmp_path / "cal.yaml"
     first = _holder(output)
     try:
-        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--quiet"])
+        code = main(live_calibrate(output, "--quiet"))
         line = _error_line(capsys)
         assert code == ExitCode.OUTPUT_IN_USE
-        assert line.startswith(f"fts-calib live: error: {output} is being written by another fts-calib run (process {first.pid})")
+        assert line.startswith(f"fts-calib calibrate: error: {output} is being written by another fts-calib run (process {first.pid})")
         # its checkpoint too, when given on its own
         code = main(
             [

@@ -25,7 +25,7 @@ from fts_calib.sources.sender import ReplayOptions, messages, replay
 from fts_calib.sources.synchronizer import Synchronizer
 from fts_calib.sources.udp import UdpReceiver, encode
 
-from .helpers import DEADLINE_S, wait_for
+from .helpers import DEADLINE_S, live_calibrate, wait_for
 from .report_checks import check_page
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -182,15 +182,7 @@ def test_a_live_process_killed_and_resumed_gives_the_uninterrupted_result(tmp_pa
         sys.executable,
         "-m",
         "fts_calib.app.cli",
-        "live",
-        "--robot",
-        "ur5",
-        "--tool",
-        "paper_tool",
-        "--listen",
-        "127.0.0.1:0",
-        "-o",
-        str(out),
+        *live_calibrate(out),
     ]
     command += ["--pipeline", str(tmp_path / "pipeline.yaml"), "--idle-timeout", "20", "--quiet"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -258,7 +250,7 @@ def test_a_live_run_that_received_nothing_leaves_no_checkpoint_in_the_way_of_the
     from fts_calib.app.exit_codes import ExitCode
 
     output = tmp_path / "cal.yaml"
-    run = ["live", "--robot", "ur5", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(output), "--idle-timeout", "0.2"]
+    run = live_calibrate(output, "--idle-timeout", "0.2")
     for _ in range(2):  # the second run starts as the first did
         assert main([*run, "--quiet"]) == ExitCode.CHECK_FAILED
         out = capsys.readouterr().out

@@ -13,19 +13,19 @@ import numpy as np
 import pytest
 
 from fts_calib import FileFormatError, FtsCalibWarning, load_calibration
-from fts_calib.app import live as live_app
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import data_dir
 from fts_calib.session.calibration_run import LiveRunner, format_stats
 from fts_calib.session.checkpoint import HASHED_BYTES, live_source, recording_source
 from fts_calib.session.session import CalibrationSession
+from fts_calib.sources import source as source_module
 from fts_calib.sources.live_feed import LiveFeed, StreamEnd
 from fts_calib.sources.sender import ReplayOptions, messages, replay
 from fts_calib.sources.synchronizer import Synchronizer
 from fts_calib.sources.udp import End, LiveStats, SeqGaps, Strain, ToolChange, UdpReceiver, encode, feed_datagram
 
-from .helpers import DEADLINE_S, wait_for
+from .helpers import DEADLINE_S, live_calibrate, wait_for
 
 
 def _calibrate(recording, output, *extra):
@@ -77,24 +77,8 @@ def test_live_refuses_its_default_checkpoint_without_resume_or_restart(tmp_path,
     output = tmp_path / "cal.yaml"
     checkpoint = tmp_path / "cal.yaml.checkpoint.json"  # live's default: OUTPUT.checkpoint.json
     checkpoint.write_text("a crashed run's samples")
-    assert (
-        main(
-            [
-                "live",
-                "--robot",
-                "ur5",
-                "--tool",
-                "paper_tool",
-                "--listen",
-                "127.0.0.1:0",
-                "-o",
-                str(output),
-                "--quiet",
-            ]
-        )
-        == ExitCode.CONFIG
-    )
-    line, out = _one_error_line(capsys, "live")
+    assert main(live_calibrate(output, "--quiet")) == ExitCode.CONFIG
+    line, out = _one_error_line(capsys, "calibrate")
     assert str(checkpoint) in line and "--resume" in line and "--restart" in line, line
     assert checkpoint.read_text() == "a crashed run's samples" and "listening" not in out
 
@@ -251,24 +235,8 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, u
         == 14
     )
     assert "it is a folder" in _one_error_line(capsys, "simulate")[0]
-    assert (
-        main(
-            [
-                "live",
-                "--robot",
-                "ur5",
-                "--tool",
-                "paper_tool",
-                "--listen",
-                "127.0.0.1:0",
-                "-o",
-                str(tmp_path),
-                "--quiet",
-            ]
-        )
-        == ExitCode.FILE_ACCESS
-    )
-    line, out = _one_error_line(capsys, "live")
+    assert main(live_calibrate(tmp_path, "--quiet")) == ExitCode.FILE_ACCESS
+    line, out = _one_error_line(capsys, "calibrate")
     assert "it is a folder" in line and "listening" not in out
 
 
@@ -350,26 +318,11 @@ def test_sighup_ends_live_with_its_checkpoint_and_calibration_written(tmp_path, 
             return
         os.kill(os.getpid(), signal.SIGHUP)
 
-    monkeypatch.setattr(live_app, "UdpReceiver", Receiver)
+    monkeypatch.setattr(source_module, "UdpReceiver", Receiver)
     output = tmp_path / "cal.yaml"
     thread = threading.Thread(target=feed, daemon=True)
     thread.start()
-    code = main(
-        [
-            "live",
-            "--robot",
-            "ur5",
-            "--tool",
-            "paper_tool",
-            "--listen",
-            "127.0.0.1:0",
-            "-o",
-            str(output),
-            "--quiet",
-            "--idle-timeout",
-            "20",
-        ]
-    )
+    code = main(live_calibrate(output, "--quiet", "--idle-timeout", "20"))
     thread.join(timeout=DEADLINE_S)
     assert not problems, problems
     out = capsys.readouterr().out

@@ -340,23 +340,23 @@ def test_the_frames_picture_is_drawn_by_its_script(tmp_path):
 
 
 def test_live_without_a_robot_takes_orientation_datagrams(tmp_path, monkeypatch, capsys):
-    """``live`` with no --robot: R and quat datagrams are the joints, a reflection is named, 'end' stops the run."""
+    """A live calibration with no --robot: R and quat datagrams are the joints, a reflection is named, 'end' stops the run."""
     import json
     import socket
     import threading
 
-    from fts_calib.app import live
     from fts_calib.app.cli import main
+    from fts_calib.sources import source
 
     bound = []
 
-    class Receiver(live.UdpReceiver):
+    class Receiver(source.UdpReceiver):
         def __init__(self, *args, **kwargs):
             super().__init__(*args, **kwargs)
             bound.append(self.address)
 
-    monkeypatch.setattr(live, "UdpReceiver", Receiver)
-    argv = ["live", "--tool", "paper_tool", "--listen", "127.0.0.1:0", "-o", str(tmp_path / "c.yaml"), "--quiet", "--idle-timeout", "20"]
+    monkeypatch.setattr(source, "UdpReceiver", Receiver)
+    argv = ["calibrate", "udp://127.0.0.1:0", "--tool", "paper_tool", "-o", str(tmp_path / "c.yaml"), "--quiet", "--idle-timeout", "20"]
     result = {}
     thread = threading.Thread(target=lambda: result.update(code=main(argv)), daemon=True)
     thread.start()

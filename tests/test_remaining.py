@@ -8,6 +8,7 @@ from fts_calib.core.resources import resolve
 from fts_calib.session.plan_progress import PlanProgress, load_plan_progress
 from fts_calib.session.session import Progress
 
+from .helpers import live_calibrate
 from .test_planner import ROOT
 
 
@@ -88,7 +89,7 @@ def test_live_refuses_the_plan_of_another_robot_and_a_file_that_is_not_a_plan(tm
     from fts_calib.app.exit_codes import ExitCode
 
     out = tmp_path / "cal.yaml"
-    run = ["live", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--idle-timeout", "0.1", "--quiet", "--plan"]
+    run = live_calibrate(out, "--idle-timeout", "0.1", "--quiet", "--plan")
     assert main([*run, str(ROOT / "trajectories" / "kinova" / "plan.yaml")]) == ExitCode.CONFIG
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "is a plan of the robot 'kinova' but --robot is 'ur5': give the plan of this robot" in err[0], err

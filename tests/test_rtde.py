@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from fts_calib import ConfigError, PoorFit
+from fts_calib.app.calibrate import format_rtde
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.app.live import format_rtde
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.channels import WRENCH_6
@@ -209,14 +209,12 @@ def test_ur_wrench_needs_a_six_channel_sensor(tmp_path):
     assert (
         main(
             [
-                "live",
+                "calibrate",
+                "ur://ur.invalid",  # alone: the channels are its built-in wrench, which the 8-bridge sensor file cannot read
                 "--robot",
                 "ur5",
                 "--tool",
                 "paper_tool",
-                "--ur",
-                "ur.invalid",
-                "--ur-wrench",
                 "-o",
                 str(tmp_path / "c.yaml"),
             ]

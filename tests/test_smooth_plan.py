@@ -12,7 +12,7 @@ from fts_calib.budget.predicted import SYSTEMATIC, dynamic_plan_budget, filter_w
 from fts_calib.budget.propagation import wrench_noise
 from fts_calib.budget.sensitivities import MotionUncertainty
 from fts_calib.core.resources import resolve
-from fts_calib.filters.dynamic import nominal_c
+from fts_calib.filters.dynamic import DynamicFilter, nominal_c
 from fts_calib.filters.settings import FilterConfig, PipelineConfig
 from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.planning import sizing
@@ -140,8 +140,17 @@ def test_five_seconds_of_the_sized_ur5_smooth_motion_calibrate_within_the_budget
     assert auto.calibration.model_selection["units"] >= 3 * 10
     assert np.max(error_percent_fs(auto.calibration, sim, spec.full_scale)) <= 0.01
     assert auto.session.budget.largest_percent <= 0.1, auto.session.budget.largest_percent
-    # the quasi-static filter (the default) keeps a few percent of such a recording: its refusal names the dynamic mode
-    still = calibrate_recording(path, ur5, paper_tool, layout=spec.layout, full_scale=spec.full_scale)
+    # the default filter (auto): the quasi-static one keeps a few percent of such a recording, too few: it is read again with
+    # the dynamic filter, as --filter dynamic reads it, and the result says so; forced, the quasi-static refusal names the dynamic mode
+    default = calibrate_recording(path, ur5, paper_tool, layout=spec.layout, full_scale=spec.full_scale)
+    assert default.calibration is not None and isinstance(default.session.filter, DynamicFilter), default.error
+    assert default.decided[0].startswith("filter: dynamic (--filter auto: the arm moves without stopping ("), default.decided
+    assert "too few still samples for the quasi-static filter, rank " in default.decided[0], default.decided
+    forced = {mode: PipelineConfig().with_filter_mode(mode) for mode in ("dynamic", "quasi-static")}
+    dynamic = calibrate_recording(path, ur5, paper_tool, forced["dynamic"], layout=spec.layout, full_scale=spec.full_scale)
+    np.testing.assert_array_equal(dynamic.calibration.C, default.calibration.C)
+    assert not dynamic.decided  # a forced filter decides nothing
+    still = calibrate_recording(path, ur5, paper_tool, forced["quasi-static"], layout=spec.layout, full_scale=spec.full_scale)
     assert still.calibration is None and "calibrate it with --filter dynamic" in str(still.error), still.error
 
 

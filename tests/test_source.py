@@ -85,7 +85,7 @@ def test_a_name_that_is_no_source_is_refused_naming_it(text, says):
 
 
 def test_a_wildcard_host_needs_listen_any():
-    with pytest.raises(ConfigError, match="--listen 0.0.0.0:0 would bind every network interface"):
+    with pytest.raises(ConfigError, match="udp://0.0.0.0:0 would bind every network interface"):
         open_source("udp://0.0.0.0:0")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FtsCalibWarning)  # beyond loopback: warned about

@@ -197,3 +197,22 @@ def test_a_recording_of_another_width_than_the_calibration_names_both(tmp_path, 
     expected = f"{ur5_recording} has 8 channels but the calibration's layout wrench-6 has 6; give the calibration of this sensor"
     assert len(err) == 1 and expected in err[0], err
     assert not out.exists()
+
+
+def test_tare_takes_a_live_source_as_a_recording_and_one_source_only(tmp_path, capsys):
+    """tare SOURCE: udp://HOST:PORT is a live window (its old spelling --listen warned); two sources, or none, are refused."""
+    import shutil
+
+    cal = shutil.copy(resolve("paper_table1_calibration", "configs"), tmp_path / "cal.yaml")
+    tare = ["tare", "--calibration", str(cal), "--seconds", "0.1"]
+    assert main([*tare, "udp://127.0.0.1:0"]) == ExitCode.EXCITATION  # nothing sent in the window
+    captured = capsys.readouterr()
+    assert re.match(r"listening on udp://127\.0\.0\.1:\d+ for 0\.1 s: hold the sensor still", captured.out), captured.out
+    assert "no datagram at all on udp://127.0.0.1:" in captured.err and "warning" not in captured.err, captured.err
+    assert main([*tare, "--listen", "127.0.0.1:0"]) == ExitCode.EXCITATION
+    assert "--listen 127.0.0.1:0 is now the source udp://127.0.0.1:0" in capsys.readouterr().err
+    assert main([*tare, "a.csv", "udp://127.0.0.1:0"]) == ExitCode.CONFIG
+    assert "one source to re-tare from, not 2" in capsys.readouterr().err
+    assert main(tare) == ExitCode.CONFIG
+    assert "give a recording or a live feed udp://HOST:PORT to re-tare from" in capsys.readouterr().err
+    assert not load_calibration(cal).offset_history, "a refused re-tare wrote the file"

@@ -1,142 +1,114 @@
-"""The ``calibrate`` command: calibrate from a recording, with a progress bar and a printed summary, with units."""
+"""The ``calibrate`` command: calibrate from a recording (a progress bar) or a live feed (a status line); the summary, with units."""
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
-from collections.abc import Sequence
 from pathlib import Path
-from typing import TextIO
+from types import SimpleNamespace
+from typing import Any, TextIO
 
-from ..core.exceptions import FtsCalibError, PoorFit
+from ..core.exceptions import ConfigError, FeedTimeout, FtsCalibError, InsufficientExcitation, PoorFit, UnknownToolConfiguration
 from ..core.files import check_outputs
 from ..core.tables import table
 from ..filters.dynamic import DynamicFilter, nominal_c
+from ..filters.settings import AUTO_FILTER
 from ..model.calibration import save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.prior import describe as describe_prior
 from ..report.content import KeptCollector, calibrate_content
 from ..report.html import render_report, write_report
-from ..session.calibration_run import CalibrateResult, calibrate_recording
+from ..session.calibration_run import CalibrateResult, LiveRunner, calibrate_recording, format_stats
+from ..session.checkpoint import check_start, live_source
 from ..session.fit import MAX_RATIO, FitCheck
+from ..session.plan_progress import load_plan_progress
 from ..session.session import CalibrationSession
-from ..sources.bag import BagTopics
+from ..sources.live_feed import LiveFeed, StreamEnd, stop_signals
 from ..sources.recording_set import describe_files
-from ..sources.source import recording_paths
+from ..sources.source import live_address, open_source
 from ..sources.synchronizer import AFTER_JOINTS, BEFORE_JOINTS, JOINT_GAP
-from .exit_codes import ExitCode, writing
+from ..sources.udp import listen_host
+from ..sources.ur import RtdePoller
+from .exit_codes import ExitCode, using_udp, writing
 from .report import format_budget, format_model_selection, format_offsets
-from .setup import load_prior, load_sensor, load_setup
+from .setup import OutputOptions, Setup, SourceOptions
+
+#: What ``--joint-unit`` says of the joint columns: degrees, rad, or None: decided from the data.
+JOINTS_IN_DEGREES = {"deg": True, "rad": False, "auto": None}
+#: The calibration file written when -o is not given.
+DEFAULT_OUTPUT = "calibration.yaml"
 
 
 def run(
+    setup: Setup,
+    source: SourceOptions,
+    outputs: OutputOptions | None = None,
     *,
-    recording: str | Path | Sequence[str | Path],
-    robot: str | Path | None = None,
-    tool: str | Path,
-    pipeline: str | Path = "pipeline",
-    output: str | Path = "calibration.yaml",
-    use_filter: bool = True,
-    checkpoint: str | Path | None = None,
-    resume: bool = False,
-    restart: bool = False,
-    joints_in_degrees: bool = False,
     accept_poor_fit: bool = False,
-    quiet: bool = False,
-    sensor: str | Path = "sensor",
-    joints_topic: str = BagTopics.joints,
-    channels_topic: str = BagTopics.channels,
-    configuration_topic: str = BagTopics.configuration,
-    joint_stamps: str = BagTopics.joint_stamps,
-    pose_topic: str = BagTopics.pose,
-    offsets: str | None = None,
-    prior: str | Path | None = None,
-    prior_weight: float = 1.0,
-    model: str | None = None,
-    report: str | Path | None = None,
-    mount_rpy: Sequence[float] | None = None,
-    filter_mode: str | None = None,
+    plan: str | Path | None = None,
 ) -> int:
-    """Calibrate from a recording, write the calibration and print the summary (``fts-calib calibrate``).
+    """Calibrate from a recording or a live feed, write the calibration and print the summary (``fts-calib calibrate``).
 
     Args:
-        recording: Recording (CSV or CSV.gz): time, joints, strain_1..n, tool; or ROS 2 bags
-            (``.mcap``, ``.db3``, bag folders), each optionally ``BAG:CONFIGURATION``.
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
-            recording that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
-        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
-            orientation gives to the sensor; None for none.
-        tool: Tool file: a shipped name or a YAML path.
-        pipeline: Pipeline settings (filter thresholds).
-        output: Calibration file to write.
-        use_filter: Keep only the quasi-static samples (False: every valid one, for comparison).
-        checkpoint: Checkpoint file, written every few seconds; None for none.
-        resume: Continue from ``checkpoint`` (it must be of this recording).
-        restart: Start afresh over an existing ``checkpoint``; without it or ``resume``, an
-            existing checkpoint is refused (exit 3): its samples are never lost silently.
-        joints_in_degrees: The joint columns are in degrees.
+        setup: The robot, the calibration tool (required), the sensor file (its channel layout,
+            which the data's channels must match; its model and full scale) and the pipeline
+            settings, with the filter, the models and a prior (:class:`~fts_calib.app.setup.Setup`).
+        source: The recording (CSV or CSV.gz: time, joints, strain_1..n, tool; or ROS 2 bags,
+            each optionally ``BAG:CONFIGURATION``), or a live feed: ``udp://HOST:PORT`` and/or
+            ``ur://HOST`` (:mod:`fts_calib.sources.source`), with a bag's topics and a live
+            feed's timeouts.
+        outputs: The calibration file (``calibration.yaml`` when None), an HTML report (also
+            when the calibration is refused: its diagnosis first), the checkpoint (a live
+            run's: ``OUTPUT.checkpoint.json`` when None), ``resume``/``restart`` (an existing
+            checkpoint is refused without one: its samples are never lost silently) and
+            ``quiet`` (no progress bar or status line).
         accept_poor_fit: Write the calibration even when its fit check is poor (its quality
             records the verdict).
-        quiet: No progress bar.
-        sensor: Sensor configuration (shipped name or YAML path): its channel layout, which
-            the recording's channels must match.
-        joints_topic: A bag's sensor_msgs/msg/JointState topic.
-        channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
-        configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
-        joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
-        pose_topic: Without ``robot``: a bag's geometry_msgs/msg/PoseStamped topic of the sensor's orientation.
-        offsets: The offset model ('auto', 'constant', 'per-configuration', 'drift'); the
-            pipeline file's (default auto) when None.
-        prior: A calibration to shrink C_bar toward (fts-calib YAML or ATI ``.cal``, of the
-            sensor's layout) when the excitation is weak; None for none.
-        prior_weight: The prior's weight lambda, relative to the data (:mod:`fts_calib.model.prior`).
-        model: The sensor model ('auto', 'linear', 'quadratic', 'cubic'); the sensor file's
-            (default auto: chosen with the offset model by held-out error) when None.
-        filter_mode: The sample filter's mode ('quasi-static', 'dynamic':
-            :mod:`fts_calib.filters.dynamic`); the pipeline file's (default quasi-static) when None.
-        report: HTML report to write (:mod:`fts_calib.report.html`), also when the
-            calibration is refused (its diagnosis first); None for none.
+        plan: A live feed: ``plan.yaml`` of the sized trajectories being run (the status line
+            then shows the motion left and the configuration to mount next).
 
     Returns:
-        0 with a calibration written, 1 when the data cannot determine C, 15 when the fit
-        check refused the calibration (nothing written).
+        0 with a calibration written, 1 when the data cannot determine C (a live run that
+        received nothing: no checkpoint kept), 15 when the fit check refused the calibration
+        (nothing written; a live run keeps its checkpoint), 18 when a UR controller does not
+        answer within ``source.ur_timeout_s``.
     """
-    paths = recording_paths(recording)
-    inputs = {
-        "the recording": paths[0],
-        "the robot file": robot,
-        "the tool file": tool,
-        "the pipeline file": pipeline,
-        "the sensor file": sensor,
-        **({"the prior": prior} if prior is not None else {}),
-    }
+    outputs = outputs or OutputOptions()
+    if setup.tool_file is None:
+        raise ConfigError("tool", None, "the calibration tool mounted", message="calibrate needs the tool mounted: give --tool")
+    if source.live:
+        return _calibrate_live(setup, source, outputs, accept_poor_fit, plan)
+    if plan is not None:
+        raise ConfigError("plan", str(plan), "a live source", message="--plan shows the motion left of a live run: give udp:// or ur://")
+    output = outputs.output or DEFAULT_OUTPUT
+    paths = source.paths()
+    inputs = {"the recording": paths[0], **setup.inputs()}
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths[1:], 1)})
+    report, checkpoint = outputs.report, outputs.checkpoint
     check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
-    kin, loaded, settings = load_setup(robot, tool, pipeline, mount_rpy)
-    spec = load_sensor(sensor)
-    settings = settings.with_offsets(offsets).with_filter_mode(filter_mode).with_nominal_c(nominal_c(spec))
-    layout = spec.layout
-    shrink = load_prior(prior, prior_weight, layout)
-    bar = None if quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
+    spec = setup.sensor
+    settings = setup.settings.with_nominal_c(nominal_c(spec))
+    bar = None if outputs.quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
     collector = None if report is None else KeptCollector()
     result = calibrate_recording(
         paths,
-        kin,
-        loaded,
+        setup.kinematics,
+        setup.tool,
         settings,
-        use_filter=use_filter,
+        use_filter=setup.use_filter,
         checkpoint=checkpoint,
-        resume=resume,
-        restart=restart,
-        joints_in_degrees=joints_in_degrees,
+        resume=outputs.resume,
+        restart=outputs.restart,
+        joints_in_degrees=JOINTS_IN_DEGREES[source.joint_unit],
         progress=bar,
         accept_poor_fit=accept_poor_fit,
-        topics=BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps, pose_topic),
-        layout=layout,
-        prior=shrink,
+        topics=source.topics,
+        layout=spec.layout,
+        prior=setup.prior,
         full_scale=spec.full_scale,
         limits=spec.limits,
-        model=model or spec.model,
+        model=setup.sensor_model,
         full_channels=spec.full_channels,
         on_kept=collector,
     )
@@ -260,6 +232,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
     lines = [f"recording {recording}: {result.rows:,} rows in {result.seconds:.2f} s ({rate / 1000:,.0f}k rows/s)"]
+    lines += list(result.decided)
     lines += format_counts(result.session)
     if result.detected:
         lines.append(f"detected in the data, not declared in the sensor file: {', '.join(result.detected)}; calibrated again with it")
@@ -323,3 +296,175 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     if output is not None:
         lines.append(f"wrote {output}")
     return "\n".join(lines)
+
+
+# --- a live feed ------------------------------------------------------------------------------------------------------
+
+#: Signals that end a live run like Ctrl-C: checkpoint and calibration written (SIGHUP: the terminal closed).
+LIVE_SIGNALS = stop_signals(("SIGINT", "SIGTERM", "SIGHUP"))
+
+
+def _calibrate_live(setup: Setup, source: SourceOptions, outputs: OutputOptions, accept_poor_fit: bool, plan: str | Path | None) -> int:
+    """Calibrate from a live feed until its 'end' message, Ctrl-C, SIGTERM, SIGHUP or the idle timeout (see :func:`run`).
+
+    The feed is :func:`fts_calib.sources.source.open_source`'s (``udp://``: the live protocol's
+    datagrams; ``ur://``: a UR controller's joints through RTDE, with the strain datagrams of
+    ``udp://`` or its built-in sensor's wrench), run by :class:`~fts_calib.session.calibration_run.LiveRunner`
+    with a status line and checkpoints; then the calibration is written.
+    """
+    output = outputs.output or DEFAULT_OUTPUT
+    checkpoint = Path(outputs.checkpoint or f"{output}.checkpoint.json")
+    report, resume = outputs.report, outputs.resume
+    ending = StreamEnd(idle_timeout_s=source.idle_timeout_s, signals=LIVE_SIGNALS)  # before any work: a wrong timeout wastes nothing
+    live = source.live
+    udp, ur = live.get("udp"), live.get("ur")
+    host, port = live_address(udp) if udp is not None else ("", 0)
+    if udp is not None:
+        host = listen_host(host, source.listen_any, port)  # before any work: a refused address wastes nothing
+    inputs = {key: value for key, value in setup.inputs().items() if key != "the prior"}
+    check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
+    check_start(checkpoint, resume, outputs.restart)
+    if ur is not None and setup.robot_file is None:
+        raise ConfigError("robot", None, "a robot definition", message=f"{ur} reads a UR's joints: give its robot definition with --robot")
+    kin, loaded, spec = setup.kinematics, setup.tool, setup.sensor
+    settings = setup.settings.with_nominal_c(nominal_c(spec)).with_limits(spec.limits)  # railed samples refused from the start
+    layout, shrink = spec.layout, setup.prior
+    expected = None if plan is None else load_plan_progress(plan, spec.rate_hz)
+    if expected is not None and expected.robot is not None and expected.robot != kin.robot.name:
+        message = f"--plan {plan} is a plan of the robot '{expected.robot}' but --robot is '{kin.robot.name}': give the plan of this robot"
+        raise ConfigError("plan", str(plan), f"a plan of '{kin.robot.name}'", message=message)
+    if expected is not None and set(expected.expected) != set(loaded.names):
+        raise ConfigError("plan", sorted(expected.expected), f"the tool's configurations {loaded.names}", owner=str(plan))
+    configuration = setup.configuration
+    if configuration is not None and configuration not in loaded.names:
+        raise UnknownToolConfiguration(configuration, loaded.names)
+    ur_wrench = ur is not None and (source.ur_wrench or udp is None)  # ur:// alone: the channels are its built-in sensor's
+    if source.ur_wrench and ur is None:
+        raise ConfigError("ur_wrench", True, "", message="--ur-wrench reads a UR's built-in sensor: give the arm as the source ur://HOST")
+    if ur_wrench and layout.n_channels != 6:
+        alone = "" if source.ur_wrench else f" ({ur} without udp://HOST:PORT for strain datagrams)"
+        message = (
+            f"the channels are the UR's built-in 6-axis wrench{alone}: the sensor file '{setup.sensor_file}' has "
+            f"{layout.n_channels} channels (e.g. --sensor factory_sensor)"
+        )
+        raise ConfigError("ur_wrench", True, "", message=message)
+    described = f"live udp://{host}:{port}" if udp is not None else f"live {ur}"
+    record = live_source(host, port) if udp is not None else {"kind": "live", "listen": ur}
+    models: dict[str, Any] = {"model": setup.sensor_model, "full_channels": spec.full_channels, "full_scale": spec.full_scale}
+    collector = None if report is None or resume else KeptCollector()
+    if resume:
+        session = CalibrationSession.resume(
+            checkpoint, kin, loaded, settings, source=described, source_record=record, layout=layout, **models
+        )
+        print(f"resumed from {checkpoint}: {session.progress().kept:,} samples kept so far", flush=True)
+    else:
+        session = CalibrationSession(
+            kin, loaded, settings, checkpoint=checkpoint, source=described, source_record=record, layout=layout, **models, on_kept=collector
+        )
+    arm = None if ur is None else ur.split("://", 1)[1].rstrip("/")
+    if arm is not None:
+        print(f"connecting to the UR at {arm} (RTDE, waiting at most {source.ur_timeout_s:g} s)", flush=True)
+
+    def listening(address: tuple[str, int]) -> None:
+        print(
+            f"listening on udp://{address[0]}:{address[1]} for {kin.robot.name} with '{loaded.name}'; "
+            "Ctrl-C or an 'end' message writes the calibration",
+            flush=True,
+        )
+
+    with using_udp(host, port) if udp is not None and ur is None else contextlib.nullcontext():
+        feed = open_source(
+            ur or udp or "",
+            kin.joint_names,
+            loaded.names,
+            continuous=kin.continuous,
+            max_gap_s=settings.live.max_gap_s,
+            latency_s=settings.live.latency_s,
+            n_channels=layout.n_channels,
+            configuration=configuration,
+            listen_any=source.listen_any,
+            udp=udp if ur is not None else None,
+            ur_wrench=ur_wrench,
+            ur_timeout_s=source.ur_timeout_s,
+            end=ending,
+            on_listening=listening,
+        )
+    if not isinstance(feed, LiveFeed):  # open_source opens a live feed for a live name: never
+        raise FtsCalibError(f"internal error: {ur or udp} did not open a live feed")
+    rtde = feed.rtde
+    if rtde is not None:
+        what = (
+            "joints and the built-in sensor's wrench" if ur_wrench else "joints (strains: datagrams stamped with this host's time.time())"
+        )
+        print(f"reading the {what} of the UR at {arm} through RTDE", flush=True)
+        if udp is None:
+            print(f"no datagrams: Ctrl-C writes the calibration ({kin.robot.name} with '{loaded.name}')", flush=True)
+    stats = LiveRunner(session, feed, status=None if outputs.quiet else sys.stderr, plan=expected).run()
+    if rtde is not None and rtde.samples == 0 and isinstance(rtde.error, FeedTimeout):
+        if not resume:  # a checkpoint of nothing would only stand in the way of the next run
+            checkpoint.unlink(missing_ok=True)
+        raise rtde.error
+    print(format_stats(stats, feed.sync))
+    if rtde is not None:
+        print(format_rtde(rtde))
+    if setup.use_filter and settings.filter.mode == AUTO_FILTER:
+        print("filter: quasi-static (--filter auto: a live feed is read once: its still samples; --filter dynamic for no stops)")
+    print("\n".join(format_counts(session)))
+    found = None if session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
+    if found is not None:  # a live stream cannot be read again without them
+        print(
+            f"  note: {', '.join(found.detected)} (detected in the data): its samples went into the calibration; "
+            "declare the channels' range in the sensor file (range, adc_bits) to refuse them"
+        )
+    try:
+        calibration = session.solve(accept_poor_fit=accept_poor_fit, prior=shrink)
+    except InsufficientExcitation as exc:
+        if session.seen == 0 and not resume:  # a checkpoint of nothing would only stand in the way of the next run
+            checkpoint.unlink(missing_ok=True)
+            print(f"NO CALIBRATION: {exc}; no checkpoint kept (it would hold nothing): check the address the feeds send to")
+            return ExitCode.CHECK_FAILED
+        print(f"NO CALIBRATION: {exc}\ncheckpoint kept in {checkpoint}: run again with --resume to continue")
+        _live_report(report, session, collector, None, exc, f"{exc}", inputs)
+        return ExitCode.EXCITATION
+    except PoorFit as exc:
+        _live_report(report, session, collector, None, exc, exc.check.summary(), inputs)
+        print("\n".join(format_fit(exc.check)))
+        print(f"NO CALIBRATION written: the fit is poor (above); checkpoint kept in {checkpoint}")
+        print("fix the cause, or run again with --resume --accept-poor-fit to write it with the verdict")
+        return ExitCode.POOR_FIT
+    print(session.fit_check().summary())
+    with writing(output):
+        path = save_calibration(calibration, output)
+    quality = calibration.quality
+    if quality is None:  # CalibrationSession.solve always measures the fit
+        raise FtsCalibError("internal error: the calibration has no fit quality")
+    if quality.prior is not None:
+        print(describe_prior(dict(quality.prior)))
+    print(f"rank {quality.rank} of {quality.full_rank}, condition number {quality.condition_number:.1f}; wrote {path}")
+    _live_report(report, session, collector, calibration, None, "", {**inputs, "the calibration (-o)": path})
+    return ExitCode.OK
+
+
+def _live_report(report, session, collector, calibration, error, diagnosis: str, files) -> None:
+    """Write a live run's HTML report when one was asked for (``--report``)."""
+    if report is None:
+        return
+    content = calibrate_content(SimpleNamespace(calibration=calibration, session=session, error=error), collector, files, diagnosis)
+    with writing(report):
+        print(f"wrote {write_report(report, render_report(content))}")
+
+
+def format_rtde(rtde: RtdePoller) -> str:
+    """What was read through RTDE, on one line: samples, clock offset, losses, and why it stopped."""
+    text = f"RTDE: {rtde.samples:,} controller samples"
+    if rtde.host_clock is not None and rtde.samples:
+        text += f", controller clock + {rtde.offset_s:.6f} s = this host's clock"
+    if rtde.dropped:
+        text += f", {rtde.dropped:,} dropped (read faster than paired)"
+    if rtde.ignored:
+        text += f", {rtde.ignored:,} datagrams ignored (RTDE gives their data)"
+    if rtde.malformed:
+        text += f", {rtde.malformed:,} skipped (not {len(rtde.joint_names)} joint angles)"
+    if rtde.error is not None:
+        text += f"; the connection was lost: {rtde.error}"
+    return text

@@ -393,20 +393,22 @@ def run_demo(out: str | Path = "out", seed: int = 0, quick: bool = False, stream
     lap("report")
 
     rel = np.abs(calibration.C - sensor.C) / np.max(np.abs(sensor.C), axis=1, keepdims=True)
-    _report(say, calibration, sensor, rel, curve, starts, final_se, validation, paper, files, seconds)
-    return DemoResult(calibration, sensor.C, sensor.D, rel, curve, starts, validation, files, seconds)
+    found = DemoResult(calibration, sensor.C, sensor.D, rel, curve, starts, validation, files, seconds)
+    _report(say, found, final_se, paper)
+    return found
 
 
-def _report(
-    say, calibration: Calibration, sensor, rel, curve, starts, final_se, validation: ValidationResult, paper: AxisErrors, files, seconds
-) -> None:
+def _report(say, result: DemoResult, final_se: float, paper: AxisErrors) -> None:
+    """Print what the demo found beside the truth and the targets (``final_se``: C_bar_11's final standard error)."""
+    calibration, rel, curve, starts = result.calibration, result.relative_error, result.convergence, result.changes
+    validation, files, seconds = result.validation, result.files, result.seconds
     say()
     header = [""] + [f"Δ{k + 1}" for k in range(8)]
     say("estimated C (rows Fx Fy Fz in N, Mx My Mz in N·m, per mV/V), true C (Table 1 of the paper) below each row:")
     rows = []
     for i, axis in enumerate(WRENCH_AXES):
         rows.append([axis, *[f"{v:9.4f}" for v in calibration.C[i]]])
-        rows.append(["  true", *[f"{v:9.4f}" for v in sensor.C[i]]])
+        rows.append(["  true", *[f"{v:9.4f}" for v in result.true_C[i]]])
     say(table(header, rows))
     worst = np.unravel_index(np.argmax(rel), rel.shape)
     say(
@@ -415,7 +417,7 @@ def _report(
     )
     say(
         "offset error D - true: "
-        + ", ".join(f"{a} {d - t:+.2e} {u}" for a, d, t, u in zip(WRENCH_AXES, calibration.D, sensor.D, WRENCH_UNITS, strict=True))
+        + ", ".join(f"{a} {d - t:+.2e} {u}" for a, d, t, u in zip(WRENCH_AXES, calibration.D, result.true_D, WRENCH_UNITS, strict=True))
     )
     marks = ", ".join(f"{name} at sample {start}" for start, name in starts)
     at_change = [curve[np.searchsorted(curve[:, 0], start, side="left") - 1, 1] if start > 0 else float("nan") for start, _ in starts[1:]]
@@ -447,11 +449,11 @@ def _report(
     say("time: " + ", ".join(f"{name} {s:.1f} s" for name, s in seconds.items()) + f"; total {sum(seconds.values()):.1f} s")
 
 
-def run(*, out: str | Path = "out", seed: int = 0, quick: bool = False, drift: bool = False) -> int:
+def run(*, output: str | Path = "out", seed: int = 0, quick: bool = False, drift: bool = False) -> int:
     """Run the demo and print what it finds (``fts-calib demo``); see :func:`run_demo`.
 
     Args:
-        out: Folder for everything written.
+        output: Folder for everything written.
         seed: Seed of the sensor noise and of the validation motion.
         quick: A smaller run (3 levels x 4 stops at 100 Hz).
         drift: The sensor's offsets drift during the run, and the calibration models them.
@@ -459,6 +461,6 @@ def run(*, out: str | Path = "out", seed: int = 0, quick: bool = False, drift: b
     Returns:
         0.
     """
-    with writing(out):
-        run_demo(out, seed, quick, drift=drift)
+    with writing(output):
+        run_demo(output, seed, quick, drift=drift)
     return ExitCode.OK

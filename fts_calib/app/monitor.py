@@ -12,28 +12,25 @@ from __future__ import annotations
 import json
 import math
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ..core.exceptions import ConfigError
+from ..core.exceptions import ConfigError, FtsCalibError
 from ..core.files import atomic_write_text, check_outputs
 from ..model.calibration import Calibration, load_calibration, save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS, check_channels
 from ..model.parity import ParityModel
 from ..monitor.health import HealthMonitor
 from ..monitor.offset_watch import OffsetWatch
-from ..robot.kinematics import Kinematics
-from ..robot.tool import Tool, tool_load
+from ..robot.tool import tool_load
 from ..service.reader import WrenchReader
+from ..sources.batch import SampleBatch
 from ..sources.live_feed import FeedStatus, LiveFeed, StreamEnd
 from ..sources.recording_set import describe_files
-from ..sources.source import open_recording, recording_paths
-from ..sources.synchronizer import Synchronizer
-from ..sources.udp import UdpReceiver
+from ..sources.source import live_address, open_recording, open_source
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import load_sensor, load_setup
+from .setup import OutputOptions, Setup, SourceOptions
 
 #: Windows without contact before an automatic re-tare is trusted.
 MIN_UPDATES = 10
@@ -48,26 +45,14 @@ class OffsetFeed:
         calibration: The calibration in use (its C and D turn channels into wrenches).
         path: Its file (re-tares are written there, atomically, with the old offsets in its history).
         parity: Its parity model (the channels' noise, for the wrench noise).
-        kin: Kinematics of the robot.
-        tool: The payload's tool file.
-        configuration: The payload's configuration, or None for each sample's (the recording's tool column).
-        full_scale: Full scale per axis [N, N, N, N m, N m, N m], shape (6,).
+        setup: The robot's kinematics, the payload's tool file, its configuration (None: each
+            sample's, the recording's tool column) and the sensor's full scale.
         auto_tare: Re-tare when the offset error exceeds ``threshold_percent``.
         threshold_percent: Offset error tolerated, in % of full scale.
     """
 
-    def __init__(
-        self,
-        calibration: Calibration,
-        path,
-        parity: ParityModel,
-        kin: Kinematics,
-        tool: Tool,
-        configuration,
-        full_scale,
-        auto_tare,
-        threshold_percent,
-    ):
+    def __init__(self, calibration: Calibration, path, parity: ParityModel, setup: Setup, auto_tare: bool, threshold_percent: float):
+        kin, tool, configuration, full_scale = setup.kinematics, setup.tool, setup.configuration, setup.sensor.full_scale
         if configuration is not None and configuration not in tool.names:
             raise ConfigError("configuration", configuration, f"one of the tool's: {', '.join(tool.names)}")
         self.calibration, self.path, self.kin, self.tool = calibration, Path(path), kin, tool
@@ -180,45 +165,33 @@ class OffsetFeed:
 
 
 def run(
+    setup: Setup,
+    source: SourceOptions,
+    outputs: OutputOptions | None = None,
     *,
-    recording: str | Path | Sequence[str | Path],
     calibration: str | Path,
-    json_path: str | Path | None = None,
     false_alarms_per_hour: float = 1e-3,
-    listen: tuple[str, int] | None = None,
-    listen_any: bool = False,
-    rate_hz: float = 1000.0,
-    idle_timeout_s: float | None = None,
-    quiet: bool = False,
-    robot: str | Path | None = None,
-    tool: str | Path = "paper_tool",
-    configuration: str | None = None,
-    sensor: str | Path = "sensor",
     auto_tare: bool = False,
     tare_threshold_percent: float = 0.05,
 ) -> int:
-    """Watch a recording's channels with the calibration's parity model (``fts-calib monitor``).
+    """Watch a recording's or a live feed's channels with the calibration's parity model (``fts-calib monitor``).
 
     Args:
-        recording: Recording (CSV or CSV.gz) of the sensor in service, or ROS 2 bags.
+        setup: With a robot: the payload's wrench from the joints, and the offset tracked
+            where nothing touches the payload (:mod:`fts_calib.monitor.offset_watch`): the
+            payload's tool file (``paper_tool`` when None), its configuration (None: each
+            sample's, the recording's tool column) and the sensor's full scale.
+        source: The recording (CSV or CSV.gz) of the sensor in service, or ROS 2 bags; or a
+            live feed ``udp://HOST:PORT`` (its strain datagrams, :mod:`fts_calib.sources.udp`),
+            watched until an 'end' datagram, Ctrl-C, SIGTERM or ``idle_timeout_s``
+            (:mod:`fts_calib.sources.live_feed`); ``rate_hz``: the sample rate, measured from
+            the time stamps when None (and said).
+        outputs: ``json_path``: where to write ``{"events": [{"time_s", "kind", "channel",
+            "detail"}, ...], "samples": N, "skipped": N, "health": "ok" | "fault", "region":
+            {"outside": k, "samples": N} or null}`` (``region`` null for a calibration that
+            records none), atomically; ``quiet``: no status line (live).
         calibration: Calibration file with a ``health`` section.
-        json_path: Where to write ``{"events": [{"time_s", "kind", "channel", "detail"}, ...],
-            "samples": N, "skipped": N, "health": "ok" | "fault", "region": {"outside": k,
-            "samples": N} or null}`` (``region`` null for a calibration that records none),
-            atomically; None for none.
         false_alarms_per_hour: False-alarm budget of the tests, per hour of service.
-        listen: ``(host, port)`` of the live UDP feed to watch instead of a recording (its
-            strain datagrams, :mod:`fts_calib.sources.udp`), until an 'end' datagram, Ctrl-C,
-            SIGTERM or ``idle_timeout_s`` (:mod:`fts_calib.sources.live_feed`); None: a recording.
-        listen_any: Bind every interface (see :func:`fts_calib.sources.udp.listen_host`).
-        rate_hz: Sample rate of the live feed [Hz] (a recording's is measured).
-        idle_timeout_s: Stop listening after this many seconds without a datagram; None: never.
-        quiet: No status line (live).
-        robot: Robot definition: with it, the payload's wrench from the joints, and the offset
-            tracked where nothing touches the payload (:mod:`fts_calib.monitor.offset_watch`).
-        tool: The payload's tool file (with ``robot``).
-        configuration: The payload's configuration; None: each sample's (the recording's tool column).
-        sensor: Sensor configuration: its full scale (with ``robot``).
         auto_tare: Re-tare when the offset error exceeds ``tare_threshold_percent`` (written
             into the calibration file, the old offsets in its tare history).
         tare_threshold_percent: Offset error tolerated, in % of full scale.
@@ -227,14 +200,15 @@ def run(
         0 when no fault was found, 1 when one was.
 
     Raises:
-        ConfigError: The calibration has no health section (a layout with no more channels
-            than axes, or a file written before it existed).
+        ConfigError: No source, or a live one with recordings; the calibration has no health
+            section (a layout with no more channels than axes, or a file written before it existed).
     """
-    if (listen is None) == (not recording):
-        raise ConfigError(
-            "recording", [str(p) for p in recording_paths(recording)] if recording else [], "a recording, or --listen (one of them)"
-        )
-    paths = recording_paths(recording) if recording else []
+    outputs = outputs or OutputOptions()
+    live = source.live.get("udp")
+    if not source.given:
+        raise ConfigError("source", [], "a recording, or a live feed udp://HOST:PORT (one of them)")
+    paths = source.paths() if live is None else []
+    json_path = outputs.json_path
     check_outputs({"--json": json_path}, {"the calibration": calibration, **{f"recording {k + 1}": p for k, p in enumerate(paths)}})
     cal = load_calibration(calibration)
     if cal.health is None:
@@ -247,41 +221,106 @@ def run(
     parity = ParityModel.from_dict(cal.health)
     region = RegionCount(cal)
     offsets = None
-    if robot is not None:
-        kin, payload, _ = load_setup(robot, tool)
-        full_scale = load_sensor(sensor).full_scale
-        offsets = OffsetFeed(cal, calibration, parity, kin, payload, configuration, full_scale, auto_tare, tare_threshold_percent)
+    if setup.robot_file is not None:
+        offsets = OffsetFeed(cal, calibration, parity, setup, auto_tare, tare_threshold_percent)
     elif auto_tare:
         raise ConfigError("auto_tare", True, "--robot and --tool: the payload's wrench needs the joints")
-    if listen is not None:
-        live, span, skipped = _listen(parity, listen, listen_any, rate_hz, false_alarms_per_hour, idle_timeout_s, quiet, region, offsets)
-        source = f"udp://{listen[0]}:{listen[1]}"
-        return _report(live, parity, source, calibration, span, skipped, false_alarms_per_hour, json_path, region, offsets)
-    monitor: HealthMonitor | None = None
-    skipped = 0
-    first_time = last_time = None
-    names = (kin.joint_names, payload.names) if offsets is not None else (None, None)
-    with open_recording(paths, *names) as reader:
-        for chunk in reader:
-            check_channels(cal.layout, chunk.channels.shape[1], str(reader.path))
-            finite = np.isfinite(chunk.time) & np.all(np.isfinite(chunk.channels), axis=1)
-            skipped += int((~finite).sum())
-            time, channels = chunk.time[finite], chunk.channels[finite]
-            if offsets is not None and len(time):
-                offsets.add(time, chunk.joints[finite], channels, chunk.configuration[finite])
-            if not len(time):
-                continue
-            if monitor is None:
-                steps = np.diff(time)
-                steps = steps[steps > 0]
-                rate_hz = 1.0 / float(np.median(steps)) if len(steps) else 1000.0
-                monitor = HealthMonitor(parity, rate_hz, false_alarms_per_hour=false_alarms_per_hour)
-                first_time = float(time[0])
-            monitor.update_batch(time, channels)
-            region.add(channels)
-            last_time = float(time[-1])
-    span = 0.0 if first_time is None or last_time is None else last_time - first_time
-    return _report(monitor, parity, describe_files(paths), calibration, span, skipped, false_alarms_per_hour, json_path, region, offsets)
+    watch = HealthWatch(parity, false_alarms_per_hour, region, offsets, source.rate_hz)
+    if live is not None:
+        _listen(live, source, watch, outputs.quiet)
+    else:
+        names = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else (None, None)
+        with open_recording(paths, *names) as reader:
+            watch.description = describe_files(paths)
+            for chunk in reader:
+                check_channels(cal.layout, chunk.channels.shape[1], str(reader.path))
+                finite = np.isfinite(chunk.time) & np.all(np.isfinite(chunk.channels), axis=1)
+                watch.skipped += int((~finite).sum())
+                watch.add(chunk.select(finite))
+    return _report(watch, calibration, json_path)
+
+
+class HealthWatch:
+    """What ``monitor`` watches a feed with: the health monitor, the load region count, the offsets, and what was seen.
+
+    The health monitor's windows need the sample rate: given, or measured from the median step of
+    the first :data:`SIZING_SAMPLES` samples' time stamps (held until they have all arrived).
+
+    Args:
+        parity: The calibration's parity model.
+        false_alarms_per_hour: False-alarm budget of the tests, per hour of service.
+        region: The load region count.
+        offsets: The offsets watched (a payload and its robot), or None.
+        rate_hz: The sample rate [Hz]; None: measured from the time stamps.
+
+    Attributes:
+        monitor: The health monitor, None before the rate is known.
+        rate_found: How the rate was found, in words ('' when given).
+        description: The source in words.
+        skipped: Samples skipped before the monitor (non-finite, unpaired, malformed datagrams).
+    """
+
+    def __init__(
+        self, parity: ParityModel, false_alarms_per_hour: float, region: RegionCount, offsets: OffsetFeed | None, rate_hz: float | None
+    ):
+        self.parity, self.false_alarms_per_hour, self.region, self.offsets = parity, false_alarms_per_hour, region, offsets
+        self.monitor: HealthMonitor | None = (
+            None if rate_hz is None else HealthMonitor(parity, rate_hz, false_alarms_per_hour=false_alarms_per_hour)
+        )
+        self.rate_found = ""
+        self.description = ""
+        self.skipped = 0
+        self.first_time = self.last_time = math.nan
+        self._waiting: list[SampleBatch] = []
+
+    @property
+    def span_s(self) -> float:
+        """Time between the first and the last sample watched [s] (0 before two)."""
+        return 0.0 if math.isnan(self.first_time) else self.last_time - self.first_time
+
+    def add(self, batch: SampleBatch) -> None:
+        """Watch a batch of samples (finite, in time order)."""
+        if not len(batch):
+            return
+        if self.offsets is not None:
+            self.offsets.add(batch.time, batch.joints, batch.channels, batch.configuration)
+        if self.monitor is None:
+            self._waiting.append(batch)
+            if sum(len(b) for b in self._waiting) < SIZING_SAMPLES:
+                return
+            self._start()
+            return
+        self._watch(batch)
+
+    def finish(self) -> None:
+        """End of the feed: a feed shorter than :data:`SIZING_SAMPLES` samples is sized from what arrived."""
+        if self.monitor is None and self._waiting:
+            self._start()
+        if self.offsets is not None:
+            self.offsets.finish()
+
+    def _start(self) -> None:
+        held = SampleBatch.concatenate(self._waiting)
+        self._waiting = []
+        steps = np.diff(held.time)
+        steps = steps[steps > 0]
+        rate_hz = 1.0 / float(np.median(steps)) if len(steps) else DEFAULT_RATE_HZ
+        self.rate_found = f"{rate_hz:.4g} Hz, measured from the time stamps" if len(steps) else f"{rate_hz:g} Hz (no two time stamps apart)"
+        self.monitor = HealthMonitor(self.parity, rate_hz, false_alarms_per_hour=self.false_alarms_per_hour)
+        self._watch(held)
+
+    def _watch(self, batch: SampleBatch) -> None:
+        if self.monitor is None:
+            return
+        self.monitor.update_batch(batch.time, batch.channels)
+        self.region.add(batch.channels)
+        if math.isnan(self.first_time):
+            self.first_time = float(batch.time[0])
+        self.last_time = float(batch.time[-1])
+
+
+#: The sample rate taken when no two time stamps are apart (a feed of one sample) [Hz].
+DEFAULT_RATE_HZ = 1000.0
 
 
 class RegionCount:
@@ -331,32 +370,23 @@ class RegionCount:
         return None if self.region is None else {"outside": self.outside, "samples": self.samples}
 
 
-def _report(
-    monitor: HealthMonitor | None,
-    parity: ParityModel,
-    source: str,
-    calibration: str | Path,
-    span: float,
-    skipped: int,
-    false_alarms_per_hour: float,
-    json_path: str | Path | None,
-    region: RegionCount,
-    offsets: OffsetFeed | None = None,
-) -> int:
+def _report(watch: HealthWatch, calibration: str | Path, json_path: str | Path | None) -> int:
     """Print what the monitor found, write the JSON; the exit status (1 on a fault)."""
-    if offsets is not None:
-        offsets.finish()
+    watch.finish()
+    monitor, parity, region, offsets = watch.monitor, watch.parity, watch.region, watch.offsets
     samples = 0 if monitor is None else monitor.samples
     events = [] if monitor is None else monitor.events
     noise = ", ".join(f"{v:.3g}" for v in np.sqrt(np.diag(parity.covariance)))
     groups = " and ".join("(" + ", ".join(str(k + 1) for k in g) + ")" for g in parity.groups())
-    print(f"monitor of {source}: {samples:,} samples over {span:.1f} s with {calibration}")
+    print(f"monitor of {watch.description}: {samples:,} samples over {watch.span_s:.1f} s with {calibration}")
     print(f"parity: {parity.n_parity} load-free combinations, noise {noise} (raw units); channels that share a parity line: {groups}")
-    if skipped:
-        print(f"skipped: {skipped:,} samples (non-finite, of another number of channels, or back in time)")
+    if watch.skipped:
+        print(f"skipped: {watch.skipped:,} samples (non-finite, of another number of channels, or back in time)")
     if monitor is not None:
         thresholds = f"gain z^2 > {monitor.gain_threshold:.1f}, jump chi^2 > {monitor.jump_threshold:.1f}"
-        print(f"thresholds: {thresholds} ({false_alarms_per_hour:g} false alarms per hour)")
+        print(f"thresholds: {thresholds} ({watch.false_alarms_per_hour:g} false alarms per hour)")
+    if watch.rate_found:
+        print(f"sample rate: {watch.rate_found} (--rate gives it)")
     for event in events:
         print(f"  {event.time_s:10.3f} s  {event.kind:<15} strain_{event.channel}: {event.detail} (reported at {event.detected_s:.3f} s)")
     print(f"health: {'ok, no fault found' if not events else f'{len(events)} fault(s)'}")
@@ -367,7 +397,7 @@ def _report(
         data = {
             "events": [event.as_dict() for event in events],
             "samples": samples,
-            "skipped": skipped,
+            "skipped": watch.skipped,
             "health": "fault" if events else "ok",
             "region": region.as_dict(),
             **({} if offsets is None else {"offset": offsets.as_dict()}),
@@ -378,72 +408,54 @@ def _report(
     return ExitCode.CHECK_FAILED if events else ExitCode.OK
 
 
-def _listen(
-    parity: ParityModel,
-    address: tuple[str, int],
-    listen_any: bool,
-    rate_hz: float,
-    false_alarms_per_hour: float,
-    idle_timeout_s: float | None,
-    quiet: bool,
-    region: RegionCount,
-    offsets: OffsetFeed | None = None,
-) -> tuple[HealthMonitor, float, int]:
-    """Watch the live feed's strain datagrams; returns the monitor, the time span [s] and the samples skipped.
+def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -> None:
+    """Watch the live feed ``name`` (``udp://HOST:PORT``): its strain datagrams, or with the offsets the samples paired with the joints.
 
-    The one live loop reads the feed (:mod:`fts_calib.sources.live_feed`: until an 'end'
-    datagram, Ctrl-C, SIGTERM or ``idle_timeout_s``). Datagrams are decoded by the bounded
-    protocol parser (a malformed one is counted, never fatal); a strain sample of another
-    number of channels, or not after the last one, is skipped (the strains alone, placed on
-    arrival). The status line (standard error, once a second) shows the samples, the health
-    and the largest statistics of the last block. With ``offsets`` (a payload and its robot),
-    the strains are paired with the joint datagrams by the synchronizer first, and the offset
-    state shows too.
+    The one live loop reads the feed (:func:`fts_calib.sources.source.open_source`: until an
+    'end' datagram, Ctrl-C, SIGTERM or the idle timeout). Datagrams are decoded by the bounded
+    protocol parser (a malformed one is counted, never fatal); a strain sample of another number
+    of channels, or not after the last one, is skipped (the strains alone, placed on arrival).
+    The status line (standard error, once a second) shows the samples, the health and the
+    largest statistics of the last block. With the offsets (a payload and its robot), the strains
+    are paired with the joint datagrams by the synchronizer first, and the offset state shows too.
     """
-    host, port = address
-    monitor = HealthMonitor(parity, rate_hz, false_alarms_per_hour=false_alarms_per_hour)
-    n = parity.n_channels
-    if offsets is not None:
-        sync = Synchronizer(offsets.kin.joint_names, offsets.kin.continuous, configurations=offsets.tool.names, n_channels=n)
-    else:
-        sync = Synchronizer([], n_channels=n, hold_s=0.0)  # the strains alone, each placed on arrival
-    with using_udp(host, port):
-        receiver = UdpReceiver(host, port, listen_any)
+    host, port = live_address(name)
+    offsets, n = watch.offsets, watch.parity.n_channels
 
     def listening(bound: tuple[str, int]) -> None:
         print(f"listening on udp://{bound[0]}:{bound[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
 
     def show(counts: FeedStatus) -> None:
-        gain, jump = monitor.last_statistics
-        faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
+        monitor = watch.monitor
+        if monitor is None:
+            state = f"{sum(len(b) for b in watch._waiting):,} samples, measuring the sample rate"
+        else:
+            gain, jump = monitor.last_statistics
+            faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
+            state = f"{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f})"
         offset = "" if offsets is None else f"; {offsets.status()}"
-        print(
-            f"\r{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f}); "
-            f"malformed {counts.malformed:,}{offset}",
-            end="",
-            file=sys.stderr,
-            flush=True,
-        )
+        print(f"\r{state}; malformed {counts.malformed:,}{offset}", end="", file=sys.stderr, flush=True)
 
-    end = StreamEnd(idle_timeout_s=idle_timeout_s)
-    first = last = None
-    with LiveFeed(receiver, sync, end=end, on_status=None if quiet else show, status_interval_s=1.0, on_listening=listening) as feed:
+    joints = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else ([], None)
+    with using_udp(host, port):
+        feed = open_source(
+            name,
+            *joints,
+            continuous=None if offsets is None else offsets.kin.continuous,
+            n_channels=n,
+            hold_s=None if offsets is not None else 0.0,  # the strains alone: each placed on arrival
+            listen_any=source.listen_any,
+            end=StreamEnd(idle_timeout_s=source.idle_timeout_s),
+            on_status=None if quiet else show,
+            status_interval_s=1.0,
+            on_listening=listening,
+        )
+    if not isinstance(feed, LiveFeed):  # open_source opens a live feed for a live name: never
+        raise FtsCalibError(f"internal error: {name} did not open a live feed")
+    with feed:
         for batch in feed:
-            first, last = _paired(batch, monitor, region, offsets, first, last)
+            watch.add(batch)
     if not quiet:
         print(file=sys.stderr)
-    skipped = sum(sync.dropped.values()) + feed.stats.malformed + feed.stats.oversized
-    return monitor, 0.0 if first is None or last is None else last - first, skipped
-
-
-def _paired(
-    batch, monitor: HealthMonitor, region: RegionCount, offsets: OffsetFeed | None, first, last
-) -> tuple[float | None, float | None]:
-    """Feed the synchronizer's paired samples to the monitor, the region count and the offsets; the first and last times so far."""
-    if not len(batch):
-        return first, last
-    monitor.update_batch(batch.time, batch.channels)
-    region.add(batch.channels)
-    if offsets is not None:
-        offsets.add(batch.time, batch.joints, batch.channels, batch.configuration)
-    return (float(batch.time[0]) if first is None else first), float(batch.time[-1])
+    watch.description = f"udp://{host}:{port}"
+    watch.skipped += sum(feed.sync.dropped.values()) + feed.stats.malformed + feed.stats.oversized

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from ..core.tables import table
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..robot.definition import load_robot
 from ..robot.kinematics import Kinematics
+from .setup import Setup
 
 
 def _limit(value: float) -> str:
@@ -167,31 +169,26 @@ def format_model_selection(selection, quality=None) -> list[str]:
 
 
 def run(
+    setup: Setup,
     *,
     calibration: str | Path,
     output: str | Path,
     recording: str | Path | None = None,
     against: str | Path | None = None,
-    robot: str | Path | None = None,
-    tool: str | Path | None = None,
-    pipeline: str | Path = "pipeline",
-    sensor: str | Path = "sensor",
-    target_percent: float | None = None,
+    target_error_percent: float | None = None,
 ) -> int:
     """Write the HTML report of a calibration file, or its comparison with an older one (``fts-calib report``).
 
     Args:
+        setup: For the recording: the robot and the tool (the calibration's provenance, its
+            robot's shipped name and its tool file, when None), the pipeline settings (filter
+            thresholds) and the sensor file (channel limits, full scale).
         calibration: The calibration file (fts-calib YAML).
         output: HTML file to write.
         recording: The recording it was made from: the kept samples are found again with the
             pipeline's filter and their residuals computed through ``calibration``; None for none.
         against: An older calibration of the same sensor: write the comparison instead.
-        robot: Robot definition for the recording; the calibration's provenance (its robot's
-            shipped name) when None.
-        tool: Tool file for the recording; the calibration's provenance (its tool file) when None.
-        pipeline: Pipeline settings (filter thresholds) for the recording.
-        sensor: Sensor configuration for the recording (channel limits, full scale).
-        target_percent: Accuracy target of the budget total, in [%] of full scale; the
+        target_error_percent: Accuracy target of the budget total, in [%] of full scale; the
             default of a sized plan when None.
 
     Returns:
@@ -208,9 +205,9 @@ def run(
 
     inputs = {"the calibration": calibration, "the recording": recording, "--against": against}
     check_outputs({"-o": output}, inputs)
-    target = DEFAULT_TARGET_PERCENT if target_percent is None else float(target_percent)
+    target = DEFAULT_TARGET_PERCENT if target_error_percent is None else float(target_error_percent)
     if not (math.isfinite(target) and target > 0):
-        raise ConfigError("--target", target_percent, "a percentage of full scale above 0 (e.g. 0.05)")
+        raise ConfigError("--target-error", target_error_percent, "a percentage of full scale above 0 (e.g. 0.05)")
     cal = load_calibration(calibration)
     files = {"the calibration": calibration, "the recording": recording}
     if against is not None:
@@ -223,16 +220,15 @@ def run(
         samples, skipped, seen, kept = None, None, None, None
         if recording is not None:
             from ..session.calibration_run import calibrate_recording
-            from .setup import load_sensor, load_setup
 
-            robot = robot or (prov.get("robot") or {}).get("name")
-            tool = tool or tools.get("file")
+            robot = setup.robot_file or (prov.get("robot") or {}).get("name")
+            tool = setup.tool_file or tools.get("file")
             if not robot or not tool:
                 missing = "--robot" if not robot else "--tool"
                 raise ConfigError(missing, None, f"the robot and tool of the recording: {calibration} does not record it in its provenance")
-            files.update({"the robot file": robot, "the tool file": tool, "the pipeline file": pipeline, "the sensor file": sensor})
-            kin, loaded, settings = load_setup(robot, tool, pipeline)
-            spec = load_sensor(sensor)
+            setup = dataclasses.replace(setup, robot_file=robot, tool_file=tool)
+            files.update(setup.inputs())
+            kin, loaded, settings, spec = setup.kinematics, setup.tool, setup.settings, setup.sensor
             collector = KeptCollector()
             again = calibrate_recording(
                 recording, kin, loaded, settings, on_kept=collector, accept_poor_fit=True, layout=spec.layout, limits=spec.limits

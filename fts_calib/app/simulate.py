@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from ..sim.pose_files import simulate_pose_files
 from ..sim.runs import simulate_recording
 from ..sim.sensor import simulated_sensor
 from .exit_codes import ExitCode, writing
-from .setup import load_setup
+from .setup import Setup
 
 
 def trajectory_files(trajectory: str | Path) -> list[Path]:
@@ -50,41 +51,40 @@ def trajectories_for(tool: Tool, trajectory: str | Path) -> list[TrajectoryFile]
     return [found[name] for name in tool.names if name in found]
 
 
-def run(
-    *,
-    robot: str | Path,
-    trajectory: str | Path,
-    output: str | Path,
-    tool: str | Path,
-    sensor: str | Path = "sensor",
-    noise_std: float | None = None,
-    noiseless: bool = False,
-    drift_rate: float | None = None,
-    seed: int = 0,
-    tool_change_s: float = 2.0,
-    dynamic: bool = True,
-    poses_only: bool = False,
-    pose_files: bool = False,
-) -> int:
+@dataclass(frozen=True)
+class Playback:
+    """How the planned trajectories are played into a recording.
+
+    Attributes:
+        seed: Seed of the noise.
+        noiseless: No noise at all.
+        drift_rate: Offset drift of every bridge, in raw units per [s]; the sensor file's when None.
+        tool_change_s: Pause between configurations, in [s].
+        poses_only: Record only the samples where the arm holds still at a stop: a static-pose
+            recording (poses separated by gaps).
+        pose_files: Like ``poses_only``, but one file per pose: the output is then a folder
+            that receives ``pose_01.csv``, ``pose_02.csv``, ... each starting at time 0
+            (:mod:`fts_calib.sim.pose_files`).
+    """
+
+    seed: int = 0
+    noiseless: bool = False
+    drift_rate: float | None = None
+    tool_change_s: float = 2.0
+    poses_only: bool = False
+    pose_files: bool = False
+
+
+def run(setup: Setup, playback: Playback | None = None, *, trajectory: str | Path, output: str | Path) -> int:
     """Write a recording of planned trajectories, in the format a robot produces (``fts-calib simulate``).
 
     Args:
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
+        setup: The robot, the tool, the sensor file with a ``simulation`` section (its noise
+            per channel, or ``noise_std`` in raw units) and ``dynamic`` (the tool's full
+            dynamic wrench; False: its static weight only).
+        playback: The noise's seed, the drift, the pause between configurations, still poses only.
         trajectory: Folder of trajectory CSVs (one per configuration), or one file.
-        output: Recording to write (.csv or .csv.gz).
-        tool: Tool file: a shipped name or a YAML path.
-        sensor: Sensor configuration with a ``simulation`` section.
-        noise_std: Strain noise of every bridge, in raw units; the sensor file's when None.
-        noiseless: No noise at all.
-        drift_rate: Offset drift of every bridge, in raw units per [s]; the sensor file's when None.
-        seed: Seed of the noise.
-        tool_change_s: Pause between configurations, in [s].
-        dynamic: The tool's full dynamic wrench (False: its static weight only).
-        poses_only: Record only the samples where the arm holds still at a stop: a static-pose
-            recording (poses separated by gaps).
-        pose_files: Like ``poses_only``, but one file per pose: ``output`` is then a folder
-            that receives ``pose_01.csv``, ``pose_02.csv``, ... each starting at time 0
-            (:mod:`fts_calib.sim.pose_files`).
+        output: Recording to write (.csv or .csv.gz); a folder with ``playback.pose_files``.
 
     Returns:
         0.
@@ -93,34 +93,45 @@ def run(
         ConfigError: ``output`` is one of the trajectory files (or the robot, tool or sensor file).
         OSError: ``output`` cannot be written (checked before the simulation runs).
     """
+    playback = playback or Playback()
+    pose_files, poses_only, seed = playback.pose_files, playback.poses_only, playback.seed
     inputs = {f"the trajectory file {path.name}": path for path in trajectory_files(trajectory)}
     first = Path(output) / "pose_01.csv" if pose_files else output  # the folder's first file stands for it
-    check_outputs({"-o": first}, {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor})
-    kin, loaded, _ = load_setup(robot, tool)
-    sensor_path = resolve(sensor, "configs")
+    named = {"the robot file": setup.robot_file, "the tool file": setup.tool_file, "the sensor file": setup.sensor_file}
+    check_outputs({"-o": first}, {**inputs, **named})
+    kin, loaded = setup.kinematics, setup.tool
+    sensor_path = resolve(setup.sensor_file, "configs")
     spec = load_sensor_config(sensor_path)
     simulated = simulated_sensor(spec, sensor_path)
-    if noise_std is not None:
-        simulated = dataclasses.replace(simulated, noise_std=np.full(np.shape(simulated.noise_std), noise_std, dtype=float))
-    if drift_rate is not None:
-        simulated = dataclasses.replace(simulated, drift_rate=np.full(np.shape(simulated.drift_rate), drift_rate, dtype=float))
+    if setup.noise_std is not None:
+        simulated = dataclasses.replace(simulated, noise_std=np.full(np.shape(simulated.noise_std), setup.noise_std, dtype=float))
+    if playback.drift_rate is not None:
+        simulated = dataclasses.replace(simulated, drift_rate=np.full(np.shape(simulated.drift_rate), playback.drift_rate, dtype=float))
     trajectories = trajectories_for(loaded, trajectory)
     missing = [name for name in loaded.names if name not in {t.tool for t in trajectories}]
-    rng = None if noiseless else np.random.default_rng(seed)
+    rng = None if playback.noiseless else np.random.default_rng(seed)
     with writing(output):
         if pose_files:
-            files = simulate_pose_files(output, kin, loaded, trajectories, simulated, rng, tool_change_s, dynamic)
+            files = simulate_pose_files(output, kin, loaded, trajectories, simulated, rng, playback.tool_change_s, setup.dynamic)
             path = f"{len(files)} pose files in {output} ({files[0].name} ... {files[-1].name}, each from time 0)"
         else:
             written = simulate_recording(
-                output, kin, loaded, trajectories, simulated, rng, tool_change_s=tool_change_s, dynamic=dynamic, poses_only=poses_only
+                output,
+                kin,
+                loaded,
+                trajectories,
+                simulated,
+                rng,
+                tool_change_s=playback.tool_change_s,
+                dynamic=setup.dynamic,
+                poses_only=poses_only,
             )
             path = str(written)
     rows = sum(len(t.time) for t in trajectories)
     if poses_only or pose_files:
         rows = sum(int(np.sum(np.all(t.qd == 0.0, axis=1) & np.all(t.qdd == 0.0, axis=1))) for t in trajectories)
     noise = "none" if rng is None else f"up to {simulated.noise_std.max():.2g} {spec.strain_unit} per channel (seed {seed})"
-    wrench = "moving (Newton-Euler)" if dynamic else "static"
+    wrench = "moving (Newton-Euler)" if setup.dynamic else "static"
     print(
         f"wrote {path}: {rows:,} rows, configurations {', '.join(t.tool for t in trajectories)}"
         + (f" (no trajectory for {missing})" if missing else "")

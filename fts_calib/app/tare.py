@@ -3,22 +3,21 @@
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..core.exceptions import ConfigError, FtsCalibWarning
 from ..core.files import check_outputs
-from ..core.resources import resolve
 from ..core.tables import table
 from ..model.calibration import load_calibration, save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..robot.kinematics import Kinematics
-from ..robot.tool import Tool, load_tool
+from ..robot.tool import Tool
 from ..service.retare_job import TareResult, tare_live, tare_recording
+from ..sources.source import live_address
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import load_settings, load_setup
+from .setup import Setup, SourceOptions
 
 
 def format_tare(result: TareResult) -> str:
@@ -45,68 +44,67 @@ def format_tare(result: TareResult) -> str:
     return text
 
 
-def run(
-    *,
-    calibration: str | Path,
-    recording: str | Path | None = None,
-    output: str | Path | None = None,
-    listen: tuple[str, int] | None = None,
-    window_s: float = 2.0,
-    robot: str | Path | None = None,
-    tool: str | Path = "paper_tool",
-    configuration: str | None = None,
-    pipeline: str | Path = "pipeline",
-    mount_rpy: Sequence[float] | None = None,
-) -> int:
+def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output: str | Path | None = None) -> int:
     """Estimate the offsets D again, C_bar kept, and write the calibration (``fts-calib tare``).
 
     Args:
+        setup: With ``configuration`` (the tool configuration mounted; None: nothing mounted)
+            the robot (None: a recording or feed that gives the sensor's orientation, with
+            ``mount_rpy``) and the tool (``paper_tool`` when None); the pipeline settings
+            (filter thresholds).
+        source: The recording with the sensor still, or a live feed ``udp://HOST:PORT`` read for
+            ``window_s`` [s] (or to the sender's 'end', Ctrl-C).
         calibration: Calibration file to update.
-        recording: Recording with the sensor still; None to use ``listen``.
         output: Where to write; None updates ``calibration`` in place.
-        listen: (host, port) to re-tare from a live window instead of a recording.
-        window_s: Length of the live window, in [s].
-        robot: Robot definition (a shipped name or a YAML path); with a mounted configuration,
-            None for a recording or feed that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
-        tool: Tool file of the mounted configuration.
-        configuration: The mounted configuration of ``tool``; None for nothing mounted.
-        pipeline: Pipeline settings (filter thresholds).
-        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
-            orientation gives to the sensor; None for none.
 
     Returns:
         0.
 
     Raises:
-        ConfigError: Neither a recording nor ``listen``, ``mount_rpy`` with a robot, or
-            ``output`` one of the inputs (the recording: ``-o`` is the calibration to write).
+        ConfigError: No source, or more than one; ``mount_rpy`` with a robot; or ``output``
+            one of the inputs (the recording: ``-o`` is the calibration to write).
     """
+    given = source.given
+    if len(given) != 1:
+        message = (
+            "give a recording or a live feed udp://HOST:PORT to re-tare from"
+            if not given
+            else f"one source to re-tare from, not {len(given)}"
+        )
+        raise ConfigError("source", [str(name) for name in given], "a recording or a live address", message=message)
+    live = source.live.get("udp")
+    recording = None if live is not None else given[0]
     if output is not None:  # without -o the calibration is updated in place: that is the job
         check_outputs(
-            {"-o": output}, {"the recording": recording, "the robot file": robot, "the tool file": tool, "the pipeline file": pipeline}
+            {"-o": output},
+            {
+                "the recording": recording,
+                "the robot file": setup.robot_file,
+                "the tool file": setup.tool_file,
+                "the pipeline file": setup.pipeline_file,
+            },
         )
     current = load_calibration(calibration)
     kin: Kinematics | None = None
     mounted: Tool | None = None
+    configuration = setup.configuration
     if configuration is not None:  # the load depends on the orientation: the robot's joints, or the recording's orientation
-        kin, mounted, _ = load_setup(robot, tool, pipeline, mount_rpy)
+        kin, mounted = setup.kinematics, setup.tool
         mounted.configuration(configuration)  # a clear error for an unknown name, before any waiting
-    settings = load_settings(pipeline)
+    settings = setup.settings
     if recording is not None:
         result = tare_recording(current, recording, kin, mounted, configuration, settings)
-    elif listen is not None:
-        host, port = listen
+    else:
+        host, port = live_address(str(live))
+        window_s = source.window_s
 
-        def listening(address: tuple[str, int]) -> None:  # the bound port, also when --listen gave port 0
+        def listening(address: tuple[str, int]) -> None:  # the bound port, also when the source gave port 0
             print(f"listening on udp://{address[0]}:{address[1]} for {window_s:g} s: hold the sensor still...", flush=True)
 
         with using_udp(host, port):
             result = tare_live(current, host, port, window_s, kin, mounted, configuration, settings, listening)
-    else:
-        message = "give a recording or --listen HOST:PORT to re-tare from"
-        raise ConfigError("recording", None, "a recording or a live address", message=message)
     if mounted is None:
-        _warn_if_a_tool_seems_mounted(result, load_tool(resolve(tool, "configs")))
+        _warn_if_a_tool_seems_mounted(result, setup.tool)
     target = calibration if output is None else output
     with writing(target):
         written = save_calibration(result.calibration, target)

@@ -4,158 +4,144 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..budget.propagation import DEFAULT_TARGET_PERCENT
-from ..core.exceptions import FileFormatError, FtsCalibError
+from ..core.exceptions import FileFormatError
 from ..core.files import atomic_write_text, dump_yaml
 from ..core.resources import resolve
 from ..core.tables import table
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.determination import Determination
-from ..model.sensor_config import load_sensor_config
 from ..planning.excitation import DriftPrediction
 from ..planning.jig import check_jig, suggest_jig
 from ..planning.sweeps import SweepPattern
 from ..planning.trajectory_files import save_trajectory
 from ..planning.trajectory_run import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
 from ..report import plots
-from ..robot.tool import Tool, ToolShape, load_tool, save_tool
+from ..robot.tool import Tool, save_tool
 from .exit_codes import ExitCode, writing
 from .report import format_budget
-from .setup import load_settings
+from .setup import Setup
 
 
-def run(
-    *,
-    robot: str | Path,
-    out: str | Path,
-    tool: str | Path,
-    pipeline: str | Path = "pipeline",
-    rate_hz: float = 500.0,
-    target_error_percent: float | None = None,
-    levels: int | None = None,
-    stops: int | None = None,
-    dwell_s: float | None = None,
-    span: float | None = None,
-    margin: float = 0.02,
-    min_clearance: float = 0.02,
-    tool_radius: float | None = None,
-    tool_length: float | None = None,
-    sensor: str | Path = "sensor",
-    noise_std: float | None = None,
-    compress: bool = False,
-    plot: bool = True,
-    return_pass: bool = False,
-    motion: str = "stop",
-    configurations: int | None = None,
-    inertia_tolerance: float | None = None,
-    joint_noise: float | None = None,
-    latency_uncertainty_s: float | None = None,
-    model: str = "linear",
-) -> int:
-    """Plan and check the calibration sweeps, write them and print the report (``fts-calib trajectory``).
+@dataclass(frozen=True)
+class Sweeps:
+    """What sweeps to plan: the motion, the raster (fixed, or sized to the target) and its checks.
 
-    Args:
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path.
-        out: Output folder: one CSV per tool configuration, plan.yaml and plan.png.
-        tool: Tool file: a shipped name or a YAML path.
-        pipeline: Pipeline settings (filter thresholds, design noise).
+    Attributes:
+        motion: 'stop' (dwell at each stop: quasi-static samples), 'continuous' (no dwell:
+            every sample calibrates in the ``dynamic`` filter mode, with the budget's dynamic
+            terms) or 'smooth' (continuous: every joint on a sinusoid ramped in and out at
+            home, always sized to the target).
         rate_hz: Sample rate of the trajectory files, in [Hz].
-        target_error_percent: Size the raster: the shortest whose predicted accuracy budget
-            is within this on every axis, in [% of full scale]; the default target
-            (:data:`fts_calib.budget.propagation.DEFAULT_TARGET_PERCENT`) when None. With a fixed
-            raster it is only compared.
         levels: Positions of the first sweep joint (a fixed raster; 4 when only others are given).
         stops: Positions of the second sweep joint per level (fixed raster; default 6).
         dwell_s: Time held still at each stop, in [s] (fixed raster; default 0.5).
         span: Fraction of the second sweep joint's range the stops cover (fixed raster; default 1).
-        margin: Distance kept from the position limits, in [rad].
-        min_clearance: Smallest distance allowed between links, in [m].
-        tool_radius: Radius of the tool's collision envelope, in [m]; the tool file's when None.
-        tool_length: Length of the tool's collision envelope, in [m]; the tool file's when None.
-        sensor: Sensor configuration with a nominal model, for the excitation report.
-        noise_std: Noise per channel for the excitation report, in raw units; when None the
-            sensor file's (its simulation section: the noise of its own channels, e.g. N for
-            a factory wrench), else the pipeline file's ``design.noise_std``.
-        compress: Write .csv.gz files.
-        plot: Write plan.png.
         return_pass: Visit the raster's stops again in reverse order (drift separable from the
             orientation; about twice the time); fixes the raster (no sizing to the target).
-        motion: 'stop' (dwell at each stop: quasi-static samples) or 'continuous' (no dwell:
-            every sample calibrates in the ``dynamic`` filter mode, with the budget's dynamic terms) or
-            'smooth' (continuous: every joint on a sinusoid ramped in and out at home, always sized to the target).
         configurations: Plan for the tool's first this many configurations (continuous only;
             refused, naming what each number reaches, when the target is out of reach); None for all.
-        inertia_tolerance: How well each configuration's inertia is known, a fraction of its
-            largest principal moment per element (continuous); the pipeline's
-            ``filter.inertia_tolerance`` when None.
-        joint_noise: Standard deviation of the joint readings' noise, in [rad] (continuous);
-            the pipeline's ``filter.joint_noise`` when None (``auto``: 1e-5).
-        latency_uncertainty_s: Standard deviation of the stream-latency estimate, in [s]
-            (continuous); the pipeline's ``filter.latency_uncertainty_s`` when None (``auto``: 1e-4).
-        model: The sensor model the plan must determine ('linear', 'quadratic' or 'cubic',
+        margin: Distance kept from the position limits, in [rad].
+        min_clearance: Smallest distance allowed between links, in [m].
+    """
+
+    motion: str = "stop"
+    rate_hz: float = 500.0
+    levels: int | None = None
+    stops: int | None = None
+    dwell_s: float | None = None
+    span: float | None = None
+    return_pass: bool = False
+    configurations: int | None = None
+    margin: float = 0.02
+    min_clearance: float = 0.02
+
+    @property
+    def fixed(self) -> bool:
+        """Whether the raster is fixed (not sized to the target): a raster option given, or the return pass; never a smooth plan."""
+        given = any(v is not None for v in (self.levels, self.stops, self.dwell_s, self.span)) or self.return_pass
+        return given and self.motion != "smooth"
+
+    def pattern(self) -> SweepPattern:
+        """The sweep pattern, the defaults in place of what is not given."""
+        default = SweepPattern()
+        continuous = self.motion in ("continuous", "smooth")
+        return SweepPattern(
+            levels=default.levels if self.levels is None else self.levels,
+            stops=default.stops if self.stops is None else self.stops,
+            dwell=(0.0 if continuous else default.dwell) if self.dwell_s is None else self.dwell_s,
+            margin=self.margin,
+            span=default.span if self.span is None else self.span,
+            return_pass=self.return_pass,
+            continuous=continuous,
+            smooth=self.motion == "smooth",
+        )
+
+
+def run(
+    setup: Setup,
+    sweeps: Sweeps | None = None,
+    *,
+    output: str | Path,
+    target_error_percent: float | None = None,
+    compress: bool = False,
+    plot: bool = True,
+) -> int:
+    """Plan and check the calibration sweeps, write them and print the report (``fts-calib trajectory``).
+
+    Args:
+        setup: The robot, the tool (its envelope: ``tool_radius``, ``tool_length``), the
+            sensor file with a nominal model (for the excitation report; its noise per channel,
+            or ``noise_std``, else the pipeline file's ``design.noise_std``), the pipeline
+            settings (filter thresholds; a continuous motion's ``joint_noise``,
+            ``latency_uncertainty_s`` and ``inertia_tolerance``) and ``model``, the sensor model
+            the plan must determine ('linear' when None, 'quadratic' or 'cubic':
             :mod:`fts_calib.planning.jig`).
+        sweeps: The motion, the raster and the checks (:class:`Sweeps`).
+        output: Output folder: one CSV per tool configuration, plan.yaml and plan.png.
+        target_error_percent: Size the raster: the shortest whose predicted accuracy budget
+            is within this on every axis, in [% of full scale]; the default target
+            (:data:`fts_calib.budget.propagation.DEFAULT_TARGET_PERCENT`) when None. With a fixed
+            raster it is only compared.
+        compress: Write .csv.gz files.
+        plot: Write plan.png.
 
     Returns:
         0 when every check passed, 1 when one failed (the trajectory files are then not written),
-        9 when the tool's configurations cannot determine ``model`` (a jig that would is written
-        to ``out/suggested_tool.yaml``).
+        9 when the tool's configurations cannot determine the model (a jig that would is written
+        to ``output/suggested_tool.yaml``).
     """
-    robot_path, tool_path = resolve(robot, "robots"), resolve(tool, "configs", "tool")
-    loaded = load_tool(tool_path)
-    if tool_radius is not None or tool_length is not None:
-        if loaded.shape is None:  # never: Tool.__post_init__ fills in the default envelope
-            raise FtsCalibError(f"tool '{loaded.name}' has no shape for the collision checks")
-        shape = ToolShape(tool_radius or loaded.shape.radius, tool_length or loaded.shape.length)
-        loaded = dataclasses.replace(loaded, shape=shape)
-    sensor_path = resolve(sensor, "configs", "sensor")
-    spec = load_sensor_config(sensor_path)
+    sweeps = sweeps or Sweeps()
+    out, model = output, setup.model or "linear"
+    robot_path, tool_path = setup.robot_path, setup.tool_path
+    loaded = setup.tool
+    spec = setup.sensor
     if spec.simulated is None:  # before anything is planned: the report needs the nominal model
         message = (
             "missing: the excitation report needs the sensor's nominal model (C or C_bar, D, noise_std); give --sensor "
             "a file with a 'simulation' section (e.g. the shipped 'sensor')"
         )
-        raise FileFormatError(sensor_path, "simulation", message)
+        raise FileFormatError(resolve(setup.sensor_file, "configs", "sensor"), "simulation", message)
     if model != "linear":
         found = check_jig(loaded, model)
         if not found.determined:
             return _suggest(loaded, model, found, spec.full_scale, Path(out))
-    settings = load_settings(pipeline)
-    noise: float | np.ndarray | None = noise_std
+    settings = setup.settings
+    noise: float | np.ndarray | None = setup.noise_std
     if noise is None:  # the sensor's own channels first: the pipeline's design noise is in the paper sensor's mV/V
         noise = spec.simulated.noise_std if spec.simulated is not None else settings.noise_std
     if noise is None:
         noise = 0.0
-    fixed = any(v is not None for v in (levels, stops, dwell_s, span)) or return_pass
+    fixed, pattern = sweeps.fixed, sweeps.pattern()
+    continuous, smooth = pattern.continuous, pattern.smooth
+    configurations, rate_hz, min_clearance = sweeps.configurations, sweeps.rate_hz, sweeps.min_clearance
+    uncertainty = motion_uncertainty(settings.filter, spec.rate_hz) if continuous else None
     default = SweepPattern()
-    continuous = motion in ("continuous", "smooth")
-    smooth = motion == "smooth"
-    fixed = fixed and not smooth  # a smooth plan is always sized
-    pattern = SweepPattern(
-        levels=default.levels if levels is None else levels,
-        stops=default.stops if stops is None else stops,
-        dwell=(0.0 if continuous else default.dwell) if dwell_s is None else dwell_s,
-        margin=margin,
-        span=default.span if span is None else span,
-        return_pass=return_pass,
-        continuous=continuous,
-        smooth=smooth,
-    )
-    uncertainty = (
-        motion_uncertainty(
-            settings.filter,
-            spec.rate_hz,
-            inertia=inertia_tolerance,
-            joint_noise=joint_noise,
-            latency_s=latency_uncertainty_s,
-            jitter_s=latency_uncertainty_s,
-        )
-        if continuous
-        else None
-    )
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     count = len(loaded.configurations) if configurations is None else configurations
     kind = "smooth continuous " if smooth else "continuous " if continuous else ""

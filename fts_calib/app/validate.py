@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import sys
 from collections.abc import Sequence
@@ -16,11 +15,10 @@ from ..core.tables import table
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..service.ati import read_calibration
 from ..service.validation import AxisErrors, RegionErrors, validate_recording
-from ..sources.bag import BagTopics
 from ..sources.recording_set import describe_files
-from ..sources.source import MIN_COVERAGE, recording_paths
+from ..sources.source import MIN_COVERAGE
 from .exit_codes import ExitCode, writing
-from .setup import load_sensor, load_setup
+from .setup import OutputOptions, Setup, SourceOptions
 
 
 def _cells(errors: AxisErrors, i: int, unit: str) -> tuple[str, str, str, str]:
@@ -74,62 +72,37 @@ def format_region(label: str, split: RegionErrors | None) -> str:
 
 
 def run(
+    setup: Setup,
+    source: SourceOptions,
+    outputs: OutputOptions | None = None,
     *,
-    recording: str | Path | Sequence[str | Path],
     calibrations: Sequence[str | Path],
     reference: str | Path | None = None,
-    robot: str | Path | None = None,
-    tool: str | Path = "paper_tool",
-    sensor: str | Path = "sensor",
-    full_scale_force: float | None = None,
-    full_scale_moment: float | None = None,
-    dynamic: bool = True,
-    plot_path: str | Path | None = None,
     max_error_percent: float | None = None,
     min_coverage: float = MIN_COVERAGE,
-    joints_topic: str = BagTopics.joints,
-    channels_topic: str = BagTopics.channels,
-    configuration_topic: str = BagTopics.configuration,
-    joint_stamps: str = BagTopics.joint_stamps,
-    pose_topic: str = BagTopics.pose,
-    json_path: str | Path | None = None,
-    report: str | Path | None = None,
-    mount_rpy: Sequence[float] | None = None,
 ) -> int:
     """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
 
     Args:
-        recording: Recording (CSV or CSV.gz) made with ``tool``, or ROS 2 bags (each
-            optionally ``BAG:CONFIGURATION``).
-        calibrations: One calibration file, or two to compare them with each other too
-            (fts-calib YAML or ATI ``.cal``, e.g. the factory calibration as a reference).
-        reference: A calibration appended to ``calibrations`` (e.g. the factory ATI file).
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
-            recording that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
-        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
-            orientation gives to the sensor; None for none.
-        tool: Tool file of the tool mounted during the recording.
-        sensor: Sensor configuration or ATI ``.cal``: its full scale.
-        full_scale_force: Full scale of the forces, in [N]; the sensor file's when None.
-        full_scale_moment: Full scale of the moments, in [N m]; the sensor file's when None.
-        dynamic: The moving tool's wrench, Newton-Euler (False: its weight alone).
-        plot_path: PNG of Fx and its error to write (the paper's Figs 9-10), or None.
-        max_error_percent: Largest error allowed, in [%] of full scale; None for no check.
-        min_coverage: Smallest share of the recording's channel samples that must be compared,
-            in [0, 1]: a validation of a sliver of the recording fails.
-        joints_topic: A bag's sensor_msgs/msg/JointState topic.
-        channels_topic: A bag's std_msgs/msg/Float64MultiArray or geometry_msgs/msg/WrenchStamped topic.
-        configuration_topic: A bag's std_msgs/msg/String topic of the tool configuration.
-        joint_stamps: A bag's joint times: 'header' (their header stamps) or 'log' (the bag's log time).
-        pose_topic: Without ``robot``: a bag's geometry_msgs/msg/PoseStamped topic of the sensor's orientation.
-        json_path: Where to write the errors of the first calibration for scripts,
+        setup: The robot (None: a recording that gives the sensor's orientation), the tool
+            mounted during the recording (``paper_tool`` when None), the sensor file or ATI
+            ``.cal`` (its full scale, or ``full_scale_force`` and ``full_scale_moment``) and
+            ``dynamic`` (the moving tool's wrench, Newton-Euler; False: its weight alone).
+        source: The recording (CSV or CSV.gz) made with the tool, or ROS 2 bags (each
+            optionally ``BAG:CONFIGURATION``), with a bag's topics.
+        outputs: ``json_path``: the errors of the first calibration for scripts,
             ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}`` (N, N·m), and, when
             the calibration records its load region, ``"region": {"inside": {"samples": n,
             "axes": {...} or null}, "outside": {...}}`` (no such key without one), atomically;
-            None for none. Not written when no sample was compared.
-        report: HTML report of the first calibration with this validation as its held-out
-            error and residuals (:mod:`fts_calib.report.html`); None for none. Not
-            written when no sample was compared.
+            ``plot_path``: a PNG of Fx and its error (the paper's Figs 9-10); ``report``: an
+            HTML report of the first calibration with this validation as its held-out error
+            (:mod:`fts_calib.report.html`). None of them is written when no sample was compared.
+        calibrations: One calibration file, or two to compare them with each other too
+            (fts-calib YAML or ATI ``.cal``, e.g. the factory calibration as a reference).
+        reference: A calibration appended to ``calibrations`` (e.g. the factory ATI file).
+        max_error_percent: Largest error allowed, in [%] of full scale; None for no check.
+        min_coverage: Smallest share of the recording's channel samples that must be compared,
+            in [0, 1]: a validation of a sliver of the recording fails.
 
     Returns:
         0, or 1 when an error exceeds ``max_error_percent`` or when fewer than
@@ -139,29 +112,24 @@ def run(
     Raises:
         ConfigError: ``min_coverage`` outside [0, 1].
     """
+    outputs = outputs or OutputOptions()
+    json_path, plot_path, report = outputs.json_path, outputs.plot_path, outputs.report
     if not 0.0 <= min_coverage <= 1.0:  # NaN too
         raise ConfigError("min_coverage", min_coverage, "a share in [0, 1] (e.g. 0.5)")
     calibrations = [*calibrations, *([reference] if reference is not None else [])]
     inputs = {f"calibration {k + 1}": p for k, p in enumerate(calibrations)}
-    inputs.update({f"recording {k + 1}": p for k, p in enumerate(recording_paths(recording))})
-    check_outputs(
-        {"--json": json_path, "--plot": plot_path, "--report": report},
-        {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor},
-    )
-    kin, loaded, _ = load_setup(robot, tool, mount_rpy=mount_rpy)
+    paths = source.paths()
+    inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths)})
+    files = {**inputs, "the robot file": setup.robot_file, "the tool file": setup.tool_file, "the sensor file": setup.sensor_file}
+    check_outputs({"--json": json_path, "--plot": plot_path, "--report": report}, files)
+    kin, loaded = setup.kinematics, setup.tool
     loaded_calibrations = [read_calibration(p) for p in calibrations]
-    spec = load_sensor(sensor)
-    full_scale = spec.full_scale.copy()
-    if full_scale_force is not None:
-        full_scale[:3] = full_scale_force
-    if full_scale_moment is not None:
-        full_scale[3:] = full_scale_moment
-    full_scale = dataclasses.replace(spec, full_scale=full_scale).full_scale  # the sensor spec refuses <= 0, NaN
-    topics = BagTopics(joints_topic, channels_topic, configuration_topic, joint_stamps, pose_topic)
+    spec = setup.sensor  # its full scale, or the one given (the sensor spec refuses <= 0, NaN)
+    full_scale = spec.full_scale
     result = validate_recording(
-        recording_paths(recording), kin, loaded, loaded_calibrations, full_scale, dynamic=dynamic, topics=topics, limits=spec.limits
+        paths, kin, loaded, loaded_calibrations, full_scale, dynamic=setup.dynamic, topics=source.topics, limits=spec.limits
     )
-    recording = describe_files(recording_paths(recording))
+    recording = describe_files(paths)
     print(
         f"validation of {len(calibrations)} calibration(s) over {result.samples:,} of {result.rows_read:,} samples "
         f"({100 * result.coverage:.3g} %) of {recording} with "
@@ -218,7 +186,6 @@ def run(
         from ..report.content import validation_content
         from ..report.html import render_report, write_report
 
-        files = {**inputs, "the robot file": robot, "the tool file": tool, "the sensor file": sensor}
         content = validation_content(result, loaded_calibrations[0], Path(calibrations[0]).name, loaded, files)
         with writing(report):
             print(f"wrote {write_report(report, render_report(content))}")

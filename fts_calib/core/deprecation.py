@@ -9,10 +9,17 @@ One for every moved module: the stage layout of this release moved modules (``ft
 is ``fts_calib.session.session``); :data:`MOVED_MODULES` maps each old path to the new one, and
 :func:`install_moved_modules` lets ``import`` of an old path warn and give the module it moved to
 (the same object: what it holds is what the new path holds).
+
+One for every old spelling on the command line (``--out`` for ``-o/--output``, ``--no-filter`` for
+``--filter none``, ``--listen HOST:PORT`` for the source ``udp://HOST:PORT``): an :class:`OldFlag`
+declares it beside the option it stands for, :class:`OldSpelling` is the argparse action that
+reads it, and :func:`apply_old_spellings` stores what it stands for once the line is read and
+warns with :func:`warn_old_spelling`, which an old command's warning uses too.
 """
 
 from __future__ import annotations
 
+import argparse
 import functools
 import importlib
 import importlib.abc
@@ -21,6 +28,7 @@ import sys
 import types
 import warnings
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -233,3 +241,146 @@ def install_moved_modules() -> None:
     """Let the old module paths import (once per process; :mod:`fts_calib` calls it)."""
     if not any(isinstance(finder, _MovedModules) for finder in sys.meta_path):
         sys.meta_path.append(_MovedModules())
+
+
+# --- old spellings on the command line ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class OldFlag:
+    """An old spelling of a command-line option, kept for one release.
+
+    Attributes:
+        flag: The old flag, e.g. ``--out``.
+        says: The new spelling in words, with ``{value}`` for the value it stands for (e.g.
+            ``-o/--output {value}``).
+        value: What a flag without a value stands for (``--no-filter``: ``none``); None: the
+            flag takes the value the new option takes (``to`` turns it into the new one's).
+        to: The new value of the value given (``--listen HOST:PORT``: ``udp://HOST:PORT``).
+        type: The type of the value given (as argparse's).
+        nargs: Argparse's nargs of the value given ('?': optional, then ``const``).
+        const: The value of a bare flag with nargs '?'.
+        metavar: Its metavar (never shown: an old spelling has no help).
+        of_command: It belongs to an old command, whose one warning names it and the new
+            spelling of the whole line (:func:`warn_old_spelling`); no warning of its own.
+        example: A value it may be given, for :meth:`described` (e.g. ``("HOST", "PORT")``).
+    """
+
+    flag: str
+    says: str
+    value: Any = None
+    to: Callable[[Any], Any] | None = None
+    type: Callable[[str], Any] | None = None
+    nargs: Any = None
+    const: Any = None
+    metavar: str | None = None
+    of_command: bool = False
+    example: Any = None
+
+    def described(self) -> str:
+        """The new spelling in words, for a reference page: ``{value}`` left out, or shown with :attr:`example`."""
+        if "{value}" not in self.says:
+            return self.says
+        if self.to is None or self.example is None:
+            return self.says.replace(" {value}", "").replace("{value}", "")
+        return self.says.format(value=self.to(self.example))
+
+    @property
+    def renames(self) -> bool:
+        """Whether it is the new option under another name (the same value, no conversion)."""
+        return self.value is None and self.to is None and self.nargs is None
+
+
+def warn_old_spelling(old: str, new: str, goes: str = "") -> None:
+    """Warn that ``old`` (an option or a command as given) is now ``new``, and that ``goes`` (its first word) goes in the next release."""
+    warnings.warn(f"{old} is now {new}; {goes or old.split()[0]} goes in fts-calib {REMOVED_IN}", DeprecationWarning, stacklevel=2)
+
+
+class OldSpelling(argparse.Action):
+    """The one argparse action of every old spelling: it stores what the new spelling stores, and the warning names it.
+
+    An old flag that renames an option (:attr:`OldFlag.renames`: ``--out`` for ``--output``) is
+    routed to the new option's action itself, made with this class (one action: a required
+    option given by its old flag is given; the old flag stays out of the help). An old flag that
+    stands for a value (``--no-filter``: ``--filter none``) is an action of its own, with its
+    ``target`` the new option's destination. Either way what it stands for is stored, and the
+    warning said, once the command line is read (:func:`apply_old_spellings`): a source given the
+    old way (``--listen HOST:PORT``) then joins the SOURCE arguments, whatever their order.
+
+    Args:
+        old: The old flags this action reads.
+        target: The destination the old flags store into (default: ``dest``).
+    """
+
+    def __init__(self, option_strings, dest, old: Sequence[OldFlag] = (), target: str | None = None, **kwargs):
+        self.old = {spelling.flag: spelling for spelling in old}
+        self.target = target or dest
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        """Store a new spelling's value now; note an old spelling's, stored and warned by :func:`apply_old_spellings`."""
+        spelling = self.old.get(option_string or "")
+        if spelling is None:  # the new spelling of a renamed option
+            setattr(namespace, self.dest, values)
+            return
+        value = spelling.value if spelling.value is not None and values in (None, [], ()) else values
+        value = spelling.to(value) if spelling.to is not None else value
+        shown = " ".join([option_string or spelling.flag, *_words(values)])
+        said = "" if spelling.of_command else spelling.says.format(value=value)
+        namespace.__dict__.setdefault("_old_spellings", []).append((self.target, value, shown, said))
+
+
+def add_old_flag(parser, spelling: OldFlag, target: str) -> argparse.Action:
+    """Add an old flag that stands for a value to ``parser`` (or an argument group), storing into ``target``; hidden from the help."""
+    extra: dict[str, Any] = {"nargs": 0 if spelling.value is not None and spelling.nargs is None else spelling.nargs}
+    for key in ("type", "const", "metavar"):
+        if getattr(spelling, key) is not None:
+            extra[key] = getattr(spelling, key)
+    return parser.add_argument(
+        spelling.flag,
+        dest=f"old_{spelling.flag.strip('-').replace('-', '_')}",
+        action=OldSpelling,
+        old=(spelling,),
+        target=target,
+        default=argparse.SUPPRESS,
+        help=argparse.SUPPRESS,
+        **extra,
+    )
+
+
+def _words(values) -> list[str]:
+    """The value of an option as given, in words (HOST:PORT for an address)."""
+    if values is None or isinstance(values, bool):
+        return []
+    if isinstance(values, tuple) and len(values) == 2 and isinstance(values[1], int):  # HOST:PORT
+        return [f"{values[0]}:{values[1]}"]
+    return [str(v) for v in values] if isinstance(values, list) else [str(values)]
+
+
+#: The destination of the SOURCE arguments: a value an old spelling gives it joins them.
+SOURCES_DEST = "names"
+
+
+def apply_old_spellings(namespace: argparse.Namespace) -> list[str]:
+    """Store what the old spellings given stand for and warn for each; return those an old command's warning names (as given).
+
+    A source (``udp://...``, ``ur://...`` for :data:`SOURCES_DEST`) joins the SOURCE arguments,
+    in place of one of its scheme.
+    """
+    unsaid = []
+    for dest, value, shown, said in namespace.__dict__.pop("_old_spellings", []):
+        if dest == SOURCES_DEST:
+            value = with_source(getattr(namespace, dest, None), value)
+        setattr(namespace, dest, value)
+        if said:
+            warn_old_spelling(shown, said)
+        else:
+            unsaid.append(shown)
+    return unsaid
+
+
+def with_source(names: str | Sequence[str] | None, source: str) -> list[str]:
+    """The SOURCE arguments with ``source`` (``udp://...``, ``ur://...``) in place of one of its scheme, or added."""
+    current = [] if names is None else [names] if isinstance(names, str) else list(names)
+    scheme = source.split("://", 1)[0] + "://"
+    return [*(name for name in current if not str(name).startswith(scheme)), source]

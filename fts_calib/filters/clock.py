@@ -16,6 +16,10 @@ session sees them, and refuses, naming the likely cause, when
   rad/s): joint columns in degrees (57x; named when a reading is beyond a turn), or a
   time column that advances too slowly.
 
+Joint columns in degrees are what the same rule finds when the joint unit is not given
+(``joints_in_degrees=None``, ``--joint-unit auto``: :func:`degrees_found`): the chunks are then
+converted to rad, and the words say why; a unit given is taken as given.
+
 Only valid rows count (finite, in time order); a few glitches do not trigger the speed
 rule, which needs :data:`SPEED_SHARE` of the intervals to be too fast.
 :func:`clock_checked` holds the first chunks of a stream until the check has passed on
@@ -24,8 +28,10 @@ them, so that the file is read once.
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -69,13 +75,26 @@ class ClockCheck:
 
 
 def clock_checked(
-    path: str | Path, chunks: Iterable[SampleBatch], kin: Kinematics, filter_settings: FilterConfig | None, joints_in_degrees: bool = False
+    path: str | Path,
+    chunks: Iterable[SampleBatch],
+    kin: Kinematics,
+    filter_settings: FilterConfig | None,
+    joints_in_degrees: bool | None = False,
+    on_degrees: Callable[[str], None] | None = None,
 ) -> Iterator[SampleBatch]:
-    """The chunks of a recording, unchanged, once :func:`check_clock` has passed on their first rows.
+    """The chunks of a recording, their joints in rad, once :func:`check_clock` has passed on their first rows.
 
     The first chunks are held until they hold :data:`CHECK_ROWS` rows (the first chunk of a
-    file does) or the stream ends; nothing reaches the caller before the check. Arguments
-    as :func:`check_clock`, with ``chunks`` the batches of the recording, joints in [rad].
+    file does) or the stream ends; nothing reaches the caller before the check.
+
+    Args:
+        path: The recording, for the messages.
+        chunks: Its batches, joints as read.
+        kin: Kinematics of the robot.
+        filter_settings: The filter's settings (its windows), or None without the filter.
+        joints_in_degrees: The joint columns are in degrees (True: converted to rad) or in
+            rad (False); None: decided on the first rows (:func:`degrees_found`).
+        on_degrees: Called with the words of :func:`degrees_found` when None found degrees.
 
     Raises:
         RecordingError: From :func:`check_clock`, before the first chunk is yielded.
@@ -86,11 +105,56 @@ def clock_checked(
         held.append(chunk)
         if sum(len(c) for c in held) >= CHECK_ROWS:
             break
+    degrees = bool(joints_in_degrees)
     if held:
         first = SampleBatch.concatenate(held)
-        check_clock(path, first.time, first.joints, kin, filter_settings, joints_in_degrees)
-    yield from held
-    yield from stream
+        if joints_in_degrees is None:
+            found = degrees_found(first.time, first.joints, kin)
+            degrees = bool(found)
+            if found and on_degrees is not None:
+                on_degrees(found)
+        joints = np.radians(first.joints) if degrees else first.joints
+        check_clock(path, first.time, joints, kin, filter_settings, degrees)
+    for chunk in itertools.chain(held, stream):
+        yield dataclasses.replace(chunk, joints=np.radians(chunk.joints)) if degrees else chunk
+
+
+def degrees_found(time: np.ndarray, joints: np.ndarray, kin: Kinematics) -> str:
+    """Why the joint columns of a recording's first rows are in degrees, in words; '' when they read as rad.
+
+    The rule of :func:`check_clock`'s refusal: the speeds the stamps imply are beyond
+    :data:`FAR_BEYOND` times a joint's velocity limit, and that joint reads beyond a turn.
+
+    Args:
+        time: Times of the first rows [s], shape (N,).
+        joints: Their joint readings as read, shape (N, n_joints).
+        kin: Kinematics of the robot (velocity limits, continuous joints).
+    """
+    time, joints = _valid(time, joints)
+    if len(time) < MIN_ROWS:
+        return ""
+    ratio, joint = _speed_ratio(time, joints.copy(), kin)
+    largest = float(np.max(np.abs(joints[:, joint]))) if len(joints) else 0.0
+    if ratio <= FAR_BEYOND or largest <= 2 * math.pi:
+        return ""
+    name, limit = kin.joint_names[joint], float(kin.limits.velocity[joint])
+    speed = ratio * limit
+    return (
+        f"|{name}| up to {largest:.4g}, beyond a turn in rad, moving at {speed:.3g} rad/s read as rad ({ratio:.0f}x its velocity "
+        f"limit of {limit:.3g} rad/s), {math.radians(speed):.3g} rad/s read as degrees"
+    )
+
+
+def _valid(time: np.ndarray, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows the clock check judges: finite, and not earlier than one before them (the checks' business)."""
+    time = np.asarray(time, dtype=float)
+    joints = np.array(joints, dtype=float)
+    ok = np.isfinite(time) & np.all(np.isfinite(joints), axis=1)
+    time, joints = time[ok], joints[ok]
+    if len(time):
+        forward = time >= np.maximum.accumulate(time)
+        time, joints = time[forward], joints[forward]
+    return time, joints
 
 
 def check_clock(
@@ -116,13 +180,7 @@ def check_clock(
         RecordingError: The clock cannot be the recording's (column 'time', or the joint
             column that looks like degrees); the message names the likely cause.
     """
-    time = np.asarray(time, dtype=float)
-    joints = np.array(joints, dtype=float)
-    ok = np.isfinite(time) & np.all(np.isfinite(joints), axis=1)
-    time, joints = time[ok], joints[ok]
-    if len(time):
-        forward = time >= np.maximum.accumulate(time)  # rows earlier than one before them are the checks' business
-        time, joints = time[forward], joints[forward]
+    time, joints = _valid(time, joints)
     n = len(time)
     if n < MIN_ROWS:
         return ClockCheck(n, 0.0, 0.0)
@@ -196,7 +254,7 @@ def _too_fast(path: str | Path, ratio: float, joint: int, kin: Kinematics, joint
     if not joints_in_degrees and largest > 2 * math.pi:
         message = (
             f"{implied}: the joint columns look like degrees (|{name}| up to {largest:.4g}; in rad the speeds would be "
-            f"{math.radians(ratio * limit):.3g} rad/s); write the joints in rad, or pass --joints-in-degrees"
+            f"{math.radians(ratio * limit):.3g} rad/s); write the joints in rad, or give --joint-unit deg (or auto, the default)"
         )
         return RecordingError(path, None, name, message)
     message = (

@@ -8,7 +8,10 @@ stationary over ``strain_window_s`` [s] (standard deviation of every bridge at m
 measured on still samples), and when the dynamic part of the tool's wrench is at most
 ``max_dynamic_fraction`` of its weight (force) and of weight times lever (moment).
 
-``filter.mode``: ``quasi-static`` (default: the rules above) or ``dynamic``
+``filter.mode``: ``auto`` (default: the rules above, ``quasi-static``; a recording that moves
+without stops, too few of whose samples are still for them, is read again with ``dynamic``:
+:func:`fts_calib.session.calibration_run.calibrate_recording`; a live feed, read once, stays
+quasi-static), ``quasi-static`` or ``dynamic``
 (:mod:`fts_calib.filters.dynamic`): every sample whose expected wrench is trusted enters the
 estimator with the tool's Newton-Euler wrench, joint rates from a centred local polynomial of degree
 ``dynamic_order`` (3 or 5) over ``dynamic_window_s`` [s] evaluated ``latency_s`` [s] later (how late the joint readings are in
@@ -63,9 +66,13 @@ from ..model.offset_models import AUTO, OffsetBasis, offset_setting
 #: delivering mV/V, N or 24-bit ADC counts (2^23 = 8.4e6), far below a corrupt cell (1e160).
 DEFAULT_MAX_ABS_CHANNEL = 1e9
 
-#: The sample filter's modes (``filter.mode``): still samples only, or every trusted moving one.
-QUASI_STATIC, DYNAMIC = "quasi-static", "dynamic"
-FILTER_MODES = (QUASI_STATIC, DYNAMIC)
+#: The sample filter's modes (``filter.mode``): still samples only, every trusted moving one, or
+#: auto: still samples, moving ones for a recording without stops (see the module docstring).
+AUTO_FILTER, QUASI_STATIC, DYNAMIC = "auto", "quasi-static", "dynamic"
+FILTER_MODES = (AUTO_FILTER, QUASI_STATIC, DYNAMIC)
+#: What ``--filter`` takes: a mode, or ``none`` (every valid sample kept, no filter).
+NO_FILTER = "none"
+FILTER_CHOICES = (*FILTER_MODES, NO_FILTER)
 #: Filter keys that take ``auto`` (None).
 _AUTO_KEYS = ("max_strain_std", "latency_s", "joint_noise", "latency_uncertainty_s")
 
@@ -84,7 +91,7 @@ class FilterConfig:
     max_strain_std: float | None = None  # [raw units]; None = auto
     strain_std_factor: float = 4.0
     max_dynamic_fraction: float = 1e-3
-    mode: str = QUASI_STATIC
+    mode: str = AUTO_FILTER
     latency_s: float | None = None  # [s]; None = auto
     joint_noise: float | None = None  # [rad]; None = auto (measured)
     latency_uncertainty_s: float | None = None  # [s]; None = auto (the robot file's accuracy)

@@ -11,6 +11,11 @@ sensor file). A rail the sensor file does not declare is detected on the way
 (:class:`fts_calib.model.channel_limits.RailWatch`), after its samples went in: the
 recording is then calibrated again, with the rail, and the result says what was detected.
 
+With ``filter.mode: auto`` (the shipped default) the recording is read with the quasi-static filter;
+when it moves without stops (:func:`fts_calib.session.diagnosis.moving_words`) and its still samples
+are too few for full rank, it is read again with the dynamic filter. ``CalibrateResult.decided``
+says which, and why.
+
 With ``filter.mode: dynamic`` and ``filter.latency_s: auto`` the first read applies no latency
 and leaves the latency out of the trust rule, while the latency is fitted with the
 calibration (:mod:`fts_calib.filters.latency`); the recording is then read again with
@@ -34,6 +39,7 @@ unless told otherwise.
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -49,7 +55,7 @@ from ..core.resources import locate
 from ..filters.clock import clock_checked
 from ..filters.dynamic import nominal_c, settings_for_first_read, settings_with_latency
 from ..filters.latency import LatencyEstimate
-from ..filters.settings import PipelineConfig, load_pipeline_config
+from ..filters.settings import AUTO_FILTER, DYNAMIC, QUASI_STATIC, PipelineConfig, load_pipeline_config
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout
@@ -67,7 +73,7 @@ from ..sources.synchronizer import Synchronizer
 from ..sources.udp import LiveStats
 from .checkpoint import check_start, recording_source
 from .plan_progress import PlanProgress
-from .session import CalibrationSession
+from .session import CalibrationSession, without_stops
 
 
 class ProgressSink(Protocol):
@@ -98,6 +104,8 @@ class CalibrateResult:
         detected: What the run detected of the channels' limits that the sensor file does
             not declare (e.g. 'high rail of strain_7 at 1023'): the recording was calibrated
             again with them.
+        decided: What the defaults that adapt to the data decided, and why, one line each
+            (``filter.mode: auto``, the joint unit).
     """
 
     calibration: Calibration | None
@@ -109,6 +117,7 @@ class CalibrateResult:
     budget: AccuracyBudget | None = None
     latency: LatencyEstimate | None = None
     detected: tuple[str, ...] = ()
+    decided: tuple[str, ...] = ()
 
 
 def calibrate_recording(
@@ -119,7 +128,7 @@ def calibrate_recording(
     use_filter: bool = True,
     checkpoint: str | Path | None = None,
     resume: bool = False,
-    joints_in_degrees: bool = False,
+    joints_in_degrees: bool | None = None,
     progress: ProgressSink | None = None,
     restart: bool = False,
     on_kept=None,
@@ -144,7 +153,9 @@ def calibrate_recording(
         checkpoint: Checkpoint file, or None.
         resume: Continue from ``checkpoint``; it must be of this recording (the same first
             MiB, at least as long).
-        joints_in_degrees: The joint columns are in degrees (converted to rad).
+        joints_in_degrees: The joint columns are in degrees (True: converted to rad) or rad (False);
+            None: decided from the first rows (:func:`fts_calib.filters.clock.degrees_found`;
+            the result's ``decided`` says when they were found in degrees).
         progress: A progress bar over the file's bytes, or None (its ``total`` is set here).
         accept_poor_fit: Keep a calibration whose fit check is poor (its quality records the
             verdict) instead of refusing it.
@@ -178,10 +189,23 @@ def calibrate_recording(
     settings = settings or PipelineConfig()
     settings = settings if limits is None else settings.with_limits(limits)
     pending: list[tuple] = []  # the kept samples of a run that may be done again, for on_kept
+    collect = None if on_kept is None else lambda *kept: pending.append(kept)
     models = {"model": model, "full_channels": full_channels, "full_scale": full_scale}
     run = _Run(paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models)
+    auto = use_filter and settings.filter.mode == AUTO_FILTER
+    if auto:  # the still samples first (a resumed run: the checkpoint's filter)
+        settings = settings.with_filter_mode(_checkpoint_mode(checkpoint) if resume else QUASI_STATIC)
     first = settings_for_first_read(settings, resume)  # latency_s auto: the latency is fitted on the way
-    session, problems, rows, lost = run.read(resume, first, on_kept=None if on_kept is None else lambda *a: pending.append(a))
+    session, problems, rows, lost = run.read(resume, first, on_kept=collect)
+    decided = [] if not auto else [f"filter: {settings.filter.mode} (--filter auto: the checkpoint's)"] if resume else []
+    if auto and not resume:
+        moving, p = without_stops(session), session.progress()
+        if moving and p.rank < p.full_rank:  # no stops, too few still samples: the moving ones calibrate
+            settings = settings.with_filter_mode(DYNAMIC)
+            first = settings_for_first_read(settings, resume)
+            pending.clear()
+            session, problems, rows, lost = run.read(False, first, on_kept=collect)
+        decided.append(_filter_decided(settings.filter.mode, moving, p.rank, p.full_rank))
     found = None if resume or session.filter is None else session.checks.detected_limits(session.filter.grid.resolution)
     again = settings_with_latency(settings, session.filter) if first is not settings else None
     if found is not None or again is not None:  # a rail nobody declared, or the latency: calibrate again with them
@@ -194,13 +218,37 @@ def calibrate_recording(
         progress.close()
     # what is really missing comes first: a configuration all of whose rows were unreadable
     hint = "; ".join(lost)
-    session.joints_in_degrees = joints_in_degrees  # the diagnosis of a poor fit tries the joints in rad
+    session.joints_in_degrees = run.degrees  # the diagnosis of a poor fit tries the joints in the other unit
+    if run.degrees_found:
+        decided.insert(0, f"joints: degrees (--joint-unit auto: {run.degrees_found}): converted to rad; --joint-unit rad forces rad")
     try:
         calibration, error = session.solve(accept_poor_fit=accept_poor_fit, hint=hint, prior=prior), None
     except (InsufficientExcitation, PoorFit) as exc:
         calibration, error = None, exc
     seconds, detected = time.perf_counter() - start, (() if found is None else found.detected)
-    return CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency, detected=detected)
+    result = CalibrateResult(calibration, session, problems, rows, seconds, error, session.budget, session.latency, detected=detected)
+    return dataclasses.replace(result, decided=tuple(decided))
+
+
+def _filter_decided(mode: str, moving: str, rank: int, full_rank: int) -> str:
+    """What ``filter.mode: auto`` decided for a recording, and why, in one line."""
+    if mode == DYNAMIC:
+        return (
+            f"filter: dynamic (--filter auto: {moving}: too few still samples for the quasi-static filter, rank {rank} of "
+            f"{full_rank}; the recording was read again with the dynamic filter; --filter quasi-static forces the still samples)"
+        )
+    why = f"{moving}, but its still samples determine C" if moving else "the arm holds still at its stops"
+    return f"filter: quasi-static (--filter auto: {why}; --filter dynamic calibrates the moving samples too)"
+
+
+def _checkpoint_mode(checkpoint: str | Path | None) -> str:
+    """The filter a checkpoint was written with: dynamic when its filter state holds the latency sums, else quasi-static."""
+    try:
+        state = json.loads(Path(checkpoint).read_text(encoding="utf-8")) if checkpoint is not None else {}
+    except (OSError, ValueError):  # resuming reads it again, and says what is wrong with it
+        return QUASI_STATIC
+    held = state.get("filter") if isinstance(state, dict) else None
+    return DYNAMIC if isinstance(held, dict) and "latency_sums" in held else QUASI_STATIC
 
 
 def calibrate(
@@ -211,7 +259,7 @@ def calibrate(
     sensor="sensor",
     settings=None,
     use_filter: bool = True,
-    joints_in_degrees: bool = False,
+    joints_in_degrees: bool | None = None,
     accept_poor_fit: bool = False,
     prior: Prior | None = None,
 ) -> Calibration:
@@ -238,7 +286,8 @@ def calibrate(
         settings: Pipeline settings: a :class:`~fts_calib.filters.settings.PipelineConfig`,
             a shipped name or a YAML path; the shipped ``pipeline`` when None.
         use_filter: Keep only the quasi-static samples (False: every valid one).
-        joints_in_degrees: The joint readings are in degrees.
+        joints_in_degrees: The joint readings are in degrees (True) or rad (False); None: a
+            recording's are decided from its first rows (degrees converted), arrays are in rad.
         accept_poor_fit: Return a calibration whose fit check is poor instead of raising.
         prior: Shrink C_bar toward a known calibration (:mod:`fts_calib.model.prior`).
 
@@ -304,7 +353,7 @@ def calibrate(
         for batch in arrays:
             session.add_samples(dataclasses.replace(batch, joints=np.radians(batch.joints)) if joints_in_degrees else batch)
     session.flush()
-    session.joints_in_degrees = joints_in_degrees
+    session.joints_in_degrees = bool(joints_in_degrees)
     return session.solve(accept_poor_fit=accept_poor_fit, prior=prior)
 
 
@@ -321,12 +370,21 @@ def _counting(files: RecordingSet, per_file: np.ndarray, on_kept):
 
 
 class _Run:
-    """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice."""
+    """One read of a recording into a fresh (or resumed) session: what :func:`calibrate_recording` may do twice.
+
+    Attributes:
+        degrees: The joint columns were read as degrees (given, or found).
+        degrees_found: Why the joint unit not given was found to be degrees ('' when not).
+    """
 
     def __init__(self, paths, kin, tool, use_filter, checkpoint, topics, layout, joints_in_degrees, progress, models):
         self.paths, self.kin, self.tool = paths, kin, tool
         self.use_filter, self.checkpoint, self.topics, self.layout = use_filter, checkpoint, topics, layout
         self.joints_in_degrees, self.progress, self.models = joints_in_degrees, progress, models
+        self.degrees, self.degrees_found = bool(joints_in_degrees), ""
+
+    def _found(self, words: str) -> None:
+        self.degrees, self.degrees_found = True, words
 
     def read(self, resume: bool, settings: PipelineConfig, on_kept) -> tuple[CalibrationSession, list[str], int, list[str]]:
         """The session after the whole recording (with these settings).
@@ -368,9 +426,8 @@ class _Run:
                     **self.models,
                 )
             session.orientation_source = orientation_source(reader, kin.joint_names)
-            degrees = self.joints_in_degrees
-            chunks = (dataclasses.replace(c, joints=np.radians(c.joints)) if degrees else c for c in reader)
-            for chunk in clock_checked(reader.path, chunks, kin, settings.filter if self.use_filter else None, degrees):
+            checked = settings.filter if self.use_filter else None
+            for chunk in clock_checked(reader.path, reader, kin, checked, self.joints_in_degrees, self._found):
                 session.add_samples(chunk)
                 if progress is not None:
                     progress.update(reader.bytes_read, reader.rows_read)

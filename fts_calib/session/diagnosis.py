@@ -104,11 +104,12 @@ class Diagnosed(Protocol):
 
 #: Kept samples of a configuration before it counts in the advice.
 MIN_SAMPLES = 10
-#: The advice when nothing specific is missing.
+#: The advice when nothing specific is missing: for the quasi-static filter, and for the dynamic one.
 GENERIC = "more quasi-static samples"
+GENERIC_DYNAMIC = "more moving samples the dynamic filter trusts"
 #: What to look at when the checks refused every sample, by the reason they counted.
 REFUSED = {
-    OUTSIDE_LIMITS: "joint readings in degrees? they must be in rad: joints_in_degrees=True, --joints-in-degrees",
+    OUTSIDE_LIMITS: "joint readings in degrees? they must be in rad: --joint-unit deg, joints_in_degrees=True",
     NON_FINITE: "NaN or infinite joints or channels",
     BACKWARDS: "the times must not decrease",
     UNKNOWN_TOOL: "the configuration names must be those of the tool file",
@@ -122,6 +123,7 @@ def missing_words(
     undetermined: Sequence[Sequence[str]] = (),
     cause: str = "",
     refused: str = "",
+    dynamic: bool = False,
 ) -> str:
     """What is missing for full rank, in words, the real cause first ('more quasi-static samples' when nothing specific).
 
@@ -136,16 +138,22 @@ def missing_words(
         cause: A known cause, said first (e.g. a configuration none of whose rows could be read).
         refused: Why no sample reached the filter (:func:`refused_words`); when given, it
             replaces the rest, which would describe samples that were never kept.
+        dynamic: The samples are the dynamic filter's (moving ones): never the advice to hold still.
     """
     if refused:
         return "; ".join(w for w in (cause, refused) if w)
-    apart, words = undetermined_words(undetermined), _tool_words(tool, kept, directions)
-    return "; ".join(w for w in (cause, apart, "" if apart and words == GENERIC else words) if w)
+    apart, words = undetermined_words(undetermined), _tool_words(tool, kept, directions, dynamic)
+    return "; ".join(w for w in (cause, apart, "" if apart and words in (GENERIC, GENERIC_DYNAMIC) else words) if w)
 
 
-def _tool_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.ndarray) -> str:
+def _tool_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.ndarray, dynamic: bool = False) -> str:
     names = tool.names
     seen = [k for k in range(len(names)) if kept[k] >= MIN_SAMPLES]
+    if not seen and dynamic:
+        return (
+            "no moving sample the dynamic filter trusts yet: move through the plan's motion (a motion too fast or jerky for "
+            "the joint readings' noise and latency is not trusted: filter.max_error_ratio)"
+        )
     if not seen:
         return "no quasi-static sample yet: hold the arm still at the stops of the sweep"
     few = [names[k] for k in seen if np.linalg.matrix_rank(directions[k], tol=1e-6 * max(1.0, kept[k])) < 4]
@@ -171,7 +179,7 @@ def _tool_words(tool: Tool, kept: Sequence[int] | np.ndarray, directions: np.nda
                 f"the centres of mass of {label} and every other configuration lie on one line: the tool "
                 "needs a configuration off that line (paper eqs 19-20)"
             )
-    return "; ".join(words) or GENERIC
+    return "; ".join(words) or (GENERIC_DYNAMIC if dynamic else GENERIC)
 
 
 def _listed(names: Sequence[str]) -> str:
@@ -187,7 +195,7 @@ MAX_CONTINUOUS_STILLS = 2.0
 
 
 def moving_words(rejected: Mapping[str, int], seen: int, kept: int, stills_per_configuration: float) -> str:
-    """The quasi-static filter's advice for a recording that moves without stopping ('' otherwise).
+    """That a recording moves without stopping, in words, for the quasi-static filter ('' otherwise).
 
     Args:
         rejected: Samples the quasi-static filter refused, by rule ('joint speed', ...).
@@ -199,10 +207,11 @@ def moving_words(rejected: Mapping[str, int], seen: int, kept: int, stills_per_c
     moving = max(rejected.get("joint speed", 0), rejected.get("joint acceleration", 0))
     if not seen or moving < MOVING_SHARE * seen or stills_per_configuration > MAX_CONTINUOUS_STILLS:
         return ""
-    return (
-        f"the arm moves without stopping ({moving / seen:.0%} of the samples refused for joint speed or acceleration, "
-        f"{kept:,} kept): calibrate it with --filter dynamic (moving samples with the tool's dynamics), or record stops"
-    )
+    return f"the arm moves without stopping ({moving / seen:.0%} of the samples refused for joint speed or acceleration, {kept:,} kept)"
+
+
+#: The quasi-static filter's advice for a recording that moves without stopping (:func:`moving_words` first).
+MOVING_ADVICE = "calibrate it with --filter dynamic (moving samples with the tool's dynamics), or record stops"
 
 
 def refused_words(skipped: Mapping[str, int], seen: int, kept: int) -> str:
@@ -417,8 +426,8 @@ def joint_units(session: Diagnosed, check: FitCheck, per_configuration: bool, jo
     if judged is None or not _clearly_fits(float(judged[0].max()), check.max_ratio):
         return None
     if joints_in_degrees:
-        return Cause("joint units", "the joint columns are in rad already: run without --joints-in-degrees")
-    return Cause("joint units", "the joint columns are in degrees: pass --joints-in-degrees (joints_in_degrees=True)")
+        return Cause("joint units", "the joint columns are in rad already: give --joint-unit rad (joints_in_degrees=False)")
+    return Cause("joint units", "the joint columns are in degrees: give --joint-unit deg (joints_in_degrees=True)")
 
 
 def _still(time: np.ndarray, joints: np.ndarray, max_speed: float, window_s: float = 0.2, most: int = 64) -> np.ndarray:

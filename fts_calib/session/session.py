@@ -67,7 +67,7 @@ from ..filters.dynamic import DynamicFilter
 from ..filters.latency import LatencyEstimate
 from ..filters.quasi_static import QuasiStaticFilter, StillSamples
 from ..filters.sample_checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from ..filters.settings import DYNAMIC, FilterConfig, PipelineConfig
+from ..filters.settings import AUTO_FILTER, DYNAMIC, QUASI_STATIC, FilterConfig, PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
@@ -82,6 +82,7 @@ from ..sources.batch import SampleBatch, configuration_codes
 from ..sources.source import array_batch
 from .checkpoint import read_checkpoint, write_checkpoint
 from .diagnosis import (
+    MOVING_ADVICE,
     RECORDING_KINDS,
     Cause,
     cause,
@@ -251,6 +252,8 @@ class CalibrationSession:
         self.layout = channel_layout(layout)
         self.tool = tool
         self.settings = settings or PipelineConfig()
+        if self.settings.filter.mode == AUTO_FILTER:  # a session reads each sample once: still samples (a recording may be read again)
+            self.settings = self.settings.with_filter_mode(QUASI_STATIC)
         self.checkpoint_path = Path(checkpoint) if checkpoint else None
         self.source = source
         self.source_record = source_record
@@ -645,7 +648,7 @@ def session_progress(session: CalibrationSession) -> Progress:
         kept_by_configuration={name: int(n) for name, n in zip(session.tool.names, session.kept, strict=True)},
         rank=rank,
         condition_number=condition,
-        missing="" if rank == full else missing_words(session.tool, session.kept, session.directions),
+        missing="" if rank == full else missing_words(session.tool, session.kept, session.directions, dynamic=_moving(session)),
         skipped=session.all_skipped(),
         last_time=None if last == -math.inf else last,
         full_rank=full,
@@ -702,8 +705,13 @@ def _checked(session: CalibrationSession, hint: str) -> tuple[FitCheck, Cause | 
     return replace(final, diagnosis=found.text), found
 
 
-def _moving_words(session: CalibrationSession) -> str:
-    """The quasi-static filter's advice for a recording without stops (:func:`fts_calib.session.diagnosis.moving_words`)."""
+def _moving(session: CalibrationSession) -> bool:
+    """Whether the session's samples are the dynamic filter's (moving ones)."""
+    return isinstance(session.filter, DynamicFilter)
+
+
+def without_stops(session: CalibrationSession) -> str:
+    """That the quasi-static filter's recording moves without stops, in words ('' otherwise: :func:`~.diagnosis.moving_words`)."""
     still, kept = session.filter, int(session.kept.sum())
     if still is None or isinstance(still, DynamicFilter):
         return ""
@@ -757,9 +765,9 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
     weak = None if short else weak_excitation(session)
     refused = refused_words(session.checks.skipped, session.seen, int(session.kept.sum()))
     undetermined = session.estimator.undetermined(session.tool.names)
-    moving = _moving_words(session)
-    said = "; ".join(w for w in (hint, moving, "" if weak is None else weak.text) if w)
-    words = missing_words(session.tool, session.kept, session.directions, undetermined, said, refused)
+    moving = without_stops(session)
+    said = "; ".join(w for w in (hint, f"{moving}: {MOVING_ADVICE}" if moving else "", "" if weak is None else weak.text) if w)
+    words = missing_words(session.tool, session.kept, session.directions, undetermined, said, refused, _moving(session))
     return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)
 
 

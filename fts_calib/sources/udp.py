@@ -295,10 +295,10 @@ def listen_host(host: str, listen_any: bool = False, port: int | None = None) ->
     if host in WILDCARDS and not listen_any:
         number = port if port is not None else "PORT"
         message = (
-            f"--listen {shown} would bind every network interface: any host that reaches this one could send datagrams "
-            f"into the calibration. Listen on loopback (--listen 127.0.0.1:{number}, the default) when the sender runs here; "
-            f"otherwise say so: this host's address on the sender's network (--listen 192.168.1.20:{number}), or every "
-            "interface with --listen-any (live)"
+            f"udp://{shown} would bind every network interface: any host that reaches this one could send datagrams "
+            f"into the calibration. Listen on loopback (udp://127.0.0.1:{number}) when the sender runs here; "
+            f"otherwise say so: this host's address on the sender's network (udp://192.168.1.20:{number}), or every "
+            "interface with --listen-any"
         )
         raise ConfigError("listen", shown, "a loopback or network address, or --listen-any", message=message)
     if listen_any and (host in WILDCARDS or _is_loopback(host)):
@@ -323,8 +323,12 @@ class UdpReceiver:
     def __init__(self, host: str = "127.0.0.1", port: int = 5005, listen_any: bool = False):
         host = listen_host(host, listen_any, port)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, _RECV_BUFFER)
-        self.sock.bind((host, port))
+        try:
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, _RECV_BUFFER)
+            self.sock.bind((host, port))
+        except OSError:  # an address in use, or no such host: the socket is not left for the collector to close
+            self.sock.close()
+            raise
         self.sock.settimeout(0.05)
         self.address = self.sock.getsockname()
         if not _is_loopback(host):
