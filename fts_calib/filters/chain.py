@@ -50,12 +50,10 @@ from ..sources.batch import SampleBatch
 from .dynamic import DynamicFilter
 from .quasi_static import QuasiStaticFilter, StillSamples, quasi_static
 from .sample_checks import SampleChecks
-from .settings import DYNAMIC, FILTER_MODES, QUASI_STATIC, PipelineConfig
+from .settings import AUTO_FILTER, DYNAMIC, FILTER_CHOICES, NO_FILTER, QUASI_STATIC, PipelineConfig
 
-#: The chain's mode without a filter: every sample that passes the checks is kept.
-NO_FILTER = "none"
-#: The chain's modes: the pipeline's filter modes, and none.
-CHAIN_MODES = (*FILTER_MODES, NO_FILTER)
+#: The chain's modes: the pipeline's filter modes, and none (every sample that passes the checks is kept).
+CHAIN_MODES = FILTER_CHOICES
 
 
 @dataclass(frozen=True)
@@ -208,7 +206,9 @@ def filter_chain(
             the channels' declared (or detected) limits ``checks.limits``, the nominal C.
         kin: Kinematics of the robot (joint limits, continuous joints, gravity), or None for a
             stream without joints (the strain rule alone).
-        mode: ``quasi-static``, ``dynamic`` or ``none``; None: ``settings.filter.mode``.
+        mode: ``quasi-static``, ``dynamic``, ``none``, or ``auto`` (one read of a stream: the
+            quasi-static filter; ``calibrate`` alone reads a recording again with the dynamic one);
+            None: ``settings.filter.mode``.
         layout: The sensor's channel layout.
         full_scale: The sensor's full scale per axis [N, N, N, N m, N m, N m], shape (6,) (the
             dynamic filter's noise without a nominal C); the sensor file's default when None.
@@ -221,6 +221,8 @@ def filter_chain(
     mode = settings.filter.mode if mode is None else mode
     if mode not in CHAIN_MODES:
         raise ConfigError("mode", mode, " or ".join(CHAIN_MODES))
+    if mode == AUTO_FILTER:
+        mode = QUASI_STATIC
     limits = settings.checks.limits
     checks = SampleChecks(kin, settings.checks.max_abs_channel, limits)
     continuous = np.zeros(max(n_joints, 1), dtype=bool) if kin is None else kin.continuous
