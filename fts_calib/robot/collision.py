@@ -25,8 +25,9 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.deprecation import renamed
-from ..core.exceptions import FrameNotFound
-from .joints import locked_configuration
+from ..core.exceptions import FileFormatError
+from .definition import link_frame_id
+from .joints import locked_configuration, reduced_geometry
 from .kinematics import Kinematics
 from .tool import ToolShape
 
@@ -39,20 +40,29 @@ FLOOR = "floor"
 def collision_model(kin: Kinematics) -> pin.GeometryModel:
     """The URDF's collision geometry for the kinematics' (reduced) model; meshes from the package dirs.
 
-    Links listed in the definition's ``collision.ignore_links`` are left out.
+    Links listed in the definition's ``collision.ignore_links`` are left out. The links are
+    looked up as links (``BODY`` frames): a joint of the same name is never taken for one.
 
     Raises:
-        FrameNotFound: An ignored link is not in the model (lists the frames).
+        FileFormatError: A mesh of the URDF is not found in the package folders (names them and ``package_dirs``).
+        FrameNotFound: A link of ``collision.ignore_links`` is not in the model (names the file,
+            the field and the closest links; lists the links).
     """
     robot, model = kin.robot, kin.model
-    geometry = pin.buildGeomFromUrdf(kin.full_model, str(robot.urdf), pin.COLLISION, package_dirs=[str(p) for p in robot.package_dirs])
+    ignored = {link_frame_id(model, name, robot.where("collision.ignore_links")) for name in robot.ignore_links}
+    dirs = [str(p) for p in robot.package_dirs]
+    try:
+        geometry = pin.buildGeomFromUrdf(kin.full_model, str(robot.urdf), pin.COLLISION, package_dirs=dirs)
+    except (ValueError, RuntimeError) as exc:  # a mesh not found, a mesh file Pinocchio cannot read
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        message = (
+            f"the collision geometry of {robot.urdf} cannot be read ({reason}): expected its meshes under the folders "
+            f"searched for package:// paths ({', '.join(dirs) or 'none'}); add the folder that holds the package to package_dirs"
+        )
+        raise FileFormatError(robot.source or robot.urdf, "package_dirs", message) from None
     lock_ids, q_lock = locked_configuration(kin.full_model, robot.locked_joints)
     if lock_ids:
-        _, geometry = pin.buildReducedModel(kin.full_model, geometry, lock_ids, q_lock)
-    for name in robot.ignore_links:
-        if not model.existFrame(name):
-            raise FrameNotFound(name, [f.name for f in model.frames])
-    ignored = {model.getFrameId(n) for n in robot.ignore_links}
+        geometry = reduced_geometry(kin.full_model, lock_ids, q_lock, geometry)
     doomed = [obj.name for obj in geometry.geometryObjects if obj.parentFrame in ignored]
     for name in doomed:  # names first: removing invalidates the objects
         geometry.removeGeometryObject(name)

@@ -45,7 +45,7 @@ import pinocchio as pin
 from ..core import arrays as validation
 from ..core.arrays import as_matrix, frozen
 from ..core.bounded import read_bounded
-from ..core.exceptions import ConfigError, FileFormatError, JointError
+from ..core.exceptions import ConfigError, FileFormatError, FrameNotFound, JointError
 from ..core.files import check_keys, fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir, locate
 
@@ -424,6 +424,55 @@ def build_model(robot: RobotDefinition) -> pin.Model:
         reason = " ".join(str(exc).split()) or type(exc).__name__
         message = f"{robot.urdf} is not a URDF that Pinocchio can read ({reason}): expected a <robot> XML file"
         raise FileFormatError(where, "urdf", message) from None
+
+
+#: The frame types a sensor's parent frame is looked up as, in order: a URDF link first, then a joint's
+#: frame (a URDF may name a link and a joint alike, the Unitree Z1's ``gripperStator``), then an added frame.
+MOUNT_FRAME_TYPES = (pin.FrameType.BODY, pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT, pin.FrameType.OP_FRAME, pin.FrameType.SENSOR)
+
+
+def frame_id(model: pin.Model, name: str, types: tuple[pin.FrameType, ...], where: str = "", kind: str = "frame") -> int:
+    """The id of frame ``name`` in ``model``: the first of ``types`` (in that order) that has a frame of that name.
+
+    Always by type: a URDF link and a joint of one name are two frames of the model, and a
+    lookup by name alone is ambiguous (Pinocchio's "Several frames match the filter").
+
+    Args:
+        model: The Pinocchio model.
+        name: The frame's name.
+        types: The frame types accepted, the preferred first.
+        where: Where the name was written (``RobotDefinition.where(field)``), for the message.
+        kind: What the name is, for the message: 'frame' or 'link'.
+
+    Raises:
+        FrameNotFound: No frame of these types has the name; the message names it, the file
+            and field, the closest names and every frame of these types.
+        ConfigError: Two frames of one type have the name (a model built in Python, never a URDF).
+    """
+    for frame_type in types:
+        found = [k for k, frame in enumerate(model.frames) if frame.name == name and frame.type == frame_type]
+        if len(found) == 1:
+            return found[0]
+        if found:
+            reason = f"names {len(found)} frames of type {frame_type.name} (ids {found}): expected one"
+            raise ConfigError(where or kind, name, f"the name of one {kind}", reason=reason)
+    raise FrameNotFound(name, [f.name for f in model.frames if f.type in types], where, kind)
+
+
+def link_frame_id(model: pin.Model, name: str, where: str = "") -> int:
+    """The id of the frame of URDF link ``name`` (a ``BODY`` frame), never a joint's frame of the same name.
+
+    Raises:
+        FrameNotFound: No link has the name; the message lists the links and the closest names,
+            and when the name is a joint's, the joint's child link.
+    """
+    body = pin.FrameType.BODY
+    joints = [k for k, f in enumerate(model.frames) if f.name == name and f.type in (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT)]
+    if joints and not any(f.name == name and f.type == body for f in model.frames):
+        children = [f.name for f in model.frames if f.type == body and f.parentFrame in joints]
+        note = f"'{name}' is a joint" + (f"; its child link is '{children[0]}'" if children else "")
+        raise FrameNotFound(name, [f.name for f in model.frames if f.type == body], where, "link", note)
+    return frame_id(model, name, (body,), where, "link")
 
 
 def require_sweep_joints(robot: RobotDefinition, joint_names: tuple[str, ...]) -> None:
