@@ -45,10 +45,13 @@ def collision_model(kin: Kinematics) -> pin.GeometryModel:
 
     Raises:
         FileFormatError: A mesh of the URDF is not found in the package folders (names them and ``package_dirs``).
-        FrameNotFound: A link of ``collision.ignore_links`` is not in the model (names the file,
-            the field and the closest links; lists the links).
+        FrameNotFound: A link of ``collision.ignore_links`` or ``collision.ignore_pairs`` is
+            not in the model (names the file, the field and the closest links; lists the links).
     """
     robot, model = kin.robot, kin.model
+    for a, b in robot.ignore_pairs:  # names checked before the meshes are read
+        link_frame_id(model, a, robot.where("collision.ignore_pairs"))
+        link_frame_id(model, b, robot.where("collision.ignore_pairs"))
     ignored = {link_frame_id(model, name, robot.where("collision.ignore_links")) for name in robot.ignore_links}
     dirs = [str(p) for p in robot.package_dirs]
     try:
@@ -115,7 +118,7 @@ class CollisionChecker:
         objects = geometry.geometryObjects
         joints = [obj.parentJoint for obj in objects]
         links = [model.frames[obj.parentFrame].name for obj in objects]
-        allowed = kin.robot.allowed_pairs
+        allowed = kin.robot.skipped_pairs
 
         def moves(joint: int) -> bool:
             return moving_id in list(model.supports[joint])
