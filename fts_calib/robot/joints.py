@@ -237,7 +237,9 @@ def reading_array(readings, joint_names: Sequence[str]) -> tuple[np.ndarray, boo
         unknown = [k for k in readings if k not in joint_names]
         missing = [n for n in joint_names if n not in readings]
         if unknown or missing:
-            parts = ([f"unknown joints {unknown}"] if unknown else []) + ([f"missing joints {missing}"] if missing else [])
+            # only missing (no typo): joints the data do not hold, a gripper's fingers
+            locked = "" if unknown else " (joints the data do not hold: hold them fixed with the robot definition's locked_joints)"
+            parts = ([f"unknown joints {unknown}"] if unknown else []) + ([f"missing joints {missing}{locked}"] if missing else [])
             raise JointError("; ".join(parts), unknown + missing, tuple(joint_names))
         columns = [np.asarray(readings[n], dtype=float) for n in joint_names]
         array = np.stack(columns, axis=-1)
