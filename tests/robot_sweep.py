@@ -315,10 +315,11 @@ _ADVICE = re.compile(
 def _cell(text: str, folder: Path, width: int = 170) -> str:
     """A message as a table cell: its first clause (one line, no absolute path, at most ``width`` characters), then its advice."""
     text = " ".join(text.replace(f"{robots_dir()}/", ROBOT_DATA_PREFIX).replace(f"{folder}/", "").replace("|", "/").split())
-    advice = list(dict.fromkeys(m.group(0).strip("'") if ":" in m.group(0) else m.group(0) for m in _ADVICE.finditer(text)))
+    found = (m.group(0) for m in _ADVICE.finditer(text))
+    advice = list(dict.fromkeys(f"`{a.strip(chr(39))}`" if a.startswith("'") else a for a in found))  # a key of the file: as code
     cut = min((k for k in (text.find(", leaving"), text.find(" (at least"), text.find("; expected joints")) if k > 0), default=len(text))
     head = text[:cut] if cut <= width else text[: width - 3] + "..."
-    return head + (f"; advice: {'; '.join(f'`{a}`' if ':' in a else a for a in advice)}" if advice else "")
+    return head + (f"; advice: {'; '.join(advice)}" if advice else "")
 
 
 def _verdict(outcome: Outcome) -> str:
