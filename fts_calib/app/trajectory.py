@@ -295,6 +295,10 @@ def format_report(
         f"about the axis of {b}); {b} over [{np.degrees(plan.ranges[1, 0]):+.1f}°, {np.degrees(plan.ranges[1, 1]):+.1f}°] "
         f"in {plan.pattern.stops} stop{'s' if plan.pattern.stops > 1 else ''} per level; {how_stops}"
     )
+    if run.sweep_joints_default:
+        lines.append(
+            f"  sweep joints {a} and {b}: by default, the last two actuated joints (name others with the robot file's sweep_joints)"
+        )
     if result.ranges.note:
         lines.append(f"  note: {result.ranges.note}")
     rows = []

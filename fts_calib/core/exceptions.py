@@ -166,25 +166,30 @@ class BagError(RecordingError):
 
 
 class FrameNotFound(FtsCalibError, KeyError):
-    """A frame name is not in the robot model.
+    """A frame (or a link) name is not in the robot model.
 
     Attributes:
         name: The frame asked for.
-        available: The frames that exist.
+        available: The frames that exist (of the kind asked for), each name once.
         where: Where the name was written (a robot file and its field), or ''.
+        kind: What the name should be: 'frame' (any frame of the model) or 'link' (a URDF link).
+        note: What the name is instead, if anything (e.g. a joint, with its child link), or ''.
     """
 
-    def __init__(self, name: str, available: Sequence[str], where: str = ""):
+    def __init__(self, name: str, available: Sequence[str], where: str = "", kind: str = "frame", note: str = ""):
         self.name = name
-        self.available = list(available)
+        self.available = list(dict.fromkeys(available))  # a URDF link and joint of one name: listed once
         self.where = where
+        self.kind = kind
+        self.note = note
         super().__init__(name)
 
     def __str__(self) -> str:  # KeyError would print only repr(name)
-        close = difflib.get_close_matches(self.name, self.available, 1)
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        close = difflib.get_close_matches(self.name, self.available, 3)
+        hint = f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+        hint += f" ({self.note})" if self.note else ""
         head = f"{self.where}: " if self.where else ""
-        return f"{head}frame '{self.name}' is not in the model{hint}; frames that exist: {', '.join(self.available)}"
+        return f"{head}{self.kind} '{self.name}' is not in the model{hint}; {self.kind}s that exist: {', '.join(self.available)}"
 
 
 class JointError(FtsCalibError, KeyError):

@@ -24,7 +24,7 @@ from ..core.exceptions import TrajectoryError
 from ..robot.collision import Clearance, CollisionChecker
 from ..robot.kinematics import Kinematics
 from .excitation import coverage_angle
-from .sweeps import MIN_CLEARANCE, SweepPattern, raster
+from .sweeps import MIN_CLEARANCE, SweepPattern, default_sweep_note, raster
 
 #: A home whose first sweep axis is tilted more than this from the horizontal is poor.
 MAX_AXIS_TILT_DEG = 20.0
@@ -226,13 +226,13 @@ def choose_home(
         if not found_horizontal or closest is None:
             raise TrajectoryError(
                 f"no joint above {kin.sweep_joints[0]} can make its axis horizontal within the joint "
-                "limits: give 'home' in the robot definition",
+                f"limits: give 'home' in the robot definition{default_sweep_note(kin)}",
                 "no home",
             )
+        otherwise = "give 'home' in the robot definition, a smaller tool shape, or fewer levels"
         raise TrajectoryError(
             f"no collision-free home found: the best candidate leaves {closest.distance:.3f} m between '{closest.pair[0]}' "
-            f"and '{closest.pair[1]}' (at least {min_clearance} m needed). Give 'home' in the robot definition, a smaller "
-            "tool shape, or fewer levels.",
+            f"and '{closest.pair[1]}' (at least {min_clearance} m needed): {checker.advice(closest.pair, otherwise)}.",
             "no home",
         )
     return home_report(kin, best[1], "automatic")

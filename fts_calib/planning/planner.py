@@ -177,7 +177,9 @@ def check_plan(
     for what, c in (("along the sweep", clearance), ("at home", home_clearance)):
         if c.distance < min_clearance:
             when = f" at t = {plan.time[c.index]:.2f} s" if what == "along the sweep" else ""
+            advice = checker.advice(c.pair, "")
             problems.append(
                 f"collision {what}: '{c.pair[0]}' and '{c.pair[1]}' are {c.distance:.3f} m apart{when} (at least {min_clearance} m needed)"
+                + (f": {advice}" if advice else "")
             )
     return PlanResult(plan, report, ranges, limits, clearance, home_clearance, min_clearance, problems, len(samples))

@@ -97,6 +97,14 @@ class RangeReport:
     note: str = ""
 
 
+def default_sweep_note(kin: Kinematics) -> str:
+    """'' when the robot file names the sweep joints; else a clause saying they were chosen by default, and how to choose."""
+    if kin.robot.sweep_joints is not None:
+        return ""
+    a, b = kin.sweep_joints
+    return f" ({a} and {b} sweep by default, the last two actuated joints: name others with the robot file's 'sweep_joints')"
+
+
 def sweep_ranges(kin: Kinematics, home: np.ndarray, margin: float) -> np.ndarray:
     """Range of each sweep joint: home +- 180 deg, within the limits less the margin. Shape (2, 2)."""
     out = []
@@ -105,7 +113,10 @@ def sweep_ranges(kin: Kinematics, home: np.ndarray, margin: float) -> np.ndarray
         lo = max(kin.limits.lower[k] + margin, home[k] - math.pi)
         hi = min(kin.limits.upper[k] - margin, home[k] + math.pi)
         if not hi - lo > 1e-3:
-            raise TrajectoryError(f"{name} cannot sweep: range [{lo:+.4f}, {hi:+.4f}] rad after a margin of {margin} rad", "empty range")
+            raise TrajectoryError(
+                f"{name} cannot sweep: range [{lo:+.4f}, {hi:+.4f}] rad after a margin of {margin} rad{default_sweep_note(kin)}",
+                "empty range",
+            )
         out.append((lo, hi))
     return np.array(out)
 
@@ -146,7 +157,8 @@ def wrist_ranges(kin: Kinematics, checker: CollisionChecker, joints: np.ndarray,
             f"'{closest.pair[0]}' and '{closest.pair[1]}' come {closest.distance:.3f} m apart during the sweep of "
             f"{kin.sweep_joints[0]} whatever the home, leaving no interval of at least {math.degrees(_MIN_SWEEP):.0f}° with "
             f"{1.5 * min_clearance:.3f} m of clearance (the required {min_clearance} m plus half for the grid): "
-            "use a smaller tool shape.",
+            + checker.advice(closest.pair, "use a smaller tool shape (the tool file's shape.radius and shape.length)")
+            + f"{default_sweep_note(kin)}.",
             "collision",
         )
     ranges = full.copy()

@@ -52,6 +52,8 @@ class TrajectoryRun:
         uncertainty: The dynamic terms' tolerances of a continuous plan, or None (stop and go).
         full_configurations: How many configurations the tool file has (``tool`` holds the
             first of them the plan is for).
+        sweep_joints_default: The robot file names no ``sweep_joints``: the last two actuated
+            joints sweep.
     """
 
     result: PlanResult
@@ -66,6 +68,7 @@ class TrajectoryRun:
     sized: Sizing | None = None
     uncertainty: MotionUncertainty | None = None
     full_configurations: int = 0
+    sweep_joints_default: bool = False
 
 
 def plan_trajectories(
@@ -172,7 +175,10 @@ def plan_trajectories(
     problems = list(result.problems)
     if excitation.rank < 7 and not (pattern.continuous and np.isfinite(budget.largest_percent)):
         problems.append(excitation.advice)  # a continuous plan's inertial torques may lift the static rank
-    return TrajectoryRun(result, excitation, still, g_all, tool, problems, [], sensor.strain_unit, budget, sized, uncertainty, n_full)
+    default = kin.robot.sweep_joints is None
+    return TrajectoryRun(
+        result, excitation, still, g_all, tool, problems, [], sensor.strain_unit, budget, sized, uncertainty, n_full, default
+    )
 
 
 #: The joint noise [rad] and latency uncertainty [s] a continuous plan's budget assumes when the

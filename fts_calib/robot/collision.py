@@ -25,8 +25,9 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.deprecation import renamed
-from ..core.exceptions import FrameNotFound
-from .joints import locked_configuration
+from ..core.exceptions import FileFormatError
+from .definition import MOUNT_FRAME_TYPES, frame_id, link_frame_id
+from .joints import locked_configuration, reduced_geometry
 from .kinematics import Kinematics
 from .tool import ToolShape
 
@@ -39,24 +40,66 @@ FLOOR = "floor"
 def collision_model(kin: Kinematics) -> pin.GeometryModel:
     """The URDF's collision geometry for the kinematics' (reduced) model; meshes from the package dirs.
 
-    Links listed in the definition's ``collision.ignore_links`` are left out.
+    Links listed in the definition's ``collision.ignore_links`` are left out. The links are
+    looked up as links (``BODY`` frames): a joint of the same name is never taken for one.
 
     Raises:
-        FrameNotFound: An ignored link is not in the model (lists the frames).
+        FileFormatError: A mesh of the URDF is not found in the package folders (names them and ``package_dirs``).
+        FrameNotFound: A link of ``collision.ignore_links`` or ``collision.ignore_pairs`` is
+            not in the model (names the file, the field and the closest links; lists the links).
     """
     robot, model = kin.robot, kin.model
-    geometry = pin.buildGeomFromUrdf(kin.full_model, str(robot.urdf), pin.COLLISION, package_dirs=[str(p) for p in robot.package_dirs])
+    for a, b in robot.ignore_pairs:  # names checked before the meshes are read
+        link_frame_id(model, a, robot.where("collision.ignore_pairs"))
+        link_frame_id(model, b, robot.where("collision.ignore_pairs"))
+    ignored = {link_frame_id(model, name, robot.where("collision.ignore_links")) for name in robot.ignore_links}
+    dirs = [str(p) for p in robot.package_dirs]
+    try:
+        geometry = pin.buildGeomFromUrdf(kin.full_model, str(robot.urdf), pin.COLLISION, package_dirs=dirs)
+    except (ValueError, RuntimeError) as exc:  # a mesh not found, a mesh file Pinocchio cannot read
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        message = (
+            f"the collision geometry of {robot.urdf} cannot be read ({reason}): expected its meshes under the folders "
+            f"searched for package:// paths ({', '.join(dirs) or 'none'}); add the folder that holds the package to package_dirs"
+        )
+        raise FileFormatError(robot.source or robot.urdf, "package_dirs", message) from None
     lock_ids, q_lock = locked_configuration(kin.full_model, robot.locked_joints)
     if lock_ids:
-        _, geometry = pin.buildReducedModel(kin.full_model, geometry, lock_ids, q_lock)
-    for name in robot.ignore_links:
-        if not model.existFrame(name):
-            raise FrameNotFound(name, [f.name for f in model.frames])
-    ignored = {model.getFrameId(n) for n in robot.ignore_links}
+        geometry = reduced_geometry(kin.full_model, lock_ids, q_lock, geometry)
     doomed = [obj.name for obj in geometry.geometryObjects if obj.parentFrame in ignored]
     for name in doomed:  # names first: removing invalidates the objects
         geometry.removeGeometryObject(name)
     return geometry
+
+
+def hand_links(kin: Kinematics) -> dict[str, str | None]:
+    """The links beyond the sensor's parent frame (a gripper, a flange part), each with the joint nearest it that moves it.
+
+    A link is beyond the parent frame when the parent frame is on its way to the root; the link
+    the parent frame belongs to is not. The joint is the nearest joint between the link and the
+    parent frame (actuated or locked), or None when the link is fixed to it. Read from the
+    URDF's full model: a reduced model's frames of locked joints do not lead to the root.
+
+    Returns:
+        Link name -> joint name or None, in the model's frame order.
+    """
+    model = kin.full_model
+    body = pin.FrameType.BODY
+    parent = frame_id(model, kin.robot.sensor.parent_frame, MOUNT_FRAME_TYPES)
+    out: dict[str, str | None] = {}
+    if parent == 0:
+        return out
+    for k, frame in enumerate(model.frames):
+        if frame.type != body or k == parent:
+            continue
+        chain, f = [], k
+        while f != parent and f not in chain and f != 0:
+            chain.append(f)
+            f = model.frames[f].parentFrame
+        if f != parent or (model.frames[parent].type != body and not any(model.frames[c].type == body for c in chain[1:])):
+            continue  # not beyond the parent frame, or the link a joint's parent frame belongs to
+        out[frame.name] = next((model.frames[c].name for c in chain if model.frames[c].type == pin.FrameType.JOINT), None)
+    return out
 
 
 @dataclass(frozen=True)
@@ -105,7 +148,7 @@ class CollisionChecker:
         objects = geometry.geometryObjects
         joints = [obj.parentJoint for obj in objects]
         links = [model.frames[obj.parentFrame].name for obj in objects]
-        allowed = kin.robot.allowed_pairs
+        allowed = kin.robot.skipped_pairs
 
         def moves(joint: int) -> bool:
             return moving_id in list(model.supports[joint])
@@ -134,8 +177,48 @@ class CollisionChecker:
                 elif not moves(a):
                     groups["home"].append((i, j))
         self.geometry = geometry
+        #: The link of each body of the robot, by the body's name (the tool and the floor are none).
+        self.links = {obj.name: links[k] for k, obj in enumerate(objects) if k not in (self.tool_id, self.floor_id)}
+        #: The links beyond the sensor's parent frame (a gripper, a flange part), each with the joint that moves it.
+        self.hand = hand_links(kin)
         self._groups = {name: self._with_pairs(pairs) for name, pairs in groups.items()}
         self._groups["all"] = self._with_pairs(groups["sweep"] + groups["wrist"])
+
+    def advice(self, pair: tuple[str, str], otherwise: str) -> str:
+        """What to change when the bodies of ``pair`` come too close, in words naming the robot file's key.
+
+        Two links of the robot: the pair and ``collision.ignore_pairs`` (or the SRDF). A link
+        beyond the sensor's parent frame (a gripper): ``collision.ignore_links``, or
+        ``locked_joints`` for the joint that moves it. Anything else (the tool and the arm,
+        the floor): ``otherwise``.
+
+        Args:
+            pair: Names of the two bodies (as in :class:`Clearance`).
+            otherwise: The advice when neither applies.
+        """
+        links = [self.links.get(name) for name in pair]
+        parts = []
+        if links[0] is not None and links[1] is not None:
+            a, b = links
+            parts.append(
+                f"'{pair[0]}' and '{pair[1]}' are bodies of the robot's own links '{a}' and '{b}', not the tool: if these links "
+                "cannot meet on the real arm (the check uses the convex hulls of the URDF's collision meshes, which are larger than "
+                f"the links), leave the pair out of the checks with 'collision.ignore_pairs: [[{a}, {b}]]' in the robot file "
+                "(or a disable_collisions entry of the SRDF named by 'collision.srdf')"
+            )
+        hand = next((link for link in links if link is not None and link in self.hand), None)
+        if hand is not None:
+            joint = self.hand[hand]
+            text = (
+                f"'{hand}' is beyond the sensor's parent frame '{self.kin.robot.sensor.parent_frame}' (part of a gripper or "
+                f"flange): if the sensor and the tool replace it, leave it out with 'collision.ignore_links: [{hand}]'"
+            )
+            if joint is not None and joint in self.kin.robot.locked_joints:
+                text += f", or lock '{joint}' at a value where it clears the tool ('locked_joints')"
+            elif joint is not None:
+                text += f", or hold '{joint}' where it clears the tool with 'locked_joints: {{{joint}: VALUE}}'"
+            parts.append(text)
+        return "; ".join(parts) if parts else otherwise
 
     def _with_pairs(self, pairs: list[tuple[int, int]]) -> tuple[pin.GeometryModel, pin.GeometryData, list[tuple[str, str]]]:
         geometry = self.geometry.copy()

@@ -9,9 +9,11 @@ absent), ``locked_joints`` (name -> value, e.g. gripper fingers, removed with a 
 model), ``limits`` (``velocity_fraction`` of the URDF velocity limits, ``velocity``
 rad/s per joint, ``acceleration`` rad/s^2 and ``jerk`` rad/s^3, each one number for all
 joints or a mapping joint -> value), ``collision`` (``ignore_links``: links whose geometry
-is left out, e.g. a gripper the sensor replaces; ``srdf``: an SRDF, path or
-``example-robot-data:<path>``, whose ``disable_collisions`` pairs are not checked;
-``floor_z``: height of the floor in the world frame [m]), ``accuracy`` (``encoder_resolution``
+is left out, e.g. a gripper the sensor replaces; ``ignore_pairs``: pairs of links never
+checked against each other, ``[[link_a, link_b], ...]``, e.g. two links whose coarse meshes
+meet where the links do not; ``srdf``: an SRDF, path or ``example-robot-data:<path>``, whose
+``disable_collisions`` pairs are not checked; ``floor_z``: height of the floor in the world
+frame [m]), ``accuracy`` (``encoder_resolution``
 [rad], ``latency_s`` and ``jitter_s`` [s], ``mount_rotation`` [rad]: :class:`RobotAccuracy`,
 for the accuracy budget), and ``package_dirs`` (folders for ``package://`` mesh paths, relative to
 the YAML file).
@@ -45,7 +47,7 @@ import pinocchio as pin
 from ..core import arrays as validation
 from ..core.arrays import as_matrix, frozen
 from ..core.bounded import read_bounded
-from ..core.exceptions import ConfigError, FileFormatError, JointError
+from ..core.exceptions import ConfigError, FileFormatError, FrameNotFound, JointError
 from ..core.files import check_keys, fields_of, load_yaml, read_number, require
 from ..core.resources import example_robot_data_dir, locate
 
@@ -71,7 +73,7 @@ DEFAULT_JERK = 15.0  # [rad/s^3]
 ROBOT_KEYS = ("name", "urdf", "sensor", "sweep_joints", "home", "locked_joints", "limits", "collision", "package_dirs", "accuracy")
 ACCURACY_KEYS = ("encoder_resolution", "latency_s", "jitter_s", "mount_rotation")
 SENSOR_KEYS = ("parent_frame", "xyz", "rpy", "name")
-COLLISION_KEYS = ("ignore_links", "srdf", "floor_z")
+COLLISION_KEYS = ("ignore_links", "ignore_pairs", "srdf", "floor_z")
 LIMIT_KEYS = ("velocity_fraction", "velocity", "acceleration", "jerk")
 
 _PI_EXPR = re.compile(r"^\s*([+-])?\s*(?:(\d+(?:\.\d*)?)\s*\*\s*)?pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
@@ -202,6 +204,8 @@ class RobotDefinition:
         locked_joints: Joints removed from the model, name -> value [rad or m].
         limits: Motion limits.
         ignore_links: Links whose collision geometry is left out.
+        ignore_pairs: Pairs of links never checked against each other, as written in
+            ``collision.ignore_pairs`` (their names are checked against the URDF's links).
         allowed_pairs: Pairs of links never checked against each other (from the SRDF's
             ``disable_collisions``: adjacent links, or links that never meet).
         floor_z: Height of the floor in the world frame, in [m].
@@ -219,6 +223,7 @@ class RobotDefinition:
     locked_joints: Mapping[str, float] = field(default_factory=dict)
     limits: LimitSpec = field(default_factory=LimitSpec)
     ignore_links: tuple[str, ...] = ()
+    ignore_pairs: tuple[tuple[str, str], ...] = ()
     allowed_pairs: frozenset[frozenset[str]] = frozenset()
     floor_z: float = 0.0
     package_dirs: tuple[Path, ...] = ()
@@ -241,6 +246,17 @@ class RobotDefinition:
         locked = {str(j): validation.number(f"locked_joints.{j}", v, owner=owner) for j, v in self.locked_joints.items()}
         object.__setattr__(self, "locked_joints", locked)
         object.__setattr__(self, "floor_z", validation.number("floor_z", self.floor_z, "m", owner))
+        pairs = []
+        for k, pair in enumerate(self.ignore_pairs):
+            if isinstance(pair, str) or len(pair) != 2 or not all(isinstance(n, str) for n in pair) or pair[0] == pair[1]:
+                raise ConfigError(f"ignore_pairs[{k}]", pair, "a pair of two different link names, e.g. [link_a, link_b]", owner=owner)
+            pairs.append((pair[0], pair[1]))
+        object.__setattr__(self, "ignore_pairs", tuple(pairs))
+
+    @property
+    def skipped_pairs(self) -> frozenset[frozenset[str]]:
+        """Every pair of links never checked: the SRDF's ``disable_collisions`` and ``collision.ignore_pairs``."""
+        return self.allowed_pairs | frozenset(frozenset(pair) for pair in self.ignore_pairs)
 
 
 def resolve_urdf(spec: str, base: Path, path: Path) -> tuple[Path, tuple[Path, ...]]:
@@ -316,6 +332,27 @@ def _read_limits(raw: Any, path: Path) -> LimitSpec:
         )
 
 
+def _link_pairs(raw: Any, path: Path) -> tuple[tuple[str, str], ...]:
+    """``collision.ignore_pairs``: a list of pairs of two different link names.
+
+    Raises:
+        FileFormatError: Anything else; names the file, the field and the entry at fault.
+    """
+    if raw is None:
+        return ()
+    example = "e.g. [[link04, link06]]"
+    if not isinstance(raw, list):
+        raise FileFormatError(path, "collision.ignore_pairs", f"expected a list of pairs of link names ({example}), got {raw!r}")
+    pairs = []
+    for k, pair in enumerate(raw):
+        if not isinstance(pair, list) or len(pair) != 2 or not all(isinstance(n, str) for n in pair):
+            raise FileFormatError(path, f"collision.ignore_pairs[{k}]", f"expected a pair of two link names ({example}), got {pair!r}")
+        if pair[0] == pair[1]:
+            raise FileFormatError(path, f"collision.ignore_pairs[{k}]", f"names '{pair[0]}' twice: expected two different links")
+        pairs.append((pair[0], pair[1]))
+    return tuple(pairs)
+
+
 def _angles(raw: Any, path: Path, field_name: str) -> dict[str, float]:
     return {str(k): parse_angle(v, path, f"{field_name}.{k}") for k, v in _mapping(raw, path, field_name).items()}
 
@@ -373,6 +410,7 @@ def load_robot(path: str | Path) -> RobotDefinition:
     ignore = collision.get("ignore_links") or []
     if not isinstance(ignore, list):
         raise FileFormatError(path, "collision.ignore_links", f"expected a list of link names, got {ignore!r}")
+    pairs = _link_pairs(collision.get("ignore_pairs"), path)
     floor_z = read_number(collision.get("floor_z", 0.0), path, "collision.floor_z", "m")
     srdf = collision.get("srdf")
     allowed = read_srdf_pairs(str(srdf), base, path) if srdf else frozenset()
@@ -397,6 +435,7 @@ def load_robot(path: str | Path) -> RobotDefinition:
             locked_joints=locked,
             limits=limits,
             ignore_links=tuple(str(x) for x in ignore),
+            ignore_pairs=pairs,
             allowed_pairs=allowed,
             floor_z=floor_z,
             package_dirs=package_dirs + extra_dirs + (urdf.parent,),
@@ -424,6 +463,55 @@ def build_model(robot: RobotDefinition) -> pin.Model:
         reason = " ".join(str(exc).split()) or type(exc).__name__
         message = f"{robot.urdf} is not a URDF that Pinocchio can read ({reason}): expected a <robot> XML file"
         raise FileFormatError(where, "urdf", message) from None
+
+
+#: The frame types a sensor's parent frame is looked up as, in order: a URDF link first, then a joint's
+#: frame (a URDF may name a link and a joint alike, the Unitree Z1's ``gripperStator``), then an added frame.
+MOUNT_FRAME_TYPES = (pin.FrameType.BODY, pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT, pin.FrameType.OP_FRAME, pin.FrameType.SENSOR)
+
+
+def frame_id(model: pin.Model, name: str, types: tuple[pin.FrameType, ...], where: str = "", kind: str = "frame") -> int:
+    """The id of frame ``name`` in ``model``: the first of ``types`` (in that order) that has a frame of that name.
+
+    Always by type: a URDF link and a joint of one name are two frames of the model, and a
+    lookup by name alone is ambiguous (Pinocchio's "Several frames match the filter").
+
+    Args:
+        model: The Pinocchio model.
+        name: The frame's name.
+        types: The frame types accepted, the preferred first.
+        where: Where the name was written (``RobotDefinition.where(field)``), for the message.
+        kind: What the name is, for the message: 'frame' or 'link'.
+
+    Raises:
+        FrameNotFound: No frame of these types has the name; the message names it, the file
+            and field, the closest names and every frame of these types.
+        ConfigError: Two frames of one type have the name (a model built in Python, never a URDF).
+    """
+    for frame_type in types:
+        found = [k for k, frame in enumerate(model.frames) if frame.name == name and frame.type == frame_type]
+        if len(found) == 1:
+            return found[0]
+        if found:
+            reason = f"names {len(found)} frames of type {frame_type.name} (ids {found}): expected one"
+            raise ConfigError(where or kind, name, f"the name of one {kind}", reason=reason)
+    raise FrameNotFound(name, [f.name for f in model.frames if f.type in types], where, kind)
+
+
+def link_frame_id(model: pin.Model, name: str, where: str = "") -> int:
+    """The id of the frame of URDF link ``name`` (a ``BODY`` frame), never a joint's frame of the same name.
+
+    Raises:
+        FrameNotFound: No link has the name; the message lists the links and the closest names,
+            and when the name is a joint's, the joint's child link.
+    """
+    body = pin.FrameType.BODY
+    joints = [k for k, f in enumerate(model.frames) if f.name == name and f.type in (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT)]
+    if joints and not any(f.name == name and f.type == body for f in model.frames):
+        children = [f.name for f in model.frames if f.type == body and f.parentFrame in joints]
+        note = f"'{name}' is a joint" + (f"; its child link is '{children[0]}'" if children else "")
+        raise FrameNotFound(name, [f.name for f in model.frames if f.type == body], where, "link", note)
+    return frame_id(model, name, (body,), where, "link")
 
 
 def require_sweep_joints(robot: RobotDefinition, joint_names: tuple[str, ...]) -> None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -130,6 +131,64 @@ def locked_configuration(full: pin.Model, locked: Mapping[str, float]) -> tuple[
     return ids, q
 
 
+def _unique_frames(full: pin.Model) -> tuple[pin.Model, dict[str, str]]:
+    """A copy of ``full`` whose frames have unique names, and the names changed (new -> old).
+
+    Pinocchio's ``buildReducedModel`` looks frames up by name alone and finds a joint's frame by
+    the joint's name: of the frames sharing a name, the joint's keeps it, the others (a link, a
+    fixed joint) take a unique one.
+    """
+    model = pin.Model(full)
+    counts = Counter(frame.name for frame in model.frames)
+    renamed: dict[str, str] = {}
+    for k, frame in enumerate(model.frames):
+        if counts[frame.name] > 1 and frame.type != pin.FrameType.JOINT:
+            unique = f"{frame.name}#{k}"
+            while unique in counts or unique in renamed:
+                unique += "#"
+            renamed[unique] = frame.name
+            model.frames[k].name = unique
+    return model, renamed
+
+
+def _names_back(model: pin.Model, renamed: dict[str, str]) -> pin.Model:
+    """``model`` with the frames :func:`_unique_frames` renamed named back (in place)."""
+    for k, frame in enumerate(model.frames):
+        if frame.name in renamed:
+            model.frames[k].name = renamed[frame.name]
+    return model
+
+
+def reduced_model(full: pin.Model, lock_ids: Sequence[int], q: np.ndarray) -> pin.Model:
+    """Pinocchio's reduced model without the locked joints, for any URDF.
+
+    Pinocchio's ``buildReducedModel`` looks frames up by name alone, and fails ("Several
+    frames match the filter") on a URDF that gives a link and a joint one name (the Unitree
+    Z1's ``gripperStator``, ANYmal C's legs): the model is reduced from a copy whose frames
+    have unique names, and the names are given back in the result.
+
+    Args:
+        full: The URDF's model, every joint included (not modified).
+        lock_ids: Ids of the joints to lock (:func:`locked_configuration`).
+        q: Configuration of ``full`` holding the locked joints at their values, shape (nq,).
+    """
+    model, renamed = _unique_frames(full)
+    return _names_back(pin.buildReducedModel(model, list(lock_ids), q), renamed)
+
+
+def reduced_geometry(full: pin.Model, lock_ids: Sequence[int], q: np.ndarray, geometry: pin.GeometryModel) -> pin.GeometryModel:
+    """The geometry of ``full`` for its reduced model (:func:`reduced_model`, the same names rule).
+
+    Args:
+        full: The URDF's model, every joint included (not modified).
+        lock_ids: Ids of the joints to lock.
+        q: Configuration of ``full`` holding the locked joints at their values, shape (nq,).
+        geometry: The geometry model built for ``full``.
+    """
+    model, _ = _unique_frames(full)
+    return pin.buildReducedModel(model, geometry, list(lock_ids), q)[1]
+
+
 def resolve_limits(joints: Sequence[JointInfo], spec: LimitSpec) -> JointLimits:
     """The robot definition's limits resolved against the URDF's, per joint.
 
@@ -178,7 +237,9 @@ def reading_array(readings, joint_names: Sequence[str]) -> tuple[np.ndarray, boo
         unknown = [k for k in readings if k not in joint_names]
         missing = [n for n in joint_names if n not in readings]
         if unknown or missing:
-            parts = ([f"unknown joints {unknown}"] if unknown else []) + ([f"missing joints {missing}"] if missing else [])
+            # only missing (no typo): joints the data do not hold, a gripper's fingers
+            locked = "" if unknown else " (joints the data do not hold: hold them fixed with the robot definition's locked_joints)"
+            parts = ([f"unknown joints {unknown}"] if unknown else []) + ([f"missing joints {missing}{locked}"] if missing else [])
             raise JointError("; ".join(parts), unknown + missing, tuple(joint_names))
         columns = [np.asarray(readings[n], dtype=float) for n in joint_names]
         array = np.stack(columns, axis=-1)

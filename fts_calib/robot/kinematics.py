@@ -61,8 +61,8 @@ import pinocchio as pin
 
 from ..core.arrays import cross
 from ..core.deprecation import renamed, renamed_method
-from ..core.exceptions import ConfigError, FileFormatError, FrameNotFound, ShapeError
-from .definition import RobotDefinition, SensorMount, build_model, require_sweep_joints
+from ..core.exceptions import ConfigError, FileFormatError, ShapeError
+from .definition import MOUNT_FRAME_TYPES, RobotDefinition, SensorMount, build_model, frame_id, require_sweep_joints
 from .joints import (
     JointInfo,
     ReadingCheck,
@@ -71,6 +71,7 @@ from .joints import (
     known_joints,
     locked_configuration,
     reading_array,
+    reduced_model,
     resolve_limits,
     warn_problems,
 )
@@ -274,7 +275,8 @@ class Kinematics:
             :attr:`joint_names` order; the one continuous-joint mask. Shape (n_joints,) bool.
 
     Raises:
-        FrameNotFound: The sensor's parent frame is not in the URDF (lists the frames).
+        FrameNotFound: The sensor's parent frame is not in the URDF (names the closest, lists the frames).
+            A name the URDF gives a link and a joint alike is the link.
         JointError: A locked, sweep, home or limit joint name is not in the URDF.
         UnsupportedJoint: A joint is neither revolute, continuous nor prismatic.
     """
@@ -284,7 +286,7 @@ class Kinematics:
         full = build_model(robot) if model is None else pin.Model(model)
         self.full_model = full
         lock_ids, q_lock = locked_configuration(full, robot.locked_joints)
-        model = pin.buildReducedModel(full, lock_ids, q_lock) if lock_ids else full
+        model = reduced_model(full, lock_ids, q_lock) if lock_ids else full
         self.model = model
         self.joints = tuple(joint_infos(model))
         self.joint_names = tuple(j.name for j in self.joints)
@@ -313,7 +315,8 @@ class Kinematics:
 
         Args:
             urdf: The URDF file.
-            parent_frame: The URDF frame the sensor is attached to (e.g. 'tool0').
+            parent_frame: The URDF frame the sensor is attached to (e.g. 'tool0'); a link when a
+                link and a joint share the name.
             xyz: Origin of the sensor frame S in the parent frame [m]. Shape (3,).
             rpy: Roll, pitch, yaw from the parent frame to S [rad]. Shape (3,).
             name: The robot's name; the URDF's file name when None.
@@ -362,9 +365,7 @@ class Kinematics:
     @staticmethod
     def _add_sensor_frame(model: pin.Model, robot: RobotDefinition) -> int:
         mount = robot.sensor
-        if not model.existFrame(mount.parent_frame):
-            raise FrameNotFound(mount.parent_frame, [f.name for f in model.frames], robot.where("sensor.parent_frame"))
-        parent_id = model.getFrameId(mount.parent_frame)
+        parent_id = frame_id(model, mount.parent_frame, MOUNT_FRAME_TYPES, robot.where("sensor.parent_frame"))
         parent = model.frames[parent_id]
         T_parent_sensor = pin.SE3(pin.rpy.rpyToMatrix(*mount.rpy), np.asarray(mount.xyz, dtype=float))
         frame = pin.Frame(mount.name, parent.parentJoint, parent_id, parent.placement * T_parent_sensor, pin.FrameType.OP_FRAME)

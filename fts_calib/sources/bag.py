@@ -71,7 +71,7 @@ import numpy as np
 from ..core.exceptions import BagError, ConfigError, FileFormatError, UnknownToolConfiguration
 from ..core.files import load_yaml
 from .batch import DUPLICATE, UNKNOWN_TOOL, SampleBatch, repeated_rows
-from .recording import MAX_NOTES
+from .recording import MAX_NOTES, unlogged_joints_hint
 from .recording_set import describe_files
 from .synchronizer import Synchronizer
 
@@ -513,7 +513,7 @@ class BagReader:
             path,
             self.topics.joints,
             f"no joint message holds the robot's joints {missing}: the messages name {sorted(seen)}; "
-            "expected every joint of the robot definition, by name",
+            "expected every joint of the robot definition, by name" + unlogged_joints_hint(missing),
         )
 
     def _index(self, names: tuple[str, ...]) -> np.ndarray | None:

@@ -158,7 +158,23 @@ def value_problems(
     return found, {"non-finite": len(bad), "out of range": len(large), "backwards": len(back)}, float(latest[-1])
 
 
-__all__ = ["MALFORMED", "UNKNOWN_TOOL", "RecordingReader", "RecordingWriter", "strain_columns"]
+__all__ = ["MALFORMED", "UNKNOWN_TOOL", "RecordingReader", "RecordingWriter", "strain_columns", "unlogged_joints_hint"]
+
+
+def unlogged_joints_hint(missing: Sequence[str]) -> str:
+    """A clause for joints of the robot that a log does not hold: the robot file's ``locked_joints`` holds them fixed.
+
+    Args:
+        missing: The robot's joints the log has no column (or field) for; '' when empty.
+    """
+    if not missing:
+        return ""
+    them = "it" if len(missing) == 1 else "them"
+    values = ", ".join(f"{name}: VALUE" for name in missing)
+    return (
+        f"; a joint the robot does not log (a gripper's fingers, a joint that never moves) is held fixed by the robot file's "
+        f"locked_joints: lock {them} at the value the run holds (rad or m), 'locked_joints: {{{values}}}'"
+    )
 
 
 def _header_channels(columns: Sequence[str]) -> int:
@@ -284,6 +300,7 @@ class RecordingReader:
                 if delimiter
                 else f"; the header has {self.columns}"
             )
+            hint += unlogged_joints_hint([c for c in missing if c in self.joint_names])
             raise RecordingError(self.path, 1, missing[0], f"missing column(s) {missing}{hint}")
         known = {*required, "temperature"}
         self.extra_columns = [c for c in self.columns if c not in known]

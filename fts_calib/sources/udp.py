@@ -57,6 +57,7 @@ import numpy as np
 
 from ..core.bounded import LimitError, loads_json
 from ..core.exceptions import ConfigError, FtsCalibWarning, ProtocolError
+from .recording import unlogged_joints_hint
 from .synchronizer import Synchronizer
 
 #: Largest datagram accepted, in bytes (a joints message of a 7-joint arm is ~250 bytes).
@@ -504,7 +505,7 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
                 missing = [name for name in sync.joint_names if name not in message.q]
                 stats.first_malformed = (
                     f"malformed datagram: a joints message with unknown joints {unknown} and missing {missing} "
-                    "(expected exactly the robot's)"
+                    "(expected exactly the robot's)" + unlogged_joints_hint(missing)
                 )
     elif isinstance(message, Orientation):
         _feed_orientation(message, sync, stats)
