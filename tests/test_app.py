@@ -87,7 +87,7 @@ def test_every_option_reaches_the_run_function_with_the_same_default(command):
     assert reached == set(parameters), f"{command}: parameters of run() no option reaches: {set(parameters) - reached}"
 
 
-@pytest.mark.parametrize("command", sorted(set(arguments.COMMANDS) - {"payload"}))  # payload: its own options, merged later
+@pytest.mark.parametrize("command", sorted(arguments.COMMANDS))
 def test_each_help_shows_at_most_six_options_before_the_advanced_groups(command):
     from fts_calib.app.options import ADVANCED, MAIN_OPTIONS
 
@@ -106,7 +106,7 @@ def test_each_help_shows_at_most_six_options_before_the_advanced_groups(command)
 
 
 def test_one_meaning_per_flag():
-    """A flag is declared once (options.OPTIONS), whichever commands take it; the payload command's own parser is apart."""
+    """A flag is declared once (options.OPTIONS), whichever commands take it."""
     from fts_calib.app.options import OPTIONS
     from fts_calib.app.parser import COMMAND_OPTIONS
 
@@ -167,7 +167,7 @@ def test_a_run_function_raises_the_error_the_command_line_maps(tmp_path, ur5_joi
 
     one_pose = _recording(tmp_path / "one.csv", ur5_joints)
     with pytest.raises(PayloadError, match="see it along one direction"):
-        payload.run(source=one_pose, calibration=CALIBRATION, robot="ur5", output=tmp_path / "p.yaml")
+        payload.run(Setup(robot_file="ur5"), SourceOptions(one_pose), calibration=CALIBRATION, output=tmp_path / "p.yaml")
 
 
 # --- the exit-code table --------------------------------------------------------------------------------------------

@@ -6,6 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
+from fts_calib.app.setup import Setup, SourceOptions
 from fts_calib.core.exceptions import ConfigError
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import Calibration, save_calibration
@@ -104,7 +105,7 @@ def test_the_array_form_of_the_release_before_and_the_refusals(ur5, sensor, stil
 
 
 def test_the_old_spellings_warn_and_write_the_same_file(tmp_path, ur5, sensor, motion_recording, capsys):
-    """A bare --motion (before the recording, or after), and the keyword recording=, give the file of --motion moving."""
+    """A bare --motion (before the recording, or after), and motion=True from Python, give the file of --motion moving."""
     from fts_calib.app import payload as command
     from fts_calib.app.cli import main
 
@@ -116,8 +117,8 @@ def test_the_old_spellings_warn_and_write_the_same_file(tmp_path, ur5, sensor, m
     assert "warning" not in captured.err and "decided from the data" not in captured.out
     assert main(["payload", *common, "--motion", str(path), "-o", str(tmp_path / "bare.yaml")]) == 0  # the recording after it
     assert "fts-calib: warning: --motion without a value is now --motion moving" in capsys.readouterr().err
-    with pytest.warns(DeprecationWarning, match="'recording' is now 'source'"):
-        command.run(recording=path, calibration=cal, robot="ur5", output=tmp_path / "keyword.yaml", motion="moving")
+    with pytest.warns(DeprecationWarning, match="--motion without a value is now --motion moving"):
+        command.run(Setup(robot_file="ur5"), SourceOptions(path), calibration=cal, output=tmp_path / "keyword.yaml", motion=True)
     new = (tmp_path / "new.yaml").read_bytes()
     assert (tmp_path / "bare.yaml").read_bytes() == new and (tmp_path / "keyword.yaml").read_bytes() == new
 
@@ -131,7 +132,7 @@ def test_listen_warns_naming_the_new_source(tmp_path, sensor, capsys):
     args = ["payload", "--motion", "moving", "--listen", "127.0.0.1:0", "--idle-timeout", "0.3", "--calibration", str(cal)]
     assert main([*args, "--robot", "ur5", "-o", str(tmp_path / "p.yaml")]) == ExitCode.TIMEOUT
     err = capsys.readouterr().err
-    assert "warning: --listen 127.0.0.1:0 is now the SOURCE udp://127.0.0.1:0: fts-calib payload udp://127.0.0.1:0" in err, err
+    assert "warning: --listen 127.0.0.1:0 is now the source udp://127.0.0.1:0; --listen goes in" in err, err
     new = ["payload", "udp://127.0.0.1:0", "--idle-timeout", "0.3", "--calibration", str(cal), "--robot", "ur5"]
     assert main([*new, "-o", str(tmp_path / "p.yaml")]) == ExitCode.TIMEOUT  # the new spelling: auto, the same wait
     assert "warning" not in capsys.readouterr().err

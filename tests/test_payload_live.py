@@ -108,7 +108,7 @@ def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_p
     assert "ended by the sender" in captured.out and "2 malformed and 0 oversized skipped" in captured.out, captured.out
     assert "motion " in captured.err and "turned about the sensor's x" in captured.err, captured.err
     if spelling == "--listen":
-        assert "warning: --listen 127.0.0.1:0 is now the SOURCE udp://127.0.0.1:0: fts-calib payload udp://" in captured.err
+        assert "warning: --listen 127.0.0.1:0 is now the source udp://127.0.0.1:0; --listen goes in" in captured.err
     else:
         assert "decided from the data: a continuous motion" in captured.out and "warning" not in captured.err, captured
     written = load_tool(out).configuration("gripper")
@@ -232,11 +232,14 @@ def test_sigterm_ends_the_collection_and_identifies_what_was_collected(tmp_path,
 
 def test_the_parser_defaults_are_the_services():
     from fts_calib.app import parser as service_arguments
+    from fts_calib.app.options import OPTIONS
+    from fts_calib.payload import identify
     from fts_calib.payload import samples as payload_live
     from fts_calib.payload import still as payload
 
     assert service_arguments.IDLE_TIMEOUT_S == payload_live.IDLE_TIMEOUT_S
-    assert service_arguments.MIN_SPREAD_DEG == payload.MIN_SPREAD_DEG
+    assert OPTIONS["min-spread"].default == payload.MIN_SPREAD_DEG
+    assert service_arguments.MOTIONS == identify.MOTIONS
 
 
 def test_a_silent_feed_times_out_with_exit_18_naming_the_address(tmp_path, capsys):
@@ -256,10 +259,9 @@ def test_a_silent_feed_times_out_with_exit_18_naming_the_address(tmp_path, capsy
 @pytest.mark.parametrize(
     ("extra", "says"),
     [
-        (["--listen", "5005"], "--listen collects a continuous motion: add --motion"),
-        (["--motion", "--listen", "5005", "rec.csv"], "give a recording or --listen HOST:PORT, not both"),
-        (["--motion"], "give a recording, or --motion --listen HOST:PORT"),
-        (["--motion", "rec.csv", "--seconds", "5"], "--seconds is the length of a live motion: it goes with --listen"),
+        (["--motion", "--listen", "5005", "rec.csv"], "one source of the payload, not 2"),
+        (["--motion"], "give a recording of the payload, or a live feed udp://HOST:PORT"),
+        (["--motion", "rec.csv", "--seconds", "5"], "--seconds is the length of a live motion, read from a udp://HOST:PORT source"),
     ],
 )
 def test_the_source_options_are_checked_before_any_waiting(tmp_path, capsys, extra, says):

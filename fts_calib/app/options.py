@@ -20,6 +20,7 @@ spelling (:mod:`fts_calib.core.deprecation`, the one mechanism of every old name
 from __future__ import annotations
 
 import argparse
+import builtins
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -102,7 +103,7 @@ class Option:
         type: The type of its value.
         choices: The values it takes.
         metavar: Its value's name in the help.
-        action: Argparse's action (``store_true``, ``store_false``, ``append``); None: store a value.
+        action: Argparse's action (``store_true``, ``store_false``, ``append``, or an Action class); None: store a value.
         nargs: Argparse's nargs.
         const: The value of a bare flag with nargs '?'.
         required: Must be given.
@@ -116,7 +117,7 @@ class Option:
     type: Callable[[str], Any] | None = None
     choices: Sequence[str] | None = None
     metavar: str | tuple[str, ...] | None = None
-    action: str | None = None
+    action: str | builtins.type[argparse.Action] | None = None
     nargs: Any = None
     const: Any = None
     required: bool = False
@@ -188,9 +189,8 @@ _declare(
     "--seconds",
     dest="window_s",
     type=float,
-    default=2.0,
     metavar="SECONDS",
-    help="with a live source: the length of the window read, in s (default 2)",
+    help="with a live source: the length read, in s",
 )
 _declare(
     "--rate",
@@ -560,9 +560,27 @@ _declare(
     + ")",
 )
 _declare("--payload", dest="payload", help="tool file of the payload (ros2); its gravity is the one exported")
-_declare("--name", dest="name", default="fts_calib", help="prefix of the C identifiers (default fts_calib)")
+_declare(
+    "--name", dest="name", default="fts_calib", help="the name written into the output: the prefix of the C identifiers (default fts_calib)"
+)
 _declare("--sensor-frame", dest="sensor_frame", default="ft_sensor", help="TF frame of the sensor (ros2, default ft_sensor)")
 _declare("--world-frame", dest="world_frame", default="world", help="TF frame with z up (ros2, default world)")
+
+# payload -----------------------------------------------------------------------------------------------------------
+_declare(
+    "--estimate-mount",
+    dest="estimate_mount",
+    action="store_true",
+    help="also estimate a small rotation of the sensor mount (beyond --mount's; still poses)",
+)
+_declare(
+    "--min-spread",
+    dest="min_spread_deg",
+    type=float,
+    default=3.0,
+    metavar="DEG",
+    help="smallest RMS spread of the gravity directions about each of two axes, in deg (default 3)",
+)
 
 # monitor -----------------------------------------------------------------------------------------------------------
 _declare(
@@ -587,32 +605,3 @@ _declare(
     metavar="PERCENT",
     help="offset error tolerated, in %% of full scale (default 0.05)",
 )
-
-
-# --- the groups payload shares (its own options stay in the parser, as they were) --------------------------------------
-
-
-def add_robot_or_orientation(parser: argparse.ArgumentParser, what: str = "the recording", required_for: str = "", note: str = "") -> None:
-    """``--robot`` (optional) and ``--mount R P Y``: joints and a robot, or a feed that gives the sensor's orientation (payload).
-
-    Args:
-        parser: The command's parser.
-        what: What gives the orientation without a robot (for the help text).
-        required_for: When the orientation is needed at all (e.g. "with a mounted configuration"), for the help text.
-        note: Appended to the help of ``--mount``.
-    """
-    needed = f" ({required_for})" if required_for else ""
-    parser.add_argument(
-        "--robot",
-        help=f"robot definition: a shipped name (ur5) or a YAML path{needed}; without it {what} gives the sensor's "
-        f"orientation ({ORIENTATION_HELP})",
-    )
-    parser.add_argument(
-        "--mount",
-        dest="mount_rpy",
-        nargs=3,
-        type=float,
-        metavar=("R", "P", "Y"),
-        help=f"without --robot: roll, pitch, yaw in rad from the frame whose orientation {what} gives (e.g. the "
-        f"TCP of tcp_rx,tcp_ry,tcp_rz) to the sensor (default: 0 0 0){note}",
-    )

@@ -33,7 +33,6 @@ from .options import (
     RECORDING_HELP,
     Option,
     add_address,
-    add_robot_or_orientation,
     plot_path,
     udp_source,
 )
@@ -190,6 +189,19 @@ TEXTS: dict[str, tuple[str, str, str]] = {
         "  fts-calib tare --calibration calibration.yaml --tool paper_tool --configuration A still_A.csv   # qw,qx,qy,qz columns\n"
         "  fts-calib tare --calibration calibration.yaml udp://127.0.0.1:5005 --seconds 2   # a live window",
     ),
+    "payload": (
+        "identify an unknown payload: mass, centre of mass, offsets",
+        "From a recording (or the live feed of udp://HOST:PORT) of the payload held still in orientations that tilt "
+        "gravity about two axes: its mass, centre of mass (in the sensor frame) and the offsets, with standard errors, "
+        "written as a tool file for gravity compensation. Judges the whole set (the spread of the gravity directions, "
+        "the fit's conditioning) and refuses one that cannot determine the payload, saying what is missing. From a short "
+        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated. "
+        "Which of the two the data are is decided from them and said (--motion still or moving forces it); a live feed "
+        "is collected until the sender's end, --seconds or Ctrl-C.",
+        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml\n"
+        "  fts-calib payload --calibration calibration.yaml gripper_tcp.csv --mount 0 0 0.785 -o gripper.yaml   # tcp_rx,tcp_ry,tcp_rz\n"
+        "  fts-calib payload udp://127.0.0.1:5005 --seconds 10 --calibration calibration.yaml --robot ur5 -o gripper.yaml",
+    ),
     "export": (
         "export a calibration as a C header, JSON, ROS 2 parameters or an ATI file",
         "c-header: C and D as arrays and an inline wrench function for firmware; json: C, C_bar, D, quality, "
@@ -254,6 +266,43 @@ _LIVE_SOURCE = use(
     help="recording with the sensor still (CSV, CSV.gz or a ROS 2 bag), or a live feed udp://HOST:PORT (read for --seconds)",
 )
 _TOOL_REQUIRED = use("tool", " (required: a wrong tool gives a wrong calibration)", required=True)
+
+#: fts_calib.payload.samples.IDLE_TIMEOUT_S [s], written here: importing it would load the
+#: kinematics into the parser (tests/test_app.py checks the two defaults agree).
+IDLE_TIMEOUT_S = 10.0
+#: fts_calib.payload.identify.MOTIONS, written here for the same reason (checked alike).
+MOTIONS = ("auto", "still", "moving")
+
+
+class PayloadMotion(argparse.Action):
+    """``payload --motion {auto,still,moving}``; a bare ``--motion`` (the flag of the release before) is True.
+
+    The command warns about a bare one and takes it for ``moving``. A recording right after a bare
+    ``--motion`` is the SOURCE (``--motion rec.csv`` read as before).
+    """
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        """Store the choice, True for a bare ``--motion``; a recording after it becomes the SOURCE."""
+        if values is not None and values not in MOTIONS:
+            if getattr(namespace, SOURCES_DEST, None) is not None:
+                parser.error(f"argument --motion: invalid choice: {values!r} (choose from {', '.join(MOTIONS)})")
+            setattr(namespace, SOURCES_DEST, values)
+            values = None
+        setattr(namespace, self.dest, True if values is None else values)
+
+
+class PayloadSource(argparse.Action):
+    """``payload``'s SOURCE: kept when a bare ``--motion`` took it already; two are refused."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        """Store the SOURCE unless ``--motion`` stored it (two sources: an error)."""
+        given = getattr(namespace, self.dest, None)
+        if values is None or values == given:
+            return
+        if given is not None:
+            parser.error(f"two sources, {given} and {values}: give one (--motion takes {', '.join(MOTIONS)})")
+        setattr(namespace, self.dest, values)
+
 
 #: The groups of each command: (title, options), the advanced ones last.
 COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
@@ -423,7 +472,54 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
                 use("configuration", " (default: nothing mounted)"),
             ],
         ),
-        ("advanced: setup", _uses("seconds", "pipeline", "mount")),
+        ("advanced: setup", [use("seconds", " (default 2)"), use("pipeline"), use("mount")]),
+    ],
+    "payload": [
+        (
+            "source",
+            [
+                use(
+                    "names",
+                    nargs="?",
+                    action=PayloadSource,
+                    help="recording of the payload (still in several orientations, or moving), or udp://HOST:PORT for a live feed",
+                )
+            ],
+        ),
+        ("input", [use("calibration", help="the sensor's calibration file")]),
+        ("output", [use("output", ": the payload's tool file (for gravity compensation)", required=True)]),
+        (
+            "setup",
+            [
+                use("robot", _ORIENTATION),
+                use("mount", "; to estimate a small mount rotation: --estimate-mount"),
+                use(
+                    "motion",
+                    action=PayloadMotion,
+                    nargs="?",
+                    choices=None,
+                    default="auto",
+                    metavar="{auto,still,moving}",
+                    help="still poses, or a continuous motion (the inertia too, physically consistent); default auto: decided "
+                    "from the data, and said (a bare --motion, the flag of the release before: moving)",
+                ),
+            ],
+        ),
+        (
+            "advanced: the fit",
+            _uses("estimate-mount", "min-spread", use("name", help="name of the payload in the tool file", default="payload"), "pipeline"),
+        ),
+        (
+            "advanced: live sources (udp://)",
+            [
+                use("seconds", " of motion (default: to the sender's end or Ctrl-C)"),
+                use(
+                    "idle-timeout",
+                    help=f"with a live source: the longest wait for a datagram in s; none at all is a timeout (default {IDLE_TIMEOUT_S:g})",
+                    default=IDLE_TIMEOUT_S,
+                ),
+            ],
+        ),
     ],
     "export": [
         ("input", [use("calibration", help="calibration file: fts-calib YAML or an ATI .cal")]),
@@ -474,6 +570,7 @@ COMMAND_OPTIONS["live"] = [group for group in COMMAND_OPTIONS["calibrate"] if gr
 #: The old options of the commands that had them: (command, old spellings of the source).
 OLD_SOURCES = {
     "tare": (_LISTEN,),
+    "payload": (_LISTEN,),
     "monitor": (replace(_LISTEN, nargs="?", const=DEFAULT_LISTEN),),
     "live": (
         replace(_LISTEN, of_command=True),
@@ -511,113 +608,14 @@ def _maker(name: str):
     return make
 
 
-#: fts_calib.payload.still.MIN_SPREAD_DEG [deg], written here: importing it would load the
-#: kinematics into the parser (tests/test_app.py checks the two defaults agree).
-MIN_SPREAD_DEG = 3.0
-#: fts_calib.payload.samples.IDLE_TIMEOUT_S [s], written here for the same reason (checked alike).
-IDLE_TIMEOUT_S = 10.0
-#: fts_calib.payload.identify.MOTIONS, written here for the same reason (checked alike).
-MOTIONS = ("auto", "still", "moving")
-
-
-class PayloadMotion(argparse.Action):
-    """``payload --motion {auto,still,moving}``; a bare ``--motion`` (the flag of the release before) is True.
-
-    The command warns about a bare one and takes it for ``moving``. A recording right after a bare
-    ``--motion`` is the SOURCE (``--motion rec.csv`` read as before).
-    """
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        """Store the choice, True for a bare ``--motion``; a recording after it becomes the SOURCE."""
-        if values is not None and values not in MOTIONS:
-            if getattr(namespace, "source", None) is not None:
-                parser.error(f"argument --motion: invalid choice: {values!r} (choose from {', '.join(MOTIONS)})")
-            namespace.source, values = values, None
-        setattr(namespace, self.dest, True if values is None else values)
-
-
-class PayloadSource(argparse.Action):
-    """``payload``'s SOURCE: kept when a bare ``--motion`` took it already; two are refused."""
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        """Store the SOURCE unless ``--motion`` stored it (two sources: an error)."""
-        given = getattr(namespace, self.dest, None)
-        if values is None or values == given:
-            return
-        if given is not None:
-            parser.error(f"two sources, {given} and {values}: give one (--motion takes {', '.join(MOTIONS)})")
-        setattr(namespace, self.dest, values)
-
-
-def add_payload(commands) -> None:
-    """``payload``: identify an unknown payload's mass and centre of mass (and inertia, moving) from a source."""
-    pay = add_command(
-        commands,
-        "payload",
-        "identify an unknown payload: mass, centre of mass, offsets",
-        "From a recording (or the live feed of udp://HOST:PORT) of the payload held still in orientations that tilt "
-        "gravity about two axes: its mass, centre of mass (in the sensor frame) and the offsets, with standard errors, "
-        "written as a tool file for gravity compensation. Judges the whole set (the spread of the gravity directions, "
-        "the fit's conditioning) and refuses one that cannot determine the payload, saying what is missing. From a short "
-        "continuous motion instead: the inertia too (physically consistent), the joint stream's latency estimated. "
-        "Which of the two the data are is decided from them and said (--motion still or moving forces it); a live feed "
-        "is collected until the sender's end, --seconds or Ctrl-C.",
-        "fts-calib payload --calibration calibration.yaml --robot ur5 gripper.csv -o configs/gripper.yaml\n"
-        "  fts-calib payload --calibration calibration.yaml gripper_tcp.csv --mount 0 0 0.785 -o gripper.yaml   # tcp_rx,tcp_ry,tcp_rz\n"
-        "  fts-calib payload udp://127.0.0.1:5005 --seconds 10 --calibration calibration.yaml --robot ur5 -o gripper.yaml",
-    )
-    pay.add_argument(
-        "source",
-        nargs="?",
-        action=PayloadSource,
-        metavar="SOURCE",
-        help="recording of the payload (still in several orientations, or moving), or udp://HOST:PORT for a live feed",
-    )
-    pay.add_argument("--calibration", required=True, help="the sensor's calibration file")
-    add_robot_or_orientation(pay, note="; to estimate a small mount rotation: --estimate-mount")
-    pay.add_argument("-o", "--output", required=True, help="tool file to write")
-    pay.add_argument("--name", default="payload", help="name of the payload (default: payload)")
-    pay.add_argument(
-        "--estimate-mount", dest="mount", action="store_true", help="also estimate a small rotation of the sensor mount (beyond --mount's)"
-    )
-    pay.add_argument(
-        "--motion",
-        nargs="?",
-        action=PayloadMotion,
-        default="auto",
-        metavar="{auto,still,moving}",
-        help="still poses, or a continuous motion (the inertia too, physically consistent); default auto: decided from the "
-        "data, and said (a bare --motion, the flag of the release before: moving)",
-    )
-    pay.add_argument(
-        "--listen", type=add_address, metavar="HOST:PORT", help="the release before's live source: now the SOURCE udp://HOST:PORT"
-    )
-    pay.add_argument(
-        "--seconds", type=float, help="with a live SOURCE: end after this many seconds of motion (default: the sender's end or Ctrl-C)"
-    )
-    pay.add_argument(
-        "--idle-timeout",
-        dest="idle_timeout_s",
-        type=float,
-        default=IDLE_TIMEOUT_S,
-        help=f"with a live SOURCE: the longest wait for a datagram in s; none at all is a timeout (default {IDLE_TIMEOUT_S:g})",
-    )
-    pay.add_argument(
-        "--min-spread",
-        dest="min_spread_deg",
-        type=float,
-        default=MIN_SPREAD_DEG,
-        help=f"smallest RMS spread of the gravity directions about each of two axes, in deg (default {MIN_SPREAD_DEG:g})",
-    )
-    pay.add_argument("--pipeline", default="pipeline", help="pipeline configuration (filter thresholds)")
-
-
 #: The sub-commands, in the order ``fts-calib --help`` lists them; ``NAME`` runs ``fts_calib.app.NAME.run`` (``live``: calibrate's).
 COMMANDS = {
-    name: _maker(name) for name in ("demo", "robots", "trajectory", "calibrate", "live", "replay", "simulate", "validate", "report", "tare")
+    name: _maker(name)
+    for name in (
+        *("demo", "robots", "trajectory", "calibrate", "live", "replay", "simulate"),
+        *("validate", "report", "tare", "payload", "export", "monitor"),
+    )
 }
-COMMANDS["payload"] = add_payload
-COMMANDS.update({name: _maker(name) for name in ("export", "monitor")})
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -6,7 +6,7 @@ printed first) or forced (``--motion still``, ``--motion moving``); one estimate
 standard errors and written (:func:`fts_calib.payload.identify.identify_payload`,
 :func:`fts_calib.payload.estimate.save_payload`). The spellings of the release before keep
 working, warned about: a bare ``--motion`` (now ``--motion moving``) and ``--listen HOST:PORT``
-(now the SOURCE ``udp://HOST:PORT``).
+(now the SOURCE ``udp://HOST:PORT``, :mod:`fts_calib.core.deprecation`).
 """
 
 from __future__ import annotations
@@ -14,12 +14,11 @@ from __future__ import annotations
 import math
 import sys
 import warnings
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ..core.deprecation import REMOVED_IN, renamed
+from ..core.deprecation import REMOVED_IN
 from ..core.exceptions import ConfigError
 from ..core.files import check_outputs
 from ..filters.settings import PipelineConfig
@@ -32,7 +31,7 @@ from ..robot.kinematics import Kinematics
 from ..session.calibration_run import format_stats
 from ..sources.source import live_address
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import load_robot_or_orientation, load_settings
+from .setup import Setup, SourceOptions
 
 
 def format_motion_payload(estimate: PayloadEstimate) -> str:
@@ -143,70 +142,61 @@ def live_payload(
     return identify_payload(collected, kin, calibration, motion, settings=settings, mount=mount, min_spread_deg=min_spread_deg)
 
 
-@renamed(recording="source")
 def run(
+    setup: Setup,
+    source: SourceOptions,
     *,
-    source: str | Path | None = None,
     calibration: str | Path,
-    robot: str | Path | None = None,
     output: str | Path,
     name: str = "payload",
-    mount: bool = False,
+    estimate_mount: bool = False,
     min_spread_deg: float = MIN_SPREAD_DEG,
-    pipeline: str | Path = "pipeline",
-    mount_rpy: Sequence[float] | None = None,
     motion: str | bool = AUTO,
-    listen: tuple[str, int] | None = None,
-    seconds: float | None = None,
-    idle_timeout_s: float = IDLE_TIMEOUT_S,
 ) -> int:
     """Identify a payload from a source and write it as a tool file (``fts-calib payload``).
 
     Args:
-        source: Recording of the payload, still in orientations that tilt gravity about two axes
-            or moving; or ``udp://HOST:PORT``, the live feed (``recording`` in the release before).
+        setup: The robot (``robot_file``; None for a recording that gives the sensor's
+            orientation, with ``mount_rpy`` [rad], :mod:`fts_calib.robot.orientation`) and the
+            pipeline settings (filter thresholds).
+        source: One SOURCE: a recording of the payload, still in orientations that tilt gravity
+            about two axes or moving; or ``udp://HOST:PORT``, the live feed, read for
+            ``window_s`` [s] of motion (None: to the sender's ``end`` or Ctrl-C) with at most
+            ``idle_timeout_s`` [s] without a datagram (None: :data:`IDLE_TIMEOUT_S`).
         calibration: The sensor's calibration file.
-        robot: Robot definition: a shipped name (e.g. 'ur5') or a YAML path; None for a
-            recording that gives the sensor's orientation (:mod:`fts_calib.robot.orientation`).
         output: Tool file to write (for gravity compensation).
         name: Name of the payload in the tool file.
-        mount: Also estimate a small rotation of the sensor mount (``--estimate-mount``; still poses).
+        estimate_mount: Also estimate a small rotation of the sensor mount (``--estimate-mount``; still poses).
         min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes, in [deg].
-        pipeline: Pipeline settings (filter thresholds).
-        mount_rpy: Without ``robot``: roll, pitch, yaw [rad] from the frame the recording's
-            orientation gives to the sensor; None for none (``--mount R P Y``).
         motion: ``auto`` (decided from the data, and said), ``still`` or ``moving``; True (a bare
             ``--motion``, the release before's flag) is ``moving``, warned about.
-        listen: The release before's live source (host, port): now ``source="udp://HOST:PORT"``, warned about.
-        seconds: With a live source: end after this much motion [s]; None at the sender's ``end`` or Ctrl-C.
-        idle_timeout_s: With a live source: the longest wait for a datagram [s] (none at all: a timeout).
 
     Returns:
         0.
 
     Raises:
-        ConfigError: ``output`` is one of the inputs (the recording, the calibration), ``mount_rpy`` with a robot,
-            ``mount`` (``--estimate-mount``) with a motion, an unknown ``motion``, no source, a recording and
-            ``listen`` both, ``listen`` without ``--motion``, or ``seconds`` without a live source.
+        ConfigError: No source or more than one, ``output`` one of the inputs (the recording, the
+            calibration), ``mount_rpy`` with a robot, ``estimate_mount`` with a motion, an
+            unknown ``motion``, or ``window_s`` with a recording.
         FeedTimeout: A live source: no datagram within ``idle_timeout_s``.
         OSError: ``output`` cannot be written (a folder); checked before any work.
     """
     kind = _motion(motion)
-    address = _live_source(source, kind, motion, listen, seconds)
-    if mount and kind == MOVING:
+    address = _live_source(source)
+    if estimate_mount and kind == MOVING:
         message = "--estimate-mount is for still poses: leave it out with --motion moving"
         raise ConfigError("--estimate-mount", True, "not with --motion moving", message=message)
-    recording = None if address is not None else source
-    inputs = {"the recording": recording, "the calibration": calibration, "the robot file": robot, "the pipeline file": pipeline}
-    check_outputs({"-o": output}, inputs)
-    kin = load_robot_or_orientation(robot, mount_rpy)
-    settings = load_settings(pipeline)
+    recording = None if address is not None else source.given[0]
+    check_outputs({"-o": output}, {"the recording": recording, "the calibration": calibration, **setup.inputs()})
+    kin = setup.kinematics
+    settings = setup.settings
     cal = load_calibration(calibration)
     if address is not None:
-        estimate = live_payload(address, seconds, idle_timeout_s, kin, cal, settings, kind, mount, min_spread_deg)
+        idle_timeout_s = IDLE_TIMEOUT_S if source.idle_timeout_s is None else source.idle_timeout_s
+        estimate = live_payload(address, source.window_s, idle_timeout_s, kin, cal, settings, kind, estimate_mount, min_spread_deg)
     else:
         assert recording is not None  # _live_source
-        estimate = identify_payload(recording, kin, cal, kind, settings=settings, mount=mount, min_spread_deg=min_spread_deg)
+        estimate = identify_payload(recording, kin, cal, kind, settings=settings, mount=estimate_mount, min_spread_deg=min_spread_deg)
     if estimate.decided:
         print(estimate.decided)
     print(format_payload(estimate) if estimate.motion == STILL else format_motion_payload(estimate))
@@ -234,31 +224,18 @@ def _motion(motion: str | bool) -> str:
     return motion
 
 
-def _live_source(
-    source: str | Path | None, kind: str, motion: str | bool, listen: tuple[str, int] | None, seconds: float | None
-) -> tuple[str, int] | None:
+def _live_source(source: SourceOptions) -> tuple[str, int] | None:
     """The live feed's (host, port), or None for a recording; the source's options checked before any waiting."""
-    if listen is not None:
-        if motion == AUTO:  # the release before's spelling keeps its rule: --listen collected a motion
-            message = "--listen collects a continuous motion: add --motion (still poses are identified from a recording)"
-            raise ConfigError("--listen", f"{listen[0]}:{listen[1]}", "with --motion", message=message)
-        if source is not None:
-            message = f"give a recording or --listen HOST:PORT, not both (got {source} and --listen {listen[0]}:{listen[1]})"
-            raise ConfigError("recording", str(source), "a recording or --listen", message=message)
-        warnings.warn(
-            f"--listen {listen[0]}:{listen[1]} is now the SOURCE udp://{listen[0]}:{listen[1]}: "
-            f"fts-calib payload udp://{listen[0]}:{listen[1]} --motion {kind} ...; --listen goes in fts-calib {REMOVED_IN}",
-            DeprecationWarning,
-            stacklevel=3,
-        )
-        return listen
-    if source is None:
-        message = "give a recording, or --motion --listen HOST:PORT (now the SOURCE udp://HOST:PORT) for a live feed"
-        raise ConfigError("source", None, "a recording or udp://HOST:PORT", message=message)
-    address = live_address(str(source)) if str(source).lower().startswith("udp://") else None
-    if seconds is not None and address is None:
+    given = source.given
+    if len(given) != 1:
         message = (
-            "--seconds is the length of a live motion: it goes with --listen, now a udp://HOST:PORT SOURCE (a recording is used whole)"
+            "give a recording of the payload, or a live feed udp://HOST:PORT"
+            if not given
+            else f"one source of the payload, not {len(given)} ({', '.join(map(str, given))})"
         )
-        raise ConfigError("--seconds", seconds, "with a live source", message=message)
-    return address
+        raise ConfigError("source", [str(name) for name in given], "a recording or udp://HOST:PORT", message=message)
+    live = source.live.get("udp")
+    if live is None and source.window_s is not None:
+        message = f"--seconds is the length of a live motion, read from a udp://HOST:PORT source ({given[0]} is used whole)"
+        raise ConfigError("--seconds", source.window_s, "with a live source", message=message)
+    return None if live is None else live_address(live)

@@ -231,7 +231,7 @@ class SourceOptions:
             anyway (with ``ur://`` alone they are).
         ur_timeout_s: With ``ur://``: the longest wait for the controller [s].
         idle_timeout_s: A live source ends after this long without data [s]; None: never.
-        window_s: A live window's length [s] (``tare``).
+        window_s: How long a live source is read [s]; None: the command's own (``tare``: 2 s, ``payload``: to the sender's end).
         rate_hz: The source's sample rate [Hz]; None: measured from its time stamps.
     """
 
@@ -246,7 +246,7 @@ class SourceOptions:
     ur_wrench: bool = False
     ur_timeout_s: float = TIMEOUT_S
     idle_timeout_s: float | None = None
-    window_s: float = 2.0
+    window_s: float | None = None
     rate_hz: float | None = None
 
     @property

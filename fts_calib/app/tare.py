@@ -53,7 +53,7 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
             ``mount_rpy``) and the tool (``paper_tool`` when None); the pipeline settings
             (filter thresholds).
         source: The recording with the sensor still, or a live feed ``udp://HOST:PORT`` read for
-            ``window_s`` [s] (or to the sender's 'end', Ctrl-C).
+            ``window_s`` [s] (2 s when None; or to the sender's 'end', Ctrl-C).
         calibration: Calibration file to update.
         output: Where to write; None updates ``calibration`` in place.
 
@@ -96,7 +96,7 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
         result = tare_recording(current, recording, kin, mounted, configuration, settings)
     else:
         host, port = live_address(str(live))
-        window_s = source.window_s
+        window_s = WINDOW_S if source.window_s is None else source.window_s
 
         def listening(address: tuple[str, int]) -> None:  # the bound port, also when the source gave port 0
             print(f"listening on udp://{address[0]}:{address[1]} for {window_s:g} s: hold the sensor still...", flush=True)
@@ -115,6 +115,8 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
     return ExitCode.OK
 
 
+#: The length of a live window when ``--seconds`` is not given [s].
+WINDOW_S = 2.0
 #: How close the change of the force offsets must come to a configuration's weight to be taken for it.
 WEIGHT_MATCH = 0.15
 
