@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.exceptions import ConfigError, FtsCalibError
+from ..core.exceptions import ConfigError, FeedTimeout, FtsCalibError, ProtocolError, RecordingError, ResultRefused
 from ..core.files import atomic_write_text, check_outputs
+from ..filters.clock import check_sample_clock
 from ..model.calibration import Calibration, load_calibration, save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS, check_channels
 from ..model.parity import ParityModel
@@ -32,8 +33,18 @@ from ..sources.source import live_address, open_recording, open_source
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import OutputOptions, Setup, SourceOptions
 
-#: Windows without contact before an automatic re-tare is trusted.
+#: Windows without contact before an automatic re-tare is trusted (since the last re-tare): at most one re-tare a second
+#: of still windows (0.1 s each), and still windows off the tracked offset beyond this many (and beyond those that agree)
+#: refuse the load assumed.
 MIN_UPDATES = 10
+#: Angle the payload's force must turn through, in the sensor frame, over the windows without contact since the last
+#: re-tare before a re-tare is written [rad] (11.5 deg): at one orientation a payload other than the one named cannot be
+#: told from an offset (the windows at a second one disagree: refused).
+MIN_TILT_RAD = 0.2
+#: Largest offset error tolerated before a re-tare, in % of full scale (--tare-threshold).
+MAX_TARE_THRESHOLD = 100.0
+#: Largest false-alarm budget, per hour of service (--false-alarms): beyond it the thresholds are not a test.
+MAX_FALSE_ALARMS = 100.0
 #: Samples whose median time step sizes the windows (0.1 s), whatever batches they arrive in.
 SIZING_SAMPLES = 20
 
@@ -72,7 +83,12 @@ class OffsetFeed:
         self._sized = False
         self._waiting: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
         self.tares: list[float] = []
+        self.held = ""  # why a re-tare due was not written (the payload seen at one orientation), or ''
         self.last_time = math.nan
+        self._what = f"'{tool.name}' " + (
+            f"configuration {configuration}" if configuration is not None else "as the recording's tool column names it"
+        )
+        self._since = (0, 0)  # the watch's updates and steady windows at the last re-tare
 
     def add(self, time: np.ndarray, joints: np.ndarray, channels: np.ndarray, configuration: np.ndarray) -> None:
         """Add a batch: times [s] (N,), joints [rad] (N, n_joints), raw channels (N, n), configuration indices (N,) (-1: unknown).
@@ -117,10 +133,40 @@ class OffsetFeed:
             stop = min(len(time), start + self.watch.block - self.watch.pending) if self.auto_tare else len(time)
             self.watch.update_batch(time[start:stop], wrench[start:stop], payload[start:stop], joints[start:stop])
             self.last_time, start = float(time[stop - 1]), stop
-            learnt = self.watch.updates >= MIN_UPDATES  # never re-tare on the first windows' estimate
-            if self.auto_tare and learnt and self.watch.pending == 0 and np.any(np.abs(self.watch.offset) > self.threshold):
+            if self.auto_tare and self.watch.pending == 0 and self._due():
                 self._retare()
                 wrench[start:] = self.calibration.wrench(channels[start:], region_check=False)
+
+    def _due(self) -> bool:
+        """Whether a re-tare is due and trusted now (after a window); refuses a load that does not fit.
+
+        Raises:
+            ResultRefused: More still windows since the last re-tare disagree with the tracked
+                offset than agree, and at least :data:`MIN_UPDATES` of them: the payload named
+                is not the one on the sensor (or something rests on it); nothing is written.
+        """
+        w = self.watch
+        updates, steady = w.updates - self._since[0], w.steady - self._since[1]
+        if steady >= MIN_UPDATES and steady > updates:
+            worst = int(np.argmax(w.steady_worst / self.full_scale))
+            raise ResultRefused(
+                f"refused to re-tare ({self.path} untouched{', after ' + str(len(self.tares)) + ' re-tare(s)' if self.tares else ''}): "
+                f"the load does not fit {self._what} mounted: {steady:,} still windows (no joint moving, noise-level scatter) "
+                f"disagree with the offset tracked at the other {updates:,}, by up to {w.steady_worst[worst]:.3g} {WRENCH_UNITS[worst]} "
+                f"on {WRENCH_AXES[worst]} ({100 * w.steady_worst[worst] / self.full_scale[worst]:.3g} % FS) by {self.last_time:.1f} s: "
+                "is another configuration mounted (--configuration), or does something rest on the tool?"
+            )
+        if updates < MIN_UPDATES or not np.any(np.abs(w.offset) > self.threshold):  # never on the first windows' estimate
+            return False
+        if w.tilt_rad < MIN_TILT_RAD:
+            self.held = (
+                f"a re-tare is due but held: the {updates:,} windows without contact since the "
+                f"{'last re-tare' if self.tares else 'start'} saw the payload turn by {math.degrees(w.tilt_rad):.1f} deg, "
+                f"at least {math.degrees(MIN_TILT_RAD):.1f} deg is needed to tell an offset from a payload other than the one named"
+            )
+            return False
+        self.held = ""
+        return True
 
     def _retare(self) -> None:
         self.calibration = self.watch.retare(
@@ -129,6 +175,7 @@ class OffsetFeed:
         with writing(self.path):
             save_calibration(self.calibration, self.path)
         self.tares.append(self.last_time)
+        self._since = (self.watch.updates, self.watch.steady)
 
     def lines(self) -> list[str]:
         """The offset state in words: error, rate, windows, forecast, re-tares."""
@@ -143,7 +190,11 @@ class OffsetFeed:
             f"the offset error exceeds {100 * self.threshold[0] / self.full_scale[0]:g} % of full scale {when}",
         ]
         if self.tares:
-            out.append(f"re-tared {len(self.tares)} time(s) (at {', '.join(f'{t:.1f}' for t in self.tares)} s); wrote {self.path}")
+            last = self.tares[-10:]
+            which = "at" if len(last) == len(self.tares) else f"the last {len(last)} at"
+            out.append(f"re-tared {len(self.tares)} time(s) ({which} {', '.join(f'{t:.1f}' for t in last)} s); wrote {self.path}")
+        if self.held:
+            out.append(self.held)
         return out
 
     def status(self) -> str:
@@ -204,6 +255,7 @@ def run(
             section (a layout with no more channels than axes, or a file written before it existed).
     """
     outputs = outputs or OutputOptions()
+    check_settings(false_alarms_per_hour, tare_threshold_percent)
     live = source.live.get("udp")
     if not source.given:
         raise ConfigError("source", [], "a recording, or a live feed udp://HOST:PORT (one of them)")
@@ -232,12 +284,41 @@ def run(
         names = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else (None, None)
         with open_recording(paths, *names) as reader:
             watch.description = describe_files(paths)
+            watch.path = Path(paths[0])
             for chunk in reader:
                 check_channels(cal.layout, chunk.channels.shape[1], str(reader.path))
                 finite = np.isfinite(chunk.time) & np.all(np.isfinite(chunk.channels), axis=1)
-                watch.skipped += int((~finite).sum())
+                watch.skip(int((~finite).sum()), "non-finite time or channel")
                 watch.add(chunk.select(finite))
+            for reason, count in reader.skipped.items():
+                watch.skip(count, reason)
+            watch.notes = reader.notes()
     return _report(watch, calibration, json_path)
+
+
+def check_settings(false_alarms_per_hour: float, tare_threshold_percent: float) -> None:
+    """Refuse a false-alarm budget or a re-tare threshold ``monitor`` cannot use, naming the option.
+
+    Args:
+        false_alarms_per_hour: ``--false-alarms``, per hour of service: finite, in (0, :data:`MAX_FALSE_ALARMS`].
+        tare_threshold_percent: ``--tare-threshold``, in % of full scale: finite, in (0, :data:`MAX_TARE_THRESHOLD`].
+
+    Raises:
+        ConfigError: Either is outside its range (or not a number).
+    """
+    if not (math.isfinite(false_alarms_per_hour) and 0 < false_alarms_per_hour <= MAX_FALSE_ALARMS):
+        raise ConfigError(
+            "--false-alarms",
+            false_alarms_per_hour,
+            f"a finite budget of false alarms per hour of service above 0 and at most {MAX_FALSE_ALARMS:g} (default 1e-3)",
+        )
+    if not (math.isfinite(tare_threshold_percent) and 0 < tare_threshold_percent <= MAX_TARE_THRESHOLD):
+        raise ConfigError(
+            "--tare-threshold",
+            tare_threshold_percent,
+            f"a finite offset error in % of full scale above 0 and at most {MAX_TARE_THRESHOLD:g} (default 0.05): at 0 or below "
+            "every window would re-tare",
+        )
 
 
 class HealthWatch:
@@ -258,6 +339,10 @@ class HealthWatch:
         rate_found: How the rate was found, in words ('' when given).
         description: The source in words.
         skipped: Samples skipped before the monitor (non-finite, unpaired, malformed datagrams).
+        reasons: Those samples by reason.
+        notes: The first problems of a recording, with file and line.
+        lost: Datagrams lost on the way (gaps in their ``seq`` numbers; live only).
+        path: The (first) recording, for an error; None for a live feed.
     """
 
     def __init__(
@@ -270,6 +355,12 @@ class HealthWatch:
         self.rate_found = ""
         self.description = ""
         self.skipped = 0
+        self.reasons: dict[str, int] = {}
+        self.notes: list[str] = []
+        self.lost = 0
+        self.received = 0
+        self.waited_s = 0.0
+        self.path: Path | None = None
         self.first_time = self.last_time = math.nan
         self._waiting: list[SampleBatch] = []
 
@@ -277,6 +368,12 @@ class HealthWatch:
     def span_s(self) -> float:
         """Time between the first and the last sample watched [s] (0 before two)."""
         return 0.0 if math.isnan(self.first_time) else self.last_time - self.first_time
+
+    def skip(self, count: int, reason: str) -> None:
+        """Count ``count`` samples skipped for ``reason`` (in words)."""
+        if count:
+            self.skipped += count
+            self.reasons[reason] = self.reasons.get(reason, 0) + count
 
     def add(self, batch: SampleBatch) -> None:
         """Watch a batch of samples (finite, in time order)."""
@@ -304,6 +401,8 @@ class HealthWatch:
         self._waiting = []
         steps = np.diff(held.time)
         steps = steps[steps > 0]
+        if self.path is not None and len(held) >= SIZING_SAMPLES:  # a recording's clock the rate is measured from: in s, ticking
+            check_sample_clock(self.path, held.time, "the health monitor's thresholds and the offsets' windows of 0.1 s need it")
         rate_hz = 1.0 / float(np.median(steps)) if len(steps) else DEFAULT_RATE_HZ
         self.rate_found = f"{rate_hz:.4g} Hz, measured from the time stamps" if len(steps) else f"{rate_hz:g} Hz (no two time stamps apart)"
         self.monitor = HealthMonitor(self.parity, rate_hz, false_alarms_per_hour=self.false_alarms_per_hour)
@@ -375,13 +474,22 @@ def _report(watch: HealthWatch, calibration: str | Path, json_path: str | Path |
     watch.finish()
     monitor, parity, region, offsets = watch.monitor, watch.parity, watch.region, watch.offsets
     samples = 0 if monitor is None else monitor.samples
+    if not samples:
+        _nothing_watched(watch)
     events = [] if monitor is None else monitor.events
     noise = ", ".join(f"{v:.3g}" for v in np.sqrt(np.diag(parity.covariance)))
     groups = " and ".join("(" + ", ".join(str(k + 1) for k in g) + ")" for g in parity.groups())
     print(f"monitor of {watch.description}: {samples:,} samples over {watch.span_s:.1f} s with {calibration}")
     print(f"parity: {parity.n_parity} load-free combinations, noise {noise} (raw units); channels that share a parity line: {groups}")
     if watch.skipped:
-        print(f"skipped: {watch.skipped:,} samples (non-finite, of another number of channels, or back in time)")
+        print(f"skipped: {watch.skipped:,} samples ({_reasons(watch)})")
+        for note in watch.notes[:3]:
+            print(f"  {note}")
+    if watch.path is None and watch.received:
+        lost = (
+            f"{watch.lost:,} lost on the way (gaps in their seq numbers), not watched" if watch.lost else "none lost (by their seq numbers)"
+        )
+        print(f"datagrams: {watch.received:,} received, {lost}")
     if monitor is not None:
         thresholds = f"gain z^2 > {monitor.gain_threshold:.1f}, jump chi^2 > {monitor.jump_threshold:.1f}"
         print(f"thresholds: {thresholds} ({watch.false_alarms_per_hour:g} false alarms per hour)")
@@ -398,6 +506,8 @@ def _report(watch: HealthWatch, calibration: str | Path, json_path: str | Path |
             "events": [event.as_dict() for event in events],
             "samples": samples,
             "skipped": watch.skipped,
+            "skipped_by_reason": watch.reasons,
+            "lost": watch.lost,
             "health": "fault" if events else "ok",
             "region": region.as_dict(),
             **({} if offsets is None else {"offset": offsets.as_dict()}),
@@ -423,6 +533,7 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
     offsets, n = watch.offsets, watch.parity.n_channels
 
     def listening(bound: tuple[str, int]) -> None:
+        watch.description = f"udp://{bound[0]}:{bound[1]}"
         print(f"listening on udp://{bound[0]}:{bound[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
 
     def show(counts: FeedStatus) -> None:
@@ -457,5 +568,38 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
             watch.add(batch)
     if not quiet:
         print(file=sys.stderr)
-    watch.description = f"udp://{host}:{port}"
-    watch.skipped += sum(feed.sync.dropped.values()) + feed.stats.malformed + feed.stats.oversized
+    watch.description = watch.description or f"udp://{host}:{port}"
+    for reason, count in feed.sync.dropped.items():
+        watch.skip(count, reason)
+    watch.skip(feed.stats.malformed, "malformed datagram" + (f": {feed.stats.first_malformed}" if feed.stats.first_malformed else ""))
+    watch.skip(feed.stats.oversized, "oversized datagram")
+    watch.lost = feed.stats.gaps
+    watch.received, watch.waited_s = feed.stats.received, feed.stats.wall_s
+
+
+def _reasons(watch: HealthWatch) -> str:
+    """The samples skipped by reason, in words: 'malformed line 1, non-finite time or channel 3'."""
+    return ", ".join(f"{reason}: {count:,}" for reason, count in sorted(watch.reasons.items(), key=lambda item: -item[1]))
+
+
+def _nothing_watched(watch: HealthWatch) -> None:
+    """No sample reached the health monitor: say why, as an error (a health verdict over nothing is none).
+
+    Raises:
+        RecordingError: From a recording (every row skipped, or none).
+        ProtocolError: From a live feed whose datagrams were all unusable (another number of channels, malformed).
+        FeedTimeout: From a live feed to which no datagram came.
+    """
+    n = watch.parity.n_channels
+    if watch.path is not None:
+        why = f"all {watch.skipped:,} rows were skipped ({_reasons(watch)})" if watch.skipped else "it has no data row"
+        first = f"; the first: {watch.notes[0]}" if watch.notes else ""
+        raise RecordingError(watch.path, None, None, f"no sample to watch: {why}{first}; a health verdict needs {n} finite channels")
+    if not watch.received:
+        raise FeedTimeout(f"a datagram on {watch.description}", watch.waited_s, "is the sender sending to this address?")
+    why = f"all {watch.skipped:,} skipped ({_reasons(watch)})" if watch.skipped else "none of them a strain sample"
+    raise ProtocolError(
+        "malformed",
+        f"no strain sample of {n} channels to watch on {watch.description}: {watch.received:,} datagrams received, {why}; "
+        f"the calibration has {n} channels: is the sender's sensor the calibration's?",
+    )

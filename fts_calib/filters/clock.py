@@ -185,8 +185,7 @@ def check_clock(
     if n < MIN_ROWS:
         return ClockCheck(n, 0.0, 0.0)
     if time[-1] == time[0]:
-        message = f"all {n:,} time stamps of the first rows are equal ({time[0]:g}): the column holds no clock; write the time in s"
-        raise RecordingError(path, None, "time", message)
+        raise RecordingError(path, None, "time", _no_clock(n, float(time[0])))
     steps = np.diff(time)
     period = float(np.median(steps[steps > 0]))
     if filter_settings is not None:
@@ -210,21 +209,55 @@ def _check_period(path: str | Path, period: float, repeated: float, settings: Fi
             "finer resolution (e.g. the controller's clock, to the µs)"
         )
         raise RecordingError(path, None, "time", message)
+    advice = (
+        "the clock is too coarse for the filter; record at a higher rate (the time in s), or widen the windows in the pipeline settings"
+    )
+    raise RecordingError(path, None, "time", _slow_clock(period, f"longer than {windows}", advice))
+
+
+def check_sample_clock(path: str | Path, time: np.ndarray, why: str) -> None:
+    """Check the time stamps a sample rate is measured from (``monitor``'s first samples): a clock, in s.
+
+    Args:
+        path: The recording, for the message.
+        time: The first samples' times as read, in [s]. Shape (N,).
+        why: What the rate is for, in words (the message's end).
+
+    Raises:
+        RecordingError: Every stamp is equal, or the period (the median step between distinct
+            stamps) is longer than a sensor's (:data:`PLAUSIBLE_PERIOD_S`, 100 Hz at the slowest);
+            the message names a time unit that would make it one (ms, µs, ns).
+    """
+    time = np.asarray(time, dtype=float)
+    time = time[np.isfinite(time)]
+    if len(time) < MIN_ROWS:
+        return
+    if np.all(time == time[0]):
+        raise RecordingError(path, None, "time", _no_clock(len(time), float(time[0])))
+    steps = np.diff(time)
+    period = float(np.median(steps[steps > 0]))
+    slowest = PLAUSIBLE_PERIOD_S[1]
+    if period > slowest * (1 + 1e-9):
+        beyond = f"longer than a sensor's sample period (at most {slowest:g} s, {1 / slowest:g} Hz; {why})"
+        raise RecordingError(path, None, "time", _slow_clock(period, beyond, "record the time in s at the sensor's rate"))
+
+
+def _no_clock(n: int, value: float) -> str:
+    return f"all {n:,} time stamps of the first rows are equal ({value:g}): the column holds no clock; write the time in s"
+
+
+def _slow_clock(period: float, beyond: str, advice: str) -> str:
+    """The message of a period [s] ``beyond`` what the job takes: the time unit that would fit, or ``advice``."""
     rate = f"{period:g} s between samples ({1 / period:.3g} Hz)"
     low, high = PLAUSIBLE_PERIOD_S
     unit = next(((name, factor) for name, factor in TIME_UNITS if low <= period * factor <= high * (1 + 1e-9)), None)
-    if unit is not None:
-        name, factor = unit
-        message = (
-            f"{rate}, longer than {windows}: the time column looks like {name} ({period * factor:g} s, "
-            f"{1 / (period * factor):.3g} Hz when read as {name}); write the time in s (divide it by {1 / factor:g})"
-        )
-    else:
-        message = (
-            f"{rate}, longer than {windows}: the clock is too coarse for the filter; record at a higher rate (the time in s), "
-            "or widen the windows in the pipeline settings"
-        )
-    raise RecordingError(path, None, "time", message)
+    if unit is None:
+        return f"{rate}, {beyond}: {advice}"
+    name, factor = unit
+    return (
+        f"{rate}, {beyond}: the time column looks like {name} ({period * factor:g} s, "
+        f"{1 / (period * factor):.3g} Hz when read as {name}); write the time in s (divide it by {1 / factor:g})"
+    )
 
 
 def _speed_ratio(time: np.ndarray, joints: np.ndarray, kin: Kinematics) -> tuple[float, int]:

@@ -363,13 +363,24 @@ class Calibration:
     def with_offsets(self, D, reason: str, time: str | None = None) -> Calibration:
         """Copy with new offsets; the current ones go to ``offset_history`` with the time.
 
+        The history keeps at most :data:`MAX_OFFSET_HISTORY` entries: the first (the offsets the
+        calibration run ended with, what a tare's drift is measured from) and the latest ones.
+
         Args:
             D: New wrench offsets in [N, N, N, N m, N m, N m]. Shape (6,).
             reason: Why they were replaced (e.g. 're-tare from tare.csv, nothing mounted').
             time: ISO time of the replacement; now when None.
         """
         entry = {"D": self.D.tolist(), "replaced": time or now_iso(), "reason": reason}
-        return replace(self, D=D, offset_history=(*self.offset_history, entry))
+        history = (*self.offset_history, entry)
+        if len(history) > MAX_OFFSET_HISTORY:  # the calibration's own offsets, then the latest ones: a bounded file
+            history = (history[0], *history[len(history) - MAX_OFFSET_HISTORY + 1 :])
+        return replace(self, D=D, offset_history=history)
+
+
+#: Entries ``offset_history`` keeps: the first and the latest (an automatic re-tare every second must not grow the file
+#: past its read limit; 100 entries are ~30 kB).
+MAX_OFFSET_HISTORY = 100
 
 
 #: The top-level fields of a calibration file this version reads; others are kept in ``Calibration.extra``.

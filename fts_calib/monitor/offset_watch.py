@@ -62,6 +62,14 @@ class OffsetWatch:
         updates: Windows that updated the tracker.
         contacts: Windows refused as contact.
         in_contact: Whether the last window was a contact.
+        steady: Windows refused as contact whose samples were still (a spread within twice the
+            noise, no joint moving) but whose mean disagreed with the tracked offset: the load
+            assumed does not fit there (another payload than the one named), or something rests
+            on it. A payload that fits, drifting or not, gives none.
+        steady_worst: The largest disagreement of those windows, per axis, shape (6,).
+        tilt_rad: The largest angle between the payload's force, in the sensor frame, at the
+            windows that updated the tracker since the last re-tare and at the first of them
+            [rad]: a wrong payload shows only once the orientation changes.
     """
 
     def __init__(
@@ -88,8 +96,12 @@ class OffsetWatch:
         self._left_time, self._left_rho = np.zeros(0), np.zeros((0, 6))  # samples waiting for a full block
         self._left_q = np.zeros((0, 0))  # their joints (no column: none given)
         self._started = False
-        self.updates = self.contacts = 0
+        self.updates = self.contacts = self.steady = 0
+        self.steady_worst = np.zeros(6)
         self.in_contact = False
+        self.tilt_rad = 0.0
+        self._direction: np.ndarray | None = None  # the payload's force direction at the first update since the last re-tare
+        self._left_load = np.zeros((0, 6))
 
     def update_batch(self, time, w_measured, w_payload, joints=None) -> None:
         """Add samples, judged per block of ``block`` samples.
@@ -111,15 +123,32 @@ class OffsetWatch:
         if rho.shape != (len(time), 6):
             raise ShapeError(f"wrenches of shape {rho.shape} but expected ({len(time)}, 6)")
         q = np.zeros((len(time), 0)) if joints is None else np.asarray(joints, dtype=float).reshape(len(time), -1)
+        load = np.asarray(w_payload, dtype=float).reshape(len(time), 6)
         if len(self._left_time):
             time, rho = np.concatenate([self._left_time, time]), np.vstack([self._left_rho, rho])
             q = np.vstack([self._left_q, q]) if self._left_q.shape[1] == q.shape[1] else np.zeros((len(time), 0))
+            load = np.vstack([self._left_load, load])
         full = len(time) - len(time) % self.block
         for start in range(0, full, self.block):
             at, window = time[start : start + self.block], rho[start : start + self.block]
             moving = window_moves(at, q[start : start + self.block], self.still)
+            updates = self.updates
             self._window(float(at.mean()), window.mean(axis=0), window.std(axis=0), moving)
+            if self.updates > updates:
+                self._turned(load[start : start + self.block, :3].mean(axis=0))
         self._left_time, self._left_rho, self._left_q = time[full:].copy(), rho[full:].copy(), q[full:].copy()
+        self._left_load = load[full:].copy()
+
+    def _turned(self, force: np.ndarray) -> None:
+        """Widen :attr:`tilt_rad` with the payload's force [N] (3,) of a window that updated the tracker."""
+        size = float(np.linalg.norm(force))
+        if size == 0.0:  # no payload force: no direction to turn
+            return
+        direction = force / size
+        if self._direction is None:
+            self._direction = direction
+            return
+        self.tilt_rad = max(self.tilt_rad, math.acos(min(1.0, max(-1.0, float(direction @ self._direction)))))
 
     def _window(self, t: float, mean: np.ndarray, spread: np.ndarray, moving: bool = False) -> None:
         varying = moving or np.any(spread > 2.0 * self.noise + self.allowance)
@@ -140,6 +169,9 @@ class OffsetWatch:
         self.in_contact = bool(varying or np.any(np.abs(mean - predicted) > limit))
         if self.in_contact:
             self.contacts += 1
+            if not varying:  # still, yet off the tracked offset: a steady load other than the one assumed
+                self.steady += 1
+                self.steady_worst = np.maximum(self.steady_worst, np.abs(mean - predicted))
             return  # a contact never moves the offset; the prediction carries on from the last update
         # gains of the time constant for windows dt apart; after a long gap (motion, a contact) the offset
         # is corrected but its rate is not: one window's noise over a short dt must not set a rate
@@ -186,4 +218,5 @@ class OffsetWatch:
         """The calibration with its offsets corrected by the tracked error (the old ones in its history); the error restarts at 0."""
         corrected = calibration.with_offsets(calibration.D - self.offset, reason)
         self.offset = np.zeros(6)
+        self.tilt_rad, self._direction = 0.0, None  # the next re-tare needs its own orientations
         return corrected
