@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.deprecation import REMOVED_IN
-from ..core.exceptions import ConfigError
+from ..core.exceptions import ConfigError, ResultRefused
 from ..core.files import check_outputs
 from ..filters.settings import PipelineConfig
 from ..model.calibration import Calibration, load_calibration
@@ -61,6 +61,8 @@ def format_motion_payload(estimate: PayloadEstimate) -> str:
     ]
     if est.constrained:
         lines.append("  the least-squares inertia was not physical: the closest physical body is given (log-Cholesky fit)")
+    if est.left_out:
+        lines.append(f"  {est.left_out}")
     return "\n".join(lines)
 
 
@@ -202,10 +204,50 @@ def run(
     print(format_payload(estimate) if estimate.motion == STILL else format_motion_payload(estimate))
     for line in estimate.rails:
         print(f"  refused: {line}")
+    check_weight(estimate, cal, setup.sensor.full_scale)
     with writing(output):
         path = save_payload(estimate, output, name)
     print(f"wrote {path}")
     return ExitCode.OK
+
+
+def check_weight(estimate: PayloadEstimate, calibration: Calibration, sensor_full_scale: np.ndarray) -> None:
+    """Refuse a payload heavier than the sensor's force full scale: the sensor carried it, so its weight is within its range.
+
+    Args:
+        estimate: The payload identified (its mass [kg], the gravity it used [m/s^2]).
+        calibration: The calibration used: its accuracy budget's full scale when recorded.
+        sensor_full_scale: The sensor file's full scale [N, N, N, N m, N m, N m], shape (6,): when
+            the calibration records none.
+
+    Raises:
+        ResultRefused: The payload's weight exceeds the largest force full scale; nothing is written.
+    """
+    recorded = _recorded_full_scale(calibration)
+    full_scale = recorded if recorded is not None else np.asarray(sensor_full_scale, dtype=float)
+    force = float(np.max(full_scale[:3]))
+    weight = abs(estimate.mass) * estimate.gravity
+    if weight > force:
+        whose = "the calibration's accuracy budget" if recorded is not None else "the sensor file's"
+        raise ResultRefused(
+            f"refused (nothing written): the payload identified weighs {weight:,.0f} N ({estimate.mass:,.4g} kg), "
+            f"{weight / force:.3g} times the sensor's force full scale of {force:g} N ({whose}): the sensor carried it, so its weight "
+            "lies within its range; are the recording's channels in another unit or scale than the calibration's, or is the "
+            "calibration another sensor's?"
+        )
+
+
+def _recorded_full_scale(calibration: Calibration) -> np.ndarray | None:
+    """The full scale in the calibration's quality (its accuracy budget), shape (6,); None when it records none."""
+    budget = calibration.quality.budget if calibration.quality is not None else None
+    values = budget.get("full_scale") if isinstance(budget, dict) else None
+    if not isinstance(values, dict) or len(values) != 6:
+        return None
+    try:
+        out = np.array([float(v) for v in values.values()])
+    except (TypeError, ValueError):
+        return None
+    return out if np.all(np.isfinite(out) & (out > 0)) else None
 
 
 def _motion(motion: str | bool) -> str:

@@ -46,7 +46,8 @@ from functools import lru_cache
 
 import numpy as np
 
-_MISSING = 1.5  # an interval above this many sample periods has a sample missing
+#: An interval above this many sample periods has a sample missing.
+MISSING_PERIODS = 1.5
 
 
 @dataclass(frozen=True)
@@ -97,7 +98,7 @@ def whole_windows(time: np.ndarray, half: int, dt: float, complete: bool = False
     span = time[2 * half :] - time[: n - 2 * half]
     inner = np.abs(span - 2 * half * dt) <= 0.25 * 2 * half * dt
     if complete:
-        missing = np.concatenate([[0], np.cumsum(np.diff(time) > _MISSING * dt)])
+        missing = np.concatenate([[0], np.cumsum(np.diff(time) > MISSING_PERIODS * dt)])
         inner &= missing[2 * half :] == missing[: n - 2 * half]
     whole[half : n - half] = inner
     return whole

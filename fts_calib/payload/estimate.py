@@ -71,6 +71,8 @@ class PayloadEstimate:
         rails: One line per channel whose samples were refused at its rail
             (:meth:`fts_calib.filters.sample_checks.RailTally.lines`).
         decided: How ``motion`` was decided from the data, in words ('' when it was given).
+        left_out: A motion: the samples left out near gaps in the samples (rows refused,
+            datagrams lost), how many gaps and where, in words ('' when none).
     """
 
     mass: float
@@ -101,6 +103,7 @@ class PayloadEstimate:
     duration_s: float = 0.0
     rails: tuple[str, ...] = ()
     decided: str = ""
+    left_out: str = ""
 
     def __post_init__(self):
         arrays = ("com", "stderr_com", "offsets", "stderr_offsets", "residual_rms", "poses", "spread_deg", "offset_rate")

@@ -63,7 +63,7 @@ import numpy as np
 
 from ..core.arrays import as_samples
 from ..core.exceptions import PayloadError, ShapeError
-from ..filters.joint_rates import joint_rates, smoothed_like_acceleration
+from ..filters.joint_rates import MISSING_PERIODS, half_window, joint_rates, smoothed_like_acceleration
 from ..filters.latency import latency_regression, latency_sums, wrench_rate
 from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
 from ..model.calibration import Calibration
@@ -442,6 +442,9 @@ def fit_motion_samples(
     time = samples.time
     dt = sample_period(time) if len(time) > PERIOD_SAMPLES else float(np.median(np.diff(time)))
     wrench, smooth = smoothed_like_acceleration(time, calibration.wrench(samples.channels), window_s, dt)
+    left_out = _gaps_left_out(time, smooth, window_s, dt)
+    if left_out and int(smooth.sum()) < _UNKNOWNS:
+        raise PayloadError(f"{where}: no motion left to fit: {left_out}; record the motion again without gaps")
     g_world = kin.g_world()
     middle = len(time) // 2
     block = max(int(round(8 * window_s / dt)), 40)  # samples per block of the standard errors: eight joint-rate windows
@@ -466,4 +469,28 @@ def fit_motion_samples(
         final = abs(step) < _LATENCY_TOLERANCE_S or round_ == _ROUNDS - 2
     used = time[keep]
     duration_s = float(used[-1] - used[0]) if len(used) else 0.0
-    return dataclasses.replace(estimate, latency_s=lag, stderr_latency_s=stderr_lag, duration_s=duration_s)
+    return dataclasses.replace(estimate, latency_s=lag, stderr_latency_s=stderr_lag, duration_s=duration_s, left_out=left_out)
+
+
+#: Unknowns of the motion's fit: the ten parameters, the offsets and their drift.
+_UNKNOWNS = 22
+
+
+def _gaps_left_out(time: np.ndarray, whole: np.ndarray, window_s: float, dt: float) -> str:
+    """The samples left out near gaps in ``time`` (s, (N,)), in words; '' when none.
+
+    ``whole`` (N,) marks the samples whose joint-rate window is whole and even; those within half
+    a window of either end are left out whatever the gaps, and are not counted here.
+    """
+    half = half_window(window_s, dt)
+    gaps = np.flatnonzero(np.diff(time) > MISSING_PERIODS * dt)
+    inner = np.zeros(len(time), dtype=bool)
+    inner[half : len(time) - half] = True
+    cut = int(np.count_nonzero(inner & ~whole))
+    if not cut or not len(gaps):
+        return ""
+    where = ", ".join(f"{time[k]:.3f}" for k in gaps[:3]) + (", ..." if len(gaps) > 3 else "")
+    return (
+        f"{cut:,} of {len(time):,} samples left out, within {1e3 * half * dt:.0f} ms of {len(gaps):,} gap(s) in the samples "
+        f"(rows refused or datagrams lost; their joint rates would come from uneven windows), after t = {where} s"
+    )
