@@ -168,6 +168,10 @@ def format_model_selection(selection, quality=None) -> list[str]:
     return lines
 
 
+#: What to do when a report's recording is not of its calibration's sensor.
+REPORT_HINT = "give the recording this calibration was made from (or the calibration of the recording's sensor)"
+
+
 def run(
     setup: Setup,
     *,
@@ -219,7 +223,9 @@ def run(
         names = tuple(str(c.get("name")) for c in tools.get("configurations", []))
         samples, skipped, seen, kept = None, None, None, None
         if recording is not None:
+            from ..model.channels import check_channels
             from ..session.calibration_run import calibrate_recording
+            from ..sources.source import open_recording
 
             robot = setup.robot_file or (prov.get("robot") or {}).get("name")
             tool = setup.tool_file or tools.get("file")
@@ -229,10 +235,17 @@ def run(
             setup = dataclasses.replace(setup, robot_file=robot, tool_file=tool)
             files.update(setup.inputs())
             kin, loaded, settings, spec = setup.kinematics, setup.tool, setup.settings, setup.sensor
+            with open_recording(recording, None, None) as reader:  # the header only: a recording of another sensor is refused
+                n = getattr(reader, "n_channels", None)  # a bag's: known once read (its layout checked then)
+            if n is not None:
+                check_channels(cal.layout, n, str(recording), (f"the calibration {calibration} of layout", REPORT_HINT))
             collector = KeptCollector()
+            # the recording is the calibration's: read with its layout
+            same = spec.layout.n_channels == cal.layout.n_channels
             again = calibrate_recording(
-                recording, kin, loaded, settings, on_kept=collector, accept_poor_fit=True, layout=spec.layout, limits=spec.limits
-            )
+                recording, kin, loaded, settings, on_kept=collector, accept_poor_fit=True, layout=cal.layout,
+                limits=spec.limits if same else None,
+            )  # fmt: skip
             samples = collector.samples(cal)
             progress = again.session.progress()
             skipped, seen, kept, names = progress.skipped, progress.seen, progress.kept, tuple(loaded.names)
