@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.exceptions import FileFormatError
+from ..core.exceptions import ConfigError, FileFormatError
 from ..core.files import check_outputs
 from ..core.resources import resolve
 from ..model.sensor_config import load_sensor_config
 from ..planning.trajectory_files import TrajectoryFile, read_trajectory
 from ..robot.tool import Tool
-from ..sim.pose_files import simulate_pose_files
+from ..sim.pose_files import MIN_POSE_S, simulate_pose_files, still_poses
 from ..sim.runs import simulate_recording
 from ..sim.sensor import simulated_sensor
 from .exit_codes import ExitCode, writing
@@ -90,7 +90,8 @@ def run(setup: Setup, playback: Playback | None = None, *, trajectory: str | Pat
         0.
 
     Raises:
-        ConfigError: ``output`` is one of the trajectory files (or the robot, tool or sensor file).
+        ConfigError: ``output`` is one of the trajectory files (or the robot, tool or sensor file); still poses asked
+            for (``poses_only``, ``pose_files``) of trajectories that never hold still.
         OSError: ``output`` cannot be written (checked before the simulation runs).
     """
     playback = playback or Playback()
@@ -108,6 +109,14 @@ def run(setup: Setup, playback: Playback | None = None, *, trajectory: str | Pat
     if playback.drift_rate is not None:
         simulated = dataclasses.replace(simulated, drift_rate=np.full(np.shape(simulated.drift_rate), playback.drift_rate, dtype=float))
     trajectories = trajectories_for(loaded, trajectory)
+    if (poses_only or pose_files) and not still_poses(trajectories):
+        option = "--pose-files" if pose_files else "--poses-only"
+        message = (
+            f"{option}: the trajectories of {trajectory} never hold still for {MIN_POSE_S:g} s (a continuous or smooth plan has "
+            "no stops), so there is no static pose to record; plan with 'fts-calib trajectory --motion stop', or leave out "
+            f"{option} to record the motion"
+        )
+        raise ConfigError(option, True, "trajectories with stops", message=message)
     missing = [name for name in loaded.names if name not in {t.tool for t in trajectories}]
     rng = None if playback.noiseless else np.random.default_rng(seed)
     with writing(output):

@@ -38,6 +38,21 @@ MIN_POSE_S = 0.1
 POSE_FILE = re.compile(r"pose_\d+\.csv(\.gz)?$")
 
 
+def still_poses(trajectories: Sequence[TrajectoryFile]) -> int:
+    """How many poses the trajectories hold still for: runs of rows of zero planned speed and acceleration, :data:`MIN_POSE_S` or longer.
+
+    Args:
+        trajectories: The planned trajectories (time [s], qd [rad/s], qdd [rad/s^2]).
+    """
+    count = 0
+    for t in trajectories:
+        still = np.all(t.qd == 0.0, axis=1) & np.all(t.qdd == 0.0, axis=1)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(np.int8), [0]])))
+        starts, stops = edges[::2], edges[1::2] - 1  # each run of still rows: its first and last row
+        count += int(np.count_nonzero(t.time[stops] - t.time[starts] >= MIN_POSE_S))
+    return count
+
+
 def split_poses(batches: Iterable[SampleBatch], period_s: float) -> Iterator[SampleBatch]:
     """The samples of ``batches`` (in time order) cut into poses (see the module docstring).
 
