@@ -17,6 +17,7 @@ import subprocess
 import sys
 import textwrap
 import threading
+import time
 import types
 import warnings
 
@@ -557,3 +558,197 @@ def test_an_rtde_server_that_answers_as_another_protocol_is_named(monkeypatch):
         with pytest.raises(ConnectionError, match=rf"127\.0\.0\.1:{port} \(RTDE\) answered, but not as an RTDE server"):
             probe_rtde("127.0.0.1", port, 5.0)
         thread.join(timeout=DEADLINE_S)
+
+
+# -- round 4 (issue 33, cases 1, 2, 4 and 8-11): monitor's input checks ---------------------------------------------
+
+R = ["--robot", "ur5", "--tool", "paper_tool"]
+
+
+def _monitor(calibration, *extra):
+    return main(["monitor", "--calibration", str(calibration), *extra])
+
+
+def _rewrite(source, target, change):
+    """A copy of the recording ``source`` with ``change(header, row) -> row`` applied to every data row (strings)."""
+    lines = source.read_text().splitlines()
+    header = lines[0].split(",")
+    rows = [",".join(change(header, line.split(","))) for line in lines[1:]]
+    target.write_text("\n".join([lines[0], *rows]) + "\n")
+    return target
+
+
+@pytest.fixture
+def own_calibration(tmp_path, calibration_file):
+    """A copy of the calibration (with its health section) that a run may re-tare."""
+    copy = tmp_path / "at.yaml"
+    copy.write_bytes(calibration_file.read_bytes())
+    return copy
+
+
+def test_monitor_refuses_to_retare_with_a_payload_other_than_the_one_mounted(tmp_path, ur5_recording, own_calibration, capsys):
+    """Case 1: the calibration run (A, then B, then C mounted) watched as if C were mounted throughout: the still windows
+    of A disagree with those of C by the moments of their centres of mass; before, the first pose's offset was written."""
+    before = own_calibration.read_bytes()
+    code = _monitor(own_calibration, *R, "--configuration", "C", "--auto-tare", str(ur5_recording))
+    line = _error(capsys)
+    assert code == ExitCode.RESULT_REFUSED, line
+    assert re.match(
+        rf"fts-calib monitor: error: refused to re-tare \({re.escape(str(own_calibration))} untouched\): the load does not fit "
+        r"'RIM calibration tool' configuration C mounted: \d+ still windows \(no joint moving, noise-level scatter\) disagree "
+        r"with the offset tracked at the other \d+, by up to [\d.]+ N·m on M[xyz] \(\d+(\.\d+)? % FS\)",
+        line,
+    ), line
+    # the centres of mass of A and C are centimetres apart under a 2 kg tool: the disagreement is a tenth of a N·m or more
+    worst = float(re.search(r"by up to ([\d.]+) N·m", line).group(1))
+    assert worst > 0.1, line
+    assert own_calibration.read_bytes() == before
+    # the same recording with each row's configuration (its tool column): the load fits, nothing refused, nothing re-tared
+    assert _monitor(own_calibration, *R, "--auto-tare", str(ur5_recording)) == ExitCode.OK
+    assert own_calibration.read_bytes() == before
+
+
+@pytest.mark.parametrize("threshold", ["0", "-1", "nan"])
+def test_a_tare_threshold_of_zero_or_below_is_refused_naming_the_option(ur5_recording, own_calibration, capsys, threshold):
+    """Case 2: before, --tare-threshold 0 re-tared every window (307 times in 42.6 s) and -1 did not end."""
+    before = own_calibration.read_bytes()
+    assert _monitor(own_calibration, *R, "--auto-tare", "--tare-threshold", threshold, str(ur5_recording)) == ExitCode.CONFIG
+    assert _error(capsys) == (
+        f"fts-calib monitor: error: --tare-threshold={float(threshold)} but expected a finite offset error in % of full scale "
+        "above 0 and at most 100 (default 0.05): at 0 or below every window would re-tare"
+    )
+    assert own_calibration.read_bytes() == before
+
+
+def test_the_tare_history_keeps_the_first_entry_and_the_latest(calibration_file):
+    from fts_calib.model.calibration import MAX_OFFSET_HISTORY
+
+    cal = load_calibration(calibration_file)
+    for k in range(MAX_OFFSET_HISTORY + 50):
+        cal = cal.with_offsets(cal.D + 0.001, f"tare {k}", time=f"t{k}")
+    history = cal.offset_history
+    assert len(history) == MAX_OFFSET_HISTORY == 100
+    assert history[0]["reason"] == "tare 0" and history[0]["D"] == load_calibration(calibration_file).D.tolist()
+    assert [h["reason"] for h in history[1:]] == [f"tare {k}" for k in range(51, 150)]
+
+
+def test_monitor_gives_no_verdict_over_a_recording_whose_channel_is_never_a_number(tmp_path, ur5_recording, calibration_file, capsys):
+    """Case 4: strain_3 empty on every row: before, 'health: ok' over 0 samples."""
+
+    def blank(header, row):
+        row[header.index("strain_3")] = ""
+        return row
+
+    path = _rewrite(ur5_recording, tmp_path / "blank.csv", blank)
+    assert _monitor(calibration_file, str(path)) == ExitCode.RECORDING
+    rows = len(path.read_text().splitlines()) - 1
+    assert _error(capsys) == (
+        f"fts-calib monitor: error: {path}: no sample to watch: all {rows:,} rows were skipped (malformed line: {rows:,}); "
+        f"the first: {path}, line 2: column 'strain_3': '' is not a number; a health verdict needs 8 finite channels"
+    )
+
+
+def test_monitor_refuses_a_negative_idle_timeout(calibration_file, capsys):
+    """Case 4: --idle-timeout=-1 ended the listening at once with 'health: ok'."""
+    assert _monitor(calibration_file, "udp://127.0.0.1:0", "--idle-timeout=-1") == ExitCode.CONFIG
+    assert "idle_timeout_s=-1.0 s but expected a finite value >= 0" in _error(capsys)
+
+
+def _listen_and_send(calibration, capsys, width, count, skipped_seq=()):
+    """``monitor`` on udp://127.0.0.1:0 (on a thread) fed ``count`` strain datagrams of ``width`` values numbered by seq,
+    those in ``skipped_seq`` not sent, then 'end'; returns the exit code, the standard output and error."""
+    from fts_calib.sources.udp import End
+
+    result, printed = {}, []
+    argv = ["monitor", "--calibration", str(calibration), "udp://127.0.0.1:0", "--quiet", "--idle-timeout", "20"]
+    thread = threading.Thread(target=lambda: result.update(code=main(argv)), daemon=True)
+    thread.start()
+
+    def bound():
+        printed.append(capsys.readouterr().out)
+        return re.search(r"listening on udp://127\.0\.0\.1:(\d+)", "".join(printed))
+
+    wait_for(bound, "monitor listening")
+    port = int(bound().group(1))
+    rng = np.random.default_rng(3)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        for i in range(count):
+            if i not in skipped_seq:
+                values = tuple(float(v) for v in rng.normal(0.0, 1e-5, width))  # the paper's noise about a zero load
+                sock.sendto(encode(Strain(i / 1000.0, values, seq=i)), ("127.0.0.1", port))
+            if i % 200 == 0:
+                time.sleep(0.002)  # the receiver keeps up on a busy machine: only the gaps sent are lost
+        sock.sendto(encode(End(seq=count)), ("127.0.0.1", port))
+    thread.join(timeout=DEADLINE_S)
+    assert not thread.is_alive(), "monitor did not end on 'end'"
+    rest = capsys.readouterr()
+    return result["code"], "".join(printed) + rest.out, rest.err
+
+
+def test_monitor_names_datagrams_of_another_sensor_instead_of_a_verdict_over_none(calibration_file, capsys):
+    """Case 4: 6-value strain datagrams for an 8-channel calibration: before, 'health: ok' over 0 samples."""
+    code, _, err = _listen_and_send(calibration_file, capsys, 6, 300)
+    line = err.strip()
+    assert code == ExitCode.PROTOCOL, line
+    assert re.fullmatch(
+        r"fts-calib monitor: error: malformed datagram: no strain sample of 8 channels to watch on udp://127\.0\.0\.1:\d+: "
+        r"301 datagrams received, all 300 skipped \(strain message of another length than the sensor's channels: expected 8: 300\); "
+        r"the calibration has 8 channels: is the sender's sensor the calibration's\?",
+        line,
+    ), line
+
+
+def test_monitor_reports_the_datagrams_lost_by_their_seq_numbers(calibration_file, capsys):
+    """Case 10: 3,000 datagrams numbered 0-2,999 with 37 numbers never sent (single ones and a run of 10): the summary
+    says 37 lost; before, the gaps in seq were never reported."""
+    skipped = {*range(100, 2800, 100), *range(2900, 2910)}
+    assert len(skipped) == 37
+    code, out, _ = _listen_and_send(calibration_file, capsys, 8, 3000, skipped)
+    assert code in (ExitCode.OK, ExitCode.CHECK_FAILED), out  # the verdict on random channels is not this test's
+    assert re.search(r"monitor of udp://127\.0\.0\.1:\d+: 2,963 samples", out), out
+    assert "datagrams: 2,964 received, 37 lost on the way (gaps in their seq numbers), not watched" in out, out
+
+
+def test_monitor_names_the_line_a_recording_was_cut_at(tmp_path, ur5_recording, calibration_file, capsys):
+    """Case 8: a recording cut in the middle of a row: before, exit 0 and '0 skipped'."""
+    text = ur5_recording.read_text()
+    cut = text.index("\n", len(text) // 2) + 40  # 40 characters into a row
+    path = tmp_path / "cut.csv"
+    path.write_text(text[:cut])
+    line_number = text[:cut].count("\n") + 1
+    assert _monitor(calibration_file, str(path)) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert "skipped: 1 samples (malformed line: 1)" in out, out
+    assert f"  {path}, line {line_number}: truncated (no line end): " in out, out
+    assert f"monitor of {path}: {line_number - 2:,} samples" in out, out  # the rows before the cut one, all watched
+
+
+@pytest.mark.parametrize(
+    ("scale", "equal", "expected"),
+    [
+        (1000.0, False, r"10 s between samples \(0\.1 Hz\), longer than a sensor's sample period \(at most 0\.01 s, 100 Hz; .*\): "
+         r"the time column looks like ms \(0\.01 s, 100 Hz when read as ms\); write the time in s \(divide it by 1000\)"),
+        (1.0, True, r"all [\d,]+ time stamps of the first rows are equal \(5\): the column holds no clock; write the time in s"),
+    ],
+)  # fmt: skip
+def test_monitor_refuses_a_time_column_in_ms_or_without_a_clock(tmp_path, ur5_recording, calibration_file, capsys, scale, equal, expected):
+    """Case 9: before, 'health: ok' with the thresholds of a 0.1 Hz sensor (gain z^2 > 19.2), or of a guessed 1 kHz."""
+
+    def retime(header, row):
+        row[0] = "5.0" if equal else repr(float(row[0]) * scale)
+        return row
+
+    path = _rewrite(ur5_recording, tmp_path / "clock.csv", retime)
+    assert _monitor(calibration_file, str(path)) == ExitCode.RECORDING
+    line = _error(capsys)
+    assert re.fullmatch(rf"fts-calib monitor: error: {re.escape(str(path))}, column 'time': {expected}", line), line
+
+
+@pytest.mark.parametrize("value", ["0", "nan", "1e9", "-1e-3"])
+def test_a_false_alarm_budget_out_of_range_names_the_option(ur5_recording, calibration_file, capsys, value):
+    """Case 11: before, exit 3 naming internal values ('monitor=[100.0, 100, 15, 5]', 'probability=11574.07')."""
+    assert _monitor(calibration_file, f"--false-alarms={value}", str(ur5_recording)) == ExitCode.CONFIG
+    assert _error(capsys) == (
+        f"fts-calib monitor: error: --false-alarms={float(value)} but expected a finite budget of false alarms per hour of "
+        "service above 0 and at most 100 (default 1e-3)"
+    )
