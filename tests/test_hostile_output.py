@@ -8,6 +8,7 @@ the first line of the message and the exit code.
 import errno
 import json
 import os
+import re
 import stat
 import subprocess
 import sys
@@ -471,3 +472,146 @@ def test_streams_that_do_not_overlap_say_so_and_refer_to_no_unprinted_notes(tmp_
         "no channel sample falls between two joint readings, so the two streams' stamps are on different clocks or do not "
         "overlap in time (a bag: read the joints at its log time with --joint-stamps log)"
     ), last
+
+
+# -- round 4 (issue 33, cases 3, 5, 6 and 7): payload from motion, report, simulate --------------------------------------
+
+PAYLOAD_HOME = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])  # [rad] the UR5's payload pose of tests/test_payload.py
+
+
+@pytest.fixture(scope="module")
+def moving(tmp_path_factory, sensor):
+    """A 9.7 s payload motion at 1 kHz (the 1.4 kg validation payload), joints 8 ms late with 1e-5 rad of noise, and the
+    sensor's true calibration; the payload's true mass [kg] and inertia about its centre of mass [kg m^2]."""
+    from fts_calib.payload.inertia_motion import payload_excitation
+    from fts_calib.robot.definition import load_robot
+    from fts_calib.robot.kinematics import Kinematics
+    from fts_calib.robot.tool import load_tool
+    from fts_calib.sim.payload_run import simulate_payload_motion
+
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    folder = tmp_path_factory.mktemp("moving")
+    motion = payload_excitation(kin, PAYLOAD_HOME, seconds=10.0, amplitude=1.0)
+    path = simulate_payload_motion(folder / "moving.csv", kin, payload, sensor, motion, np.random.default_rng(5), 0.008, 1e-5)
+    calibration = save_calibration(Calibration(sensor.C_bar, sensor.D), folder / "true.yaml")
+    return path, calibration, payload.mass, payload.inertia_com
+
+
+def _payload(calibration, recording, output):
+    return main(["payload", "--calibration", str(calibration), "--robot", "ur5", str(recording), "-o", str(output)])
+
+
+def _without_rows(source, target, rows):
+    """``source`` with strain_4 emptied on the data rows ``rows`` (0-based): each such row is refused as malformed."""
+    lines = source.read_text().splitlines()
+    column = lines[0].split(",").index("strain_4")
+    for k in rows:
+        cells = lines[1 + k].split(",")
+        cells[column] = ""
+        lines[1 + k] = ",".join(cells)
+    target.write_text("\n".join(lines) + "\n")
+    return len(lines) - 1
+
+
+def test_payload_motion_with_a_channel_missing_every_tenth_row_is_refused_naming_the_gaps(tmp_path, moving, capsys):
+    """Case 3: every joint-rate window (51 samples) holds a gap: none is left to fit, and the message says why."""
+    path, calibration, *_ = moving
+    n = len(path.read_text().splitlines()) - 1
+    removed = range(0, n, 10)
+    _without_rows(path, tmp_path / "gaps.csv", removed)
+    assert _payload(calibration, tmp_path / "gaps.csv", tmp_path / "p.yaml") == ExitCode.PAYLOAD
+    left = n - len(removed)
+    # the first row removed is no gap (nothing before it); the 25 samples at each end are left out whatever the gaps
+    assert _error_line(capsys) == (
+        f"fts-calib payload: error: {tmp_path / 'gaps.csv'}: no motion left to fit: {left - 50:,} of {left:,} samples left out, "
+        f"within 25 ms of {len(removed) - 1} gap(s) in the samples (rows refused or datagrams lost; their joint rates would "
+        "come from uneven windows), after t = 0.009, 0.019, 0.029, ... s; record the motion again without gaps"
+    )
+    assert not (tmp_path / "p.yaml").exists()
+
+
+def test_payload_motion_with_a_few_rows_missing_leaves_out_their_windows_and_says_so(tmp_path, moving, capsys):
+    """Case 3: 21 rows refused, 0.4 s apart: the 25 samples each side of each gap are left out (uneven joint-rate windows,
+    which biased the inertia by 5 standard errors before) and counted; the inertia stays within 4 standard errors."""
+    path, calibration, mass, inertia = moving
+    removed = range(1000, 9001, 400)
+    n = _without_rows(path, tmp_path / "few.csv", removed)
+    assert _payload(calibration, tmp_path / "few.csv", tmp_path / "p.yaml") == ExitCode.OK
+    out = capsys.readouterr().out
+    left = n - len(removed)
+    assert f"  {len(removed) * 50:,} of {left:,} samples left out, within 25 ms of {len(removed)} gap(s) in the samples" in out, out
+    assert re.search(rf"payload from {left - 50 - len(removed) * 50:,} samples of motion", out), out
+    found = re.search(r"mass ([\d.]+) ± ([\d.e-]+) kg", out)
+    assert abs(float(found.group(1)) - mass) <= 4 * float(found.group(2)) + 5e-5, out  # + half the last digit printed
+    for k, axis in enumerate("xyz"):
+        value, stderr = (float(v) for v in re.search(rf"I{axis}{axis} ([+-][\d.]+) ± ([\d.e-]+)", out).groups())
+        assert abs(value - inertia[k, k]) <= 4 * stderr + 5e-7, (axis, value, inertia[k, k], stderr)
+
+
+def test_a_payload_heavier_than_the_sensor_range_is_refused_and_nothing_written(tmp_path, moving, capsys):
+    """Case 5: the channels scaled x100 (another unit, another gain): a 140 kg payload on a 50 N sensor; before, written."""
+    path, calibration, mass, _ = moving
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    columns = [header.index(f"strain_{k}") for k in range(1, 9)]
+    scaled = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        for c in columns:
+            cells[c] = repr(100.0 * float(cells[c]))
+        scaled.append(",".join(cells))
+    (tmp_path / "x100.csv").write_text("\n".join(scaled) + "\n")
+    output = tmp_path / "p.yaml"
+    output.write_text("an existing tool file\n")
+    assert _payload(calibration, tmp_path / "x100.csv", output) == ExitCode.RESULT_REFUSED
+    line = _error_line(capsys)
+    found = re.fullmatch(
+        r"fts-calib payload: error: refused \(nothing written\): the payload identified weighs ([\d,]+) N \(([\d.]+) kg\), "
+        r"([\d.]+) times the sensor's force full scale of 50 N \(the sensor file's\): the sensor carried it, so its weight lies "
+        r"within its range; are the recording's channels in another unit or scale than the calibration's, or is the "
+        r"calibration another sensor's\?",
+        line,
+    )
+    assert found, line
+    assert abs(float(found.group(2)) - 100 * mass) < 0.01 * 100 * mass  # the scale shows in the mass (the offsets scale too)
+    assert output.read_text() == "an existing tool file\n"
+
+
+def test_report_of_a_recording_of_another_sensor_than_the_calibration_is_refused(tmp_path, ur5_recording, capsys):
+    """Case 6: a 6-channel calibration and an 8-channel recording: before, exit 0 and a page of blank residuals."""
+    from fts_calib.model.channels import WRENCH_6
+
+    six = save_calibration(Calibration(np.eye(6), np.zeros(6), layout=WRENCH_6, provenance={"method": "test"}), tmp_path / "six.yaml")
+    argv = ["report", str(six), str(ur5_recording), "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path / "r.html")]
+    assert main(argv) == ExitCode.ARRAY
+    assert _error_line(capsys) == (
+        f"fts-calib report: error: {ur5_recording} has 8 channels but the calibration {six} of layout wrench-6 has 6; give the "
+        "recording this calibration was made from (or the calibration of the recording's sensor)"
+    )
+    assert not (tmp_path / "r.html").exists()
+
+
+@pytest.mark.parametrize("option", ["--poses-only", "--pose-files"])
+def test_simulating_still_poses_of_a_plan_that_never_stops_is_refused(tmp_path, ur5, capsys, option):
+    """Case 7: a smooth plan (every joint on a sinusoid) has no stop: before, '--poses-only' wrote a 6-row recording."""
+    from fts_calib.planning.trajectory_files import write_trajectory
+
+    t = np.arange(0.0, 2.0, 0.01)  # [s] 100 Hz
+    w = 2 * np.pi * 0.5  # [rad/s]
+    q = PAYLOAD_HOME + 0.2 * np.sin(w * t)[:, None]
+    qd, qdd = 0.2 * w * np.cos(w * t)[:, None] * np.ones(6), -0.2 * w * w * np.sin(w * t)[:, None] * np.ones(6)
+    qd[0] += 1e-9  # [rad/s] never exactly 0: the first sample is no stop either
+    folder = tmp_path / "smooth"
+    folder.mkdir()
+    for name in "ABC":
+        write_trajectory(folder / f"{name}.csv", ur5.joint_names, t, q, qd, qdd, name)
+    output = tmp_path / ("poses" if option == "--pose-files" else "poses.csv")
+    argv = ["simulate", "--robot", "ur5", "--tool", "paper_tool", "--trajectory", str(folder), "-o", str(output), option]
+    assert main(argv) == ExitCode.CONFIG
+    assert _error_line(capsys) == (
+        f"fts-calib simulate: error: {option}: the trajectories of {folder} never hold still for 0.1 s (a continuous or smooth "
+        f"plan has no stops), so there is no static pose to record; plan with 'fts-calib trajectory --motion stop', or leave "
+        f"out {option} to record the motion"
+    )
+    assert not output.exists()
