@@ -126,7 +126,7 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
         ExitCode.RESULT_REFUSED,
         (ResultRefused,),
         "the data do not support the result the command would write (a tare window that moves, or whose load is not "
-        "the one assumed): refused before any file was touched",
+        "the one assumed, also monitor's re-tare; a payload heavier than the sensor's range): refused before any file was touched",
     ),
     ExitCodeEntry(ExitCode.TRAJECTORY, (TrajectoryError,), "planning or verifying a trajectory failed"),
     ExitCodeEntry(ExitCode.PAYLOAD, (PayloadError,), "the orientations of a payload recording cannot determine the payload"),

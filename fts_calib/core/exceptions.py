@@ -363,7 +363,8 @@ class ResultRefused(FtsCalibError):
     """The data do not support the result a command would write; nothing was written.
 
     Raised before a file is touched: a tare window that is not still, or whose load does not
-    fit the one assumed (nothing mounted, or the named tool configuration).
+    fit the one assumed (nothing mounted, or the named tool configuration; ``monitor --auto-tare``
+    too); a payload identified heavier than the sensor's range.
 
     Attributes:
         reason: Why, in words (with the measured figures and what was expected).
