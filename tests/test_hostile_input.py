@@ -752,3 +752,52 @@ def test_a_false_alarm_budget_out_of_range_names_the_option(ur5_recording, calib
         f"fts-calib monitor: error: --false-alarms={float(value)} but expected a finite budget of false alarms per hour of "
         "service above 0 and at most 100 (default 1e-3)"
     )
+
+
+def _still_service(path, calibration, ur5, paper_tool, poses, shift, rng, seconds=1.5):
+    """A recording of configuration A held still at each of ``poses`` (joints [rad], (6,)) for ``seconds`` at 100 Hz, every
+    wrench shifted by ``shift`` [N, N m] (an offset that moved since the calibration), channel noise 1e-5 (the paper's)."""
+    from fts_calib.robot.tool import tool_load
+
+    cal = load_calibration(calibration)
+    header = "time," + ",".join(ur5.joint_names) + "," + ",".join(f"strain_{k + 1}" for k in range(8)) + ",tool"
+    rows, n = [], int(round(seconds * 100))
+    for k, q in enumerate(poses):
+        load = tool_load(ur5, paper_tool, np.tile(q, (n, 1)), np.zeros(n, dtype=int)).static
+        strain = (load + shift - cal.D) @ np.linalg.pinv(cal.C).T + rng.normal(0.0, 1e-5, (n, 8))
+        for i in range(n):
+            values = [repr((k * n + i) / 100.0), *(repr(float(v)) for v in q), *(repr(float(v)) for v in strain[i]), "A"]
+            rows.append(",".join(values))
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_monitor_holds_a_retare_seen_at_one_orientation_and_writes_it_at_two(tmp_path, own_calibration, ur5, paper_tool, rng, capsys):
+    """Case 1: an offset of 0.5 N on Fx (1 % FS) seen at one orientation only could be a payload other than the one named:
+    held, the file untouched; seen at a second orientation (wrist 3 turned 0.5 rad: the payload's force turns by it) it is
+    an offset: re-tared to D - 0.5 N."""
+    before = own_calibration.read_bytes()
+    shift = np.array([0.5, 0.0, 0.0, 0.0, 0.0, 0.0])
+    home = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.5, 0.0])
+    one = _still_service(tmp_path / "one.csv", own_calibration, ur5, paper_tool, [home], shift, rng)
+    assert _monitor(own_calibration, *R, "--auto-tare", str(one)) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert re.search(
+        r"a re-tare is due but held: the 1\d windows without contact since the start saw the payload turn by 0\.0 deg, at least "
+        r"11\.5 deg is needed to tell an offset from a payload other than the one named",
+        out,
+    ), out
+    assert own_calibration.read_bytes() == before
+    turned = home + np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.5])
+    two = _still_service(tmp_path / "two.csv", own_calibration, ur5, paper_tool, [home, turned], shift, rng)
+    assert _monitor(own_calibration, *R, "--auto-tare", str(two)) == ExitCode.OK
+    assert "re-tared 1 time(s)" in capsys.readouterr().out
+    D = load_calibration(own_calibration).D
+    # the tracker's offset: windows of 10 samples of noise ~2 mN through C, averaged by the alpha-beta filter: 0.02 N is > 5 sigma
+    np.testing.assert_allclose(D, load_calibration(_copy(before, tmp_path)).D - shift, atol=0.02)
+
+
+def _copy(data, folder):
+    path = folder / "before.yaml"
+    path.write_bytes(data)
+    return path
