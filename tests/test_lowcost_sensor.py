@@ -291,7 +291,18 @@ def test_validate_json_holds_the_errors_an_independent_computation_finds(lowcost
     sensor = SimulatedSensor.from_spec(load_sensor_config(sensor_file).simulated)
     calibration = save_calibration(Calibration(sensor.C_bar, sensor.D_readings), tmp_path / "true.yaml")
     report = tmp_path / "report.json"
-    args = ["validate", str(recording), "--calibration", str(calibration), "--robot", "ur5", "--sensor", str(sensor_file)]
+    args = [
+        "validate",
+        str(recording),
+        "--calibration",
+        str(calibration),
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "--sensor",
+        str(sensor_file),
+    ]
     assert main([*args, "--static", "--json", str(report)]) == 0
     written = json.loads(report.read_text())
     assert set(written) == {"axes", "samples"} and list(written["axes"]) == ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
