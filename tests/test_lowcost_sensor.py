@@ -279,6 +279,9 @@ def test_calibrate_detects_an_undeclared_rail_refuses_its_samples_and_names_it(l
     named = next(line for line in text.splitlines() if "strain_7 at its rail 1023 in" in line)
     assert named.endswith(f": {railed:,} samples"), named
     assert load_calibration(out).quality.skipped[RAILED] == railed
+    dwell = load_calibration(out).health["dwell"]  # the channels' stays in one code at the still poses, learnt
+    rate = 1.0 / float(np.median(np.diff(_recording_table(recording)["time"].to_numpy())))
+    assert dwell["segments"] >= 10 and dwell["rate_hz"] == pytest.approx(rate, rel=1e-3), dwell
 
 
 def test_validate_json_holds_the_errors_an_independent_computation_finds(lowcost_recording, ur5, paper_tool, tmp_path):

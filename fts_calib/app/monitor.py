@@ -387,6 +387,7 @@ def _report(watch: HealthWatch, calibration: str | Path, json_path: str | Path |
     if monitor is not None:
         thresholds = f"gain z^2 > {monitor.gain_threshold:.1f}, jump chi^2 > {monitor.jump_threshold:.1f}"
         print(f"thresholds: {thresholds} ({watch.false_alarms_per_hour:g} false alarms per hour)")
+        print("\n".join(f"frozen: {line}" for line in monitor.freeze_words))
     if watch.rate_found:
         print(f"sample rate: {watch.rate_found} (--rate gives it)")
     for event in events:

@@ -59,6 +59,7 @@ import numpy as np
 
 from ..budget.measured import KeptSamples, MovingSamples, with_measured_budget
 from ..budget.propagation import AccuracyBudget
+from ..budget.sensitivities import stops
 from ..core.arrays import as_matrix
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
@@ -74,7 +75,7 @@ from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
 from ..model.least_squares import unexplained_strain
-from ..model.parity import fit_parity
+from ..model.parity import CodeDwell, code_dwell, fit_parity
 from ..model.prior import Prior
 from ..model.region import RegionBuilder
 from ..model.sensor_config import DEFAULT_FULL_SCALE
@@ -803,6 +804,33 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
     return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)
 
 
+def still_dwell(session: CalibrationSession, time: np.ndarray, channels: np.ndarray, codes: np.ndarray) -> CodeDwell | None:
+    """The channels' stays in one ADC code over the kept samples of the still stops (:func:`fts_calib.model.parity.code_dwell`).
+
+    Learnt only from the quasi-static filter's samples (the sensor still at each stop: a
+    moving calibration's codes follow the load) of a quantized sensor. A stop is a run of kept
+    samples without a gap of more than 1.5 sample periods or a tool change.
+
+    Args:
+        session: The session (its filter and the channels' resolution).
+        time: The kept samples' times [s], shape (K,).
+        channels: Their raw readings, shape (K, n).
+        codes: Their tool configuration index, shape (K,).
+
+    Returns:
+        The dwell, or None (another filter, no resolution, fewer than two samples).
+    """
+    resolution = None if session.filter is None else session.filter.grid.resolution
+    if not isinstance(session.filter, QuasiStaticFilter) or resolution is None or not np.any(resolution > 0) or len(time) < 2:
+        return None
+    steps = np.diff(time)
+    steps = steps[steps > 0]
+    if not len(steps):
+        return None
+    period = float(np.median(steps))
+    return code_dwell(channels, stops(time, codes, 1.5 * period), 1.0 / period)
+
+
 def with_health(session: CalibrationSession, calibration: Calibration, noise_floor: np.ndarray | None) -> Calibration:
     """The calibration with its ``health`` section, learnt from the session's kept samples, when the layout has one.
 
@@ -814,15 +842,17 @@ def with_health(session: CalibrationSession, calibration: Calibration, noise_flo
     """
     resolution = None if session.filter is None else session.filter.grid.resolution
     limits = session.checks.detected_limits(resolution) or session.settings.checks.limits
+    time, _, channels, codes, _ = session.kept_samples.arrays()
     parity = fit_parity(
         session.layout,
         calibration.C,
         calibration.D,
-        session.kept_samples.arrays()[2],
+        channels,
         session.full_scale,
         noise_floor,
         resolution,
         None if limits is None else limits.low,
         None if limits is None else limits.high,
+        still_dwell(session, time, channels, codes),
     )
     return calibration if parity is None else replace(calibration, health=parity.to_dict())
