@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import shutil
 
@@ -119,3 +120,12 @@ def test_an_older_calibration_without_files_asks_for_the_tool(user_files, tmp_pa
     assert f"{old} does not record the tool file it was made with" in capsys.readouterr().err  # never the paper's tool
     assert main(["validate", "--calibration", str(old), "--robot", str(robot_file), "--tool", str(tool_file), str(held)]) == ExitCode.OK
     assert _largest_error(capsys.readouterr().out) < 0.1
+
+
+def test_monitor_with_the_robot_takes_the_recorded_tool_as_its_payload(user_files, tmp_path):
+    """The offset error of the payload's windows is the noise with the recorded 1.2 kg tool, not the paper's 2 kg one's weight."""
+    robot_file, _, held, cal = user_files
+    out = tmp_path / "health.json"
+    assert main(["monitor", "--calibration", str(cal), "--robot", str(robot_file), str(held), "--json", str(out)]) == ExitCode.OK
+    error = np.array(json.loads(out.read_text())["offset"]["error"])
+    assert np.all(np.abs(error[:3]) < 0.05), error  # [N]; the 0.8 kg the tools differ by weighs 7.8 N
