@@ -12,6 +12,8 @@ import pytest
 
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
+from fts_calib.app.setup import Setup
+from fts_calib.core.exceptions import ConfigError, FtsCalibWarning
 from fts_calib.core.files import file_sha256
 from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import load_calibration, save_calibration
@@ -129,3 +131,16 @@ def test_monitor_with_the_robot_takes_the_recorded_tool_as_its_payload(user_file
     assert main(["monitor", "--calibration", str(cal), "--robot", str(robot_file), str(held), "--json", str(out)]) == ExitCode.OK
     error = np.array(json.loads(out.read_text())["offset"]["error"])
     assert np.all(np.abs(error[:3]) < 0.05), error  # [N]; the 0.8 kg the tools differ by weighs 7.8 N
+
+
+def test_shipped_files_are_recorded_by_name_and_a_changed_one_is_used_with_a_warning():
+    tool_digest = file_sha256(resolve("paper_tool", "configs"))
+    provenance = {"robot": {"name": "ur5", "shipped": "ur5", "sha256": "0" * 64}, "tools": {"shipped": "paper_tool", "sha256": tool_digest}}
+    with pytest.warns(FtsCalibWarning, match="the shipped robot 'ur5' has changed since cal.yaml was made"):
+        setup = Setup().recorded(provenance, "cal.yaml")
+    assert (setup.robot_file, setup.tool_file) == ("ur5", "paper_tool")
+    gone = {**provenance, "robot": {"shipped": "ur3", "sha256": "0" * 64}}
+    with pytest.raises(ConfigError, match="the shipped robot 'ur3', which this fts-calib does not ship: give --robot FILE"):
+        Setup().recorded(gone, "cal.yaml")
+    orientation = {"robot": {"name": "gimbal", "file": None}, "tools": provenance["tools"]}  # made from orientations: no robot
+    assert Setup().recorded(orientation, "cal.yaml").robot_file is None

@@ -380,6 +380,11 @@ def _entry(provenance: Mapping[str, Any], key: str) -> Mapping[str, Any]:
     return entry if isinstance(entry, Mapping) else {}
 
 
+def _role(kind: str, role: str) -> str | None:
+    """The role :func:`resolve` takes: a tool's among the configs, None for a robot (its folder holds robots alone)."""
+    return role if kind == "configs" else None
+
+
 def _short(digest: object) -> str:
     return f"{str(digest)[:12]}…"
 
@@ -393,10 +398,10 @@ def _recorded_file(entry: Mapping[str, Any], kind: str, role: str, option: str, 
     """
     if "shipped" in entry:
         name = str(entry["shipped"])
-        if name not in shipped(kind, role if kind == "configs" else None):
+        if name not in shipped(kind, _role(kind, role)):
             message = f"{calibration} was made with the shipped {role} '{name}', which this fts-calib does not ship: give {option} FILE"
             raise ConfigError(option.lstrip("-"), name, f"a shipped {role}", message=message)
-        digest = file_sha256(resolve(name, kind, role))
+        digest = file_sha256(resolve(name, kind, _role(kind, role)))
         if entry.get("sha256") and entry["sha256"] != digest:
             warnings.warn(
                 f"the shipped {role} '{name}' has changed since {calibration} was made (another fts-calib version: SHA-256 "
@@ -436,7 +441,7 @@ def _override(given: str | Path, entry: Mapping[str, Any], kind: str, role: str,
     if not recorded or not where:
         return given
     try:
-        digest = file_sha256(resolve(given, kind, role))
+        digest = file_sha256(resolve(given, kind, _role(kind, role)))
     except (FtsCalibError, OSError):  # its loader names what is wrong with it
         return given
     if digest != recorded:
