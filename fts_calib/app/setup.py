@@ -207,7 +207,7 @@ class Setup:
     def recorded(self, provenance: Mapping[str, Any], calibration: str | Path, *, robot: bool = True, tool: bool = True) -> Setup:
         """This setup with the robot file and the tool file a calibration records, where no option names them.
 
-        A calibration records the files it was made with (:func:`fts_calib.session.session.file_provenance`):
+        A calibration records the files it was made with (:func:`fts_calib.session.provenance.file_provenance`):
         a user's file by absolute path and SHA-256, a shipped one by name. ``--robot`` and
         ``--tool`` stay overrides: one that names other content than the recorded file is
         said (a line on stdout). A recorded user's file that is no longer there, or whose

@@ -46,7 +46,6 @@ The calibration's parity model (:mod:`fts_calib.model.parity`), from what a sess
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time as _time
 from collections import Counter
@@ -63,14 +62,12 @@ from ..budget.sensitivities import stops
 from ..core.arrays import as_matrix
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
-from ..core.files import file_sha256
-from ..core.resources import data_dir
 from ..filters.chain import NO_FILTER, FilterChain, filter_chain
 from ..filters.dynamic import DynamicFilter
 from ..filters.latency import LatencyEstimate
 from ..filters.quasi_static import QuasiStaticFilter, StillSamples
 from ..filters.sample_checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from ..filters.settings import AUTO_FILTER, DYNAMIC, QUASI_STATIC, FilterConfig, PipelineConfig
+from ..filters.settings import AUTO_FILTER, DYNAMIC, QUASI_STATIC, PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
@@ -98,6 +95,7 @@ from .diagnosis import (
 )
 from .fit import MAX_RATIO, UNEXPLAINED, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .held_out import UNIT_GAP_S, held_out_units
+from .provenance import session_provenance
 
 
 @dataclass(frozen=True)
@@ -130,64 +128,6 @@ class Progress:
     def kept_fraction(self) -> float:
         """Kept samples over seen samples (0 when none seen)."""
         return self.kept / self.seen if self.seen else 0.0
-
-
-def file_provenance(path: Path | None, kind: str) -> dict[str, str | None]:
-    """Where a robot or tool file was read from, for a calibration's provenance.
-
-    Args:
-        path: The file read, or None (a robot from a recording's orientations, a tool made in code).
-        kind: Where its shipped files live: 'robots' or 'configs'.
-
-    Returns:
-        ``{"shipped": name, "sha256": hex}`` for a shipped file (its path differs from one
-        installation to another, its name does not); ``{"file": absolute path, "sha256": hex}``
-        for a user's file (``"sha256"`` left out of a file that can no longer be read);
-        ``{"file": None}`` without a file.
-    """
-    if path is None:
-        return {"file": None}
-    absolute = Path(path).absolute()
-    try:
-        digest = file_sha256(absolute)
-    except OSError:  # read a moment ago, gone now: the path still says where it came from
-        return {"file": str(absolute)}
-    if absolute.suffix == ".yaml" and absolute.resolve().parent == data_dir(kind).resolve():
-        return {"shipped": absolute.stem, "sha256": digest}
-    return {"file": str(absolute), "sha256": digest}
-
-
-def session_provenance(kin: Kinematics, tool: Tool, kept: np.ndarray, source: str, filter_settings: FilterConfig | None) -> dict:
-    """The provenance of a session's calibration, as plain data.
-
-    The robot file and the tool file are recorded by absolute path and SHA-256
-    (:func:`file_provenance`): the commands that use the calibration later (``validate``,
-    ``report``, ``tare``, ``monitor``) read them again from there and name a file that moved
-    or changed.
-
-    Args:
-        kin: The robot's kinematics (its definition and sensor mount: xyz in [m], rpy in [rad]).
-        tool: The calibration tool (masses in [kg], centres of mass in [m]).
-        kept: Kept samples per configuration, the tool's order. Shape (k,).
-        source: What the samples came from.
-        filter_settings: The quasi-static filter's settings, or None without the filter.
-    """
-    robot, mount = kin.robot, kin.robot.sensor
-    return {
-        "robot": {"name": robot.name, "urdf": robot.urdf_spec or str(robot.urdf), **file_provenance(robot.source, "robots")},
-        "sensor_frame": {"name": mount.name, "parent_frame": mount.parent_frame, "xyz": mount.xyz.tolist(), "rpy": mount.rpy.tolist()},
-        "tools": {
-            "name": tool.name,
-            **file_provenance(tool.source, "configs"),
-            "gravity": tool.gravity,
-            "configurations": [
-                {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist(), "samples": int(n)}
-                for c, n in zip(tool.configurations, kept, strict=True)
-            ],
-        },
-        "source": source,
-        "filter": None if filter_settings is None else dataclasses.asdict(filter_settings),
-    }
 
 
 #: How far beyond the sensor's force full scale a tool's weight may be before it is refused: a
