@@ -294,7 +294,7 @@ def true_cal(tmp_path, sensor):
 
 
 def _validate(cal, bag, *extra):
-    return main(["validate", "--calibration", str(cal), "--robot", "ur5", str(bag), "--max-error", "0.2", *extra])
+    return main(["validate", "--calibration", str(cal), "--robot", "ur5", "--tool", "paper_tool", str(bag), "--max-error", "0.2", *extra])
 
 
 def test_joint_stamps_that_do_not_move_are_named_with_the_way_out(tmp_path, ur5_recording, true_cal, capsys):
@@ -342,7 +342,10 @@ def test_a_validation_or_replay_of_a_sliver_of_the_recording_fails(tmp_path, ur5
     ), line
     assert "over 300 of 2,000 samples (15 %)" in captured.out  # the fraction is stated in the report too
     assert _validate(true_cal, bag, "--min-coverage", "0.1") == ExitCode.OK
-    assert main(["validate", "--calibration", str(true_cal), "--robot", "ur5", str(bag), "--min-coverage", "2"]) == ExitCode.CONFIG
+    assert (
+        main(["validate", "--calibration", str(true_cal), "--robot", "ur5", "--tool", "paper_tool", str(bag), "--min-coverage", "2"])
+        == ExitCode.CONFIG
+    )
     assert "min_coverage=2.0 but expected a share in [0, 1]" in _error_line(capsys)
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as receiver:
         receiver.bind(("127.0.0.1", 0))

@@ -279,6 +279,9 @@ def test_calibrate_detects_an_undeclared_rail_refuses_its_samples_and_names_it(l
     named = next(line for line in text.splitlines() if "strain_7 at its rail 1023 in" in line)
     assert named.endswith(f": {railed:,} samples"), named
     assert load_calibration(out).quality.skipped[RAILED] == railed
+    dwell = load_calibration(out).health["dwell"]  # the channels' stays in one code at the still poses, learnt
+    rate = 1.0 / float(np.median(np.diff(_recording_table(recording)["time"].to_numpy())))
+    assert dwell["segments"] >= 10 and dwell["rate_hz"] == pytest.approx(rate, rel=1e-3), dwell
 
 
 def test_validate_json_holds_the_errors_an_independent_computation_finds(lowcost_recording, ur5, paper_tool, tmp_path):
@@ -291,7 +294,18 @@ def test_validate_json_holds_the_errors_an_independent_computation_finds(lowcost
     sensor = SimulatedSensor.from_spec(load_sensor_config(sensor_file).simulated)
     calibration = save_calibration(Calibration(sensor.C_bar, sensor.D_readings), tmp_path / "true.yaml")
     report = tmp_path / "report.json"
-    args = ["validate", str(recording), "--calibration", str(calibration), "--robot", "ur5", "--sensor", str(sensor_file)]
+    args = [
+        "validate",
+        str(recording),
+        "--calibration",
+        str(calibration),
+        "--robot",
+        "ur5",
+        "--tool",
+        "paper_tool",
+        "--sensor",
+        str(sensor_file),
+    ]
     assert main([*args, "--static", "--json", str(report)]) == 0
     written = json.loads(report.read_text())
     assert set(written) == {"axes", "samples"} and list(written["axes"]) == ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]

@@ -66,7 +66,9 @@ def test_cli_tare_updates_the_file_and_keeps_the_history(tmp_path, setup, ur5, r
     updated = load_calibration(file)
     assert len(updated.offset_history) == 2 and updated.offset_history[0]["D"] == cal.D.tolist()
     np.testing.assert_allclose(updated.D - cal.D, SHIFT, atol=ATOL_SHIFT)
-    assert main(["tare", "--calibration", str(file), str(path), "--configuration", "A"]) == ExitCode.RECORDING  # no robot: orientations
+    assert (
+        main(["tare", "--calibration", str(file), str(path), "--configuration", "A", "--tool", "paper_tool"]) == ExitCode.RECORDING
+    )  # no robot: orientations
     assert "no --robot given, so the recording must give the sensor's orientation" in capsys.readouterr().err
 
 
@@ -147,7 +149,7 @@ def test_cli_tare_with_nothing_mounted_warns_when_the_offsets_moved_by_a_tool_we
     weight = tool.configuration("A").static_wrench(ur5.g_sensor(HOME, tool.gravity))  # 19.6 N along gravity
     file = save_calibration(cal, tmp_path / "cal.yaml")
     path = _recording(tmp_path / "mounted.csv", sensor, ur5, weight, rng)
-    assert main(["tare", "--calibration", str(file), str(path)]) == 0
+    assert main(["tare", "--calibration", str(file), str(path), "--tool", "paper_tool"]) == 0  # the calibration records no tool
     err = capsys.readouterr().err
     assert "about the weight of configuration A of 'RIM calibration tool' (2 kg, 19.62 N)" in err, err
     # nothing on the sensor: no warning (the offsets moved by SHIFT only)
@@ -190,7 +192,7 @@ def test_a_recording_of_another_width_than_the_calibration_names_both(tmp_path, 
     args = {
         "tare": ["tare", "--calibration", str(cal), str(ur5_recording), "-o", str(out)],
         "payload": ["payload", "--calibration", str(cal), "--robot", "ur5", str(ur5_recording), "-o", str(out)],
-        "validate": ["validate", "--calibration", str(cal), "--robot", "ur5", str(ur5_recording)],
+        "validate": ["validate", "--calibration", str(cal), "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording)],
     }[command]
     assert main(args) == ExitCode.ARRAY
     err = capsys.readouterr().err.strip().splitlines()

@@ -230,7 +230,8 @@ def run(
     Args:
         setup: With a robot: the payload's wrench from the joints, and the offset tracked
             where nothing touches the payload (:mod:`fts_calib.monitor.offset_watch`): the
-            payload's tool file (``paper_tool`` when None), its configuration (None: each
+            payload's tool file (None: the one the calibration records, :meth:`Setup.recorded`;
+            refused when it records none), its configuration (None: each
             sample's, the recording's tool column) and the sensor's full scale.
         source: The recording (CSV or CSV.gz) of the sensor in service, or ROS 2 bags; or a
             live feed ``udp://HOST:PORT`` (its strain datagrams, :mod:`fts_calib.sources.udp`),
@@ -274,6 +275,7 @@ def run(
     region = RegionCount(cal)
     offsets = None
     if setup.robot_file is not None:
+        setup = setup.recorded(cal.provenance, calibration, robot=False)  # the payload: the calibration's tool, unless given
         offsets = OffsetFeed(cal, calibration, parity, setup, auto_tare, tare_threshold_percent)
     elif auto_tare:
         raise ConfigError("auto_tare", True, "--robot and --tool: the payload's wrench needs the joints")
@@ -493,6 +495,7 @@ def _report(watch: HealthWatch, calibration: str | Path, json_path: str | Path |
     if monitor is not None:
         thresholds = f"gain z^2 > {monitor.gain_threshold:.1f}, jump chi^2 > {monitor.jump_threshold:.1f}"
         print(f"thresholds: {thresholds} ({watch.false_alarms_per_hour:g} false alarms per hour)")
+        print("\n".join(f"frozen: {line}" for line in monitor.freeze_words))
     if watch.rate_found:
         print(f"sample rate: {watch.rate_found} (--rate gives it)")
     for event in events:

@@ -402,7 +402,7 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
     ],
     "validate": [
         ("source", [_RECORDINGS]),
-        ("setup", [use("robot", _ORIENTATION), use("tool", " (default: paper_tool)")]),
+        ("setup", [use("robot", " (default: the calibration's)" + _ORIENTATION), use("tool", " (default: the calibration's)")]),
         (
             "input",
             [
@@ -467,8 +467,8 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
         (
             "setup",
             [
-                use("robot", " (used with a mounted configuration)" + _ORIENTATION),
-                use("tool", " (default: paper_tool)"),
+                use("robot", " (used with a mounted configuration; default: the calibration's)" + _ORIENTATION),
+                use("tool", " (default: the calibration's)"),
                 use("configuration", " (default: nothing mounted)"),
             ],
         ),
@@ -555,7 +555,7 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
             "offsets that stay right (a known payload and the joints)",
             [
                 use("robot", ": the payload's wrench from the joints; the offset tracked without contact"),
-                use("tool", " (the payload; default: paper_tool)"),
+                use("tool", " (the payload; default: the calibration's)"),
                 use("configuration", " (default: each sample's, the recording's tool column)"),
                 use("auto-tare"),
             ],

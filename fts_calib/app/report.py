@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 
@@ -184,8 +183,8 @@ def run(
     """Write the HTML report of a calibration file, or its comparison with an older one (``fts-calib report``).
 
     Args:
-        setup: For the recording: the robot and the tool (the calibration's provenance, its
-            robot's shipped name and its tool file, when None), the pipeline settings (filter
+        setup: For the recording: the robot and the tool (None: the files the calibration
+            records, :meth:`fts_calib.app.setup.Setup.recorded`), the pipeline settings (filter
             thresholds) and the sensor file (channel limits, full scale).
         calibration: The calibration file (fts-calib YAML).
         output: HTML file to write.
@@ -227,12 +226,7 @@ def run(
             from ..session.calibration_run import calibrate_recording
             from ..sources.source import open_recording
 
-            robot = setup.robot_file or (prov.get("robot") or {}).get("name")
-            tool = setup.tool_file or tools.get("file")
-            if not robot or not tool:
-                missing = "--robot" if not robot else "--tool"
-                raise ConfigError(missing, None, f"the robot and tool of the recording: {calibration} does not record it in its provenance")
-            setup = dataclasses.replace(setup, robot_file=robot, tool_file=tool)
+            setup = setup.recorded(prov, calibration)  # the robot and tool it was made with, unless given
             files.update(setup.inputs())
             kin, loaded, settings, spec = setup.kinematics, setup.tool, setup.settings, setup.sensor
             with open_recording(recording, None, None) as reader:  # the header only: a recording of another sensor is refused

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -29,8 +30,9 @@ import numpy as np
 
 from ..core import arrays as validation
 from ..core.arrays import as_matrix
-from ..core.exceptions import ConfigError
-from ..core.resources import resolve
+from ..core.exceptions import ConfigError, FtsCalibError, FtsCalibWarning
+from ..core.files import file_sha256
+from ..core.resources import resolve, shipped
 from ..filters.settings import FILTER_MODES, NO_FILTER, PipelineConfig, load_pipeline_config
 from ..model.channels import ChannelLayout
 from ..model.prior import Prior
@@ -202,6 +204,61 @@ class Setup:
         """The sensor model setting: ``model``, or the sensor file's."""
         return self.model or self.sensor.model
 
+    def recorded(self, provenance: Mapping[str, Any], calibration: str | Path, *, robot: bool = True, tool: bool = True) -> Setup:
+        """This setup with the robot file and the tool file a calibration records, where no option names them.
+
+        A calibration records the files it was made with (:func:`fts_calib.session.provenance.file_provenance`):
+        a user's file by absolute path and SHA-256, a shipped one by name. ``--robot`` and
+        ``--tool`` stay overrides: one that names other content than the recorded file is
+        said (a line on stdout). A recorded user's file that is no longer there, or whose
+        content changed since, is refused (:class:`ConfigError` naming it and the option that
+        overrides it): the calibration's tool masses and mount were those of its bytes. A
+        shipped file changed by another fts-calib version is used with a warning.
+
+        Args:
+            provenance: The calibration's ``provenance`` section.
+            calibration: The calibration file, as the user named it (for the messages).
+            robot: Fill ``robot_file`` (else left as it is; left too when ``mount_rpy`` is given).
+            tool: Fill ``tool_file``; a calibration that records none (an older file, an ATI
+                ``.cal``) is refused then: no other tool is assumed.
+
+        Raises:
+            ConfigError: A recorded file moved or changed; no tool recorded and none given.
+        """
+        changes: dict[str, Any] = {}
+        robot_unknown = False
+        if robot and self.mount_rpy is None:  # a mount given: the orientation's gimbal, no robot
+            given, entry = self.robot_file, _entry(provenance, "robot")
+            found = (
+                _recorded_file(entry, "robots", "robot", "--robot", calibration)
+                if given is None
+                else _override(given, entry, "robots", "robot", "--robot", calibration)
+            )
+            if given is None and found is not _UNKNOWN:
+                changes["robot_file"] = found
+            robot_unknown = given is None and found is _UNKNOWN
+        if tool:
+            given, entry = self.tool_file, _entry(provenance, "tools")
+            found = (
+                _recorded_file(entry, "configs", "tool", "--tool", calibration)
+                if given is None
+                else _override(given, entry, "configs", "tool", "--tool", calibration)
+            )
+            if given is None:
+                if found is _UNKNOWN or found is None:
+                    files, give = (
+                        ("the robot file and the tool file", "--robot ROBOT and --tool FILE")
+                        if robot_unknown
+                        else ("the tool file", "--tool FILE")
+                    )
+                    message = (
+                        f"{calibration} does not record {files} it was made with (written before calibrations recorded them, "
+                        f"typed in, or an ATI .cal): give {give}, those of the recording"
+                    )
+                    raise ConfigError("tool", None, "the tool file of the recording", message=message)
+                changes["tool_file"] = found
+        return dataclasses.replace(self, **changes) if changes else self
+
     def inputs(self) -> dict[str, str | Path | None]:
         """The files named, by what they are (for the check that no output overwrites one)."""
         named = {
@@ -311,6 +368,85 @@ class OutputOptions:
     resume: bool = False
     restart: bool = False
     quiet: bool = False
+
+
+#: What :func:`_recorded_file` returns for a calibration that does not say which file it was made with.
+_UNKNOWN: Any = object()
+
+
+def _entry(provenance: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+    """The provenance's ``robot`` or ``tools`` mapping ({} when absent or malformed)."""
+    entry = provenance.get(key) if isinstance(provenance, Mapping) else None
+    return entry if isinstance(entry, Mapping) else {}
+
+
+def _role(kind: str, role: str) -> str | None:
+    """The role :func:`resolve` takes: a tool's among the configs, None for a robot (its folder holds robots alone)."""
+    return role if kind == "configs" else None
+
+
+def _short(digest: object) -> str:
+    return f"{str(digest)[:12]}…"
+
+
+def _recorded_file(entry: Mapping[str, Any], kind: str, role: str, option: str, calibration: str | Path) -> Any:
+    """The file a calibration's provenance entry names: a shipped name, a path, None (made without a file) or :data:`_UNKNOWN`.
+
+    Raises:
+        ConfigError: The recorded user's file is not there any more, or its content changed
+            (its SHA-256 differs from the recorded one); a shipped name this version lacks.
+    """
+    if "shipped" in entry:
+        name = str(entry["shipped"])
+        if name not in shipped(kind, _role(kind, role)):
+            message = f"{calibration} was made with the shipped {role} '{name}', which this fts-calib does not ship: give {option} FILE"
+            raise ConfigError(option.lstrip("-"), name, f"a shipped {role}", message=message)
+        digest = file_sha256(resolve(name, kind, _role(kind, role)))
+        if entry.get("sha256") and entry["sha256"] != digest:
+            warnings.warn(
+                f"the shipped {role} '{name}' has changed since {calibration} was made (another fts-calib version: SHA-256 "
+                f"{_short(entry['sha256'])} then, {_short(digest)} now); it is used as it is now ({option} FILE to use another)",
+                FtsCalibWarning,
+                stacklevel=3,
+            )
+        return name
+    if "file" not in entry:  # written before files were recorded: an older robot entry names its robot only
+        old = str(entry.get("name") or "")
+        return old if kind == "robots" and old in shipped(kind) else _UNKNOWN
+    if entry["file"] is None:
+        return None
+    path = Path(str(entry["file"]))
+    if not path.is_file():
+        message = (
+            f"{calibration} was made with the {role} file {path}, which is not there any more (moved or deleted): "
+            f"give {option} FILE, the {role} file of the recording"
+        )
+        raise ConfigError(option.lstrip("-"), str(path), f"the {role} file", message=message)
+    recorded = entry.get("sha256")
+    if recorded:
+        digest = file_sha256(path)
+        if digest != recorded:
+            message = (
+                f"{calibration} was made with the {role} file {path}, whose content has changed since (SHA-256 {_short(recorded)} "
+                f"then, {_short(digest)} now): give {option} {path} to use it as it is now, or {option} FILE as it was"
+            )
+            raise ConfigError(option.lstrip("-"), str(path), f"the {role} file as it was", message=message)
+    return str(path)
+
+
+def _override(given: str | Path, entry: Mapping[str, Any], kind: str, role: str, option: str, calibration: str | Path) -> Any:
+    """Say (on stdout) when ``given`` holds other content than the file the calibration records; returns ``given``."""
+    recorded = entry.get("sha256")
+    where = entry.get("file") or (f"the shipped {role} '{entry['shipped']}'" if "shipped" in entry else None)
+    if not recorded or not where:
+        return given
+    try:
+        digest = file_sha256(resolve(given, kind, _role(kind, role)))
+    except (FtsCalibError, OSError):  # its loader names what is wrong with it
+        return given
+    if digest != recorded:
+        print(f"note: {option} {given} overrides the {role} file {calibration} was made with ({where}; other content)")
+    return given
 
 
 def load_settings(pipeline: str | Path = "pipeline") -> PipelineConfig:

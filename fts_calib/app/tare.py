@@ -49,9 +49,10 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
 
     Args:
         setup: With ``configuration`` (the tool configuration mounted; None: nothing mounted)
-            the robot (None: a recording or feed that gives the sensor's orientation, with
-            ``mount_rpy``) and the tool (``paper_tool`` when None); the pipeline settings
-            (filter thresholds).
+            the robot and the tool (each None: the files the calibration records,
+            :meth:`Setup.recorded`; a calibration made without a robot file, or ``mount_rpy``
+            given: a recording or feed that gives the sensor's orientation); the pipeline
+            settings (filter thresholds).
         source: The recording with the sensor still, or a live feed ``udp://HOST:PORT`` read for
             ``window_s`` [s] (2 s when None; or to the sender's 'end', Ctrl-C).
         calibration: Calibration file to update.
@@ -89,6 +90,7 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
     mounted: Tool | None = None
     configuration = setup.configuration
     if configuration is not None:  # the load depends on the orientation: the robot's joints, or the recording's orientation
+        setup = setup.recorded(current.provenance, calibration)  # the robot and tool it was made with, unless given
         kin, mounted = setup.kinematics, setup.tool
         mounted.configuration(configuration)  # a clear error for an unknown name, before any waiting
     settings = setup.settings
@@ -104,7 +106,9 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
         with using_udp(host, port):
             result = tare_live(current, host, port, window_s, kin, mounted, configuration, settings, listening)
     if mounted is None:
-        _warn_if_a_tool_seems_mounted(result, setup.tool)
+        known = setup if setup.tool_file is not None else _recorded_tool(setup, current.provenance, calibration)
+        if known is not None:  # no tool known: no weight to compare with
+            _warn_if_a_tool_seems_mounted(result, known.tool)
     target = calibration if output is None else output
     with writing(target):
         written = save_calibration(result.calibration, target)
@@ -119,6 +123,14 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
 WINDOW_S = 2.0
 #: How close the change of the force offsets must come to a configuration's weight to be taken for it.
 WEIGHT_MATCH = 0.15
+
+
+def _recorded_tool(setup: Setup, provenance, calibration: str | Path) -> Setup | None:
+    """``setup`` with the tool the calibration records, or None when it records none (or it moved or changed)."""
+    try:
+        return setup.recorded(provenance, calibration, robot=False)
+    except ConfigError:
+        return None
 
 
 def _warn_if_a_tool_seems_mounted(result: TareResult, tool: Tool) -> None:

@@ -84,8 +84,10 @@ def run(
     """Compare the wrench measured with each calibration against the tool's wrench (``fts-calib validate``).
 
     Args:
-        setup: The robot (None: a recording that gives the sensor's orientation), the tool
-            mounted during the recording (``paper_tool`` when None), the sensor file or ATI
+        setup: The robot (None: the first calibration's, :meth:`Setup.recorded`; a calibration
+            made without one: a recording that gives the sensor's orientation), the tool
+            mounted during the recording (None: the first calibration's; refused when it
+            records none), the sensor file or ATI
             ``.cal`` (its full scale, or ``full_scale_force`` and ``full_scale_moment``) and
             ``dynamic`` (the moving tool's wrench, Newton-Euler; False: its weight alone).
         source: The recording (CSV or CSV.gz) made with the tool, or ROS 2 bags (each
@@ -122,9 +124,11 @@ def run(
     inputs.update({f"recording {k + 1}": p for k, p in enumerate(paths)})
     files = {**inputs, "the robot file": setup.robot_file, "the tool file": setup.tool_file, "the sensor file": setup.sensor_file}
     check_outputs({"--json": json_path, "--plot": plot_path, "--report": report}, files)
-    kin, loaded = setup.kinematics, setup.tool
     loaded_calibrations = [read_calibration(p) for p in calibrations]
     spec = setup.sensor  # its full scale, or the one given (the sensor spec refuses <= 0, NaN)
+    setup = setup.recorded(loaded_calibrations[0].provenance, calibrations[0])  # the robot and tool it was made with, unless given
+    files.update({"the robot file": setup.robot_file, "the tool file": setup.tool_file})
+    kin, loaded = setup.kinematics, setup.tool
     full_scale = spec.full_scale
     result = validate_recording(
         paths, kin, loaded, loaded_calibrations, full_scale, dynamic=setup.dynamic, topics=source.topics, limits=spec.limits

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import difflib
 import errno
+import hashlib
 import math
 import os
 import stat
@@ -523,6 +524,19 @@ def is_number(text: str) -> bool:
 
 
 PathLike = str | Path
+
+
+def file_sha256(path: PathLike) -> str:
+    """The SHA-256 of a whole file's bytes, as 64 hex digits (read 1 MiB at a time).
+
+    Raises:
+        OSError: The file cannot be read (missing, a folder, no permission).
+    """
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def same_file(a: PathLike, b: PathLike) -> bool:

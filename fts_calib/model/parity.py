@@ -50,6 +50,129 @@ SAMPLE_FALSE_FLAG = 1e-9
 GROUP_COSINE = 0.98
 
 
+#: A still segment shorter than this many samples says nothing of a channel's dwell in one code.
+MIN_SEGMENT = 20
+
+
+@dataclass(frozen=True)
+class CodeDwell:
+    """How long each quantized channel stays in one ADC code while the sensor is still, learnt at calibration.
+
+    A channel whose analog noise is below one step (0.14 counts of a 10-bit ADC) holds one
+    code for seconds when its mean sits mid-code: the Gaussian model of its measured noise
+    (never below step / sqrt(12)) cannot tell that stay from a stuck channel. Each still
+    segment of the calibration (consecutive kept samples of one stop) gives each channel's
+    stays in one code; the monitor's ``frozen`` test takes its threshold from them
+    (:mod:`fts_calib.monitor.health`).
+
+    Attributes:
+        mean: Per channel, the longest mean stay in its most frequent code of any still
+            segment (samples in that code / its runs there) [samples]: ``1 / (1 - q)`` for a
+            stay probability q per sample; NaN where the channel held one code through a whole
+            segment of at least :data:`MIN_SEGMENT` samples (its stay there is longer than the
+            segment: the calibration cannot bound it). Shape (n,).
+        longest: Per channel, the longest run in one code seen in any still segment (a run
+            cut by the segment's end included) [samples]. Shape (n,).
+        held: Per channel, the longest still segment it held one code through [samples]
+            (0: it changed code in every segment). Shape (n,).
+        rate_hz: Sample rate of the still samples [Hz].
+        segments: Still segments of at least :data:`MIN_SEGMENT` samples examined.
+    """
+
+    mean: np.ndarray
+    longest: np.ndarray
+    held: np.ndarray
+    rate_hz: float
+    segments: int
+
+    def __post_init__(self):
+        n = len(np.atleast_1d(self.mean))
+        for name in ("mean", "longest", "held"):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.shape != (n,):
+                raise ShapeError(f"health.dwell.{name}.shape={value.shape} but expected ({n},)")
+            if np.any(value[~np.isnan(value)] < 0) or (name != "mean" and not np.all(np.isfinite(value))):
+                raise ConfigError(f"health.dwell.{name}", value.tolist(), "numbers of samples >= 0")
+            object.__setattr__(self, name, frozen(value))
+        if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ConfigError("health.dwell.rate_hz", self.rate_hz, "a sample rate > 0", "Hz")
+        object.__setattr__(self, "rate_hz", float(self.rate_hz))
+        object.__setattr__(self, "segments", int(self.segments))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``health.dwell`` section (a mean that cannot be bounded is null)."""
+        return {
+            "mean": [None if math.isnan(v) else float(v) for v in self.mean],
+            "longest": [int(v) for v in self.longest],
+            "held": [int(v) for v in self.held],
+            "rate_hz": self.rate_hz,
+            "segments": self.segments,
+            "units": "samples at rate_hz; mean null: the channel held one code through a whole still segment",
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any) -> CodeDwell:
+        """The dwell of a ``health.dwell`` section (as :meth:`to_dict` writes it).
+
+        Raises:
+            ConfigError: A missing or malformed field (named ``health.dwell.<field>``).
+        """
+        if not isinstance(data, Mapping):
+            raise ConfigError("health.dwell", data, "a mapping: mean, longest, held, rate_hz, segments")
+        try:
+            mean = np.array([math.nan if v is None else float(v) for v in data["mean"]])
+            return cls(
+                mean,
+                np.asarray(data["longest"], dtype=float),
+                np.asarray(data["held"], dtype=float),
+                float(data["rate_hz"]),
+                int(data["segments"]),
+            )
+        except KeyError as exc:
+            raise ConfigError(f"health.dwell.{exc.args[0]}", None, "a value: the dwell written by the calibration") from None
+        except (TypeError, ValueError) as exc:
+            raise ConfigError("health.dwell", "…", f"the dwell as the calibration writes it ({exc})") from None
+
+
+def code_dwell(channels, segment, rate_hz: float) -> CodeDwell | None:
+    """Each channel's stays in one code over the still segments of a calibration (:class:`CodeDwell`).
+
+    Args:
+        channels: Raw readings of the still samples, in time order, shape (K, n).
+        segment: Index of each sample's still segment (consecutive samples of one stop), shape (K,).
+        rate_hz: Their sample rate [Hz].
+
+    Returns:
+        The dwell, or None when no segment has :data:`MIN_SEGMENT` samples or the rate is not > 0.
+    """
+    channels, segment = np.asarray(channels, dtype=float), np.asarray(segment)
+    if channels.ndim != 2 or len(segment) != len(channels) or not (math.isfinite(rate_hz) and rate_hz > 0):
+        return None
+    n = channels.shape[1]
+    mean, longest, held = np.zeros(n), np.zeros(n), np.zeros(n)
+    count = 0
+    bounds = np.flatnonzero(np.diff(segment) != 0) + 1
+    for part in np.split(channels, bounds):
+        if len(part) < MIN_SEGMENT:
+            continue
+        count += 1
+        for k in range(n):
+            x = part[:, k]
+            starts = np.concatenate([[0], np.flatnonzero(x[1:] != x[:-1]) + 1])
+            runs = np.diff(np.concatenate([starts, [len(x)]]))
+            longest[k] = max(longest[k], float(runs.max()))
+            if len(runs) == 1:
+                held[k] = max(held[k], len(x))
+                continue
+            values, counts = np.unique(x, return_counts=True)
+            modal = values[np.argmax(counts)]  # its stays there are the long ones: the others are excursions
+            in_modal = x[starts] == modal
+            mean[k] = max(mean[k], float(runs[in_modal].sum()) / int(in_modal.sum()))
+    if not count:
+        return None
+    return CodeDwell(np.where(held > 0, np.nan, mean), longest, held, rate_hz, count)
+
+
 @dataclass(frozen=True)
 class ParityModel:
     """The load-free combinations of the channels and what a fault of each channel does to them.
@@ -68,6 +191,8 @@ class ParityModel:
         low: Lower rail of each channel, raw units (-inf: none), shape (n,).
         high: Upper rail of each channel, raw units (+inf: none), shape (n,).
         samples: Samples the model was learnt from.
+        dwell: Each quantized channel's stays in one code while still (:class:`CodeDwell`), or
+            None (not learnt: no still segment, a moving calibration, or an older file).
     """
 
     N: np.ndarray
@@ -83,6 +208,7 @@ class ParityModel:
     low: np.ndarray
     high: np.ndarray
     samples: int = 0
+    dwell: CodeDwell | None = None
 
     def __post_init__(self):
         N = np.asarray(self.N, dtype=float)
@@ -115,6 +241,8 @@ class ParityModel:
         if eigenvalues.min() <= 0.0:
             raise ConfigError("health.covariance", self.covariance.tolist(), "a positive definite matrix")
         object.__setattr__(self, "samples", int(self.samples))
+        if self.dwell is not None and len(self.dwell.mean) != n:
+            raise ShapeError(f"health.dwell.mean.shape={self.dwell.mean.shape} but expected ({n},)")
 
     @property
     def n_channels(self) -> int:
@@ -206,6 +334,7 @@ class ParityModel:
             "resolution": self.resolution.tolist(),
             "range": [[lo, hi] for lo, hi in zip(rails(self.low), rails(self.high), strict=True)],
             "samples": self.samples,
+            **({} if self.dwell is None else {"dwell": self.dwell.to_dict()}),
         }
 
     @classmethod
@@ -245,6 +374,7 @@ class ParityModel:
                 low=np.asarray(low),
                 high=np.asarray(high),
                 samples=int(data.get("samples", 0)),
+                dwell=None if data.get("dwell") is None else CodeDwell.from_dict(data["dwell"]),
             )
         except (TypeError, ValueError, IndexError) as exc:
             raise ConfigError("health", "…", f"the parity model as the calibration writes it ({exc})") from None
@@ -260,6 +390,7 @@ def fit_parity(
     resolution=None,
     low=None,
     high=None,
+    dwell: CodeDwell | None = None,
 ) -> ParityModel | None:
     """The parity model from a calibration's kept samples (see the module docstring).
 
@@ -274,6 +405,7 @@ def fit_parity(
         resolution: Step of each channel, raw units (0: none), shape (n,); None: none.
         low: Lower rail of each channel (-inf: none), shape (n,); None: none.
         high: Upper rail of each channel (+inf: none), shape (n,); None: none.
+        dwell: The channels' stays in one code while still (:func:`code_dwell`); None: not learnt.
 
     Returns:
         The model, or None when the layout has no more channels than axes (nothing is load-free)
@@ -320,6 +452,7 @@ def fit_parity(
         low=np.full(n, -np.inf) if low is None else np.asarray(low, dtype=float),
         high=np.full(n, np.inf) if high is None else np.asarray(high, dtype=float),
         samples=len(channels),
+        dwell=dwell,
     )
 
 

@@ -10,8 +10,9 @@ components) it reports:
   the one rail rule): an open or shorted half-bridge drives its amplifier to a rail;
 - ``open-or-shorted``: a channel beyond any reading a load within the full scale gives it;
 - ``frozen``: a channel that repeats one value longer than its noise allows (the run length
-  whose probability under the calibration's noise and resolution is below the test's share
-  of the false-alarm budget);
+  whose probability under the calibration's noise and resolution, or for a quiet quantized
+  channel under its stays in one code learnt at calibration, is below the test's share of the
+  false-alarm budget: :func:`freeze_thresholds`);
 - ``jump``: the block mean of ``e`` steps away from the mean of the ``jump_blocks`` before
   it: ``|d|^2 / (1/B + 1/(J B)) ~ chi^2(m)``; the channel is the one whose own step,
   through its signature, matches d best;
@@ -42,7 +43,7 @@ import numpy as np
 
 from ..core.exceptions import ConfigError, ShapeError
 from ..model.channel_limits import ChannelLimits, railed
-from ..model.parity import GROUP_COSINE, ParityModel, chi2_isf
+from ..model.parity import GROUP_COSINE, CodeDwell, ParityModel, chi2_isf
 
 #: The kinds of fault the monitor reports.
 KINDS = ("gain", "jump", "frozen", "rail", "open-or-shorted")
@@ -91,6 +92,8 @@ class HealthMonitor:
             residual (the same finite calibration moves its block means by up to ~0.6 of them).
 
     Attributes:
+        freeze_samples: Samples each channel may hold one value before it is ``frozen``, shape (n,) (:func:`freeze_thresholds`).
+        freeze_words: Those thresholds and their grounds, one line per kind.
         events: The faults found so far, in order.
         samples: Samples seen.
         faulty: Channels reported faulty (0-based).
@@ -128,7 +131,7 @@ class HealthMonitor:
         budget = false_alarms_per_hour / 3.0  # shared by the gain, jump and freeze tests
         self.gain_threshold = chi2_isf(budget / (tests_per_hour * n), 1)
         self.jump_threshold = chi2_isf(budget / tests_per_hour, m)
-        self.freeze_samples = _freeze_samples(parity.channel_noise, parity.resolution, budget / (3600.0 * rate_hz * n))
+        self.freeze_samples, self.freeze_words = freeze_thresholds(parity, budget / (3600.0 * rate_hz * n), rate_hz)
         self._both = np.zeros((2 * block, n))  # the previous block, then the block being filled
         self._both_time = np.zeros(2 * block)
         self._channels = self._both[block:]  # views: writing a sample allocates nothing
@@ -342,7 +345,8 @@ class HealthMonitor:
                 start,
                 "frozen",
                 int(k),
-                f"has read {x[-1, k]:.6g} for {int(self._run[k])} samples; its noise moves it every few",
+                f"has read {x[-1, k]:.6g} for {int(self._run[k])} samples, beyond the {int(self.freeze_samples[k]):,} "
+                "its noise or its stays in one code at calibration allow",
                 float(t[-1]),
             )
 
@@ -365,21 +369,87 @@ class HealthMonitor:
         return "FAULT" if self.events else "ok"
 
 
-def _freeze_samples(noise, resolution, probability: float) -> np.ndarray:
-    """Samples a channel may repeat one value before it is frozen; a huge number where its noise cannot tell.
+#: A quiet quantized channel whose stay in one code the calibration cannot bound is frozen after this long in one code [s].
+QUIET_FROZEN_S = 600.0
+#: A learnt threshold is at least this many times the longest stay in one code the calibration saw.
+LONGEST_MARGIN = 2.0
 
-    A reading with Gaussian noise sigma on a grid of ``step`` stays in its code with
-    probability at most ``erf(step / (2 sqrt(2) sigma))`` per sample; n repeats are frozen
-    when that to the power n is below ``probability``. Off a grid (step 0) a repeat is
-    itself improbable: 20 samples.
+
+def freeze_thresholds(parity: ParityModel, probability: float, rate_hz: float) -> tuple[np.ndarray, list[str]]:
+    """Samples each channel may hold one value before it is frozen, and why, in words.
+
+    - Off a grid (resolution 0) a repeat is itself improbable: 20 samples.
+    - A channel whose noise spans a code (``channel_noise >= step``): a reading with Gaussian
+      noise sigma stays in its code with probability at most ``erf(step / (2 sqrt(2) sigma))``
+      per sample; n repeats are frozen when that to the power n is below ``probability``.
+    - A quiet quantized channel (noise below one step: its measured noise is mostly the step's
+      own step / sqrt(12), and it may hold a code for seconds when its mean sits mid-code):
+      from its stays in one code learnt at calibration (:class:`fts_calib.model.parity.CodeDwell`):
+      n = max(mean ln(1 / probability), 2 longest, the Gaussian n) with ``mean`` the longest
+      mean stay of any still stop (a geometric stay of that mean exceeds n with probability
+      ``probability``) and ``longest`` the longest stay seen, both scaled by
+      ``max(1, rate_hz / the calibration's rate)``. Where the calibration cannot bound it (the
+      channel held one code through a whole still stop, or a file without the dwell):
+      :data:`QUIET_FROZEN_S` seconds, said so.
+
+    Args:
+        parity: The calibration's parity model (noise, resolution, dwell).
+        probability: False-alarm probability allowed per sample and channel.
+        rate_hz: The monitor's sample rate [Hz].
+
+    Returns:
+        The thresholds [samples], shape (n,), and one line per kind of threshold.
     """
-    noise, resolution = np.asarray(noise, dtype=float), np.asarray(resolution, dtype=float)
-    out = np.full(len(noise), np.iinfo(np.int64).max // 4, dtype=np.int64)
+    noise, resolution, dwell = parity.channel_noise, parity.resolution, parity.dwell
+    n = len(noise)
+    out = np.full(n, np.iinfo(np.int64).max // 4, dtype=np.int64)
+    basis: dict[str, list[int]] = {}
+    scale = 1.0 if dwell is None else max(1.0, rate_hz / dwell.rate_hz)
     for k, (sigma, step) in enumerate(zip(noise, resolution, strict=True)):
         if step <= 0:
             out[k] = 20
+            basis.setdefault("off-grid", []).append(k)
             continue
         stay = math.erf(step / (2.0 * math.sqrt(2.0) * max(sigma, 1e-300)))
-        if stay < 0.999:
-            out[k] = max(20, math.ceil(math.log(probability) / math.log(stay)))
-    return out
+        gaussian = max(20, math.ceil(math.log(probability) / math.log(stay))) if stay < 0.999 else int(out[k])
+        if sigma >= step:
+            out[k] = gaussian
+            basis.setdefault("noise", []).append(k)
+        elif dwell is not None and not math.isnan(dwell.mean[k]):
+            learnt = max(dwell.mean[k] * math.log(1.0 / probability), LONGEST_MARGIN * dwell.longest[k]) * scale
+            out[k] = max(gaussian, math.ceil(learnt))
+            basis.setdefault("learnt", []).append(k)
+        else:
+            out[k] = max(math.ceil(QUIET_FROZEN_S * rate_hz), math.ceil(LONGEST_MARGIN * (0 if dwell is None else dwell.held[k]) * scale))
+            basis.setdefault("quiet" if dwell is not None else "unknown", []).append(k)
+    return out, [_freeze_words(kind, ks, out, rate_hz, dwell) for kind, ks in basis.items()]
+
+
+def _freeze_words(kind: str, channels: list[int], threshold: np.ndarray, rate_hz: float, dwell: CodeDwell | None) -> str:
+    """One line on the frozen threshold of some channels and why."""
+    names = ", ".join(f"strain_{k + 1}" for k in channels)
+    low, high = int(threshold[channels].min()), int(threshold[channels].max())
+    after = (
+        f"{low:,} samples ({low / rate_hz:.3g} s)"
+        if low == high
+        else f"{low:,} to {high:,} samples ({low / rate_hz:.3g} to {high / rate_hz:.3g} s)"
+    )
+    if kind == "off-grid":
+        return f"{names}: frozen after 20 repeats of one value (not quantized: a repeat is itself improbable)"
+    if kind == "noise":
+        return f"{names}: frozen after {after} in one code (their noise spans a code)"
+    if kind == "learnt" and dwell is not None:
+        stays = ", ".join(f"{dwell.mean[k]:.3g}" for k in channels)
+        return (
+            f"{names}: frozen after {after} in one code, from their stays in one code at calibration "
+            f"(longest mean stay of a still stop {stays} samples at {dwell.rate_hz:.4g} Hz)"
+        )
+    why = (
+        "they held one code through a whole still stop of the calibration, so how long they may stay is not known"
+        if kind == "quiet"
+        else "the calibration does not record their stays in one code (an older file, or a calibration in motion)"
+    )
+    return (
+        f"{names}: quiet (noise below one ADC step): frozen only after {after} in one code: {why}; "
+        "a stuck channel shows sooner as a jump or gain fault when the load changes"
+    )

@@ -10,7 +10,6 @@ measured wrench minus the known one.
 
 from __future__ import annotations
 
-import hashlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -21,6 +20,7 @@ import numpy as np
 
 from ..budget.propagation import DEFAULT_TARGET_PERCENT
 from ..core.exceptions import FtsCalibError, ShapeError
+from ..core.files import file_sha256
 from ..core.resources import resolve
 from ..model.calibration import Calibration
 from ..model.offset_models import evaluate_offsets
@@ -164,11 +164,7 @@ def file_record(path: str | Path) -> dict[str, Any]:
             except FtsCalibError:  # not a shipped name of this kind
                 continue
     try:
-        digest = hashlib.sha256()
-        with open(path, "rb") as handle:
-            for block in iter(lambda: handle.read(1 << 20), b""):
-                digest.update(block)
-        return {"path": str(path), "size": path.stat().st_size, "sha256": digest.hexdigest()}
+        return {"path": str(path), "size": path.stat().st_size, "sha256": file_sha256(path)}
     except OSError:
         return {"path": str(path), "missing": True}
 

@@ -46,7 +46,6 @@ The calibration's parity model (:mod:`fts_calib.model.parity`), from what a sess
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time as _time
 from collections import Counter
@@ -59,6 +58,7 @@ import numpy as np
 
 from ..budget.measured import KeptSamples, MovingSamples, with_measured_budget
 from ..budget.propagation import AccuracyBudget
+from ..budget.sensitivities import stops
 from ..core.arrays import as_matrix
 from ..core.deprecation import renamed
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
@@ -67,12 +67,12 @@ from ..filters.dynamic import DynamicFilter
 from ..filters.latency import LatencyEstimate
 from ..filters.quasi_static import QuasiStaticFilter, StillSamples
 from ..filters.sample_checks import BACKWARDS, BEFORE_CHECKPOINT, NON_FINITE, OUTSIDE_LIMITS, UNKNOWN_TOOL, SampleChecks
-from ..filters.settings import AUTO_FILTER, DYNAMIC, QUASI_STATIC, FilterConfig, PipelineConfig
+from ..filters.settings import AUTO_FILTER, DYNAMIC, QUASI_STATIC, PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channels import MALTESE_CROSS_8, ChannelLayout, channel_layout, check_channels
 from ..model.estimator import OnlineEstimator
 from ..model.least_squares import unexplained_strain
-from ..model.parity import fit_parity
+from ..model.parity import CodeDwell, code_dwell, fit_parity
 from ..model.prior import Prior
 from ..model.region import RegionBuilder
 from ..model.sensor_config import DEFAULT_FULL_SCALE
@@ -95,6 +95,7 @@ from .diagnosis import (
 )
 from .fit import MAX_RATIO, UNEXPLAINED, FitCheck, check_fit, check_model_fit, fit_rows, model_fit_sums
 from .held_out import UNIT_GAP_S, held_out_units
+from .provenance import session_provenance
 
 
 @dataclass(frozen=True)
@@ -127,34 +128,6 @@ class Progress:
     def kept_fraction(self) -> float:
         """Kept samples over seen samples (0 when none seen)."""
         return self.kept / self.seen if self.seen else 0.0
-
-
-def session_provenance(kin: Kinematics, tool: Tool, kept: np.ndarray, source: str, filter_settings: FilterConfig | None) -> dict:
-    """The provenance of a session's calibration, as plain data.
-
-    Args:
-        kin: The robot's kinematics (its definition and sensor mount: xyz in [m], rpy in [rad]).
-        tool: The calibration tool (masses in [kg], centres of mass in [m]).
-        kept: Kept samples per configuration, the tool's order. Shape (k,).
-        source: What the samples came from.
-        filter_settings: The quasi-static filter's settings, or None without the filter.
-    """
-    robot, mount = kin.robot, kin.robot.sensor
-    return {
-        "robot": {"name": robot.name, "urdf": robot.urdf_spec or str(robot.urdf)},
-        "sensor_frame": {"name": mount.name, "parent_frame": mount.parent_frame, "xyz": mount.xyz.tolist(), "rpy": mount.rpy.tolist()},
-        "tools": {
-            "name": tool.name,
-            "file": str(tool.source) if tool.source else None,
-            "gravity": tool.gravity,
-            "configurations": [
-                {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist(), "samples": int(n)}
-                for c, n in zip(tool.configurations, kept, strict=True)
-            ],
-        },
-        "source": source,
-        "filter": None if filter_settings is None else dataclasses.asdict(filter_settings),
-    }
 
 
 #: How far beyond the sensor's force full scale a tool's weight may be before it is refused: a
@@ -771,6 +744,33 @@ def refusal(session: CalibrationSession, exc: InsufficientExcitation, hint: str,
     return InsufficientExcitation(exc.rank, exc.missing, words, exc.full)
 
 
+def still_dwell(session: CalibrationSession, time: np.ndarray, channels: np.ndarray, codes: np.ndarray) -> CodeDwell | None:
+    """The channels' stays in one ADC code over the kept samples of the still stops (:func:`fts_calib.model.parity.code_dwell`).
+
+    Learnt only from the quasi-static filter's samples (the sensor still at each stop: a
+    moving calibration's codes follow the load) of a quantized sensor. A stop is a run of kept
+    samples without a gap of more than 1.5 sample periods or a tool change.
+
+    Args:
+        session: The session (its filter and the channels' resolution).
+        time: The kept samples' times [s], shape (K,).
+        channels: Their raw readings, shape (K, n).
+        codes: Their tool configuration index, shape (K,).
+
+    Returns:
+        The dwell, or None (another filter, no resolution, fewer than two samples).
+    """
+    resolution = None if session.filter is None else session.filter.grid.resolution
+    if not isinstance(session.filter, QuasiStaticFilter) or resolution is None or not np.any(resolution > 0) or len(time) < 2:
+        return None
+    steps = np.diff(time)
+    steps = steps[steps > 0]
+    if not len(steps):
+        return None
+    period = float(np.median(steps))
+    return code_dwell(channels, stops(time, codes, 1.5 * period), 1.0 / period)
+
+
 def with_health(session: CalibrationSession, calibration: Calibration, noise_floor: np.ndarray | None) -> Calibration:
     """The calibration with its ``health`` section, learnt from the session's kept samples, when the layout has one.
 
@@ -782,15 +782,17 @@ def with_health(session: CalibrationSession, calibration: Calibration, noise_flo
     """
     resolution = None if session.filter is None else session.filter.grid.resolution
     limits = session.checks.detected_limits(resolution) or session.settings.checks.limits
+    time, _, channels, codes, _ = session.kept_samples.arrays()
     parity = fit_parity(
         session.layout,
         calibration.C,
         calibration.D,
-        session.kept_samples.arrays()[2],
+        channels,
         session.full_scale,
         noise_floor,
         resolution,
         None if limits is None else limits.low,
         None if limits is None else limits.high,
+        still_dwell(session, time, channels, codes),
     )
     return calibration if parity is None else replace(calibration, health=parity.to_dict())

@@ -11,6 +11,8 @@ Units: time [s]; mass [kg]; com [m] in the sensor frame; wrenches [N, N m]; chan
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..core.exceptions import ConfigError
@@ -81,6 +83,64 @@ def service_channels(sensor: SimulatedSensor, time, w_sensor, rng: np.random.Gen
 
 
 #: The faults :func:`inject_fault` simulates.
+def still_weights(
+    n: int,
+    rng: np.random.Generator,
+    mass: float = 2.0,
+    coms=((0.12, 0.0, 0.0), (0.08, 0.06, 0.0), (0.08, 0.0, 0.06)),
+    gravity: float = 9.81,
+) -> np.ndarray:
+    """Wrenches of a tool held still in n random orientations, its centre of mass one of ``coms`` at random.
+
+    Args:
+        n: Poses.
+        rng: Random generator (directions uniform on the sphere).
+        mass: The tool's mass [kg].
+        coms: Centres of mass to choose from [m], in the sensor frame, shape (k, 3).
+        gravity: [m/s²].
+
+    Returns:
+        ``[F, c x F]`` per pose [N, N, N, N m, N m, N m], shape (n, 6).
+    """
+    up = rng.standard_normal((n, 3))
+    force = mass * gravity * up / np.linalg.norm(up, axis=1, keepdims=True)
+    centres = np.asarray(coms, dtype=float)
+    return np.hstack([force, np.cross(centres[rng.integers(0, len(centres), n)], force)])
+
+
+def still_poses(
+    sensor: SimulatedSensor, wrenches, seconds: float, rate_hz: float, rng: np.random.Generator, mid_code: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The sensor held still under each wrench in turn, for ``seconds`` each (no drift).
+
+    Args:
+        sensor: The simulated sensor (its noise and ADC).
+        wrenches: One wrench per pose [N, N, N, N m, N m, N m], shape (P, 6).
+        seconds: How long each pose is held [s].
+        rate_hz: Sample rate [Hz].
+        rng: Random generator of the noise.
+        mid_code: Move each channel's offset so that its noiseless reading sits in the middle
+            of an ADC code at each pose (a quiet channel's longest stays in one code); the
+            sensor needs ``adc_bits``.
+
+    Returns:
+        Time [s] (N,), raw channels (N, n), pose index (N,), N = P round(seconds rate_hz).
+    """
+    wrenches = np.atleast_2d(np.asarray(wrenches, dtype=float))
+    per = int(round(seconds * rate_hz))
+    parts = []
+    for wrench in wrenches:
+        held = sensor
+        if mid_code:
+            analog = dataclasses.replace(sensor, adc_bits=0).channels(wrench)
+            origin = sensor.adc_codes[0] if sensor.adc_range is not None else 0.0  # the codes are origin + k lsb
+            codes = origin + np.round((analog - origin) / sensor.lsb) * sensor.lsb
+            held = dataclasses.replace(sensor, channel_offset=np.asarray(sensor.channel_offset, dtype=float) + codes - analog)
+        parts.append(held.channels(np.repeat(wrench[None], per, axis=0), None, rng))
+    pose = np.repeat(np.arange(len(wrenches)), per)
+    return np.arange(len(pose)) / rate_hz, np.concatenate(parts), pose
+
+
 FAULTS = ("gain", "jump", "frozen", "open", "shorted")
 
 
