@@ -10,6 +10,7 @@ import pytest
 from fts_calib import load_calibration
 from fts_calib.app.cli import build_parser, main
 from fts_calib.app.exit_codes import ExitCode
+from fts_calib.core.resources import resolve
 
 
 def _commands():
@@ -70,11 +71,17 @@ def test_no_command_prints_help(capsys):
     assert "COMMAND" in capsys.readouterr().out
 
 
-def test_trajectory_command_writes_checked_files(tmp_path, capsys):
+def test_trajectory_command_writes_checked_files(tmp_path, capsys, monkeypatch):
     out = tmp_path / "traj"
-    assert main(["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--rate", "50"]) == 0
+    monkeypatch.chdir(tmp_path)  # a robot file of the user's own, whose name is not its file's
+    robot = resolve("ur5", "robots").read_text(encoding="utf-8").replace("name: ur5", "name: my_ur5")
+    (tmp_path / "my_robot.yaml").write_text(robot, encoding="utf-8")
+    assert main(["trajectory", "--robot", "my_robot.yaml", "--tool", "paper_tool", "-o", str(out), "--rate", "50"]) == 0
     text = capsys.readouterr().out
     assert "predicted rank 7 of 7" in text and "duration:" in text and "clearance:" in text
+    # the robot named as its file names it, a shipped file as such (the same on every machine)
+    assert text.startswith("planning my_ur5 sweeps for 'RIM calibration tool' (3 configurations)..."), text[:200]
+    assert "robot my_ur5 (my_robot.yaml), tool 'RIM calibration tool' (shipped configs/paper_tool.yaml)" in text
     assert sorted(p.name for p in out.iterdir()) == ["A.csv", "B.csv", "C.csv", "plan.png", "plan.yaml"]
 
 

@@ -443,7 +443,8 @@ _declare(
 _declare(
     "--plan",
     dest="plan",
-    help="plan.yaml of the sized trajectories being run: the status line shows the motion left and the next configuration",
+    help="plan.yaml of the sized trajectories being run (or its folder, or a shipped plan by name: ur5): the status line "
+    "shows the motion left and the next configuration",
 )
 
 # live sources: old spellings of a SOURCE (live, tare, monitor) ------------------------------------------------------
@@ -484,7 +485,12 @@ _declare("--compress", dest="compress", action="store_true", help="write .csv.gz
 _declare("--no-plot", dest="plot", action="store_false", default=True, help="do not write plan.png")
 
 # simulate and demo -------------------------------------------------------------------------------------------------
-_declare("--trajectory", dest="trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
+_declare(
+    "--trajectory",
+    dest="trajectory",
+    required=True,
+    help="folder of trajectory CSVs (one per configuration), or one file; or a shipped plan by name (ur5, ur5/A.csv.gz)",
+)
 _declare("--seed", dest="seed", type=int, default=0, help="seed of the random numbers: noise, motion, losses (default 0)")
 _declare("--noiseless", dest="noiseless", action="store_true", help="no noise at all")
 _declare(

@@ -12,7 +12,7 @@ import numpy as np
 from ..budget.propagation import DEFAULT_TARGET_PERCENT
 from ..core.exceptions import FileFormatError
 from ..core.files import atomic_write_text, dump_yaml
-from ..core.resources import resolve
+from ..core.resources import resolve, shown
 from ..core.tables import table
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.determination import Determination
@@ -145,7 +145,8 @@ def run(
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     count = len(loaded.configurations) if configurations is None else configurations
     kind = "smooth continuous " if smooth else "continuous " if continuous else ""
-    print(f"planning {robot_path.stem} {kind}sweeps for '{loaded.name}' ({count} configuration{'' if count == 1 else 's'})...", flush=True)
+    robot = setup.kinematics.robot.name  # the robot file's name, as the report below says it (not the file's)
+    print(f"planning {robot} {kind}sweeps for '{loaded.name}' ({count} configuration{'' if count == 1 else 's'})...", flush=True)
     planned = plan_trajectories(
         robot_path,
         loaded,
@@ -267,7 +268,7 @@ def format_report(
     """The printed report of the ``trajectory`` job, with units."""
     result, plan, ex = run.result, run.result.plan, run.excitation
     lines = [
-        f"robot {plan.robot} ({robot_path}), tool '{run.tool.name}' ({tool_path}): configurations "
+        f"robot {plan.robot} ({shown(robot_path)}), tool '{run.tool.name}' ({shown(tool_path)}): configurations "
         f"{', '.join(c.name for c in run.tool.configurations)}"
     ]
     home = result.home
