@@ -257,3 +257,22 @@ def test_report_command_refuses_bad_input(calibrated, ur5_recording, tmp_path, c
     assert "shape (6, 8) and (6, 6)" in capsys.readouterr().err
     assert cli.main(["report", str(cal_path), "--against", str(cal_path), "-o", str(cal_path)]) == ExitCode.CONFIG  # -o is an input
     assert not Path(out).exists()
+
+
+def test_the_held_out_line_shows_the_chosen_models_held_out_rms_in_percent_of_full_scale(calibrated):
+    """Not the dimensionless score ("1 (heldout_error)"): the chosen candidate's held-out RMS over full scale, largest axis."""
+    cal = calibrated[0].calibration
+    full_scale = cal.quality.budget["full_scale"]
+    assert [full_scale[a] for a in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")] == [50.0, 50.0, 50.0, 5.0, 5.0, 5.0]  # the shipped sensor's
+    rms = [0.01, 0.02, 0.005, 0.0019, 0.0002, 0.0003]  # N, N·m: Fy 0.04 % FS, Mx 0.038 % FS
+    candidates = [
+        {"model": "linear", "offsets": "constant", "heldout_rms": [1.0] * 6, "heldout_error": 9.0, "chosen": False},
+        {"model": "linear", "offsets": "drift", "heldout_rms": rms, "heldout_error": 1.0, "chosen": True},
+    ]
+    table = {"units": 18, "chosen": "linear + drift", "candidates": candidates}
+    verdict = _section(render_report(ReportContent("a short run", dataclasses.replace(cal, model_selection=table))), "verdict")
+    assert "heldout_error" not in verdict
+    assert "RMS 0.0400 % FS (Fy, the largest axis; one of 18 units of this recording left out at a time" in verdict, verdict
+    bare = dataclasses.replace(cal, model_selection=table, quality=dataclasses.replace(cal.quality, budget=None))
+    verdict = _section(render_report(ReportContent("no budget", bare)), "verdict")  # no full scale: in N and N·m
+    assert "RMS Fx 0.01 N, Fy 0.02 N, Fz 0.005 N, Mx 0.0019 N·m, My 0.0002 N·m, Mz 0.0003 N·m (one of 18 units" in verdict, verdict

@@ -129,7 +129,7 @@ TEXTS: dict[str, tuple[str, str, str]] = {
         "A poor fit is refused (exit 15, no file) with its likely cause (labels permuted, centre of mass in mm or cm, "
         "a mistyped mass, a collinear tool file). Then the measured accuracy budget (noise in the data, tool tolerance, "
         "encoders, timing, mount; in % of full scale and N or N·m) and the joint stream's latency from the moving samples "
-        "(ms), both written into the file. Exits 1 when the data cannot determine C. "
+        "(ms), both written into the file. Exits 8 when the data cannot determine C (1 when a live run received no sample). "
         "A live source (udp://HOST:PORT: the JSON datagrams of the live protocol; ur://HOST: a UR controller through RTDE) "
         "is paired and filtered as it comes, with a status line; the calibration is written on the sender's 'end' or "
         "Ctrl-C, with checkpoints every few seconds (--resume continues after a crash).",

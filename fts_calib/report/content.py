@@ -23,6 +23,7 @@ from ..budget.propagation import DEFAULT_TARGET_PERCENT
 from ..core.exceptions import FtsCalibError, ShapeError
 from ..core.resources import resolve
 from ..model.calibration import Calibration
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.offset_models import evaluate_offsets
 
 #: Cells of the sphere-coverage grid (Fibonacci points, about 4.6° apart).
@@ -232,12 +233,46 @@ def _held_out(content: ReportContent) -> tuple[str, float | None]:
         rms = float(np.max(content.held_out["rms_percent"]))
         worst = float(np.max(content.held_out["max_percent"]))
         return f"RMS {rms:.4f} % FS, max {worst:.4f} % FS (largest axis; {content.held_out['label']})", rms
+    own = _own_held_out(content)
+    if own is not None:
+        return own
     _, rows = model_selection(content.calibration)
     for row in rows:
         for key, value in row.items():
             if "held" in key and isinstance(value, int | float) and row.get("chosen", True):
                 return f"{value:.4g} ({key})", None
     return "not recorded", None
+
+
+def _own_held_out(content: ReportContent) -> tuple[str, float | None] | None:
+    """The chosen model's leave-one-unit-out RMS that the calibration file records, in % FS (N, N·m without a full scale).
+
+    The file's ``model_selection`` holds, per candidate, ``heldout_rms`` (6,) [N, N m] and a
+    dimensionless ``heldout_error`` (the mean square over each axis's scale): the line shows
+    the first, the largest axis, and what was held out. None when the file records no such table.
+    """
+    cal = content.calibration
+    if cal is None:
+        return None
+    tables = [getattr(cal, "model_selection", None), cal.extra.get("model_selection")]
+    if cal.quality is not None:
+        tables.append(cal.quality.extra.get("model_selection"))
+    table = next((t for t in tables if isinstance(t, Mapping) and isinstance(t.get("candidates"), list)), None)
+    chosen = [c for c in (table or {}).get("candidates", []) if isinstance(c, Mapping) and c.get("chosen") and "heldout_rms" in c]
+    if table is None or not chosen:
+        return None
+    rms = np.asarray(chosen[0]["heldout_rms"], dtype=float)
+    if rms.shape != (6,) or not np.all(np.isfinite(rms)):
+        return None
+    units = table.get("units")
+    what = f"one of {units} units of this recording left out at a time: a configuration and a cell of gravity's direction"
+    full_scale = (_budget(content) or {}).get("full_scale")
+    if isinstance(full_scale, Mapping) and all(isinstance(full_scale.get(a), int | float) and full_scale[a] > 0 for a in WRENCH_AXES):
+        percent = 100.0 * rms / np.array([float(full_scale[a]) for a in WRENCH_AXES])
+        k = int(np.argmax(percent))
+        return f"RMS {percent[k]:.4f} % FS ({WRENCH_AXES[k]}, the largest axis; {what})", float(percent[k])
+    shown = ", ".join(f"{a} {v:.3g} {u}" for a, v, u in zip(WRENCH_AXES, rms, WRENCH_UNITS, strict=True))
+    return f"RMS {shown} ({what})", None
 
 
 def _fibonacci(n: int) -> np.ndarray:
