@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -238,6 +239,11 @@ def test_validate_writes_a_report(calibrated, ur5_recording, tmp_path):
     page = report.read_text()
     check_page(page)
     assert "RMS" in page and "% FS (largest axis; validation with" in page
+    # each sample under the configuration it was recorded in (the recording holds A, B and C), not all under A
+    counts = dict(re.findall(r"<tr><td>(\w+)</td><td>([\d,]+)</td>", _section(page, "sphere")))
+    counts = {name: int(n.replace(",", "")) for name, n in counts.items()}
+    assert set(counts) == {"A", "B", "C", "all"} and min(counts["A"], counts["B"], counts["C"]) > 0, counts
+    assert counts["A"] + counts["B"] + counts["C"] == counts["all"], counts
 
 
 def test_report_command_refuses_bad_input(calibrated, ur5_recording, tmp_path, capsys):
@@ -276,3 +282,20 @@ def test_the_held_out_line_shows_the_chosen_models_held_out_rms_in_percent_of_fu
     bare = dataclasses.replace(cal, model_selection=table, quality=dataclasses.replace(cal.quality, budget=None))
     verdict = _section(render_report(ReportContent("no budget", bare)), "verdict")  # no full scale: in N and N·m
     assert "RMS Fx 0.01 N, Fy 0.02 N, Fz 0.005 N, Mx 0.0019 N·m, My 0.0002 N·m, Mz 0.0003 N·m (one of 18 units" in verdict, verdict
+
+
+def test_a_comparison_without_budgets_is_not_judged_green(tmp_path):
+    """Two files without an accuracy budget: the wrench difference is shown in % FS and not judged (once "0", in green)."""
+    from fts_calib.report.compare import render_comparison
+
+    old = load_calibration(resolve("paper_table1_calibration", "configs"))
+    old = dataclasses.replace(old, quality=None, D=np.array([1.0, 2.0, 0.5, 0.01, 0.3, 0.02]))  # My farthest: 10.6 % FS
+    new = dataclasses.replace(old, C_bar=1.1 * old.C_bar)  # 10 % more gain: W_new - W_old = 0.1 (W - D_old) over the box
+    full_scale = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])
+    percent = 100 * 0.1 * (full_scale + np.abs(old.D)) / full_scale  # the box's worst corner, per axis
+    axis = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")[int(np.argmax(percent))]
+    page = render_comparison(new, old, "new.yaml", "old.yaml")
+    verdict = _section(page, "verdict")
+    expected = f"not judged: no accuracy budget in new.yaml or old.yaml; the largest difference is {percent.max():.3g} % FS ({axis})"
+    assert expected in verdict, verdict
+    assert '<div class="kv good"><span>Wrench difference / budget' not in verdict

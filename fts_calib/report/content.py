@@ -362,14 +362,14 @@ def validation_content(result, calibration: Calibration, name: str, tool, files:
     """
     residual = np.asarray(result.measured[0], float) - np.asarray(result.expected, float)
     label = f"validation with '{tool.name}' ({'moving tool' if result.dynamic else 'static weight'})"
-    samples = KeptSamples(
-        np.asarray(result.time, float), np.asarray(result.expected, float), residual, np.zeros(len(result.time), int), label
-    )
+    codes = getattr(result, "configuration", None)  # each sample's configuration, as recorded (not all the first's)
+    codes = np.zeros(len(result.time), int) if codes is None or len(codes) != len(result.time) else np.asarray(codes, int)
+    samples = KeptSamples(np.asarray(result.time, float), np.asarray(result.expected, float), residual, codes, label)
     return ReportContent(
         title=f"Validation of {name} with {tool.name}",
         calibration=calibration,
         samples=samples,
-        configurations=tuple(tool.names[:1]),
+        configurations=tuple(tool.names),
         files=dict(files),
         held_out=held_out(result.errors[0], label),
         notes=tuple(result.rails) + tuple(f"note: {p}" for p in result.problems[:5]),
