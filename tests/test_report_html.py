@@ -299,3 +299,24 @@ def test_a_comparison_without_budgets_is_not_judged_green(tmp_path):
     expected = f"not judged: no accuracy budget in new.yaml or old.yaml; the largest difference is {percent.max():.3g} % FS ({axis})"
     assert expected in verdict, verdict
     assert '<div class="kv good"><span>Wrench difference / budget' not in verdict
+
+
+def test_the_target_the_plan_was_sized_to_is_the_reports(ur5_recording, tmp_path, capsys):
+    """``calibrate --target-error 0.1`` records the target; its report, a later ``report`` and ``validate --report`` judge against it (not 0.05)."""
+    cal_path, page = tmp_path / "cal.yaml", tmp_path / "cal.html"
+    common = ["--robot", "ur5", "--tool", "paper_tool"]
+    assert cli.main(["calibrate", str(ur5_recording), *common, "-o", str(cal_path), "--report", str(page), "--target-error", "0.1"]) == 0
+    cal = load_calibration(cal_path)
+    assert cal.quality.budget["target_percent_fs"] == 0.1
+    largest = float(cal.quality.budget["largest_percent_fs"])
+    assert f"{largest:.4f} % FS vs target 0.1 % " in _section(page.read_text(), "verdict")
+    later = tmp_path / "later.html"
+    assert cli.main(["report", str(cal_path), "-o", str(later)]) == 0
+    assert "vs target 0.1 % " in _section(later.read_text(), "verdict")
+    assert cli.main(["report", str(cal_path), "-o", str(later), "--target-error", "0.02"]) == 0  # the option wins
+    assert "vs target 0.02 % " in _section(later.read_text(), "verdict")
+    check = tmp_path / "v.html"
+    assert cli.main(["validate", str(ur5_recording), "--calibration", str(cal_path), *common, "--report", str(check)]) == 0
+    assert "vs target 0.1 % " in _section(check.read_text(), "verdict")
+    assert cli.main(["calibrate", str(ur5_recording), *common, "-o", str(tmp_path / "x.yaml"), "--target-error", "0"]) == ExitCode.CONFIG
+    assert "--target-error" in capsys.readouterr().err and not (tmp_path / "x.yaml").exists()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -17,7 +18,7 @@ from ..filters.settings import AUTO_FILTER
 from ..model.calibration import save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.prior import describe as describe_prior
-from ..report.content import KeptCollector, calibrate_content
+from ..report.content import KeptCollector, calibrate_content, check_target, with_target
 from ..report.html import render_report, write_report
 from ..session.calibration_run import CalibrateResult, LiveRunner, calibrate_recording, format_stats
 from ..session.checkpoint import check_start, live_source
@@ -47,6 +48,7 @@ def run(
     *,
     accept_poor_fit: bool = False,
     plan: str | Path | None = None,
+    target_error_percent: float | None = None,
 ) -> int:
     """Calibrate from a recording or a live feed, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -67,18 +69,22 @@ def run(
             records the verdict).
         plan: A live feed: ``plan.yaml`` of the sized trajectories being run (the status line
             then shows the motion left and the configuration to mount next).
+        target_error_percent: The accuracy target the plan was sized to, in [%] of full scale:
+            recorded in the file's budget, the target its report (and ``validate --report``,
+            ``report``) judges the budget against; 0.05 when None.
 
     Returns:
-        0 with a calibration written, 1 when the data cannot determine C (a live run that
-        received nothing: no checkpoint kept), 15 when the fit check refused the calibration
+        0 with a calibration written, 8 when the data cannot determine C (1: a live run that
+        received nothing, no checkpoint kept), 15 when the fit check refused the calibration
         (nothing written; a live run keeps its checkpoint), 18 when a UR controller does not
         answer within ``source.ur_timeout_s``.
     """
     outputs = outputs or OutputOptions()
     if setup.tool_file is None:
         raise ConfigError("tool", None, "the calibration tool mounted", message="calibrate needs the tool mounted: give --tool")
+    target = check_target(target_error_percent)
     if source.live:
-        return _calibrate_live(setup, source, outputs, accept_poor_fit, plan)
+        return _calibrate_live(setup, source, outputs, accept_poor_fit, plan, target)
     if plan is not None:
         raise ConfigError("plan", str(plan), "a live source", message="--plan shows the motion left of a live run: give udp:// or ur://")
     output = outputs.output or DEFAULT_OUTPUT
@@ -114,6 +120,7 @@ def run(
     )
     written = None
     if result.calibration is not None:
+        result = dataclasses.replace(result, calibration=with_target(result.calibration, target))
         with writing(output):
             written = save_calibration(result.calibration, output)
     print(format_summary(result, describe_files(paths), written))
@@ -304,7 +311,9 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
 LIVE_SIGNALS = stop_signals(("SIGINT", "SIGTERM", "SIGHUP"))
 
 
-def _calibrate_live(setup: Setup, source: SourceOptions, outputs: OutputOptions, accept_poor_fit: bool, plan: str | Path | None) -> int:
+def _calibrate_live(
+    setup: Setup, source: SourceOptions, outputs: OutputOptions, accept_poor_fit: bool, plan: str | Path | None, target: float | None = None
+) -> int:
     """Calibrate from a live feed until its 'end' message, Ctrl-C, SIGTERM, SIGHUP or the idle timeout (see :func:`run`).
 
     The feed is :func:`fts_calib.sources.source.open_source`'s (``udp://``: the live protocol's
@@ -433,6 +442,7 @@ def _calibrate_live(setup: Setup, source: SourceOptions, outputs: OutputOptions,
         print("fix the cause, or run again with --resume --accept-poor-fit to write it with the verdict")
         return ExitCode.POOR_FIT
     print(session.fit_check().summary())
+    calibration = with_target(calibration, target)
     with writing(output):
         path = save_calibration(calibration, output)
     quality = calibration.quality

@@ -362,6 +362,12 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
             [
                 use("output", ": the calibration file (default: calibration.yaml)", default="calibration.yaml"),
                 use("report", " of the calibration, also when it is refused (the diagnosis first)"),
+                use(
+                    "target-error",
+                    help="the accuracy target the plan was sized to (trajectory --target-error), in %% of full scale: recorded "
+                    "in the calibration file, the target its report, validate --report and report judge the budget against "
+                    "(default: 0.05)",
+                ),
             ],
         ),
         ("filter", _uses("filter")),

@@ -10,6 +10,7 @@ measured wrench minus the known one.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from collections.abc import Mapping
@@ -20,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..budget.propagation import DEFAULT_TARGET_PERCENT
-from ..core.exceptions import FtsCalibError, ShapeError
+from ..core.exceptions import ConfigError, FtsCalibError, ShapeError
 from ..core.resources import resolve
 from ..model.calibration import Calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
@@ -337,7 +338,46 @@ def calibrate_content(
         configurations=names,
         files=dict(files),
         notes=notes,
+        target_percent=target_of(calibration),
     )
+
+
+#: Key of the calibration file's accuracy budget that records the target it is judged against.
+TARGET_KEY = "target_percent_fs"
+
+
+def check_target(percent: float | None, option: str = "--target-error") -> float | None:
+    """``percent`` when it is a finite percentage above 0 (or None); ConfigError naming ``option`` otherwise."""
+    if percent is None:
+        return None
+    value = float(percent)
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(option, percent, "a percentage of full scale above 0 (e.g. 0.05)")
+    return value
+
+
+def recorded_target(calibration: Calibration | None) -> float | None:
+    """The accuracy target [% of full scale] the calibration file records (``calibrate --target-error``), or None."""
+    budget = _quality_value(ReportContent("", calibration), "budget", None) if calibration is not None else None
+    value = budget.get(TARGET_KEY) if isinstance(budget, Mapping) else None
+    return float(value) if isinstance(value, int | float) and math.isfinite(value) and value > 0 else None
+
+
+def with_target(calibration: Calibration, percent: float | None) -> Calibration:
+    """The calibration with ``percent`` [% of full scale] recorded as its budget's target; unchanged when None or no budget."""
+    quality = calibration.quality
+    if percent is None or quality is None or not isinstance(quality.budget, Mapping):
+        return calibration
+    budget = {**quality.budget, TARGET_KEY: float(percent)}
+    return dataclasses.replace(calibration, quality=dataclasses.replace(quality, budget=budget))
+
+
+def target_of(calibration: Calibration | None, given: float | None = None) -> float:
+    """The target a report judges against [% of full scale]: ``given``, else the file's, else the default (0.05)."""
+    for value in (given, recorded_target(calibration)):
+        if value is not None:
+            return float(value)
+    return DEFAULT_TARGET_PERCENT
 
 
 def held_out(errors, label: str) -> dict[str, Any]:
@@ -372,5 +412,6 @@ def validation_content(result, calibration: Calibration, name: str, tool, files:
         configurations=tuple(tool.names),
         files=dict(files),
         held_out=held_out(result.errors[0], label),
+        target_percent=target_of(calibration),
         notes=tuple(result.rails) + tuple(f"note: {p}" for p in result.problems[:5]),
     )
