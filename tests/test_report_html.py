@@ -302,7 +302,7 @@ def test_a_comparison_without_budgets_is_not_judged_green(tmp_path):
 
 
 def test_the_target_the_plan_was_sized_to_is_the_reports(ur5_recording, tmp_path, capsys):
-    """``calibrate --target-error 0.1`` records the target; its report, a later ``report`` and ``validate --report`` judge against it (not 0.05)."""
+    """``calibrate --target-error 0.1`` records the target: its report, ``report`` and ``validate --report`` judge against it, not 0.05."""
     cal_path, page = tmp_path / "cal.yaml", tmp_path / "cal.html"
     common = ["--robot", "ur5", "--tool", "paper_tool"]
     assert cli.main(["calibrate", str(ur5_recording), *common, "-o", str(cal_path), "--report", str(page), "--target-error", "0.1"]) == 0

@@ -122,7 +122,8 @@ def _budget_verdict(cmp: Comparison, new: Calibration, old: Calibration, new_nam
     missing = [name for name, cal in ((new_name, new), (old_name, old)) if not np.isfinite(_budget_totals(cal)[0]).all()]
     pct = 100 * cmp.wrench_difference / cmp.full_scale
     a = int(np.argmax(pct))
-    return f"not judged: no accuracy budget in {' or '.join(missing)}; the largest difference is {pct[a]:.3g} % FS ({WRENCH_AXES[a]})", "warn"
+    largest = f"the largest difference is {pct[a]:.3g} % FS ({WRENCH_AXES[a]})"
+    return f"not judged: no accuracy budget in {' or '.join(missing)}; {largest}", "warn"
 
 
 def render_comparison(
