@@ -128,3 +128,15 @@ def test_a_bare_mount_says_what_it_takes_and_names_estimate_mount(command, capsy
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert "roll, pitch, yaw in rad" in err and "--estimate-mount" in err
+
+
+def test_the_raster_options_say_the_plan_is_sized_unless_one_fixes_it():
+    """``--levels`` once said "default: 4" while an unfixed plan is sized to --target-error: each says when its value applies."""
+    from fts_calib.planning.sweeps import SweepPattern
+
+    sub = build_parser()._subparsers._group_actions[0].choices["trajectory"]  # type: ignore[union-attr]
+    helps = {a.option_strings[0]: a.help for a in sub._actions if a.option_strings}
+    default = SweepPattern()
+    for option, value in (("--levels", default.levels), ("--stops", default.stops), ("--dwell", default.dwell), ("--span", default.span)):
+        text = helps[option]
+        assert "default:" not in text and "sized" in text and text.endswith(f"when another option fixes it: {value:g}"), (option, text)

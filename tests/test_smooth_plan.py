@@ -166,7 +166,11 @@ def test_trajectory_motion_smooth_writes_a_sized_plan_and_refuses_too_few_config
     assert plan["duration_s"] == 5.0  # predicted 0.067 % on the 5 s motion: within 0.08
     # the trust rule's prediction on the 50 Hz plan: 25-33 % (the filter at 1 kHz keeps half: the test above)
     assert 0.2 * 251 < np.mean(list(plan["excitation"]["dynamic_samples"].values())) < 251
-    assert "smooth excitation" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "smooth excitation" in printed
+    # the samples counted are the moving ones the dynamic filter trusts, as plan.yaml's dynamic_samples: not "quasi-static"
+    counts = ", ".join(f"{k}: {v}" for k, v in plan["excitation"]["dynamic_samples"].items())
+    assert f"; moving samples the dynamic filter trusts {counts}):" in printed and "quasi-static samples" not in printed, printed
     code = main([*common, "--configurations", "2", "--target-error", "0.05", "-o", str(tmp_path / "two")])
     err = capsys.readouterr().err
     assert code != 0 and "no smooth plan of 2 configurations" in err and "3 configurations reach" in err, err

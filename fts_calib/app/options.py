@@ -459,11 +459,30 @@ _declare(
     "dynamic filter mode, the budget with its dynamic terms; smooth: continuous, every joint on a sinusoid ramped in and "
     "out at home, sized by --target-error (the raster options unused): the dynamic filter trusts most of its samples (default: stop)",
 )
-_declare("--levels", dest="levels", type=int, help="positions of the first sweep joint (fixes the raster; default: 4)")
-_declare("--stops", dest="stops", type=int, help="positions of the second sweep joint per level (fixes the raster; default: 6)")
-_declare("--dwell", dest="dwell_s", type=float, metavar="SECONDS", help="time still at each stop in s (fixes the raster; default: 0.5)")
 _declare(
-    "--span", dest="span", type=float, help="fraction of the second sweep joint's range the stops cover (fixes the raster; default: 1)"
+    "--levels",
+    dest="levels",
+    type=int,
+    help="positions of the first sweep joint: fixes the raster (unfixed, it is sized to --target-error); when another option fixes it: 4",
+)
+_declare(
+    "--stops",
+    dest="stops",
+    type=int,
+    help="positions of the second sweep joint per level: fixes the raster (else sized); when another option fixes it: 6",
+)
+_declare(
+    "--dwell",
+    dest="dwell_s",
+    type=float,
+    metavar="SECONDS",
+    help="time still at each stop in s: fixes the raster (else sized); when another option fixes it: 0.5",
+)
+_declare(
+    "--span",
+    dest="span",
+    type=float,
+    help="fraction of the second sweep joint's range the stops cover: fixes the raster (else sized); when another option fixes it: 1",
 )
 _declare(
     "--return-pass",

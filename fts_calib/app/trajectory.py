@@ -340,7 +340,8 @@ def format_report(
     noise = ex.noise_std
     noise_text = f"{noise[0]:.2g}" if np.all(noise == noise[0]) else str(noise.tolist())
     counts = ", ".join(f"{k}: {v}" for k, v in ex.samples.items())
-    lines.append(f"excitation (noise {noise_text} {run.strain_unit} per channel; quasi-static samples {counts}):")
+    kept = "quasi-static samples" if run.uncertainty is None else "moving samples the dynamic filter trusts"  # as plan.yaml says
+    lines.append(f"excitation (noise {noise_text} {run.strain_unit} per channel; {kept} {counts}):")
     cond = f"{ex.condition_number:.1f}" if math.isfinite(ex.condition_number) else "inf"
     lines.append(
         f"  predicted rank {ex.rank} of 7, condition number {cond}; every direction within "
