@@ -22,7 +22,7 @@ from ..model.calibration import Calibration, load_calibration, save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS, check_channels
 from ..model.parity import ParityModel
 from ..monitor.health import HealthMonitor
-from ..monitor.offset_watch import OffsetWatch
+from ..monitor.offset_watch import RATE_SIGMAS, OffsetWatch
 from ..robot.tool import tool_load
 from ..service.reader import WrenchReader
 from ..sources.batch import SampleBatch
@@ -136,7 +136,10 @@ class OffsetFeed:
         error = ", ".join(f"{a} {v:+.4g} {u}" for a, v, u in zip(WRENCH_AXES, w.offset, WRENCH_UNITS, strict=True))
         rate = ", ".join(f"{a} {60 * v:+.3g} {u}/min" for a, v, u in zip(WRENCH_AXES, w.rate, WRENCH_UNITS, strict=True))
         forecast = w.forecast_s(self.threshold)
-        when = "never at this rate" if math.isinf(forecast) else f"in {forecast:.1f} s"
+        when = f"in {forecast:.1f} s"
+        if math.isinf(forecast):
+            still = not np.any(w.drifting())
+            when = f"never: no axis drifts beyond its rate's noise ({RATE_SIGMAS:g}σ)" if still else "never at this rate"
         out = [
             f"offset error (measured - payload, windows without contact): {error}",
             f"offset drift: {rate}; {w.updates:,} windows without contact, {w.contacts:,} refused (contact or motion)",
