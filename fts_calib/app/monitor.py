@@ -25,6 +25,7 @@ from ..monitor.health import HealthMonitor
 from ..monitor.offset_watch import RATE_SIGMAS, OffsetWatch
 from ..robot.tool import tool_load
 from ..service.reader import WrenchReader
+from ..session.calibration_run import StatusLine
 from ..sources.batch import SampleBatch
 from ..sources.live_feed import FeedStatus, LiveFeed, StreamEnd
 from ..sources.recording_set import describe_files
@@ -428,6 +429,8 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
     def listening(bound: tuple[str, int]) -> None:
         print(f"listening on udp://{bound[0]}:{bound[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
 
+    status = StatusLine(sys.stderr)  # rewritten on a terminal, a line every few seconds in a file
+
     def show(counts: FeedStatus) -> None:
         monitor = watch.monitor
         if monitor is None:
@@ -437,7 +440,7 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
             faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
             state = f"{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f})"
         offset = "" if offsets is None else f"; {offsets.status()}"
-        print(f"\r{state}; malformed {counts.malformed:,}{offset}", end="", file=sys.stderr, flush=True)
+        status.show(f"{state}; malformed {counts.malformed:,}{offset}")
 
     joints = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else ([], None)
     with using_udp(host, port):
@@ -458,7 +461,6 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
     with feed:
         for batch in feed:
             watch.add(batch)
-    if not quiet:
-        print(file=sys.stderr)
+    status.close()
     watch.description = f"udp://{host}:{port}"
     watch.skipped += sum(feed.sync.dropped.values()) + feed.stats.malformed + feed.stats.oversized
