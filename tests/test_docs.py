@@ -248,9 +248,9 @@ def _fake_modules(log: list) -> dict[str, types.ModuleType]:
 
 
 def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
-    """The UR snippets stream every row at the file's period (ur_rtde) or write one servoj per row
-    (URScript), the ROS 2 one sends every row but the first with its time, and the in-controller
-    code gives C channels + D."""
+    """The UR snippets stream every row at the file's period (ur_rtde) or write one servoj per 20 ms
+    (URScript, within a·Δt²/8 of the plan), the ROS 2 one sends every row but the first with its time,
+    and the in-controller code gives C channels + D."""
     blocks = _blocks(README, "python")
     assert len(blocks) == 4, "the UR (ur_rtde and URScript), ROS 2 and in-controller snippets"
     log: list = []
@@ -283,9 +283,19 @@ def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
         script = (folder / "plan" / "A.script").read_text().splitlines()
         assert script[0] == "def fts_calib_play():" and script[-2:] == ["  stopj(2.0)", "end"], script[:2] + script[-2:]
         servoj = [line for line in script if line.startswith("  servoj([")]
-        assert len(servoj) == n and all("t=0.002," in line for line in servoj)
+        # one servoj per 20 ms, the last row too (this plan is at 100 Hz: every 2nd row), not one per row
+        period = time[1] - time[0]
+        every = round(0.02 / period)
+        kept = [*range(0, n, every), n - 1]
+        assert len(servoj) == len(kept) and all(f"t={every * period:.4g}," in line for line in servoj), servoj[:2]
         played = np.array([[float(v) for v in line.split("[")[1].split("]")[0].split(",")] for line in servoj])
-        np.testing.assert_allclose(played, positions, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(played, positions[kept], rtol=0, atol=1e-9)
+        # the controller's straight line between two servoj targets stays within a·Δt²/8 of the planned joint path
+        accelerations = table[:, [header.index(j + "_acc") for j in joint_names]]
+        between = np.column_stack([np.interp(time, time[kept], played[:, k]) for k in range(played.shape[1])])
+        bound = np.abs(accelerations).max() * (every * period) ** 2 / 8 + 1e-8  # + the CSV's 9 decimals
+        assert np.abs(between - positions).max() <= bound, (np.abs(between - positions).max(), bound)
+        assert len("\n".join(script)) < 0.6 * n * 130, "about half the rows of this 100 Hz plan, of ~130 characters each"
 
         log.clear()
         exec(compile(blocks[2], "README.md (ROS 2)", "exec"), {})
