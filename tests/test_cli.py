@@ -140,3 +140,29 @@ def test_the_raster_options_say_the_plan_is_sized_unless_one_fixes_it():
     for option, value in (("--levels", default.levels), ("--stops", default.stops), ("--dwell", default.dwell), ("--span", default.span)):
         text = helps[option]
         assert "default:" not in text and "sized" in text and text.endswith(f"when another option fixes it: {value:g}"), (option, text)
+
+
+def test_a_validation_motion_is_planned_for_a_tool_of_one_configuration(tmp_path, capsys):
+    """``--tool validation_tool`` (one configuration) once ended "no raster ... meets the target": --validation plans its
+    raster, checked for limits and clearance, with no rank or accuracy requirement, and plan.yaml says so."""
+    import numpy as np
+    import yaml
+
+    out = tmp_path / "val"
+    common = ["trajectory", "--robot", "ur5", "--tool", "validation_tool", "-o", str(out), "--rate", "20", "--no-plot"]
+    assert main(common) == ExitCode.TRAJECTORY  # a calibration of one centre of mass: refused at once, naming the way out
+    err = capsys.readouterr().err
+    assert "has 1 configuration (V)" in err and "rank 4 of 7" in err and "--validation" in err, err
+    assert main([*common, "--validation", "--levels", "2", "--stops", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("planning ur5 validation sweeps for 'validation payload' (1 configuration)...")
+    assert "validation motion (quasi-static samples V: " in printed and "CHECK FAILED" not in printed, printed
+    assert "fts-calib validate RECORDING --calibration CALIBRATION --tool validation_tool" in printed
+    plan = yaml.safe_load((out / "plan.yaml").read_text())
+    assert plan["purpose"] == "validation" and plan["configurations"] == ["V"]
+    header = (out / "V.csv").read_text().splitlines()[0].split(",")
+    table = np.loadtxt(out / "V.csv", delimiter=",", skiprows=1, usecols=range(len(header) - 1))
+    for joint, limits in plan["limits"].items():  # the sweep joints within their velocity limits, from rest
+        velocity = table[:, header.index(joint + "_vel")]
+        assert np.abs(velocity).max() <= limits["velocity"] * (1 + 1e-9) and velocity[0] == 0.0, joint
+    assert main([*common, "--validation", "--motion", "smooth"]) == ExitCode.CONFIG

@@ -492,6 +492,14 @@ _declare(
     "(the drift model then costs no precision of C) for about twice the sweep time; fixes the raster",
 )
 _declare(
+    "--validation",
+    dest="validation",
+    action="store_true",
+    help="plan a validation motion for any tool (one configuration too): the raster (4 levels x 6 stops unless given), "
+    "checked for limits and clearance, no rank or accuracy target (validate compares, it does not fit); plan.yaml says "
+    "purpose: validation",
+)
+_declare(
     "--configurations",
     dest="configurations",
     type=int,

@@ -325,6 +325,7 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
                     "in %% of full scale (default: 0.05; with a fixed raster only compared)",
                 ),
                 use("rate", help="sample rate of the trajectory files in Hz (default: 500)", default=500.0),
+                "validation",
             ),
         ),
         (

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..budget.propagation import DEFAULT_TARGET_PERCENT
-from ..core.exceptions import FileFormatError
+from ..core.exceptions import ConfigError, FileFormatError, TrajectoryError
 from ..core.files import atomic_write_text, dump_yaml
 from ..core.resources import resolve, shown
 from ..core.tables import table
@@ -48,6 +48,9 @@ class Sweeps:
             refused, naming what each number reaches, when the target is out of reach); None for all.
         margin: Distance kept from the position limits, in [rad].
         min_clearance: Smallest distance allowed between links, in [m].
+        validation: A validation motion for ``validate`` (any tool, one configuration too):
+            the raster as given (the defaults for the rest), checked for limits and clearance,
+            with no rank or accuracy requirement; fixes the raster.
     """
 
     motion: str = "stop"
@@ -60,11 +63,12 @@ class Sweeps:
     configurations: int | None = None
     margin: float = 0.02
     min_clearance: float = 0.02
+    validation: bool = False
 
     @property
     def fixed(self) -> bool:
-        """Whether the raster is fixed (not sized to the target): a raster option given, or the return pass; never a smooth plan."""
-        given = any(v is not None for v in (self.levels, self.stops, self.dwell_s, self.span)) or self.return_pass
+        """Whether the raster is fixed (not sized): a raster option, the return pass or a validation motion; never smooth."""
+        given = any(v is not None for v in (self.levels, self.stops, self.dwell_s, self.span)) or self.return_pass or self.validation
         return given and self.motion != "smooth"
 
     def pattern(self) -> SweepPattern:
@@ -139,12 +143,13 @@ def run(
         noise = 0.0
     fixed, pattern = sweeps.fixed, sweeps.pattern()
     continuous, smooth = pattern.continuous, pattern.smooth
+    _check_purpose(sweeps, loaded, model)
     configurations, rate_hz, min_clearance = sweeps.configurations, sweeps.rate_hz, sweeps.min_clearance
     uncertainty = motion_uncertainty(settings.filter, spec.rate_hz) if continuous else None
     default = SweepPattern()
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     count = len(loaded.configurations) if configurations is None else configurations
-    kind = "smooth continuous " if smooth else "continuous " if continuous else ""
+    kind = ("validation " if sweeps.validation else "") + ("smooth continuous " if smooth else "continuous " if continuous else "")
     robot = setup.kinematics.robot.name  # the robot file's name, as the report below says it (not the file's)
     print(f"planning {robot} {kind}sweeps for '{loaded.name}' ({count} configuration{'' if count == 1 else 's'})...", flush=True)
     planned = plan_trajectories(
@@ -169,6 +174,9 @@ def run(
         )
     if model != "linear" and not (found := plan_determines(planned, model)).determined:
         planned.problems.append(f"the plan's stops cannot determine a {model} model: {found.lacks(loaded.names)}")
+    if sweeps.validation:  # compared, never fitted: the rank and the budget are no checks of it
+        kept = [p for p in planned.problems if p != planned.excitation.advice]
+        planned = dataclasses.replace(planned, problems=kept, purpose="validation")
     with writing(out):
         planned = write_run(planned, out, compress=compress, plot=plot, model=model)
     print(format_report(planned, robot_path, tool_path, target_percent=target))
@@ -180,6 +188,51 @@ def run(
             "each configuration predicted by the others; calibrate with --model auto or --model " + model
         )
     return ExitCode.CHECK_FAILED if planned.problems else ExitCode.OK
+
+
+def _check_purpose(sweeps: Sweeps, tool: Tool, model: str) -> None:
+    """Refuse, before planning, what cannot be planned.
+
+    A stop-and-go calibration of fewer than 3 centres of mass would size for nothing (rank 4 or
+    6 of 7): refused naming --validation. A validation motion is a raster (not smooth) of the linear model.
+
+    Raises:
+        ConfigError: ``--validation`` with ``--motion smooth`` or a ``--model`` other than linear.
+        TrajectoryError: A stop-and-go calibration plan for a tool of one or two configurations.
+    """
+    if sweeps.validation and sweeps.motion == "smooth":
+        raise ConfigError("--validation", "smooth", "--motion stop or continuous: a validation motion is a raster")
+    if sweeps.validation and model != "linear":
+        raise ConfigError("--validation", model, "the linear model: a validation motion determines nothing")
+    n = len(tool.configurations)
+    if not sweeps.validation and sweeps.motion == "stop" and n < 3:
+        raise TrajectoryError(
+            f"'{tool.name}' has {n} configuration{'' if n == 1 else 's'} ({', '.join(tool.names)}): still samples of fewer than 3 "
+            f"centres of mass reach rank {4 if n == 1 else 6} of 7 (paper eqs 18-20), so no raster calibrates with it; plan "
+            "its validation motion with --validation (checked for limits and clearance, no accuracy target), or a "
+            "calibration with --motion continuous (the inertial torques carry the rest)"
+        )
+
+
+def _validation_lines(run: TrajectoryRun, kept: str, counts: str, tool: str) -> list[str]:
+    """The end of a validation plan's report: what it shows the sensor, no rank or budget (it is compared, not fitted).
+
+    ``tool``: the tool as ``--tool`` names it (a shipped name or the file).
+    """
+    lines = [
+        f"validation motion ({kept} {counts}): gravity reaches every direction of the sensor frame within "
+        f"{run.excitation.coverage_deg:.1f}° of one it sees; no rank or accuracy requirement (validate compares a "
+        "calibration's wrench with this tool's known one; the fit never sees it)"
+    ]
+    lines += [f"CHECK FAILED: {problem}" for problem in run.problems]
+    if run.files:
+        lines.append("wrote: " + ", ".join(str(f) for f in run.files))
+    if run.problems:
+        lines.append("trajectory files not written: fix the failed checks first")
+    else:
+        names = " ".join(f"{c.name}.csv" for c in run.tool.configurations)
+        lines.append(f"play {names}, record, then: fts-calib validate RECORDING --calibration CALIBRATION --tool {tool}")
+    return lines
 
 
 def plan_determines(run: TrajectoryRun, model: str) -> Determination:
@@ -243,7 +296,7 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
                 plan.sweep_joints,
                 run.still,
                 run.g_sensor,
-                f"{plan.robot}: calibration sweep, {plan.duration:.1f} s per tool configuration",
+                f"{plan.robot}: {run.purpose} sweep, {plan.duration:.1f} s per tool configuration",
                 **labels,
             )
         )
@@ -341,6 +394,9 @@ def format_report(
     noise_text = f"{noise[0]:.2g}" if np.all(noise == noise[0]) else str(noise.tolist())
     counts = ", ".join(f"{k}: {v}" for k, v in ex.samples.items())
     kept = "quasi-static samples" if run.uncertainty is None else "moving samples the dynamic filter trusts"  # as plan.yaml says
+    if run.purpose == "validation":
+        tool_arg = Path(tool_path).stem if shown(tool_path).startswith("shipped ") else str(tool_path)
+        return "\n".join([*lines, *_validation_lines(run, kept, counts, tool_arg)])
     lines.append(f"excitation (noise {noise_text} {run.strain_unit} per channel; {kept} {counts}):")
     cond = f"{ex.condition_number:.1f}" if math.isfinite(ex.condition_number) else "inf"
     lines.append(
