@@ -146,6 +146,13 @@ def test_five_seconds_of_the_sized_ur5_smooth_motion_calibrate_within_the_budget
     assert default.calibration is not None and isinstance(default.session.filter, DynamicFilter), default.error
     assert default.decided[0].startswith("filter: dynamic (--filter auto: the arm moves without stopping ("), default.decided
     assert "too few still samples for the quasi-static filter, rank " in default.decided[0], default.decided
+    # the per-configuration residuals (weighted by the trust rule) below the overall residual RMS: the summary says why
+    from fts_calib.app.calibrate import WEIGHTED_RESIDUALS, format_summary
+
+    summary = format_summary(default, str(path), None)
+    assert WEIGHTED_RESIDUALS in summary and "residual RMS (every kept sample alike): " in summary, summary
+    by_configuration = np.array(list(default.session.fit_check().residual_rms.values()))
+    assert np.all(by_configuration < default.calibration.quality.residual_rms), (by_configuration, default.calibration.quality.residual_rms)
     forced = {mode: PipelineConfig().with_filter_mode(mode) for mode in ("dynamic", "quasi-static")}
     dynamic = calibrate_recording(path, ur5, paper_tool, forced["dynamic"], layout=spec.layout, full_scale=spec.full_scale)
     np.testing.assert_array_equal(dynamic.calibration.C, default.calibration.C)

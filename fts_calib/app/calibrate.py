@@ -187,8 +187,19 @@ def format_counts(session: CalibrationSession) -> list[str]:
     return lines
 
 
-def format_fit(check: FitCheck) -> list[str]:
-    """Lines: the fit verdict, and the residual RMS per configuration and axis beside the expected residual and its parts."""
+#: What the dynamic filter's per-configuration residuals are, beside the overall residual RMS (docs/method.md, fit check).
+WEIGHTED_RESIDUALS = (
+    "  (dynamic filter: each configuration's residual weights a sample 1/(1 + ρ²) by its trust rule and is scaled by "
+    "√(Σw/n), so that it shows the strain noise alone; below the overall residual RMS, which weights every kept sample "
+    "alike, by as much as the rule overstates the expected wrench's errors)"
+)
+
+
+def format_fit(check: FitCheck, weighted: bool = False) -> list[str]:
+    """Lines: the fit verdict, and the residual RMS per configuration and axis beside the expected residual and its parts.
+
+    ``weighted``: the check is the dynamic filter's (weighted residuals): a line says how they differ from the overall RMS.
+    """
     lines = [check.summary()]
     if check.residual_rms:
         rows = [[name, *[f"{v:.3g}" for v in rms]] for name, rms in check.residual_rms.items()]
@@ -203,6 +214,8 @@ def format_fit(check: FitCheck) -> list[str]:
         units = [f"{a} [{u}]" for a, u in zip(WRENCH_AXES, WRENCH_UNITS, strict=True)]
         lines.append(heading)
         lines.append(table(["", *units], rows, "  "))
+        if weighted:
+            lines.append(WEIGHTED_RESIDUALS)
     return lines
 
 
@@ -246,7 +259,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     for problem in result.problems:
         lines.append(f"  note: {problem}")
     if isinstance(result.error, PoorFit):
-        lines += format_fit(result.error.check)
+        lines += format_fit(result.error.check, isinstance(result.session.filter, DynamicFilter))
     if result.calibration is None:
         if isinstance(result.error, PoorFit):
             lines.append("NO CALIBRATION written: the fit is poor (above); fix the cause, or accept it knowingly with --accept-poor-fit")
@@ -261,10 +274,12 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
         lines.append(describe_prior(dict(q.prior)))
     lines += format_model_selection(cal.model_selection, cal.quality)
     lines += format_offsets(cal.offset_model)
+    weighted = isinstance(result.session.filter, DynamicFilter)
     if q.fit is not None and not isinstance(result.error, PoorFit):
-        lines += format_fit(result.session.fit_check())
+        lines += format_fit(result.session.fit_check(), weighted)
     rms = zip(WRENCH_AXES, q.residual_rms, WRENCH_UNITS, strict=True)
-    lines.append("residual RMS: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))
+    every = " (every kept sample alike)" if weighted else ""
+    lines.append(f"residual RMS{every}: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))
     rel = 100 * q.relative_stderr_C(cal.C)
     lines.append("C (N or N·m per strain unit) ± standard error (% of its row's largest coefficient):")
     n = cal.layout.n_channels
