@@ -123,7 +123,7 @@ def run(
         result = dataclasses.replace(result, calibration=with_target(result.calibration, target))
         with writing(output):
             written = save_calibration(result.calibration, output)
-    print(format_summary(result, describe_files(paths), written))
+    print(format_verdict(result, written) if outputs.quiet else format_summary(result, describe_files(paths), written))
     if report is not None:
         diagnosis = "" if result.calibration is not None else refusal(result)
         content = calibrate_content(result, collector, {**inputs, "the calibration (-o)": written}, diagnosis)
@@ -134,8 +134,13 @@ def run(
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.EXCITATION
 
 
+#: Size of a recording [bytes] from which a progress bar writes a line per quarter when its output is not a terminal
+#: (a log of a run of minutes; 50 MB is about 200,000 rows): a shorter file shows none.
+LOG_BYTES = 50e6
+
+
 class ProgressBar:
-    """A progress bar on a terminal, or a line every quarter when the output is not one.
+    """A progress bar on a terminal, or a line every quarter of a file of :data:`LOG_BYTES` or more when the output is not one.
 
     Args:
         total: Units of the whole job (e.g. bytes of the file).
@@ -163,7 +168,7 @@ class ProgressBar:
                 self.stream.write("\r" + text)
                 self.stream.flush()
                 self._last = now
-        elif int(4 * fraction) > self._quarter:
+        elif self.total >= LOG_BYTES and int(4 * fraction) > self._quarter:
             self._quarter = int(4 * fraction)
             self.stream.write(text + "\n")
             self.stream.flush()
@@ -246,6 +251,18 @@ def refusal(result: CalibrateResult) -> str:
     if isinstance(result.error, PoorFit):
         return result.error.check.summary()
     return f"{_unusable(result.session, result.problems) or result.error}"
+
+
+def format_verdict(result: CalibrateResult, output: Path | None) -> str:
+    """What ``calibrate --quiet`` prints: the verdict (the fit check, or why nothing was written) and the file written."""
+    if result.calibration is None:
+        if isinstance(result.error, PoorFit):
+            return f"{result.error.check.summary()}\nNO CALIBRATION written: the fit is poor; --accept-poor-fit writes it with the verdict"
+        return f"NO CALIBRATION: {refusal(result)}"
+    q = result.calibration.quality
+    verdict = result.session.fit_check().summary() if q is not None and q.fit is not None else "fit unchecked"
+    budget = "" if result.budget is None else f"; largest error {result.budget.largest_percent:.4f} % of full scale"
+    return f"{verdict}{budget}\nwrote {output}"
 
 
 def format_summary(result: CalibrateResult, recording: str | Path, output: Path | None) -> str:

@@ -325,7 +325,6 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
                     "in %% of full scale (default: 0.05; with a fixed raster only compared)",
                 ),
                 use("rate", help="sample rate of the trajectory files in Hz (default: 500)", default=500.0),
-                "validation",
             ),
         ),
         (
@@ -342,7 +341,7 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
                 ),
             ),
         ),
-        ("advanced: raster", _uses("levels", "stops", "dwell", "span", "return-pass", "configurations")),
+        ("advanced: raster", _uses("validation", "levels", "stops", "dwell", "span", "return-pass", "configurations")),
         ("advanced: checks", _uses("margin", "min-clearance", "tool-radius", "tool-length")),
         (
             "advanced: the predicted budget",
@@ -363,18 +362,38 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
             [
                 use("output", ": the calibration file (default: calibration.yaml)", default="calibration.yaml"),
                 use("report", " of the calibration, also when it is refused (the diagnosis first)"),
+            ],
+        ),
+        ("filter", _uses("filter")),
+        ("advanced: setup", _uses("pipeline", "mount", "joint-unit")),
+        (
+            "advanced: model",
+            _uses(
+                "model",
+                "offsets",
+                "prior",
+                "prior-weight",
+                "accept-poor-fit",
                 use(
                     "target-error",
                     help="the accuracy target the plan was sized to (trajectory --target-error), in %% of full scale: recorded "
                     "in the calibration file, the target its report, validate --report and report judge the budget against "
                     "(default: 0.05)",
                 ),
-            ],
+            ),
         ),
-        ("filter", _uses("filter")),
-        ("advanced: setup", _uses("pipeline", "mount", "joint-unit")),
-        ("advanced: model", _uses("model", "offsets", "prior", "prior-weight", "accept-poor-fit")),
-        ("advanced: checkpoint", _uses("checkpoint", "resume", "restart", "quiet")),
+        (
+            "advanced: checkpoint",
+            _uses(
+                "checkpoint",
+                "resume",
+                "restart",
+                use(
+                    "quiet",
+                    help="a recording: print the verdict and the file written, no progress bar or summary; a live source: no status line",
+                ),
+            ),
+        ),
         (
             "advanced: live sources (udp://, ur://)",
             _uses(
