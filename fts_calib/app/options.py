@@ -453,11 +453,14 @@ _declare(
 _declare(
     "--motion",
     dest="motion",
-    choices=("stop", "continuous", "smooth"),
+    choices=("stop", "continuous", "smooth", "payload"),
     default="stop",
     help="stop: dwell at each stop (quasi-static samples); continuous: no dwell, every sample calibrates in the "
     "dynamic filter mode, the budget with its dynamic terms; smooth: continuous, every joint on a sinusoid ramped in and "
-    "out at home, sized by --target-error (the raster options unused): the dynamic filter trusts most of its samples (default: stop)",
+    "out at home, sized by --target-error (the raster options unused): the dynamic filter trusts most of its samples; "
+    "payload: the motion of 'payload --motion moving' for the --tool file's payload (the three last joints together, "
+    "about 8 s), checked for limits and clearance, with the predicted standard errors of its mass, centre of mass and "
+    "inertia (default: stop)",
 )
 _declare(
     "--levels",

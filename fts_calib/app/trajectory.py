@@ -6,6 +6,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,13 +20,16 @@ from ..model.determination import Determination
 from ..planning.excitation import DriftPrediction
 from ..planning.jig import check_jig, suggest_jig
 from ..planning.sweeps import SweepPattern
-from ..planning.trajectory_files import save_trajectory
+from ..planning.trajectory_files import TrajectoryFile, save_trajectory
 from ..planning.trajectory_run import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
 from ..report import plots
 from ..robot.tool import Tool, save_tool
 from .exit_codes import ExitCode, writing
 from .report import format_budget
 from .setup import Setup
+
+if TYPE_CHECKING:
+    from ..payload.inertia_motion import PayloadPlan
 
 
 @dataclass(frozen=True)
@@ -121,6 +125,8 @@ def run(
         to ``output/suggested_tool.yaml``).
     """
     sweeps = sweeps or Sweeps()
+    if sweeps.motion == "payload":
+        return _plan_payload(setup, sweeps, Path(output), compress)
     out, model = output, setup.model or "linear"
     robot_path, tool_path = setup.robot_path, setup.tool_path
     loaded = setup.tool
@@ -188,6 +194,82 @@ def run(
             "each configuration predicted by the others; calibrate with --model auto or --model " + model
         )
     return ExitCode.CHECK_FAILED if planned.problems else ExitCode.OK
+
+
+def _plan_payload(setup: Setup, sweeps: Sweeps, out: Path, compress: bool) -> int:
+    """Plan, check and write the payload motion (``--motion payload``): its CSV and plan.yaml; 1 when a check failed."""
+    from ..budget.propagation import wrench_noise
+    from ..payload.inertia_motion import plan_payload_motion  # the payload stage: loaded only for this motion
+
+    kin, tool, spec = setup.kinematics, setup.tool, setup.sensor
+    if spec.simulated is None:
+        message = (
+            "missing: the predicted standard errors need the sensor's nominal model and noise; give --sensor a file with a "
+            "'simulation' section"
+        )
+        raise FileFormatError(resolve(setup.sensor_file, "configs", "sensor"), "simulation", message)
+    noise = wrench_noise(spec.simulated.C, spec.simulated.noise_std)
+    name = tool.configurations[0].name
+    print(f"planning {kin.robot.name} payload motion for '{tool.name}' (configuration {name})...", flush=True)
+    plan = plan_payload_motion(kin, tool, noise, sweeps.rate_hz, sweeps.min_clearance)
+    files = []
+    with writing(out):
+        if not plan.problems:
+            trajectory = TrajectoryFile(kin.joint_names, plan.time, plan.q, plan.qd, plan.qdd, name)
+            files.append(save_trajectory(out / f"{name}{'.csv.gz' if compress else '.csv'}", trajectory))
+        files.append(atomic_write_text(out / "plan.yaml", dump_yaml(_payload_summary(kin.robot.name, tool, plan, [f.name for f in files]))))
+    print("\n".join(_payload_lines(plan, setup.tool_path, files)))
+    return ExitCode.CHECK_FAILED if plan.problems else ExitCode.OK
+
+
+def _payload_summary(robot: str, tool: Tool, plan: PayloadPlan, files: list[str]) -> dict:
+    """plan.yaml of a payload motion: what was planned and checked, and the predicted standard errors (plain data)."""
+    return {
+        "purpose": "payload",
+        "robot": robot,
+        "tool": tool.name,
+        "configurations": [plan.configuration],
+        "rate_hz": float(round(1.0 / (plan.time[1] - plan.time[0]), 9)),
+        "moving_joints": list(plan.joints),
+        "duration_s": float(plan.time[-1]),
+        "peaks_over_limits": plan.peak_ratio,
+        "clearance": {"distance_m": float(plan.clearance.distance), "pair": list(plan.clearance.pair)},
+        "predicted_stderr": {
+            "from": "the sensor's noise alone (white, per sample)",
+            "mass_kg": plan.stderr_mass,
+            "com_m": plan.stderr_com.tolist(),
+            "inertia_kg_m2": plan.stderr_inertia.tolist(),
+        },
+        "problems": list(plan.problems),
+        "files": files,
+    }
+
+
+def _payload_lines(plan: PayloadPlan, tool_path: Path, files: list[Path]) -> list[str]:
+    """The printed report of a payload motion, with units."""
+    peaks = ", ".join(f"{j} {100 * r['velocity']:.0f} % / {100 * r['acceleration']:.0f} %" for j, r in plan.peak_ratio.items())
+    c = plan.clearance
+    inertia = plan.stderr_inertia
+    lines = [
+        f"motion: {', '.join(plan.joints)} together, rest to rest from the calibration's home through the pattern's stops: "
+        f"{plan.time[-1]:.1f} s at {1.0 / (plan.time[1] - plan.time[0]):g} Hz",
+        f"limits: peak velocity / acceleration over the limit: {peaks}",
+        f"clearance: {c.distance:.3f} m between '{c.pair[0]}' and '{c.pair[1]}' (the payload's shape from {shown(tool_path)})",
+        "predicted standard errors (the sensor's noise alone; joint noise and latency add to them): "
+        f"mass {plan.stderr_mass:.2g} kg, centre of mass "
+        + ", ".join(f"{a} {v:.2g}" for a, v in zip("xyz", plan.stderr_com, strict=True))
+        + " m, inertia Ixx "
+        + f"{inertia[0, 0]:.2g}, Iyy {inertia[1, 1]:.2g}, Izz {inertia[2, 2]:.2g}, Ixy {inertia[0, 1]:.2g}, Ixz {inertia[0, 2]:.2g}, "
+        + f"Iyz {inertia[1, 2]:.2g} kg·m²",
+    ]
+    lines += [f"CHECK FAILED: {problem}" for problem in plan.problems]
+    lines.append("wrote: " + ", ".join(str(f) for f in files))
+    if not plan.problems:
+        lines.append(
+            f"play {files[0].name} with the payload on, record (joints and strains), then: "
+            "fts-calib payload RECORDING --calibration CALIBRATION --robot ROBOT --motion moving -o payload.yaml"
+        )
+    return lines
 
 
 def _check_purpose(sweeps: Sweeps, tool: Tool, model: str) -> None:
