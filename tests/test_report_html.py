@@ -320,3 +320,23 @@ def test_the_target_the_plan_was_sized_to_is_the_reports(ur5_recording, tmp_path
     assert "vs target 0.1 % " in _section(check.read_text(), "verdict")
     assert cli.main(["calibrate", str(ur5_recording), *common, "-o", str(tmp_path / "x.yaml"), "--target-error", "0"]) == ExitCode.CONFIG
     assert "--target-error" in capsys.readouterr().err and not (tmp_path / "x.yaml").exists()
+
+
+def test_the_report_does_not_scroll_sideways_at_1000_px(calibrated, tmp_path):
+    """The model-selection table (1,286 px) once widened the page, the residual and budget tables scrolled in 351 px beside
+    their pictures: at 1,000 px nothing scrolls sideways or ends beyond the window."""
+    from .report_checks import overflowing
+
+    result, collector = calibrated
+    rms = [0.002190368679999415, 0.003777819838850614, 0.003594630286757239, 5.8307187883568854e-05, 3.98e-05, 4.07e-05]
+    offsets = ("constant", "per-configuration", "drift (time^1)", "drift (time^1, time^2)")
+    candidates = [  # the candidates a calibrate of today writes: their columns as the file has them
+        {"model": "linear", "offsets": o, "parameters_per_axis": 7 + k, "heldout_rms": rms, "heldout_error": 1.0048023136643827,
+         "standard_error_vs_best": 0.0072922725839889785, "held_directions": 0, "chosen": k == 0}
+        for k, o in enumerate(offsets)
+    ]  # fmt: skip
+    cal = dataclasses.replace(result.calibration, model_selection={"units": 18, "chosen": "linear + constant", "candidates": candidates})
+    content = ReportContent("a short run", cal, samples=collector.samples(cal), configurations=tuple(result.session.tool.names))
+    page = tmp_path / "report.html"
+    page.write_text(render_report(content), encoding="utf-8")
+    assert overflowing(page, tmp_path, 1000) == []
