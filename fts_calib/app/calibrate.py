@@ -120,9 +120,10 @@ def run(
     )
     written = None
     if result.calibration is not None:
-        result = dataclasses.replace(result, calibration=with_target(result.calibration, target))
+        calibration = with_target(result.calibration, target)
+        result = dataclasses.replace(result, calibration=calibration)
         with writing(output):
-            written = save_calibration(result.calibration, output)
+            written = save_calibration(calibration, output)
     print(format_verdict(result, written) if outputs.quiet else format_summary(result, describe_files(paths), written))
     if report is not None:
         diagnosis = "" if result.calibration is not None else refusal(result)
