@@ -137,14 +137,14 @@ class OffsetFeed:
         error = ", ".join(f"{a} {v:+.4g} {u}" for a, v, u in zip(WRENCH_AXES, w.offset, WRENCH_UNITS, strict=True))
         rate = ", ".join(f"{a} {60 * v:+.3g} {u}/min" for a, v, u in zip(WRENCH_AXES, w.rate, WRENCH_UNITS, strict=True))
         forecast = w.forecast_s(self.threshold)
-        when = f"in {forecast:.1f} s"
-        if math.isinf(forecast):
-            still = not np.any(w.drifting())
-            when = f"never: no axis drifts beyond its rate's noise ({RATE_SIGMAS:g}σ)" if still else "never at this rate"
+        threshold = f"{100 * self.threshold[0] / self.full_scale[0]:g} % of full scale"
+        exceeds = f"the offset error exceeds {threshold} " + ("never at this rate" if math.isinf(forecast) else f"in {forecast:.1f} s")
+        if math.isinf(forecast) and not np.any(w.drifting()):  # a rate at the noise level: nothing to extrapolate
+            exceeds = f"the offset error stays within {threshold}: no axis drifts beyond its rate's noise ({RATE_SIGMAS:g}σ)"
         out = [
             f"offset error (measured - payload, windows without contact): {error}",
             f"offset drift: {rate}; {w.updates:,} windows without contact, {w.contacts:,} refused (contact or motion)",
-            f"the offset error exceeds {100 * self.threshold[0] / self.full_scale[0]:g} % of full scale {when}",
+            exceeds,
         ]
         if self.tares:
             out.append(f"re-tared {len(self.tares)} time(s) (at {', '.join(f'{t:.1f}' for t in self.tares)} s); wrote {self.path}")
