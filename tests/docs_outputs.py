@@ -1,8 +1,9 @@
 """The printed examples of README.md and docs/: run them again and compare, or write them again.
 
 A page marks what it shows with one-line HTML comments (invisible once rendered), run in
-page order in a fresh folder that holds links to the repository's ``configs/``, ``robots/``
-and ``trajectories/``:
+page order in a fresh, empty folder, as a user would from anywhere: shipped robots, tools,
+configs and plans are named (``--robot ur5``, ``--trajectory ur5``), never reached through
+the checkout's folders:
 
 - ``<!-- doc-file: NAME -->`` before a fenced block: the block is written to NAME (a robot
   or tool YAML a later command reads).
@@ -39,8 +40,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Folders of the repository a page's commands may name relative to its working folder.
-SHIPPED = ("configs", "robots", "trajectories")
 MARKER = re.compile(r"^<!-- doc-(file|run|output|show|commands)((?: \w+=[^\s:]+)*):?\s*(.*?)\s*-->\s*$")
 FENCE = re.compile(r"^(```+|~~~+)(\S*)\s*$")
 NUMBER = re.compile(r"[-+]?(?:\d{1,3}(?:,\d{3})+|\d+)(?:\.\d+)?(?:[eE][-+]?\d+)?")
@@ -223,11 +222,9 @@ class Mismatch:
 
 @contextlib.contextmanager
 def workspace():
-    """A fresh working folder with links to the shipped folders; the old one restored after."""
+    """A fresh, empty working folder; the old one restored after."""
     previous = Path.cwd()
     with tempfile.TemporaryDirectory(prefix="fts-calib-docs-") as folder:
-        for name in SHIPPED:
-            os.symlink(ROOT / name, Path(folder) / name)
         os.chdir(folder)
         try:
             yield Path(folder)

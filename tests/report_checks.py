@@ -105,3 +105,36 @@ def banner_rows(shot: Path, colour=GOOD_BANNER) -> np.ndarray:
     pixels = np.asarray(Image.open(shot).convert("RGB"), dtype=int)
     match = np.all(np.abs(pixels - np.array(colour)) <= 3, axis=2)
     return np.nonzero(match.sum(axis=1) > 0.5 * pixels.shape[1])[0]
+
+
+#: Measures, after the page is laid out, what is wider than its box: run on a copy of the page (the page has no script).
+_OVERFLOW_PROBE = """<script>
+window.addEventListener('load', () => {
+  const out = [];
+  document.querySelectorAll('*').forEach(e => {
+    const box = e.getBoundingClientRect();
+    const where = e.tagName + '.' + e.className + ' in #' + ((e.closest('section') || {}).id || '');
+    const scrolls = e.scrollWidth > e.clientWidth + 1 && getComputedStyle(e).overflowX !== 'visible';
+    if (scrolls) out.push(where + ' scrolls ' + e.scrollWidth + ' > ' + e.clientWidth);
+    if (box.right > window.innerWidth + 1) out.push(where + ' ends at ' + Math.round(box.right) + ' > ' + window.innerWidth);
+  });
+  const pre = document.createElement('pre'); pre.id = 'overflow-probe'; pre.textContent = out.join('\\n'); document.body.appendChild(pre);
+});
+</script>"""
+
+
+def overflowing(page: Path, tmp: Path, width: int = 1000) -> list[str]:
+    """What scrolls sideways, or ends beyond the window, when ``page`` is shown in a window ``width`` px wide (Chromium)."""
+    exe = browser()
+    probe = tmp / f"probe_{page.name}"
+    probe.write_text(page.read_text(encoding="utf-8").replace("</body>", _OVERFLOW_PROBE + "</body>"), encoding="utf-8")
+    command = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", f"--user-data-dir={tmp / 'probe_profile'}"]
+    dom = subprocess.run(
+        [*command, f"--window-size={width},1000", "--virtual-time-budget=2000", "--dump-dom", probe.resolve().as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=BROWSER_TIMEOUT_S,
+    )
+    found = re.search(r'<pre id="overflow-probe">(.*?)</pre>', dom.stdout, re.S)
+    assert found is not None, dom.stderr[-2000:]
+    return [line for line in found.group(1).replace("&gt;", ">").splitlines() if line]

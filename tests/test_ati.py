@@ -164,7 +164,7 @@ def test_two_configurations_and_the_factory_file_as_the_prior(tmp_path, gauge_ru
     lines = recording.read_text().splitlines(keepends=True)
     two = tmp_path / "ab.csv"
     two.write_text("".join([lines[0], *[line for line in lines[1:] if not line.rstrip().endswith(",C")]]))
-    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(two), "--sensor", str(cal), "--quiet", "--offsets", "constant"]
+    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(two), "--sensor", str(cal), "--offsets", "constant"]
     factory_error = np.abs(np.eye(6) - truth.C_bar).max()  # 0.0298
     assert main([*args, "-o", str(tmp_path / "plain.yaml")]) == ExitCode.EXCITATION
     assert "rank 6 of 7" in capsys.readouterr().out

@@ -66,7 +66,7 @@ def _one_error_line(capsys):
 
 
 def _calibrate(path, tmp_path, *extra):
-    return main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "cal.yaml"), "--quiet", *extra])
+    return main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "cal.yaml"), *extra])
 
 
 # -- clock sanity ------------------------------------------------------------------------

@@ -39,7 +39,7 @@ def test_the_filter_makes_the_error_at_least_five_times_smaller_on_a_moving_tool
 
 def test_cli_calibrate_summary_and_file(tmp_path, ur5_recording, capsys):
     out = tmp_path / "cal.yaml"
-    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out), "--quiet"]) == 0
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out)]) == 0
     text = capsys.readouterr().out
     for part in ("rows in", "kept (", "filter: joint speed", "rank 7 of 7", "residual RMS: Fx", "± standard error", "D: Fx", "wrote"):
         assert part in text, part
@@ -84,7 +84,7 @@ def test_bad_rows_are_counted_and_the_run_goes_on(tmp_path, ur5_recording, capsy
     path = tmp_path / "bad.csv"
     path.write_text("".join(bad))
     out = tmp_path / "c.yaml"
-    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out), "--quiet"]) == 0
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out)]) == 0
     text = capsys.readouterr().out
     assert "unknown tool configuration" in text and "line 101: column 'tool': unknown tool configuration 'D'" in text
     assert "non-finite value" in text and "time going backwards" in text and "malformed line" in text
@@ -98,10 +98,7 @@ def test_missing_column_and_empty_file_are_clear_errors(tmp_path, ur5_recording,
     lines = _lines(ur5_recording)
     path = tmp_path / "no_tool.csv"
     path.write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in lines[:50]))
-    assert (
-        main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "c.yaml"), "--quiet"])
-        == ExitCode.RECORDING
-    )
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "c.yaml")]) == ExitCode.RECORDING
     assert "no_tool.csv, line 1, column 'tool': missing column(s) ['tool']" in capsys.readouterr().err
     (tmp_path / "empty.csv").write_text("")
     assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(tmp_path / "empty.csv"), "--quiet"]) == ExitCode.RECORDING
@@ -121,7 +118,7 @@ def test_joint_columns_in_degrees(tmp_path, ur5_recording, capsys):
     path = tmp_path / "deg.csv"
     path.write_text("".join(out_lines))
     assert header[1] == "shoulder_pan_joint"
-    calibrate = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", "--quiet"]
+    calibrate = ["calibrate", "--robot", "ur5", "--tool", "paper_tool"]
     assert main([*calibrate, str(ur5_recording), "-o", str(tmp_path / "rad.yaml")]) == 0
     capsys.readouterr()
     # the default (--joint-unit auto): found in degrees by the clock check's rule (57x the velocity limits), converted, said
@@ -181,3 +178,37 @@ def test_the_default_filter_keeps_the_still_samples_of_a_recording_with_stops_an
     )
     assert not forced.decided and auto.session.settings.filter.mode == "quasi-static"
     np.testing.assert_array_equal(auto.calibration.C, forced.calibration.C)
+
+
+def test_quiet_prints_the_verdict_and_the_file(ur5_recording, tmp_path, capsys):
+    """``--quiet`` once printed the whole summary (54 lines): now the fit verdict with the budget's largest error, and the file."""
+    out = tmp_path / "cal.yaml"
+    common = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out)]
+    assert main(common) == 0
+    whole = capsys.readouterr()
+    assert main([*common, "--quiet"]) == 0
+    quiet = capsys.readouterr()
+    lines = quiet.out.splitlines()
+    assert len(lines) == 2 and quiet.err == "" and lines[1] == f"wrote {out}", quiet
+    verdict = next(line for line in whole.out.splitlines() if line.startswith("fit consistent: "))
+    head, _, largest = lines[0].rpartition("; largest error ")
+    assert head == verdict and largest.endswith(" % of full scale"), lines[0]
+    budget = load_calibration(out).quality.budget
+    assert float(largest.split()[0]) == pytest.approx(budget["largest_percent_fs"], abs=1e-4)
+    assert len(whole.out.splitlines()) > 20
+
+
+def test_the_progress_bar_logs_quarters_of_a_long_file_only():
+    """Into a file or a pipe: a line per quarter of a recording of LOG_BYTES or more; a short one shows none (so that
+    the summary of a short run is all its output, without --quiet)."""
+    import io
+
+    from fts_calib.app.calibrate import LOG_BYTES, ProgressBar
+
+    for size, lines in ((1e6, 0), (LOG_BYTES, 4)):
+        log = io.StringIO()
+        bar = ProgressBar(size, "rows", log)
+        for k in range(1, 101):
+            bar.update(size * k / 100, 1000 * k)
+        bar.close()
+        assert len(log.getvalue().splitlines()) == lines and "\r" not in log.getvalue(), (size, log.getvalue())

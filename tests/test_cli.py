@@ -10,6 +10,7 @@ import pytest
 from fts_calib import load_calibration
 from fts_calib.app.cli import build_parser, main
 from fts_calib.app.exit_codes import ExitCode
+from fts_calib.core.resources import resolve
 
 
 def _commands():
@@ -70,11 +71,17 @@ def test_no_command_prints_help(capsys):
     assert "COMMAND" in capsys.readouterr().out
 
 
-def test_trajectory_command_writes_checked_files(tmp_path, capsys):
+def test_trajectory_command_writes_checked_files(tmp_path, capsys, monkeypatch):
     out = tmp_path / "traj"
-    assert main(["trajectory", "--robot", "ur5", "--tool", "paper_tool", "-o", str(out), "--rate", "50"]) == 0
+    monkeypatch.chdir(tmp_path)  # a robot file of the user's own, whose name is not its file's
+    robot = resolve("ur5", "robots").read_text(encoding="utf-8").replace("name: ur5", "name: my_ur5")
+    (tmp_path / "my_robot.yaml").write_text(robot, encoding="utf-8")
+    assert main(["trajectory", "--robot", "my_robot.yaml", "--tool", "paper_tool", "-o", str(out), "--rate", "50"]) == 0
     text = capsys.readouterr().out
     assert "predicted rank 7 of 7" in text and "duration:" in text and "clearance:" in text
+    # the robot named as its file names it, a shipped file as such (the same on every machine)
+    assert text.startswith("planning my_ur5 sweeps for 'RIM calibration tool' (3 configurations)..."), text[:200]
+    assert "robot my_ur5 (my_robot.yaml), tool 'RIM calibration tool' (shipped configs/paper_tool.yaml)" in text
     assert sorted(p.name for p in out.iterdir()) == ["A.csv", "B.csv", "C.csv", "plan.png", "plan.yaml"]
 
 
@@ -121,3 +128,41 @@ def test_a_bare_mount_says_what_it_takes_and_names_estimate_mount(command, capsy
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert "roll, pitch, yaw in rad" in err and "--estimate-mount" in err
+
+
+def test_the_raster_options_say_the_plan_is_sized_unless_one_fixes_it():
+    """``--levels`` once said "default: 4" while an unfixed plan is sized to --target-error: each says when its value applies."""
+    from fts_calib.planning.sweeps import SweepPattern
+
+    sub = build_parser()._subparsers._group_actions[0].choices["trajectory"]  # type: ignore[union-attr]
+    helps = {a.option_strings[0]: a.help for a in sub._actions if a.option_strings}
+    default = SweepPattern()
+    for option, value in (("--levels", default.levels), ("--stops", default.stops), ("--dwell", default.dwell), ("--span", default.span)):
+        text = helps[option]
+        assert "default:" not in text and "sized" in text and text.endswith(f"when another option fixes it: {value:g}"), (option, text)
+
+
+def test_a_validation_motion_is_planned_for_a_tool_of_one_configuration(tmp_path, capsys):
+    """``--tool validation_tool`` (one configuration) once ended "no raster ... meets the target": --validation plans its
+    raster, checked for limits and clearance, with no rank or accuracy requirement, and plan.yaml says so."""
+    import numpy as np
+    import yaml
+
+    out = tmp_path / "val"
+    common = ["trajectory", "--robot", "ur5", "--tool", "validation_tool", "-o", str(out), "--rate", "20", "--no-plot"]
+    assert main(common) == ExitCode.TRAJECTORY  # a calibration of one centre of mass: refused at once, naming the way out
+    err = capsys.readouterr().err
+    assert "has 1 configuration (V)" in err and "rank 4 of 7" in err and "--validation" in err, err
+    assert main([*common, "--validation", "--levels", "2", "--stops", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("planning ur5 validation sweeps for 'validation payload' (1 configuration)...")
+    assert "validation motion (quasi-static samples V: " in printed and "CHECK FAILED" not in printed, printed
+    assert "fts-calib validate RECORDING --calibration CALIBRATION --tool validation_tool" in printed
+    plan = yaml.safe_load((out / "plan.yaml").read_text())
+    assert plan["purpose"] == "validation" and plan["configurations"] == ["V"]
+    header = (out / "V.csv").read_text().splitlines()[0].split(",")
+    table = np.loadtxt(out / "V.csv", delimiter=",", skiprows=1, usecols=range(len(header) - 1))
+    for joint, limits in plan["limits"].items():  # the sweep joints within their velocity limits, from rest
+        velocity = table[:, header.index(joint + "_vel")]
+        assert np.abs(velocity).max() <= limits["velocity"] * (1 + 1e-9) and velocity[0] == 0.0, joint
+    assert main([*common, "--validation", "--motion", "smooth"]) == ExitCode.CONFIG

@@ -248,9 +248,9 @@ def _fake_modules(log: list) -> dict[str, types.ModuleType]:
 
 
 def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
-    """The UR snippets stream every row at the file's period (ur_rtde) or write one servoj per row
-    (URScript), the ROS 2 one sends every row but the first with its time, and the in-controller
-    code gives C channels + D."""
+    """The UR snippets stream every row at the file's period (ur_rtde) or write one servoj per 20 ms
+    (URScript, within a·Δt²/8 of the plan), the ROS 2 one sends every row but the first with its time,
+    and the in-controller code gives C channels + D."""
     blocks = _blocks(README, "python")
     assert len(blocks) == 4, "the UR (ur_rtde and URScript), ROS 2 and in-controller snippets"
     log: list = []
@@ -283,9 +283,19 @@ def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
         script = (folder / "plan" / "A.script").read_text().splitlines()
         assert script[0] == "def fts_calib_play():" and script[-2:] == ["  stopj(2.0)", "end"], script[:2] + script[-2:]
         servoj = [line for line in script if line.startswith("  servoj([")]
-        assert len(servoj) == n and all("t=0.002," in line for line in servoj)
+        # one servoj per 20 ms, the last row too (this plan is at 100 Hz: every 2nd row), not one per row
+        period = time[1] - time[0]
+        every = round(0.02 / period)
+        kept = [*range(0, n, every), n - 1]
+        assert len(servoj) == len(kept) and all(f"t={every * period:.4g}," in line for line in servoj), servoj[:2]
         played = np.array([[float(v) for v in line.split("[")[1].split("]")[0].split(",")] for line in servoj])
-        np.testing.assert_allclose(played, positions, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(played, positions[kept], rtol=0, atol=1e-9)
+        # the controller's straight line between two servoj targets stays within a·Δt²/8 of the planned joint path
+        accelerations = table[:, [header.index(j + "_acc") for j in joint_names]]
+        between = np.column_stack([np.interp(time, time[kept], played[:, k]) for k in range(played.shape[1])])
+        bound = np.abs(accelerations).max() * (every * period) ** 2 / 8 + 1e-8  # + the CSV's 9 decimals
+        assert np.abs(between - positions).max() <= bound, (np.abs(between - positions).max(), bound)
+        assert len("\n".join(script)) < 0.6 * n * 130, "about half the rows of this 100 Hz plan, of ~130 characters each"
 
         log.clear()
         exec(compile(blocks[2], "README.md (ROS 2)", "exec"), {})
@@ -306,3 +316,66 @@ def test_the_readme_python_plays_the_plan_and_reads_wrenches(monkeypatch):
 
         expected = load_calibration(calibration).D  # channels all zero: the wrench is D
         np.testing.assert_allclose(scope["w_sensor"], expected, rtol=0, atol=1e-12)
+
+
+# --- exit codes: what the pages and --help say is what the code does ----------------------------------------------
+
+#: Words that name a family of errors in prose, beside its exception classes' names (:data:`EXIT_CODES`).
+EXIT_WORDS: dict[ExitCode, tuple[str, ...]] = {
+    ExitCode.EXCITATION: ("cannot determine C", "insufficient excitation", "too little excitation", "rank below"),
+    ExitCode.POOR_FIT: ("poor fit", "does not fit its data"),
+    ExitCode.OUTPUT_IN_USE: ("lock is held", "another run is writing"),
+    ExitCode.INTERRUPTED: ("Ctrl-C ends",),
+}
+EXIT_CLAIM = re.compile(r"\bexit(?:s|ing)?(?: with)?(?: status| code)? (\d+)\b", re.I)
+
+
+def _clauses(text: str) -> list[str]:
+    """The prose of a page (fenced blocks dropped), one clause at a time: lines joined, cut at '. ', '; ' and paragraph ends."""
+    prose = FENCED.sub("", text)
+    return [c for paragraph in re.split(r"\n\s*\n", prose) for c in re.split(r"(?<=[.;])\s+", " ".join(paragraph.split()))]
+
+
+def _exit_claims() -> list[tuple[str, str]]:
+    """(where, clause) of every clause of README.md, docs/ and the commands' --help that names an exit status."""
+    from fts_calib.app.parser import COMMANDS, build_parser
+
+    sources = [(page.relative_to(ROOT).as_posix(), page.read_text(encoding="utf-8")) for page in _pages()]
+    choices = build_parser()._subparsers._group_actions[0].choices  # type: ignore[union-attr]
+    sources += [(f"fts-calib {name} --help", choices[name].format_help()) for name in COMMANDS]
+    return [(where, clause) for where, text in sources for clause in _clauses(text) if EXIT_CLAIM.search(clause)]
+
+
+def test_every_exit_status_the_docs_and_help_claim_is_the_codes():
+    """A clause that names a family of errors (its class, or words of :data:`EXIT_WORDS`) and an exit status names its code.
+
+    ``calibrate --help`` once said it "exits 1 when the data cannot determine C" while it exits 8
+    (EXCITATION); this reads every such claim of README.md, docs/ and every command's --help.
+    """
+    codes = {int(code) for code in ExitCode}
+    claims = _exit_claims()
+    assert len(claims) > 30, f"the pages name exit statuses: {len(claims)} clauses found"
+    wrong = []
+    for where, clause in claims:
+        said = {int(n) for n in EXIT_CLAIM.findall(clause)}
+        wrong += [f"{where}: exit {n} is no exit code of fts-calib: {clause}" for n in sorted(said - codes)]
+        for entry in EXIT_CODES:
+            words = (*(cls.__name__ for cls in entry.errors if cls.__module__.startswith("fts_calib")), *EXIT_WORDS.get(entry.code, ()))
+            named = [w for w in words if w.lower() in clause.lower() and w not in ("FtsCalibError",)]
+            if named and int(entry.code) not in said:
+                wrong.append(f"{where}: names {named[0]!r} (exit {int(entry.code)}) but says exit {sorted(said)}: {clause}")
+    assert not wrong, "\n".join(wrong)
+
+
+def test_what_the_index_says_of_outputs_is_what_a_command_does(tmp_path, capsys):
+    """The docs index once promised outputs are "never overwritten" while ``-o`` replaces an existing file: it says so now."""
+    from fts_calib.app.cli import main
+
+    for page in (README, DOCS / "README.md"):
+        line = next(line for line in page.read_text(encoding="utf-8").splitlines() if "safety.md" in line and "half-written" in line)
+        assert "overwritten" not in line and "an existing file is replaced whole" in line, line
+    out = tmp_path / "cal.json"
+    out.write_text("an earlier export\n", encoding="utf-8")
+    assert main(["export", "--format", "json", "--calibration", "paper_table1_calibration", "-o", str(out)]) == 0
+    assert out.read_text(encoding="utf-8").lstrip().startswith("{") and [p.name for p in tmp_path.iterdir()] == ["cal.json"]
+    capsys.readouterr()

@@ -83,7 +83,7 @@ def test_recalibration_finds_the_truth(ur5, paper_tool, factory_recording, facto
 
 def test_cli_selects_the_sensor_and_names_both_channel_counts(tmp_path, factory_recording, capsys):
     out = tmp_path / "cal.yaml"
-    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(factory_recording), "-o", str(out), "--quiet"]
+    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(factory_recording), "-o", str(out)]
     assert main([*args, "--sensor", "factory_sensor"]) == ExitCode.OK
     text = capsys.readouterr().out
     assert "Δ6" in text and "Δ7" not in text

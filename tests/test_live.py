@@ -256,3 +256,34 @@ def test_a_live_run_that_received_nothing_leaves_no_checkpoint_in_the_way_of_the
         out = capsys.readouterr().out
         assert "NO CALIBRATION: insufficient data: no sample was given; no checkpoint kept (it would hold nothing)" in out, out
         assert not list(tmp_path.iterdir()), "a calibration, a checkpoint or a lock was left"
+
+
+def test_a_status_line_into_a_file_is_a_line_every_few_seconds_and_rewritten_on_a_terminal():
+    """Into a file (no terminal): no carriage returns, one line per LOG_INTERVAL_S (it once wrote hundreds of '\\r' lines)."""
+    import io
+
+    from fts_calib.session.calibration_run import LOG_INTERVAL_S, StatusLine
+
+    now = [0.0]
+    into_file = io.StringIO()
+    status = StatusLine(into_file, clock=lambda: now[0])
+    for k in range(200):  # 20 s of status every 0.1 s (the feed's rate of calls)
+        now[0] = 0.1 * k
+        status.show(f"t {now[0]:.1f} s")
+    status.show("t 20.0 s, the end", end="\n")
+    status.close()
+    lines = into_file.getvalue().split("\n")
+    assert "\r" not in into_file.getvalue() and lines[-1] == ""
+    assert lines[:-1] == ["t 0.0 s", "t 5.0 s", "t 10.0 s", "t 15.0 s", "t 20.0 s, the end"], lines
+    assert LOG_INTERVAL_S == 5.0
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal = Terminal()
+    status = StatusLine(terminal, clock=lambda: 0.0)
+    status.show("a longer line")
+    status.show("short")
+    status.close()
+    assert terminal.getvalue() == "\ra longer line\rshort        \n"

@@ -264,7 +264,6 @@ def test_calibrate_detects_an_undeclared_rail_refuses_its_samples_and_names_it(l
             str(undeclared),
             "-o",
             str(out),
-            "--quiet",
             "--accept-poor-fit",
         ]
     )

@@ -192,7 +192,7 @@ def test_calibrate_prints_the_table_of_candidates_and_the_file_records_it(tmp_pa
     from fts_calib.model.calibration import load_calibration
 
     out = tmp_path / "cal.yaml"
-    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out), "--quiet"]) == 0
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "model: linear + " in printed and "held-out RMS per axis" in printed and "Fx [N]" in printed
     cal = load_calibration(out)
@@ -215,7 +215,6 @@ def test_calibrate_prints_the_table_of_candidates_and_the_file_records_it(tmp_pa
                 str(ur5_recording),
                 "-o",
                 str(tmp_path / "lin.yaml"),
-                "--quiet",
                 "--model",
                 "linear",
             ]

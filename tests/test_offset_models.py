@@ -289,7 +289,7 @@ def test_a_drifting_recording_with_a_temperature_column_calibrates_from_the_comm
     path = simulate_recording(tmp_path / "drift.csv", ur5, paper_tool, trajectories, sensor, np.random.default_rng(7), drift=drift)
     assert path.read_text().splitlines()[0].split(",")[-2:] == ["temperature", "tool"]
     out = tmp_path / "cal.yaml"
-    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out), "--quiet"]) == 0
+    assert main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "offsets: drift (chosen by held-out error" in printed and "D moved over the run" in printed and "rank 11 of 11" in printed
     calibration = load_calibration(out)

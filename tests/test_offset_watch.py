@@ -62,3 +62,21 @@ def test_a_window_is_motion_by_the_filters_joint_speed_rule(rng):
         watch.update_batch(time, measured, np.zeros((2000, 6)), joints)
     assert default.updates == 0 and default.contacts == 20, (default.updates, default.contacts)
     assert loose.updates == 20 and loose.contacts == 0, (loose.updates, loose.contacts)
+
+
+def test_a_drift_free_run_forecasts_nothing_and_the_rates_noise_is_the_trackers(rng):
+    """No drift, noise only: the rate wanders at its noise (the alpha-beta steady state, against a Monte Carlo over time)
+    and the forecast stays 'never' (it once said "exceeds 0.05 % in 33 s" from such a rate)."""
+    watch = OffsetWatch(NOISE)
+    threshold = 0.0005 * FULL_SCALE  # 0.05 % FS
+    rates, finite = [], 0
+    for k in range(1200):  # 120 s of 100-sample windows at 1 kHz
+        time = (k * 100 + np.arange(100)) / 1000.0  # [s]
+        watch.update_batch(time, NOISE * rng.standard_normal((100, 6)), np.zeros((100, 6)))
+        if k >= 100:  # past the tracker's settling (10 time constants)
+            rates.append(watch.rate.copy())
+            finite += np.isfinite(watch.forecast_s(threshold))
+    measured = np.std(rates, axis=0)  # ~110 independent stretches: the std to about 7 %
+    np.testing.assert_allclose(measured, watch.rate_std, rtol=0.3)
+    assert np.all(np.abs(watch.rate) > 0)  # a rate at the noise level, never exactly zero: the old forecast extrapolated it
+    assert finite <= 0.01 * len(rates), f"{finite} of {len(rates)} looks forecast a crossing on a drift-free run"

@@ -193,3 +193,42 @@ def test_one_still_orientation_is_refused_naming_mass_centre_of_mass_and_inertia
     with pytest.raises(PayloadError, match=r"mass \(not seen at all\), com x \(not seen at all\), com y \(not seen at all\)") as error:
         fit_payload_motion(W, g, zero, zero, zero)
     assert "tilt the payload about two axes" in str(error.value) and "Izz (not seen at all)" in str(error.value)
+
+
+def test_trajectory_plans_the_payload_motion_checked_and_its_predicted_standard_errors_hold(ur5_module, tmp_path, capsys):
+    """``trajectory --motion payload``: the motion from the calibration's home, within the limits and clear, written with
+    plan.yaml; its predicted standard errors (white wrench noise) against a Monte Carlo of the identification's own least
+    squares (:func:`fit_payload_regressor`) on wrenches simulated along the written motion."""
+    import yaml
+
+    from fts_calib.app.cli import main
+    from fts_calib.payload.moving import fit_payload_regressor
+    from fts_calib.planning.trajectory_files import read_trajectory
+    from fts_calib.robot import inertial
+    from fts_calib.robot.tool import load_tool
+
+    out = tmp_path / "payload_plan"
+    assert main(["trajectory", "--robot", "ur5", "--tool", "validation_tool", "--motion", "payload", "-o", str(out), "--rate", "50"]) == 0
+    printed = capsys.readouterr().out
+    assert "predicted standard errors (the sensor's noise alone" in printed and "CHECK FAILED" not in printed, printed
+    plan = yaml.safe_load((out / "plan.yaml").read_text())
+    assert plan["purpose"] == "payload" and plan["files"] == ["V.csv"] and plan["clearance"]["distance_m"] >= 0.02
+    assert all(r["velocity"] <= 1 + 1e-9 and r["acceleration"] <= 1 + 1e-9 for r in plan["peaks_over_limits"].values())
+    motion = read_trajectory(out / "V.csv")
+    tool = load_tool("validation_tool")
+    config = tool.configuration("V")
+    state = ur5_module.sensor_motion(motion.q, motion.qd, motion.qdd)
+    g = np.einsum("nji,j->ni", state.R_world_sensor, ur5_module.g_world(tool.gravity))
+    Y = inertial.body_regressor(g, state.omega, state.alpha, state.a)
+    W = np.einsum("nij,j->ni", Y, inertial.parameters(config.mass, config.p_sensor_com, config.inertia_com))
+    noise = np.array([2e-3] * 3 + [2e-4] * 3)  # [N, N m] larger than the sensor's: the same ratio to the prediction
+    from fts_calib.payload.inertia_motion import predicted_payload_stderr
+
+    mass_se, com_se, _ = predicted_payload_stderr(ur5_module, tool, "V", motion.q, motion.qd, motion.qdd, noise)
+    rng = np.random.default_rng(7)
+    fits = [fit_payload_regressor(W + 0.3 + noise * rng.standard_normal(W.shape), Y, check=False) for _ in range(25)]
+    masses = np.array([f.mass for f in fits])
+    coms = np.array([f.com for f in fits])
+    assert abs(masses.mean() - config.mass) < 4 * mass_se / np.sqrt(len(fits))  # unbiased, the offsets 0.3 absorbed
+    np.testing.assert_allclose(masses.std(ddof=1), mass_se, rtol=0.45)  # 25 fits: the std to about 14 %
+    np.testing.assert_allclose(coms.std(axis=0, ddof=1), com_se, rtol=0.45)

@@ -92,7 +92,7 @@ def test_a_prior_of_another_layout_is_refused(tmp_path):
 def test_cli_calibrate_with_a_prior(tmp_path, ur5_recording, capsys):
     previous = save_calibration(Calibration(C_BAR_TRUE * 1.002, D_TRUE), tmp_path / "previous.yaml")
     out = tmp_path / "cal.yaml"
-    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out), "--quiet"]
+    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out)]
     assert main([*args, "--prior", str(previous), "--prior-weight", "0.01"]) == ExitCode.OK
     text = capsys.readouterr().out
     assert f"prior {previous}, weight 0.01: the data determine" in text
@@ -110,7 +110,7 @@ def test_cli_a_prior_weight_without_a_prior_or_below_zero_is_one_line(tmp_path, 
     """Before: a weight without --prior was ignored silently; a negative one was named 'prior_weight=', not the option."""
     previous = save_calibration(Calibration(C_BAR_TRUE, D_TRUE), tmp_path / "previous.yaml")
     out = tmp_path / "cal.yaml"
-    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out), "--quiet"]
+    args = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(out)]
     assert main([*args, *[str(previous) if o == "PRIOR" else o for o in options]]) == ExitCode.CONFIG
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and expected in err[0], err

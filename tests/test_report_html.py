@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -238,6 +239,11 @@ def test_validate_writes_a_report(calibrated, ur5_recording, tmp_path):
     page = report.read_text()
     check_page(page)
     assert "RMS" in page and "% FS (largest axis; validation with" in page
+    # each sample under the configuration it was recorded in (the recording holds A, B and C), not all under A
+    counts = dict(re.findall(r"<tr><td>(\w+)</td><td>([\d,]+)</td>", _section(page, "sphere")))
+    counts = {name: int(n.replace(",", "")) for name, n in counts.items()}
+    assert set(counts) == {"A", "B", "C", "all"} and min(counts["A"], counts["B"], counts["C"]) > 0, counts
+    assert counts["A"] + counts["B"] + counts["C"] == counts["all"], counts
 
 
 def test_report_command_refuses_bad_input(calibrated, ur5_recording, tmp_path, capsys):
@@ -257,3 +263,80 @@ def test_report_command_refuses_bad_input(calibrated, ur5_recording, tmp_path, c
     assert "shape (6, 8) and (6, 6)" in capsys.readouterr().err
     assert cli.main(["report", str(cal_path), "--against", str(cal_path), "-o", str(cal_path)]) == ExitCode.CONFIG  # -o is an input
     assert not Path(out).exists()
+
+
+def test_the_held_out_line_shows_the_chosen_models_held_out_rms_in_percent_of_full_scale(calibrated):
+    """Not the dimensionless score ("1 (heldout_error)"): the chosen candidate's held-out RMS over full scale, largest axis."""
+    cal = calibrated[0].calibration
+    full_scale = cal.quality.budget["full_scale"]
+    assert [full_scale[a] for a in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")] == [50.0, 50.0, 50.0, 5.0, 5.0, 5.0]  # the shipped sensor's
+    rms = [0.01, 0.02, 0.005, 0.0019, 0.0002, 0.0003]  # N, N·m: Fy 0.04 % FS, Mx 0.038 % FS
+    candidates = [
+        {"model": "linear", "offsets": "constant", "heldout_rms": [1.0] * 6, "heldout_error": 9.0, "chosen": False},
+        {"model": "linear", "offsets": "drift", "heldout_rms": rms, "heldout_error": 1.0, "chosen": True},
+    ]
+    table = {"units": 18, "chosen": "linear + drift", "candidates": candidates}
+    verdict = _section(render_report(ReportContent("a short run", dataclasses.replace(cal, model_selection=table))), "verdict")
+    assert "heldout_error" not in verdict
+    assert "RMS 0.0400 % FS (Fy, the largest axis; one of 18 units of this recording left out at a time" in verdict, verdict
+    bare = dataclasses.replace(cal, model_selection=table, quality=dataclasses.replace(cal.quality, budget=None))
+    verdict = _section(render_report(ReportContent("no budget", bare)), "verdict")  # no full scale: in N and N·m
+    assert "RMS Fx 0.01 N, Fy 0.02 N, Fz 0.005 N, Mx 0.0019 N·m, My 0.0002 N·m, Mz 0.0003 N·m (one of 18 units" in verdict, verdict
+
+
+def test_a_comparison_without_budgets_is_not_judged_green(tmp_path):
+    """Two files without an accuracy budget: the wrench difference is shown in % FS and not judged (once "0", in green)."""
+    from fts_calib.report.compare import render_comparison
+
+    old = load_calibration(resolve("paper_table1_calibration", "configs"))
+    old = dataclasses.replace(old, quality=None, D=np.array([1.0, 2.0, 0.5, 0.01, 0.3, 0.02]))  # My farthest: 10.6 % FS
+    new = dataclasses.replace(old, C_bar=1.1 * old.C_bar)  # 10 % more gain: W_new - W_old = 0.1 (W - D_old) over the box
+    full_scale = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])
+    percent = 100 * 0.1 * (full_scale + np.abs(old.D)) / full_scale  # the box's worst corner, per axis
+    axis = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")[int(np.argmax(percent))]
+    page = render_comparison(new, old, "new.yaml", "old.yaml")
+    verdict = _section(page, "verdict")
+    expected = f"not judged: no accuracy budget in new.yaml or old.yaml; the largest difference is {percent.max():.3g} % FS ({axis})"
+    assert expected in verdict, verdict
+    assert '<div class="kv good"><span>Wrench difference / budget' not in verdict
+
+
+def test_the_target_the_plan_was_sized_to_is_the_reports(ur5_recording, tmp_path, capsys):
+    """``calibrate --target-error 0.1`` records the target: its report, ``report`` and ``validate --report`` judge against it, not 0.05."""
+    cal_path, page = tmp_path / "cal.yaml", tmp_path / "cal.html"
+    common = ["--robot", "ur5", "--tool", "paper_tool"]
+    assert cli.main(["calibrate", str(ur5_recording), *common, "-o", str(cal_path), "--report", str(page), "--target-error", "0.1"]) == 0
+    cal = load_calibration(cal_path)
+    assert cal.quality.budget["target_percent_fs"] == 0.1
+    largest = float(cal.quality.budget["largest_percent_fs"])
+    assert f"{largest:.4f} % FS vs target 0.1 % " in _section(page.read_text(), "verdict")
+    later = tmp_path / "later.html"
+    assert cli.main(["report", str(cal_path), "-o", str(later)]) == 0
+    assert "vs target 0.1 % " in _section(later.read_text(), "verdict")
+    assert cli.main(["report", str(cal_path), "-o", str(later), "--target-error", "0.02"]) == 0  # the option wins
+    assert "vs target 0.02 % " in _section(later.read_text(), "verdict")
+    check = tmp_path / "v.html"
+    assert cli.main(["validate", str(ur5_recording), "--calibration", str(cal_path), *common, "--report", str(check)]) == 0
+    assert "vs target 0.1 % " in _section(check.read_text(), "verdict")
+    assert cli.main(["calibrate", str(ur5_recording), *common, "-o", str(tmp_path / "x.yaml"), "--target-error", "0"]) == ExitCode.CONFIG
+    assert "--target-error" in capsys.readouterr().err and not (tmp_path / "x.yaml").exists()
+
+
+def test_the_report_does_not_scroll_sideways_at_1000_px(calibrated, tmp_path):
+    """The model-selection table (1,286 px) once widened the page, the residual and budget tables scrolled in 351 px beside
+    their pictures: at 1,000 px nothing scrolls sideways or ends beyond the window."""
+    from .report_checks import overflowing
+
+    result, collector = calibrated
+    rms = [0.002190368679999415, 0.003777819838850614, 0.003594630286757239, 5.8307187883568854e-05, 3.98e-05, 4.07e-05]
+    offsets = ("constant", "per-configuration", "drift (time^1)", "drift (time^1, time^2)")
+    candidates = [  # the candidates a calibrate of today writes: their columns as the file has them
+        {"model": "linear", "offsets": o, "parameters_per_axis": 7 + k, "heldout_rms": rms, "heldout_error": 1.0048023136643827,
+         "standard_error_vs_best": 0.0072922725839889785, "held_directions": 0, "chosen": k == 0}
+        for k, o in enumerate(offsets)
+    ]  # fmt: skip
+    cal = dataclasses.replace(result.calibration, model_selection={"units": 18, "chosen": "linear + constant", "candidates": candidates})
+    content = ReportContent("a short run", cal, samples=collector.samples(cal), configurations=tuple(result.session.tool.names))
+    page = tmp_path / "report.html"
+    page.write_text(render_report(content), encoding="utf-8")
+    assert overflowing(page, tmp_path, 1000) == []

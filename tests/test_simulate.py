@@ -1,6 +1,9 @@
 """Simulated recordings: the format a robot writes, read back by calibrate unchanged."""
 
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 from fts_calib import load_calibration
 from fts_calib.app.cli import main
@@ -59,3 +62,25 @@ def test_simulate_needs_trajectories_of_the_tool(tmp_path, capsys):
         == ExitCode.FILE
     )
     assert "no trajectory for the configurations ['V']" in capsys.readouterr().err
+
+
+def test_a_shipped_plan_is_named_from_any_folder(tmp_path, monkeypatch, capsys):
+    """``--trajectory ur5`` (and ``ur5/A.csv.gz``, ``--plan ur5``) from an empty folder: the shipped plan, not a path."""
+    from fts_calib.core.exceptions import ResourceNotFound
+    from fts_calib.core.resources import locate_trajectory, shipped
+    from fts_calib.session.plan_progress import load_plan_progress
+
+    monkeypatch.chdir(tmp_path)
+    assert locate_trajectory("ur5") == TRAJECTORIES
+    assert locate_trajectory("ur5/A.csv.gz") == TRAJECTORIES / "A.csv.gz"
+    assert main(["simulate", "--robot", "ur5", "--tool", "paper_tool", "--trajectory", "ur5/A.csv.gz", "-o", "a.csv", "--noiseless"]) == 0
+    rows = len(read_trajectory(TRAJECTORIES / "A.csv.gz").time)
+    assert f"wrote a.csv: {rows:,} rows, configurations A" in capsys.readouterr().out
+    assert set(load_plan_progress("ur5", 500.0).expected) == {"A", "B", "C"}
+    (tmp_path / "ur5").mkdir()  # a folder of the user's own wins over the shipped plan of that name
+    assert locate_trajectory("ur5") == Path("ur5")
+    with pytest.raises(ResourceNotFound) as refused:
+        locate_trajectory("ur6")
+    assert all(name in str(refused.value) for name in shipped("trajectories")), refused.value
+    assert main(["simulate", "--robot", "ur5", "--tool", "paper_tool", "--trajectory", "ur6", "-o", "b.csv"]) == ExitCode.FILE
+    assert "no shipped trajectory of that name; shipped: kinova, panda, ur10, ur5, xarm7" in capsys.readouterr().err

@@ -146,6 +146,13 @@ def test_five_seconds_of_the_sized_ur5_smooth_motion_calibrate_within_the_budget
     assert default.calibration is not None and isinstance(default.session.filter, DynamicFilter), default.error
     assert default.decided[0].startswith("filter: dynamic (--filter auto: the arm moves without stopping ("), default.decided
     assert "too few still samples for the quasi-static filter, rank " in default.decided[0], default.decided
+    # the per-configuration residuals (weighted by the trust rule) below the overall residual RMS: the summary says why
+    from fts_calib.app.calibrate import WEIGHTED_RESIDUALS, format_summary
+
+    summary = format_summary(default, str(path), None)
+    assert WEIGHTED_RESIDUALS in summary and "residual RMS (every kept sample alike): " in summary, summary
+    by_configuration = np.array(list(default.session.fit_check().residual_rms.values()))
+    assert np.all(by_configuration < default.calibration.quality.residual_rms), (by_configuration, default.calibration.quality.residual_rms)
     forced = {mode: PipelineConfig().with_filter_mode(mode) for mode in ("dynamic", "quasi-static")}
     dynamic = calibrate_recording(path, ur5, paper_tool, forced["dynamic"], layout=spec.layout, full_scale=spec.full_scale)
     np.testing.assert_array_equal(dynamic.calibration.C, default.calibration.C)
@@ -166,7 +173,11 @@ def test_trajectory_motion_smooth_writes_a_sized_plan_and_refuses_too_few_config
     assert plan["duration_s"] == 5.0  # predicted 0.067 % on the 5 s motion: within 0.08
     # the trust rule's prediction on the 50 Hz plan: 25-33 % (the filter at 1 kHz keeps half: the test above)
     assert 0.2 * 251 < np.mean(list(plan["excitation"]["dynamic_samples"].values())) < 251
-    assert "smooth excitation" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "smooth excitation" in printed
+    # the samples counted are the moving ones the dynamic filter trusts, as plan.yaml's dynamic_samples: not "quasi-static"
+    counts = ", ".join(f"{k}: {v}" for k, v in plan["excitation"]["dynamic_samples"].items())
+    assert f"; moving samples the dynamic filter trusts {counts}):" in printed and "quasi-static samples" not in printed, printed
     code = main([*common, "--configurations", "2", "--target-error", "0.05", "-o", str(tmp_path / "two")])
     err = capsys.readouterr().err
     assert code != 0 and "no smooth plan of 2 configurations" in err and "3 configurations reach" in err, err

@@ -79,9 +79,7 @@ def calibrate(recordings, out, *extra) -> tuple[int, str]:
 
     buffer = io.StringIO()
     with contextlib.redirect_stdout(buffer):
-        code = main(
-            ["calibrate", "--robot", "ur5", "--tool", "paper_tool", *LOWCOST, *map(str, recordings), "-o", str(out), "--quiet", *extra]
-        )
+        code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", *LOWCOST, *map(str, recordings), "-o", str(out), *extra])
     return code, buffer.getvalue()
 
 

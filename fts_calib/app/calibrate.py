@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -17,7 +18,7 @@ from ..filters.settings import AUTO_FILTER
 from ..model.calibration import save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.prior import describe as describe_prior
-from ..report.content import KeptCollector, calibrate_content
+from ..report.content import KeptCollector, calibrate_content, check_target, with_target
 from ..report.html import render_report, write_report
 from ..session.calibration_run import CalibrateResult, LiveRunner, calibrate_recording, format_stats
 from ..session.checkpoint import check_start, live_source
@@ -47,6 +48,7 @@ def run(
     *,
     accept_poor_fit: bool = False,
     plan: str | Path | None = None,
+    target_error_percent: float | None = None,
 ) -> int:
     """Calibrate from a recording or a live feed, write the calibration and print the summary (``fts-calib calibrate``).
 
@@ -67,18 +69,22 @@ def run(
             records the verdict).
         plan: A live feed: ``plan.yaml`` of the sized trajectories being run (the status line
             then shows the motion left and the configuration to mount next).
+        target_error_percent: The accuracy target the plan was sized to, in [%] of full scale:
+            recorded in the file's budget, the target its report (and ``validate --report``,
+            ``report``) judges the budget against; 0.05 when None.
 
     Returns:
-        0 with a calibration written, 1 when the data cannot determine C (a live run that
-        received nothing: no checkpoint kept), 15 when the fit check refused the calibration
+        0 with a calibration written, 8 when the data cannot determine C (1: a live run that
+        received nothing, no checkpoint kept), 15 when the fit check refused the calibration
         (nothing written; a live run keeps its checkpoint), 18 when a UR controller does not
         answer within ``source.ur_timeout_s``.
     """
     outputs = outputs or OutputOptions()
     if setup.tool_file is None:
         raise ConfigError("tool", None, "the calibration tool mounted", message="calibrate needs the tool mounted: give --tool")
+    target = check_target(target_error_percent)
     if source.live:
-        return _calibrate_live(setup, source, outputs, accept_poor_fit, plan)
+        return _calibrate_live(setup, source, outputs, accept_poor_fit, plan, target)
     if plan is not None:
         raise ConfigError("plan", str(plan), "a live source", message="--plan shows the motion left of a live run: give udp:// or ur://")
     output = outputs.output or DEFAULT_OUTPUT
@@ -114,9 +120,11 @@ def run(
     )
     written = None
     if result.calibration is not None:
+        calibration = with_target(result.calibration, target)
+        result = dataclasses.replace(result, calibration=calibration)
         with writing(output):
-            written = save_calibration(result.calibration, output)
-    print(format_summary(result, describe_files(paths), written))
+            written = save_calibration(calibration, output)
+    print(format_verdict(result, written) if outputs.quiet else format_summary(result, describe_files(paths), written))
     if report is not None:
         diagnosis = "" if result.calibration is not None else refusal(result)
         content = calibrate_content(result, collector, {**inputs, "the calibration (-o)": written}, diagnosis)
@@ -127,8 +135,13 @@ def run(
     return ExitCode.POOR_FIT if isinstance(result.error, PoorFit) else ExitCode.EXCITATION
 
 
+#: Size of a recording [bytes] from which a progress bar writes a line per quarter when its output is not a terminal
+#: (a log of a run of minutes; 50 MB is about 200,000 rows): a shorter file shows none.
+LOG_BYTES = 50e6
+
+
 class ProgressBar:
-    """A progress bar on a terminal, or a line every quarter when the output is not one.
+    """A progress bar on a terminal, or a line every quarter of a file of :data:`LOG_BYTES` or more when the output is not one.
 
     Args:
         total: Units of the whole job (e.g. bytes of the file).
@@ -156,7 +169,7 @@ class ProgressBar:
                 self.stream.write("\r" + text)
                 self.stream.flush()
                 self._last = now
-        elif int(4 * fraction) > self._quarter:
+        elif self.total >= LOG_BYTES and int(4 * fraction) > self._quarter:
             self._quarter = int(4 * fraction)
             self.stream.write(text + "\n")
             self.stream.flush()
@@ -180,8 +193,19 @@ def format_counts(session: CalibrationSession) -> list[str]:
     return lines
 
 
-def format_fit(check: FitCheck) -> list[str]:
-    """Lines: the fit verdict, and the residual RMS per configuration and axis beside the expected residual and its parts."""
+#: What the dynamic filter's per-configuration residuals are, beside the overall residual RMS (docs/method.md, fit check).
+WEIGHTED_RESIDUALS = (
+    "  (dynamic filter: each configuration's residual weights a sample 1/(1 + ρ²) by its trust rule and is scaled by "
+    "√(Σw/n), so that it shows the strain noise alone; below the overall residual RMS, which weights every kept sample "
+    "alike, by as much as the rule overstates the expected wrench's errors)"
+)
+
+
+def format_fit(check: FitCheck, weighted: bool = False) -> list[str]:
+    """Lines: the fit verdict, and the residual RMS per configuration and axis beside the expected residual and its parts.
+
+    ``weighted``: the check is the dynamic filter's (weighted residuals): a line says how they differ from the overall RMS.
+    """
     lines = [check.summary()]
     if check.residual_rms:
         rows = [[name, *[f"{v:.3g}" for v in rms]] for name, rms in check.residual_rms.items()]
@@ -196,6 +220,8 @@ def format_fit(check: FitCheck) -> list[str]:
         units = [f"{a} [{u}]" for a, u in zip(WRENCH_AXES, WRENCH_UNITS, strict=True)]
         lines.append(heading)
         lines.append(table(["", *units], rows, "  "))
+        if weighted:
+            lines.append(WEIGHTED_RESIDUALS)
     return lines
 
 
@@ -228,6 +254,18 @@ def refusal(result: CalibrateResult) -> str:
     return f"{_unusable(result.session, result.problems) or result.error}"
 
 
+def format_verdict(result: CalibrateResult, output: Path | None) -> str:
+    """What ``calibrate --quiet`` prints: the verdict (the fit check, or why nothing was written) and the file written."""
+    if result.calibration is None:
+        if isinstance(result.error, PoorFit):
+            return f"{result.error.check.summary()}\nNO CALIBRATION written: the fit is poor; --accept-poor-fit writes it with the verdict"
+        return f"NO CALIBRATION: {refusal(result)}"
+    q = result.calibration.quality
+    verdict = result.session.fit_check().summary() if q is not None and q.fit is not None else "fit unchecked"
+    budget = "" if result.budget is None else f"; largest error {result.budget.largest_percent:.4f} % of full scale"
+    return f"{verdict}{budget}\nwrote {output}"
+
+
 def format_summary(result: CalibrateResult, recording: str | Path, output: Path | None) -> str:
     """The printed summary of the ``calibrate`` job, with units."""
     rate = result.rows / max(result.seconds, 1e-9)
@@ -239,7 +277,7 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
     for problem in result.problems:
         lines.append(f"  note: {problem}")
     if isinstance(result.error, PoorFit):
-        lines += format_fit(result.error.check)
+        lines += format_fit(result.error.check, isinstance(result.session.filter, DynamicFilter))
     if result.calibration is None:
         if isinstance(result.error, PoorFit):
             lines.append("NO CALIBRATION written: the fit is poor (above); fix the cause, or accept it knowingly with --accept-poor-fit")
@@ -254,10 +292,12 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
         lines.append(describe_prior(dict(q.prior)))
     lines += format_model_selection(cal.model_selection, cal.quality)
     lines += format_offsets(cal.offset_model)
+    weighted = isinstance(result.session.filter, DynamicFilter)
     if q.fit is not None and not isinstance(result.error, PoorFit):
-        lines += format_fit(result.session.fit_check())
+        lines += format_fit(result.session.fit_check(), weighted)
     rms = zip(WRENCH_AXES, q.residual_rms, WRENCH_UNITS, strict=True)
-    lines.append("residual RMS: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))
+    every = " (every kept sample alike)" if weighted else ""
+    lines.append(f"residual RMS{every}: " + ", ".join(f"{a} {v:.3g} {u}" for a, v, u in rms))
     rel = 100 * q.relative_stderr_C(cal.C)
     lines.append("C (N or N·m per strain unit) ± standard error (% of its row's largest coefficient):")
     n = cal.layout.n_channels
@@ -304,7 +344,9 @@ def format_summary(result: CalibrateResult, recording: str | Path, output: Path 
 LIVE_SIGNALS = stop_signals(("SIGINT", "SIGTERM", "SIGHUP"))
 
 
-def _calibrate_live(setup: Setup, source: SourceOptions, outputs: OutputOptions, accept_poor_fit: bool, plan: str | Path | None) -> int:
+def _calibrate_live(
+    setup: Setup, source: SourceOptions, outputs: OutputOptions, accept_poor_fit: bool, plan: str | Path | None, target: float | None = None
+) -> int:
     """Calibrate from a live feed until its 'end' message, Ctrl-C, SIGTERM, SIGHUP or the idle timeout (see :func:`run`).
 
     The feed is :func:`fts_calib.sources.source.open_source`'s (``udp://``: the live protocol's
@@ -433,6 +475,7 @@ def _calibrate_live(setup: Setup, source: SourceOptions, outputs: OutputOptions,
         print("fix the cause, or run again with --resume --accept-poor-fit to write it with the verdict")
         return ExitCode.POOR_FIT
     print(session.fit_check().summary())
+    calibration = with_target(calibration, target)
     with writing(output):
         path = save_calibration(calibration, output)
     quality = calibration.quality

@@ -23,9 +23,10 @@ from ..model.calibration import Calibration, load_calibration, save_calibration
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS, check_channels
 from ..model.parity import ParityModel
 from ..monitor.health import HealthMonitor
-from ..monitor.offset_watch import OffsetWatch
+from ..monitor.offset_watch import RATE_SIGMAS, OffsetWatch
 from ..robot.tool import tool_load
 from ..service.reader import WrenchReader
+from ..session.calibration_run import StatusLine
 from ..sources.batch import SampleBatch
 from ..sources.live_feed import FeedStatus, LiveFeed, StreamEnd
 from ..sources.recording_set import describe_files
@@ -183,11 +184,14 @@ class OffsetFeed:
         error = ", ".join(f"{a} {v:+.4g} {u}" for a, v, u in zip(WRENCH_AXES, w.offset, WRENCH_UNITS, strict=True))
         rate = ", ".join(f"{a} {60 * v:+.3g} {u}/min" for a, v, u in zip(WRENCH_AXES, w.rate, WRENCH_UNITS, strict=True))
         forecast = w.forecast_s(self.threshold)
-        when = "never at this rate" if math.isinf(forecast) else f"in {forecast:.1f} s"
+        threshold = f"{100 * self.threshold[0] / self.full_scale[0]:g} % of full scale"
+        exceeds = f"the offset error exceeds {threshold} " + ("never at this rate" if math.isinf(forecast) else f"in {forecast:.1f} s")
+        if math.isinf(forecast) and not np.any(w.drifting()):  # a rate at the noise level: nothing to extrapolate
+            exceeds = f"the offset error stays within {threshold}: no axis drifts beyond its rate's noise ({RATE_SIGMAS:g}σ)"
         out = [
             f"offset error (measured - payload, windows without contact): {error}",
             f"offset drift: {rate}; {w.updates:,} windows without contact, {w.contacts:,} refused (contact or motion)",
-            f"the offset error exceeds {100 * self.threshold[0] / self.full_scale[0]:g} % of full scale {when}",
+            exceeds,
         ]
         if self.tares:
             last = self.tares[-10:]
@@ -539,6 +543,8 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
         watch.description = f"udp://{bound[0]}:{bound[1]}"
         print(f"listening on udp://{bound[0]}:{bound[1]}; Ctrl-C or an 'end' datagram stops", flush=True)
 
+    status = StatusLine(sys.stderr)  # rewritten on a terminal, a line every few seconds in a file
+
     def show(counts: FeedStatus) -> None:
         monitor = watch.monitor
         if monitor is None:
@@ -548,7 +554,7 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
             faults = ", ".join(f"{e.kind} strain_{e.channel}" for e in monitor.events) or "none"
             state = f"{monitor.samples:,} samples, health {monitor.state} (faults: {faults}; gain z^2 {gain:.1f}, jump {jump:.1f})"
         offset = "" if offsets is None else f"; {offsets.status()}"
-        print(f"\r{state}; malformed {counts.malformed:,}{offset}", end="", file=sys.stderr, flush=True)
+        status.show(f"{state}; malformed {counts.malformed:,}{offset}")
 
     joints = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else ([], None)
     with using_udp(host, port):
@@ -569,8 +575,7 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
     with feed:
         for batch in feed:
             watch.add(batch)
-    if not quiet:
-        print(file=sys.stderr)
+    status.close()
     watch.description = watch.description or f"udp://{host}:{port}"
     for reason, count in feed.sync.dropped.items():
         watch.skip(count, reason)

@@ -443,7 +443,8 @@ _declare(
 _declare(
     "--plan",
     dest="plan",
-    help="plan.yaml of the sized trajectories being run: the status line shows the motion left and the next configuration",
+    help="plan.yaml of the sized trajectories being run (or its folder, or a shipped plan by name: ur5): the status line "
+    "shows the motion left and the next configuration",
 )
 
 # live sources: old spellings of a SOURCE (live, tare, monitor) ------------------------------------------------------
@@ -452,17 +453,39 @@ _declare(
 _declare(
     "--motion",
     dest="motion",
-    choices=("stop", "continuous", "smooth"),
+    choices=("stop", "continuous", "smooth", "payload"),
     default="stop",
     help="stop: dwell at each stop (quasi-static samples); continuous: no dwell, every sample calibrates in the "
     "dynamic filter mode, the budget with its dynamic terms; smooth: continuous, every joint on a sinusoid ramped in and "
-    "out at home, sized by --target-error (the raster options unused): the dynamic filter trusts most of its samples (default: stop)",
+    "out at home, sized by --target-error (the raster options unused): the dynamic filter trusts most of its samples; "
+    "payload: the motion of 'payload --motion moving' for the --tool file's payload (the three last joints together, "
+    "about 8 s), checked for limits and clearance, with the predicted standard errors of its mass, centre of mass and "
+    "inertia (default: stop)",
 )
-_declare("--levels", dest="levels", type=int, help="positions of the first sweep joint (fixes the raster; default: 4)")
-_declare("--stops", dest="stops", type=int, help="positions of the second sweep joint per level (fixes the raster; default: 6)")
-_declare("--dwell", dest="dwell_s", type=float, metavar="SECONDS", help="time still at each stop in s (fixes the raster; default: 0.5)")
 _declare(
-    "--span", dest="span", type=float, help="fraction of the second sweep joint's range the stops cover (fixes the raster; default: 1)"
+    "--levels",
+    dest="levels",
+    type=int,
+    help="positions of the first sweep joint: fixes the raster (unfixed, it is sized to --target-error); when another option fixes it: 4",
+)
+_declare(
+    "--stops",
+    dest="stops",
+    type=int,
+    help="positions of the second sweep joint per level: fixes the raster (else sized); when another option fixes it: 6",
+)
+_declare(
+    "--dwell",
+    dest="dwell_s",
+    type=float,
+    metavar="SECONDS",
+    help="time still at each stop in s: fixes the raster (else sized); when another option fixes it: 0.5",
+)
+_declare(
+    "--span",
+    dest="span",
+    type=float,
+    help="fraction of the second sweep joint's range the stops cover: fixes the raster (else sized); when another option fixes it: 1",
 )
 _declare(
     "--return-pass",
@@ -470,6 +493,14 @@ _declare(
     action="store_true",
     help="visit the stops again in reverse order: drifting offsets become separable from the orientation "
     "(the drift model then costs no precision of C) for about twice the sweep time; fixes the raster",
+)
+_declare(
+    "--validation",
+    dest="validation",
+    action="store_true",
+    help="plan a validation motion for any tool (one configuration too): the raster (4 levels x 6 stops unless given), "
+    "checked for limits and clearance, no rank or accuracy target (validate compares, it does not fit); plan.yaml says "
+    "purpose: validation",
 )
 _declare(
     "--configurations",
@@ -484,7 +515,12 @@ _declare("--compress", dest="compress", action="store_true", help="write .csv.gz
 _declare("--no-plot", dest="plot", action="store_false", default=True, help="do not write plan.png")
 
 # simulate and demo -------------------------------------------------------------------------------------------------
-_declare("--trajectory", dest="trajectory", required=True, help="folder of trajectory CSVs (one per configuration), or one file")
+_declare(
+    "--trajectory",
+    dest="trajectory",
+    required=True,
+    help="folder of trajectory CSVs (one per configuration), or one file; or a shipped plan by name (ur5, ur5/A.csv.gz)",
+)
 _declare("--seed", dest="seed", type=int, default=0, help="seed of the random numbers: noise, motion, losses (default 0)")
 _declare("--noiseless", dest="noiseless", action="store_true", help="no noise at all")
 _declare(

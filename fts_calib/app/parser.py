@@ -129,7 +129,7 @@ TEXTS: dict[str, tuple[str, str, str]] = {
         "A poor fit is refused (exit 15, no file) with its likely cause (labels permuted, centre of mass in mm or cm, "
         "a mistyped mass, a collinear tool file). Then the measured accuracy budget (noise in the data, tool tolerance, "
         "encoders, timing, mount; in % of full scale and N or N·m) and the joint stream's latency from the moving samples "
-        "(ms), both written into the file. Exits 1 when the data cannot determine C. "
+        "(ms), both written into the file. Exits 8 when the data cannot determine C (1 when a live run received no sample). "
         "A live source (udp://HOST:PORT: the JSON datagrams of the live protocol; ur://HOST: a UR controller through RTDE) "
         "is paired and filtered as it comes, with a status line; the calibration is written on the sender's 'end' or "
         "Ctrl-C, with checkpoints every few seconds (--resume continues after a crash).",
@@ -341,7 +341,7 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
                 ),
             ),
         ),
-        ("advanced: raster", _uses("levels", "stops", "dwell", "span", "return-pass", "configurations")),
+        ("advanced: raster", _uses("validation", "levels", "stops", "dwell", "span", "return-pass", "configurations")),
         ("advanced: checks", _uses("margin", "min-clearance", "tool-radius", "tool-length")),
         (
             "advanced: the predicted budget",
@@ -366,8 +366,34 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
         ),
         ("filter", _uses("filter")),
         ("advanced: setup", _uses("pipeline", "mount", "joint-unit")),
-        ("advanced: model", _uses("model", "offsets", "prior", "prior-weight", "accept-poor-fit")),
-        ("advanced: checkpoint", _uses("checkpoint", "resume", "restart", "quiet")),
+        (
+            "advanced: model",
+            _uses(
+                "model",
+                "offsets",
+                "prior",
+                "prior-weight",
+                "accept-poor-fit",
+                use(
+                    "target-error",
+                    help="the accuracy target the plan was sized to (trajectory --target-error), in %% of full scale: recorded "
+                    "in the calibration file, the target its report, validate --report and report judge the budget against "
+                    "(default: 0.05)",
+                ),
+            ),
+        ),
+        (
+            "advanced: checkpoint",
+            _uses(
+                "checkpoint",
+                "resume",
+                "restart",
+                use(
+                    "quiet",
+                    help="a recording: print the verdict and the file written, no progress bar or summary; a live source: no status line",
+                ),
+            ),
+        ),
         (
             "advanced: live sources (udp://, ur://)",
             _uses(

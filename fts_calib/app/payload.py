@@ -28,7 +28,7 @@ from ..payload.identify import AUTO, MOTIONS, identify_payload
 from ..payload.samples import IDLE_TIMEOUT_S, MotionProgress, collect_motion
 from ..payload.still import MIN_SPREAD_DEG
 from ..robot.kinematics import Kinematics
-from ..session.calibration_run import format_stats
+from ..session.calibration_run import StatusLine, format_stats
 from ..sources.source import live_address
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import Setup, SourceOptions
@@ -129,17 +129,14 @@ def live_payload(
             flush=True,
         )
 
-    shown = [0]
+    status = StatusLine(sys.stderr)  # rewritten on a terminal, a line every few seconds in a file
 
-    def show(progress: MotionProgress) -> None:  # one status line, rewritten
-        line = progress.line()[:240]
-        sys.stderr.write("\r" + line.ljust(shown[0]))
-        sys.stderr.flush()
-        shown[0] = len(line)
+    def show(progress: MotionProgress) -> None:
+        status.show(progress.line())
 
     with using_udp(host, port):
         collected = collect_motion(host, port, kin, settings, calibration.layout.n_channels, seconds, idle_timeout_s, listening, show)
-    sys.stderr.write("\n")
+    status.close()
     print(format_stats(collected.stats, collected.sync))
     return identify_payload(collected, kin, calibration, motion, settings=settings, mount=mount, min_spread_deg=min_spread_deg)
 

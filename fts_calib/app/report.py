@@ -191,27 +191,24 @@ def run(
         recording: The recording it was made from: the kept samples are found again with the
             pipeline's filter and their residuals computed through ``calibration``; None for none.
         against: An older calibration of the same sensor: write the comparison instead.
-        target_error_percent: Accuracy target of the budget total, in [%] of full scale; the
-            default of a sized plan when None.
+        target_error_percent: Accuracy target of the budget total, in [%] of full scale; when
+            None, the one the file records (``calibrate --target-error``), else 0.05.
 
     Returns:
         0.
     """
-    from ..budget.propagation import DEFAULT_TARGET_PERCENT
-    from ..core.exceptions import ConfigError
     from ..core.files import check_outputs
     from ..model.calibration import load_calibration
     from ..report.compare import render_comparison
-    from ..report.content import KeptCollector, ReportContent
+    from ..report.content import KeptCollector, ReportContent, check_target, target_of
     from ..report.html import render_report, write_report
     from .exit_codes import writing
 
     inputs = {"the calibration": calibration, "the recording": recording, "--against": against}
     check_outputs({"-o": output}, inputs)
-    target = DEFAULT_TARGET_PERCENT if target_error_percent is None else float(target_error_percent)
-    if not (math.isfinite(target) and target > 0):
-        raise ConfigError("--target-error", target_error_percent, "a percentage of full scale above 0 (e.g. 0.05)")
+    given = check_target(target_error_percent)
     cal = load_calibration(calibration)
+    target = target_of(cal, given)  # the option, else the target the file records (calibrate --target-error), else 0.05
     files = {"the calibration": calibration, "the recording": recording}
     if against is not None:
         old = load_calibration(against)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..core.exceptions import ConfigError, FileFormatError
 from ..core.files import check_outputs
-from ..core.resources import resolve
+from ..core.resources import locate_trajectory, resolve
 from ..model.sensor_config import load_sensor_config
 from ..planning.trajectory_files import TrajectoryFile, read_trajectory
 from ..robot.tool import Tool
@@ -83,7 +83,8 @@ def run(setup: Setup, playback: Playback | None = None, *, trajectory: str | Pat
             per channel, or ``noise_std`` in raw units) and ``dynamic`` (the tool's full
             dynamic wrench; False: its static weight only).
         playback: The noise's seed, the drift, the pause between configurations, still poses only.
-        trajectory: Folder of trajectory CSVs (one per configuration), or one file.
+        trajectory: Folder of trajectory CSVs (one per configuration), or one file; or a shipped
+            plan by name ('ur5', 'ur5/A.csv.gz': :func:`~fts_calib.core.resources.locate_trajectory`).
         output: Recording to write (.csv or .csv.gz); a folder with ``playback.pose_files``.
 
     Returns:
@@ -95,6 +96,7 @@ def run(setup: Setup, playback: Playback | None = None, *, trajectory: str | Pat
         OSError: ``output`` cannot be written (checked before the simulation runs).
     """
     playback = playback or Playback()
+    trajectory = locate_trajectory(trajectory)  # a shipped plan by name ('ur5') from any folder
     pose_files, poses_only, seed = playback.pose_files, playback.poses_only, playback.seed
     inputs = {f"the trajectory file {path.name}": path for path in trajectory_files(trajectory)}
     first = Path(output) / "pose_01.csv" if pose_files else output  # the folder's first file stands for it

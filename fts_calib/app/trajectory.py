@@ -6,26 +6,30 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..budget.propagation import DEFAULT_TARGET_PERCENT
-from ..core.exceptions import FileFormatError
+from ..core.exceptions import ConfigError, FileFormatError, TrajectoryError
 from ..core.files import atomic_write_text, dump_yaml
-from ..core.resources import resolve
+from ..core.resources import resolve, shown
 from ..core.tables import table
 from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.determination import Determination
 from ..planning.excitation import DriftPrediction
 from ..planning.jig import check_jig, suggest_jig
 from ..planning.sweeps import SweepPattern
-from ..planning.trajectory_files import save_trajectory
+from ..planning.trajectory_files import TrajectoryFile, save_trajectory
 from ..planning.trajectory_run import TrajectoryRun, motion_uncertainty, plan_summary, plan_trajectories
 from ..report import plots
 from ..robot.tool import Tool, save_tool
 from .exit_codes import ExitCode, writing
 from .report import format_budget
 from .setup import Setup
+
+if TYPE_CHECKING:
+    from ..payload.inertia_motion import PayloadPlan
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,9 @@ class Sweeps:
             refused, naming what each number reaches, when the target is out of reach); None for all.
         margin: Distance kept from the position limits, in [rad].
         min_clearance: Smallest distance allowed between links, in [m].
+        validation: A validation motion for ``validate`` (any tool, one configuration too):
+            the raster as given (the defaults for the rest), checked for limits and clearance,
+            with no rank or accuracy requirement; fixes the raster.
     """
 
     motion: str = "stop"
@@ -60,11 +67,12 @@ class Sweeps:
     configurations: int | None = None
     margin: float = 0.02
     min_clearance: float = 0.02
+    validation: bool = False
 
     @property
     def fixed(self) -> bool:
-        """Whether the raster is fixed (not sized to the target): a raster option given, or the return pass; never a smooth plan."""
-        given = any(v is not None for v in (self.levels, self.stops, self.dwell_s, self.span)) or self.return_pass
+        """Whether the raster is fixed (not sized): a raster option, the return pass or a validation motion; never smooth."""
+        given = any(v is not None for v in (self.levels, self.stops, self.dwell_s, self.span)) or self.return_pass or self.validation
         return given and self.motion != "smooth"
 
     def pattern(self) -> SweepPattern:
@@ -117,6 +125,8 @@ def run(
         to ``output/suggested_tool.yaml``).
     """
     sweeps = sweeps or Sweeps()
+    if sweeps.motion == "payload":
+        return _plan_payload(setup, sweeps, Path(output), compress)
     out, model = output, setup.model or "linear"
     robot_path, tool_path = setup.robot_path, setup.tool_path
     loaded = setup.tool
@@ -139,13 +149,15 @@ def run(
         noise = 0.0
     fixed, pattern = sweeps.fixed, sweeps.pattern()
     continuous, smooth = pattern.continuous, pattern.smooth
+    _check_purpose(sweeps, loaded, model)
     configurations, rate_hz, min_clearance = sweeps.configurations, sweeps.rate_hz, sweeps.min_clearance
     uncertainty = motion_uncertainty(settings.filter, spec.rate_hz) if continuous else None
     default = SweepPattern()
     target = DEFAULT_TARGET_PERCENT if target_error_percent is None else target_error_percent
     count = len(loaded.configurations) if configurations is None else configurations
-    kind = "smooth continuous " if smooth else "continuous " if continuous else ""
-    print(f"planning {robot_path.stem} {kind}sweeps for '{loaded.name}' ({count} configuration{'' if count == 1 else 's'})...", flush=True)
+    kind = ("validation " if sweeps.validation else "") + ("smooth continuous " if smooth else "continuous " if continuous else "")
+    robot = setup.kinematics.robot.name  # the robot file's name, as the report below says it (not the file's)
+    print(f"planning {robot} {kind}sweeps for '{loaded.name}' ({count} configuration{'' if count == 1 else 's'})...", flush=True)
     planned = plan_trajectories(
         robot_path,
         loaded,
@@ -168,6 +180,9 @@ def run(
         )
     if model != "linear" and not (found := plan_determines(planned, model)).determined:
         planned.problems.append(f"the plan's stops cannot determine a {model} model: {found.lacks(loaded.names)}")
+    if sweeps.validation:  # compared, never fitted: the rank and the budget are no checks of it
+        kept = [p for p in planned.problems if p != planned.excitation.advice]
+        planned = dataclasses.replace(planned, problems=kept, purpose="validation")
     with writing(out):
         planned = write_run(planned, out, compress=compress, plot=plot, model=model)
     print(format_report(planned, robot_path, tool_path, target_percent=target))
@@ -179,6 +194,127 @@ def run(
             "each configuration predicted by the others; calibrate with --model auto or --model " + model
         )
     return ExitCode.CHECK_FAILED if planned.problems else ExitCode.OK
+
+
+def _plan_payload(setup: Setup, sweeps: Sweeps, out: Path, compress: bool) -> int:
+    """Plan, check and write the payload motion (``--motion payload``): its CSV and plan.yaml; 1 when a check failed."""
+    from ..budget.propagation import wrench_noise
+    from ..payload.inertia_motion import plan_payload_motion  # the payload stage: loaded only for this motion
+
+    kin, tool, spec = setup.kinematics, setup.tool, setup.sensor
+    if spec.simulated is None:
+        message = (
+            "missing: the predicted standard errors need the sensor's nominal model and noise; give --sensor a file with a "
+            "'simulation' section"
+        )
+        raise FileFormatError(resolve(setup.sensor_file, "configs", "sensor"), "simulation", message)
+    noise = wrench_noise(spec.simulated.C, spec.simulated.noise_std)
+    name = tool.configurations[0].name
+    print(f"planning {kin.robot.name} payload motion for '{tool.name}' (configuration {name})...", flush=True)
+    plan = plan_payload_motion(kin, tool, noise, sweeps.rate_hz, sweeps.min_clearance)
+    files = []
+    with writing(out):
+        if not plan.problems:
+            trajectory = TrajectoryFile(kin.joint_names, plan.time, plan.q, plan.qd, plan.qdd, name)
+            files.append(save_trajectory(out / f"{name}{'.csv.gz' if compress else '.csv'}", trajectory))
+        files.append(atomic_write_text(out / "plan.yaml", dump_yaml(_payload_summary(kin.robot.name, tool, plan, [f.name for f in files]))))
+    print("\n".join(_payload_lines(plan, setup.tool_path, files)))
+    return ExitCode.CHECK_FAILED if plan.problems else ExitCode.OK
+
+
+def _payload_summary(robot: str, tool: Tool, plan: PayloadPlan, files: list[str]) -> dict:
+    """plan.yaml of a payload motion: what was planned and checked, and the predicted standard errors (plain data)."""
+    return {
+        "purpose": "payload",
+        "robot": robot,
+        "tool": tool.name,
+        "configurations": [plan.configuration],
+        "rate_hz": float(round(1.0 / (plan.time[1] - plan.time[0]), 9)),
+        "moving_joints": list(plan.joints),
+        "duration_s": float(plan.time[-1]),
+        "peaks_over_limits": plan.peak_ratio,
+        "clearance": {"distance_m": float(plan.clearance.distance), "pair": list(plan.clearance.pair)},
+        "predicted_stderr": {
+            "from": "the sensor's noise alone (white, per sample)",
+            "mass_kg": plan.stderr_mass,
+            "com_m": plan.stderr_com.tolist(),
+            "inertia_kg_m2": plan.stderr_inertia.tolist(),
+        },
+        "problems": list(plan.problems),
+        "files": files,
+    }
+
+
+def _payload_lines(plan: PayloadPlan, tool_path: Path, files: list[Path]) -> list[str]:
+    """The printed report of a payload motion, with units."""
+    peaks = ", ".join(f"{j} {100 * r['velocity']:.0f} % / {100 * r['acceleration']:.0f} %" for j, r in plan.peak_ratio.items())
+    c = plan.clearance
+    inertia = plan.stderr_inertia
+    lines = [
+        f"motion: {', '.join(plan.joints)} together, rest to rest from the calibration's home through the pattern's stops: "
+        f"{plan.time[-1]:.1f} s at {1.0 / (plan.time[1] - plan.time[0]):g} Hz",
+        f"limits: peak velocity / acceleration over the limit: {peaks}",
+        f"clearance: {c.distance:.3f} m between '{c.pair[0]}' and '{c.pair[1]}' (the payload's shape from {shown(tool_path)})",
+        "predicted standard errors (the sensor's noise alone; joint noise and latency add to them): "
+        f"mass {plan.stderr_mass:.2g} kg, centre of mass "
+        + ", ".join(f"{a} {v:.2g}" for a, v in zip("xyz", plan.stderr_com, strict=True))
+        + " m, inertia Ixx "
+        + f"{inertia[0, 0]:.2g}, Iyy {inertia[1, 1]:.2g}, Izz {inertia[2, 2]:.2g}, Ixy {inertia[0, 1]:.2g}, Ixz {inertia[0, 2]:.2g}, "
+        + f"Iyz {inertia[1, 2]:.2g} kg·m²",
+    ]
+    lines += [f"CHECK FAILED: {problem}" for problem in plan.problems]
+    lines.append("wrote: " + ", ".join(str(f) for f in files))
+    if not plan.problems:
+        lines.append(
+            f"play {files[0].name} with the payload on, record (joints and strains), then: "
+            "fts-calib payload RECORDING --calibration CALIBRATION --robot ROBOT --motion moving -o payload.yaml"
+        )
+    return lines
+
+
+def _check_purpose(sweeps: Sweeps, tool: Tool, model: str) -> None:
+    """Refuse, before planning, what cannot be planned.
+
+    A stop-and-go calibration of fewer than 3 centres of mass would size for nothing (rank 4 or
+    6 of 7): refused naming --validation. A validation motion is a raster (not smooth) of the linear model.
+
+    Raises:
+        ConfigError: ``--validation`` with ``--motion smooth`` or a ``--model`` other than linear.
+        TrajectoryError: A stop-and-go calibration plan for a tool of one or two configurations.
+    """
+    if sweeps.validation and sweeps.motion == "smooth":
+        raise ConfigError("--validation", "smooth", "--motion stop or continuous: a validation motion is a raster")
+    if sweeps.validation and model != "linear":
+        raise ConfigError("--validation", model, "the linear model: a validation motion determines nothing")
+    n = len(tool.configurations)
+    if not sweeps.validation and sweeps.motion == "stop" and n < 3:
+        raise TrajectoryError(
+            f"'{tool.name}' has {n} configuration{'' if n == 1 else 's'} ({', '.join(tool.names)}): still samples of fewer than 3 "
+            f"centres of mass reach rank {4 if n == 1 else 6} of 7 (paper eqs 18-20), so no raster calibrates with it; plan "
+            "its validation motion with --validation (checked for limits and clearance, no accuracy target), or a "
+            "calibration with --motion continuous (the inertial torques carry the rest)"
+        )
+
+
+def _validation_lines(run: TrajectoryRun, kept: str, counts: str, tool: str) -> list[str]:
+    """The end of a validation plan's report: what it shows the sensor, no rank or budget (it is compared, not fitted).
+
+    ``tool``: the tool as ``--tool`` names it (a shipped name or the file).
+    """
+    lines = [
+        f"validation motion ({kept} {counts}): gravity reaches every direction of the sensor frame within "
+        f"{run.excitation.coverage_deg:.1f}° of one it sees; no rank or accuracy requirement (validate compares a "
+        "calibration's wrench with this tool's known one; the fit never sees it)"
+    ]
+    lines += [f"CHECK FAILED: {problem}" for problem in run.problems]
+    if run.files:
+        lines.append("wrote: " + ", ".join(str(f) for f in run.files))
+    if run.problems:
+        lines.append("trajectory files not written: fix the failed checks first")
+    else:
+        names = " ".join(f"{c.name}.csv" for c in run.tool.configurations)
+        lines.append(f"play {names}, record, then: fts-calib validate RECORDING --calibration CALIBRATION --tool {tool}")
+    return lines
 
 
 def plan_determines(run: TrajectoryRun, model: str) -> Determination:
@@ -242,7 +378,7 @@ def write_run(run: TrajectoryRun, out: str | Path, compress: bool = False, plot:
                 plan.sweep_joints,
                 run.still,
                 run.g_sensor,
-                f"{plan.robot}: calibration sweep, {plan.duration:.1f} s per tool configuration",
+                f"{plan.robot}: {run.purpose} sweep, {plan.duration:.1f} s per tool configuration",
                 **labels,
             )
         )
@@ -267,7 +403,7 @@ def format_report(
     """The printed report of the ``trajectory`` job, with units."""
     result, plan, ex = run.result, run.result.plan, run.excitation
     lines = [
-        f"robot {plan.robot} ({robot_path}), tool '{run.tool.name}' ({tool_path}): configurations "
+        f"robot {plan.robot} ({shown(robot_path)}), tool '{run.tool.name}' ({shown(tool_path)}): configurations "
         f"{', '.join(c.name for c in run.tool.configurations)}"
     ]
     home = result.home
@@ -339,7 +475,11 @@ def format_report(
     noise = ex.noise_std
     noise_text = f"{noise[0]:.2g}" if np.all(noise == noise[0]) else str(noise.tolist())
     counts = ", ".join(f"{k}: {v}" for k, v in ex.samples.items())
-    lines.append(f"excitation (noise {noise_text} {run.strain_unit} per channel; quasi-static samples {counts}):")
+    kept = "quasi-static samples" if run.uncertainty is None else "moving samples the dynamic filter trusts"  # as plan.yaml says
+    if run.purpose == "validation":
+        tool_arg = Path(tool_path).stem if shown(tool_path).startswith("shipped ") else str(tool_path)
+        return "\n".join([*lines, *_validation_lines(run, kept, counts, tool_arg)])
+    lines.append(f"excitation (noise {noise_text} {run.strain_unit} per channel; {kept} {counts}):")
     cond = f"{ex.condition_number:.1f}" if math.isfinite(ex.condition_number) else "inf"
     lines.append(
         f"  predicted rank {ex.rank} of 7, condition number {cond}; every direction within "

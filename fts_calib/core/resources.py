@@ -116,6 +116,47 @@ def locate(name_or_path: str | Path, kind: str, role: str | None = None) -> Path
     return resolve(path, kind, role)
 
 
+def locate_trajectory(name_or_path: str | Path) -> Path:
+    """A planned run a command reads: a path as given, or a shipped plan by its robot's name.
+
+    ``ur5`` means the shipped folder ``trajectories/ur5`` (its CSVs and ``plan.yaml``) and
+    ``ur5/A.csv.gz`` one file of it, from any working folder; a path that exists wins over a
+    shipped name.
+
+    Args:
+        name_or_path: A folder or file of trajectory CSVs, or a shipped plan's name
+            (:func:`shipped` 'trajectories'), optionally followed by ``/FILE``.
+
+    Returns:
+        The path itself when it exists or is not a shipped name (its reader reports it
+        missing), else the shipped folder or file.
+
+    Raises:
+        ConfigError: ``name_or_path`` is neither a string nor a path.
+        ResourceNotFound: A bare name (no folder, no suffix) that is neither a path nor a
+            shipped plan; lists the shipped plans.
+    """
+    path = _as_path(name_or_path, "trajectory")
+    if path.exists() or path.is_absolute():
+        return path
+    names = shipped("trajectories")
+    if path.parts and path.parts[0] in names:
+        return data_dir("trajectories").joinpath(*path.parts)
+    if path.suffix or len(path.parts) != 1:
+        return path
+    raise ResourceNotFound(str(name_or_path), "trajectory", names)
+
+
+def shown(path: str | Path) -> str:
+    """A path as a printout shows it: a shipped file as ``shipped KIND/NAME`` (the same on every machine), else as given."""
+    resolved = Path(path).resolve()
+    for kind in KINDS:
+        folder = data_dir(kind).resolve()
+        if resolved.is_relative_to(folder):
+            return f"shipped {kind}/{resolved.relative_to(folder).as_posix()}"
+    return str(path)
+
+
 def _as_path(name_or_path: object, what: str) -> Path:
     """``name_or_path`` as a Path; ConfigError naming ``what`` when it is neither a string nor a path."""
     if not isinstance(name_or_path, (str, os.PathLike)):

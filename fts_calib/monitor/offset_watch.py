@@ -40,6 +40,9 @@ from ..model.calibration import Calibration
 MAX_GAP_S = 10.0
 #: Largest share of a window's error the tracker takes (however long since the last update).
 MAX_ALPHA = 0.5
+#: Standard deviations of its rate's noise a rate must exceed before a forecast extrapolates it
+#: (six axes at 4σ: a drift-free run forecasts nothing but about once in 2,500 looks).
+RATE_SIGMAS = 4.0
 
 
 class OffsetWatch:
@@ -93,6 +96,7 @@ class OffsetWatch:
         self.still = still or FilterConfig()
         self.offset, self.rate = np.zeros(6), np.zeros(6)
         self._time: float | None = None
+        self._period = math.nan  # [s] the interval of the last windows that updated the rate
         self._left_time, self._left_rho = np.zeros(0), np.zeros((0, 6))  # samples waiting for a full block
         self._left_q = np.zeros((0, 0))  # their joints (no column: none given)
         self._started = False
@@ -181,6 +185,7 @@ class OffsetWatch:
         self.offset = predicted + alpha * error
         if dt <= 2.0 * self.time_constant_s:
             self.rate = self.rate + beta * error / max(dt, 1e-9)
+            self._period = dt
         self._time = t
         self.updates += 1
 
@@ -198,18 +203,42 @@ class OffsetWatch:
         """The offset error predicted at ``time`` [s] from the last update and the rate, shape (6,)."""
         return self.offset + self.rate * (time - (self._time if self._time is not None else time))
 
+    @property
+    def rate_std(self) -> np.ndarray:
+        """The standard deviation of :attr:`rate` that the noise alone gives, per second, shape (6,) (inf before a rate).
+
+        The steady state of an alpha-beta tracker fed window means of standard deviation
+        ``σ = noise / sqrt(block)`` every ``T`` seconds: ``σ_rate = σ sqrt(2β² / (α (4 - 2α - β))) / T``
+        (Kalata 1984), with the gains the tracker uses for that ``T``.
+        """
+        period = self._period
+        if not (math.isfinite(period) and period > 0):
+            return np.full(6, math.inf)
+        alpha = min(MAX_ALPHA, 2.0 * period / self.time_constant_s)
+        beta = alpha * alpha / (2.0 - alpha)
+        gain = math.sqrt(2.0 * beta * beta / (alpha * (4.0 - 2.0 * alpha - beta)))
+        return self.noise / math.sqrt(self.block) * gain / period
+
+    def drifting(self) -> np.ndarray:
+        """Axes whose rate differs from zero beyond its noise (:data:`RATE_SIGMAS` × :attr:`rate_std`), shape (6,) bool."""
+        return np.abs(self.rate) > RATE_SIGMAS * self.rate_std
+
     def forecast_s(self, threshold) -> float:
         """Seconds from the last update until the offset error exceeds ``threshold`` on some axis (inf: never at this rate).
+
+        Only a rate that differs from zero (:meth:`drifting`) is extrapolated: a drift-free run's
+        rate at the noise level forecasts nothing.
 
         Args:
             threshold: Largest offset error tolerated per axis, [N, N, N, N m, N m, N m], shape (6,).
         """
         threshold = np.asarray(threshold, dtype=float).reshape(6)
         times = []
+        drifting = self.drifting()
         for i in range(6):
             if abs(self.offset[i]) >= threshold[i]:
                 return 0.0
-            if self.rate[i] != 0.0:
+            if drifting[i]:
                 bound = math.copysign(threshold[i], self.rate[i])
                 times.append((bound - self.offset[i]) / self.rate[i])
         return min(times) if times else math.inf

@@ -54,6 +54,8 @@ class TrajectoryRun:
             first of them the plan is for).
         sweep_joints_default: The robot file names no ``sweep_joints``: the last two actuated
             joints sweep.
+        purpose: 'calibration', or 'validation': a motion for ``validate`` (any tool), with no
+            rank or accuracy requirement (its excitation and budget are not checks).
     """
 
     result: PlanResult
@@ -69,6 +71,7 @@ class TrajectoryRun:
     uncertainty: MotionUncertainty | None = None
     full_configurations: int = 0
     sweep_joints_default: bool = False
+    purpose: str = "calibration"
 
 
 def plan_trajectories(
@@ -216,6 +219,7 @@ def plan_summary(run: TrajectoryRun, files: list[str]) -> dict:
     """What was planned and checked, as plain data (deterministic: no paths, no times)."""
     result, plan, ex = run.result, run.result.plan, run.excitation
     return {
+        **({"purpose": "validation"} if run.purpose == "validation" else {}),
         "robot": plan.robot,
         "tool": run.tool.name,
         "configurations": [c.name for c in run.tool.configurations],

@@ -113,6 +113,19 @@ def compare(new: Calibration, old: Calibration, full_scale=None) -> Comparison:
     return Comparison(z_C, z_D, wrench_difference, allowed, full_scale, bool(reasons), tuple(reasons))
 
 
+def _budget_verdict(cmp: Comparison, new: Calibration, old: Calibration, new_name: str, old_name: str) -> tuple[str, str]:
+    """The wrench difference over the combined budget (text, CSS class); without a budget, the difference in % FS, not judged."""
+    judged = np.isfinite(cmp.allowed)
+    if judged.any():
+        ratio = float(np.max(cmp.wrench_difference[judged] / cmp.allowed[judged]))
+        return f"{ratio:.3g} (rule: > 1 is a change)", "bad" if ratio > 1 else "good"
+    missing = [name for name, cal in ((new_name, new), (old_name, old)) if not np.isfinite(_budget_totals(cal)[0]).all()]
+    pct = 100 * cmp.wrench_difference / cmp.full_scale
+    a = int(np.argmax(pct))
+    largest = f"the largest difference is {pct[a]:.3g} % FS ({WRENCH_AXES[a]})"
+    return f"not judged: no accuracy budget in {' or '.join(missing)}; {largest}", "warn"
+
+
 def render_comparison(
     new: Calibration, old: Calibration, new_name: str, old_name: str, files: Mapping[str, str | Path] | None = None
 ) -> str:
@@ -121,14 +134,9 @@ def render_comparison(
     state, word = ("bad", "CHANGED") if cmp.changed else ("good", "UNCHANGED")
     headline = "; ".join(cmp.reasons) if cmp.changed else "every change lies within the uncertainty of the two calibrations"
     worst = float(np.max(np.abs(np.concatenate([cmp.z_C.ravel(), cmp.z_D]))))
-    ratio = np.max(cmp.wrench_difference / np.where(np.isfinite(cmp.allowed), cmp.allowed, np.inf))
     kvs = [
         ("Largest |Δ|/σ", f"{worst:.3g} (rule: > {CHANGE_SIGMAS:g} is a change)", "bad" if worst > CHANGE_SIGMAS else "good"),
-        (
-            "Wrench difference / budget",
-            f"{ratio:.3g} (rule: > 1 is a change)" if math.isfinite(ratio) else "no budget recorded",
-            "bad" if ratio > 1 else "good",
-        ),
+        ("Wrench difference / budget", *_budget_verdict(cmp, new, old, new_name, old_name)),
         ("New", new_name, ""),
         ("Old", old_name, ""),
     ]

@@ -10,6 +10,7 @@ measured wrench minus the known one.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -19,10 +20,11 @@ from typing import Any
 import numpy as np
 
 from ..budget.propagation import DEFAULT_TARGET_PERCENT
-from ..core.exceptions import FtsCalibError, ShapeError
+from ..core.exceptions import ConfigError, FtsCalibError, ShapeError
 from ..core.files import file_sha256
 from ..core.resources import resolve
 from ..model.calibration import Calibration
+from ..model.channels import WRENCH_AXES, WRENCH_UNITS
 from ..model.offset_models import evaluate_offsets
 
 #: Cells of the sphere-coverage grid (Fibonacci points, about 4.6° apart).
@@ -228,12 +230,46 @@ def _held_out(content: ReportContent) -> tuple[str, float | None]:
         rms = float(np.max(content.held_out["rms_percent"]))
         worst = float(np.max(content.held_out["max_percent"]))
         return f"RMS {rms:.4f} % FS, max {worst:.4f} % FS (largest axis; {content.held_out['label']})", rms
+    own = _own_held_out(content)
+    if own is not None:
+        return own
     _, rows = model_selection(content.calibration)
     for row in rows:
         for key, value in row.items():
             if "held" in key and isinstance(value, int | float) and row.get("chosen", True):
                 return f"{value:.4g} ({key})", None
     return "not recorded", None
+
+
+def _own_held_out(content: ReportContent) -> tuple[str, float | None] | None:
+    """The chosen model's leave-one-unit-out RMS that the calibration file records, in % FS (N, N·m without a full scale).
+
+    The file's ``model_selection`` holds, per candidate, ``heldout_rms`` (6,) [N, N m] and a
+    dimensionless ``heldout_error`` (the mean square over each axis's scale): the line shows
+    the first, the largest axis, and what was held out. None when the file records no such table.
+    """
+    cal = content.calibration
+    if cal is None:
+        return None
+    tables = [getattr(cal, "model_selection", None), cal.extra.get("model_selection")]
+    if cal.quality is not None:
+        tables.append(cal.quality.extra.get("model_selection"))
+    table = next((t for t in tables if isinstance(t, Mapping) and isinstance(t.get("candidates"), list)), None)
+    chosen = [c for c in (table or {}).get("candidates", []) if isinstance(c, Mapping) and c.get("chosen") and "heldout_rms" in c]
+    if table is None or not chosen:
+        return None
+    rms = np.asarray(chosen[0]["heldout_rms"], dtype=float)
+    if rms.shape != (6,) or not np.all(np.isfinite(rms)):
+        return None
+    units = table.get("units")
+    what = f"one of {units} units of this recording left out at a time: a configuration and a cell of gravity's direction"
+    full_scale = (_budget(content) or {}).get("full_scale")
+    if isinstance(full_scale, Mapping) and all(isinstance(full_scale.get(a), int | float) and full_scale[a] > 0 for a in WRENCH_AXES):
+        percent = 100.0 * rms / np.array([float(full_scale[a]) for a in WRENCH_AXES])
+        k = int(np.argmax(percent))
+        return f"RMS {percent[k]:.4f} % FS ({WRENCH_AXES[k]}, the largest axis; {what})", float(percent[k])
+    shown = ", ".join(f"{a} {v:.3g} {u}" for a, v, u in zip(WRENCH_AXES, rms, WRENCH_UNITS, strict=True))
+    return f"RMS {shown} ({what})", None
 
 
 def _fibonacci(n: int) -> np.ndarray:
@@ -298,7 +334,46 @@ def calibrate_content(
         configurations=names,
         files=dict(files),
         notes=notes,
+        target_percent=target_of(calibration),
     )
+
+
+#: Key of the calibration file's accuracy budget that records the target it is judged against.
+TARGET_KEY = "target_percent_fs"
+
+
+def check_target(percent: float | None, option: str = "--target-error") -> float | None:
+    """``percent`` when it is a finite percentage above 0 (or None); ConfigError naming ``option`` otherwise."""
+    if percent is None:
+        return None
+    value = float(percent)
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(option, percent, "a percentage of full scale above 0 (e.g. 0.05)")
+    return value
+
+
+def recorded_target(calibration: Calibration | None) -> float | None:
+    """The accuracy target [% of full scale] the calibration file records (``calibrate --target-error``), or None."""
+    budget = _quality_value(ReportContent("", calibration), "budget", None) if calibration is not None else None
+    value = budget.get(TARGET_KEY) if isinstance(budget, Mapping) else None
+    return float(value) if isinstance(value, int | float) and math.isfinite(value) and value > 0 else None
+
+
+def with_target(calibration: Calibration, percent: float | None) -> Calibration:
+    """The calibration with ``percent`` [% of full scale] recorded as its budget's target; unchanged when None or no budget."""
+    quality = calibration.quality
+    if percent is None or quality is None or not isinstance(quality.budget, Mapping):
+        return calibration
+    budget = {**quality.budget, TARGET_KEY: float(percent)}
+    return dataclasses.replace(calibration, quality=dataclasses.replace(quality, budget=budget))
+
+
+def target_of(calibration: Calibration | None, given: float | None = None) -> float:
+    """The target a report judges against [% of full scale]: ``given``, else the file's, else the default (0.05)."""
+    for value in (given, recorded_target(calibration)):
+        if value is not None:
+            return float(value)
+    return DEFAULT_TARGET_PERCENT
 
 
 def held_out(errors, label: str) -> dict[str, Any]:
@@ -323,15 +398,16 @@ def validation_content(result, calibration: Calibration, name: str, tool, files:
     """
     residual = np.asarray(result.measured[0], float) - np.asarray(result.expected, float)
     label = f"validation with '{tool.name}' ({'moving tool' if result.dynamic else 'static weight'})"
-    samples = KeptSamples(
-        np.asarray(result.time, float), np.asarray(result.expected, float), residual, np.zeros(len(result.time), int), label
-    )
+    codes = getattr(result, "configuration", None)  # each sample's configuration, as recorded (not all the first's)
+    codes = np.zeros(len(result.time), int) if codes is None or len(codes) != len(result.time) else np.asarray(codes, int)
+    samples = KeptSamples(np.asarray(result.time, float), np.asarray(result.expected, float), residual, codes, label)
     return ReportContent(
         title=f"Validation of {name} with {tool.name}",
         calibration=calibration,
         samples=samples,
-        configurations=tuple(tool.names[:1]),
+        configurations=tuple(tool.names),
         files=dict(files),
         held_out=held_out(result.errors[0], label),
+        target_percent=target_of(calibration),
         notes=tuple(result.rails) + tuple(f"note: {p}" for p in result.problems[:5]),
     )

@@ -193,7 +193,7 @@ def _model_selection_section(content: ReportContent) -> str:
         return f'<p class="none">not recorded (model: {_e(chosen)})</p>'
     columns = list(dict.fromkeys(k for r in rows for k in r))
     cells = [[(f"{r[c]:.4g}" if isinstance(r.get(c), float) else r.get(c, "")) for c in columns] for r in rows]
-    return f"<p>Chosen: <b>{_e(chosen)}</b></p>" + _table(columns, cells, "compact")
+    return f"<p>Chosen: <b>{_e(chosen)}</b></p>" + _table(columns, cells, "fit")  # cells wrap: the page never scrolls sideways
 
 
 def _matrix(content: ReportContent) -> str:
@@ -298,6 +298,8 @@ table{border-collapse:collapse;font-size:.85em;margin:4px 0}
 th,td{padding:2px 7px;border-bottom:1px solid #e3e6ea;text-align:left;vertical-align:top}
 th{background:#f3f5f7}
 table.compact td,table.compact th{padding:1px 5px;font-variant-numeric:tabular-nums;white-space:nowrap}
+.nums.wide{flex-basis:640px}
+table.fit{width:100%;font-variant-numeric:tabular-nums}table.fit td,table.fit th{overflow-wrap:anywhere}
 table.files td:nth-child(4){font-family:ui-monospace,Menlo,Consolas,monospace;font-size:.85em;word-break:break-all}
 table.prov th{display:none}
 .legend{margin:0 0 4px}

@@ -46,9 +46,13 @@ def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]], cls: str = "")
     return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 
 
-def _figure(svg: str, side: str) -> str:
-    """A picture with its numbers beside it (below it on a phone)."""
-    return f'<div class="pair"><div class="fig">{svg}</div><div class="nums">{side}</div></div>'
+def _figure(svg: str, side: str, wide: bool = False) -> str:
+    """A picture with its numbers beside it (below it on a phone).
+
+    ``wide``: a table of seven columns, below the picture unless the page is wide enough for both
+    (a 1,000 px window puts it below: never a sideways scroll).
+    """
+    return f'<div class="pair"><div class="fig">{svg}</div><div class="nums{" wide" if wide else ""}">{side}</div></div>'
 
 
 def _svg(width: float, height: float, body: str, label: str) -> str:
@@ -257,7 +261,7 @@ def _residuals(content: ReportContent) -> str:
             + _table(["RMS / noise", *WRENCH_AXES], rows, "compact")
             + '<p class="small">Residual RMS of each configuration and axis in units of the noise the data show (green up to 1×).</p>'
         )
-        parts.append(_figure(svg, side))
+        parts.append(_figure(svg, side, wide=True))
     return "".join(parts) or '<p class="none">not recorded: no fit check and no sample at hand</p>'
 
 
@@ -305,7 +309,7 @@ def _budget_section(content: ReportContent) -> str:
         + _table(["% of full scale", *WRENCH_AXES], rows, "compact")
         + f'<p class="small">Each term ×{_e(budget.get("coverage_factor", 2))} (about 95 %), {_e(budget.get("range", ""))}.</p>'
     )
-    return _figure(svg, side)
+    return _figure(svg, side, wide=True)
 
 
 def _offsets(content: ReportContent) -> str:

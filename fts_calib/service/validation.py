@@ -229,6 +229,8 @@ class ValidationResult:
         offsets: Per calibration, which offsets were used (:attr:`ValidationOffsets.words`).
         regions: Per calibration, its errors inside and outside its load region, or None for
             a calibration that records none.
+        configuration: The tool configuration of each plotted sample, an index into the
+            tool's names, shape (M,) (None: not recorded).
     """
 
     samples: int
@@ -250,6 +252,7 @@ class ValidationResult:
     rails: list[str] = field(default_factory=list)
     offsets: list[str] = field(default_factory=list)
     regions: list[RegionErrors | None] = field(default_factory=list)
+    configuration: np.ndarray | None = None
 
     def as_json(self, index: int = 0) -> dict:
         """The errors of calibration ``index`` for scripts: ``{"axes": {"Fx": {"rms": ..., "max": ...}, ...}, "samples": N}``.
@@ -428,7 +431,7 @@ def validate_recording(
         if len(measured) == 2:
             between.add(measured[0] - measured[1])
         samples += len(W)
-        plot.add(t[first:last], W, *measured)
+        plot.add(t[first:last], W, *measured, k[first:last])
 
     def join(*parts):
         parts = [p for p in parts if p is not None]
@@ -465,7 +468,7 @@ def validate_recording(
     if waiting is not None and len(waiting[0]):
         rows = join(context, waiting)
         compare(rows, 0 if context is None else len(context[0]), len(rows[0]))
-    time, expected, *measured = plot.arrays(2 + len(calibrations))
+    time, expected, *measured, codes = plot.arrays(3 + len(calibrations))
     return ValidationResult(
         samples=samples,
         skipped=dict(skipped),
@@ -480,4 +483,5 @@ def validate_recording(
         rails=[] if chain.checks.rails is None else chain.checks.rails.lines(tool.names),
         offsets=[off.words for off in offsets],
         regions=[None if split is None else split.result(full_scale) for split in splits],
+        configuration=np.asarray(codes, dtype=int).reshape(-1),
     )

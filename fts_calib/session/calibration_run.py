@@ -448,6 +448,46 @@ class _Run:
         return session, problems, rows, lost
 
 
+#: Seconds between two status lines written to a file or a pipe (a terminal's line is rewritten in place).
+LOG_INTERVAL_S = 5.0
+
+
+class StatusLine:
+    """A status line: rewritten in place (a carriage return) on a terminal; elsewhere (a file, a pipe) one line every few seconds.
+
+    Args:
+        stream: Where to write.
+        interval_s: Seconds between two lines when ``stream`` is not a terminal [s].
+        clock: Monotonic clock [s] (a test's own).
+    """
+
+    def __init__(self, stream: TextIO, interval_s: float = LOG_INTERVAL_S, clock=time.monotonic):
+        self.stream, self.interval_s, self.clock = stream, interval_s, clock
+        self.tty = hasattr(stream, "isatty") and stream.isatty()
+        self._shown, self._last = 0, -np.inf
+
+    def show(self, line: str, end: str = "") -> None:
+        """Show ``line`` (at most 240 characters); ``end`` a newline: the last one, always written."""
+        line = line[:240]
+        if self.tty:
+            self.stream.write("\r" + line.ljust(self._shown) + end)  # spaces clear a longer previous line
+            self._shown = 0 if end else len(line)
+        else:
+            now = self.clock()
+            if not end and now - self._last < self.interval_s:
+                return
+            self.stream.write(line + "\n")
+            self._last = now
+        self.stream.flush()
+
+    def close(self) -> None:
+        """End a terminal's line (a file's lines end as they are written)."""
+        if self.tty and self._shown:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._shown = 0
+
+
 class LiveRunner:
     """Runs a session on a live stream (see the module docstring).
 
@@ -471,7 +511,7 @@ class LiveRunner:
         self.feed = feed
         self.status = status
         self.plan = plan
-        self._shown = 0
+        self._line = None if status is None else StatusLine(status)
         if status is not None:
             feed.on_status = lambda counts: self._show(self.status_line(counts))
 
@@ -506,12 +546,8 @@ class LiveRunner:
         return text
 
     def _show(self, line: str, end: str = "") -> None:
-        if self.status is None:  # the callers only show a line when there is a status stream
-            return
-        line = line[:240]
-        self.status.write("\r" + line.ljust(self._shown) + end)  # spaces clear a longer previous line
-        self.status.flush()
-        self._shown = 0 if end else len(line)
+        if self._line is not None:  # the callers only show a line when there is a status stream
+            self._line.show(line, end)
 
     def run(self) -> LiveStats:
         """Feed the session until the stream ends (:mod:`fts_calib.sources.live_feed`); then checkpoint; return the counts."""

@@ -12,8 +12,8 @@ can show; the causes are tried in this order, and the first that the data suppor
 1. **Missing centres of mass** (:func:`missing_centres`): the configurations recorded give
    one centre of mass, or centres on one line, while the tool file has more. The rank the
    recording lacks is named with the configurations to mount (an
-   :class:`~fts_calib.core.exceptions.InsufficientExcitation`: ``calibrate`` exits 1, exit 8
-   where it ends a command as an error), whatever the fit.
+   :class:`~fts_calib.core.exceptions.InsufficientExcitation`: ``calibrate`` exits 8, EXCITATION),
+   whatever the fit.
 2. How the orientations are read: first **joint units** (:func:`joint_units`): the kept
    samples' joints read in the other unit (degrees for rad, or rad for degrees) fit the tool's
    model at the noise. A unit mistake also shrinks the orientations seen, so it is tried before

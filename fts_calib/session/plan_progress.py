@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..core.exceptions import FileFormatError
 from ..core.files import load_yaml, read_number, read_positive, require
+from ..core.resources import locate_trajectory
 from .session import Progress
 
 #: Fields of a plan file, one of which a plan has (a file with none is another kind of file).
@@ -92,14 +93,17 @@ def load_plan_progress(path: str | Path, rate_hz: float) -> PlanProgress:
     """Read the expectations of a run from a ``plan.yaml`` written by ``fts-calib trajectory``.
 
     Args:
-        path: The plan file.
+        path: The plan file, the folder that holds it, or a shipped plan by name ('ur5':
+            :func:`~fts_calib.core.resources.locate_trajectory`).
         rate_hz: The channels' sample rate [Hz] (the plan counts samples at its own rate).
 
     Raises:
         FileFormatError: A missing or malformed field (a duration or rate that is not > 0);
             names the file and the field.
     """
-    path = Path(path)
+    path = locate_trajectory(path)
+    if path.is_dir():
+        path = path / "plan.yaml"
     data = load_yaml(path)
     if not any(key in data for key in PLAN_KEYS):
         fields = ", ".join(PLAN_KEYS)
