@@ -17,9 +17,8 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import ToolConfiguration
 from ..sources.recording import RecordingWriter
 from .drift import OffsetDrift
+from .runs import joint_readings
 from .sensor import SimulatedSensor
-
-ENCODER_STEP = 2 * np.pi / 2**20  # [rad] a 20-bit encoder's step
 
 
 def simulate_payload_motion(
@@ -59,9 +58,7 @@ def simulate_payload_motion(
     wrench = payload.dynamic_wrench(g, state.omega, state.alpha, state.a)
     if drift is not None:
         wrench = wrench - drift.offsets(time - time[0], 0)  # the sensor reads W - delta D: its offsets moved
-    readings = np.stack([np.interp(time - latency_s, time, q[:, k]) for k in range(q.shape[1])], axis=1)
-    if rng is not None:
-        readings = np.round((readings + joint_noise * rng.standard_normal(readings.shape)) / ENCODER_STEP) * ENCODER_STEP
+    readings = joint_readings(time, q, latency_s, joint_noise, rng)
     with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels) as writer:
         writer.write(time, readings, sensor.channels(wrench, time=time, rng=rng), payload.name)
     return Path(path)
