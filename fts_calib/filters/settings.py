@@ -128,11 +128,11 @@ class Windows:
 
         def one(name: str, span: float) -> str:
             samples = f", {int(round(span / self.dt)) + 1} samples" if self.dt > 0 else ""
-            return f"{name} {span:g} s{samples}"
+            return f"{name} {span:.3g} s{samples}"
 
         return (
             f"at {rate} the filter's windows are {one('derivative', self.derivative_s)}, {one('strain', self.strain_s)}: "
-            f"a still sample needs the arm held still for {self.still_span_s:g} s or more"
+            f"a still sample needs the arm held still for {self.still_span_s:.3g} s or more"
         )
 
 
