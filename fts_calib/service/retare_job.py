@@ -161,7 +161,7 @@ def check_window(calibration: Calibration, window: _Window) -> np.ndarray:
     rejected = {} if filter_ is None else filter_.rejected
     if share < MIN_STILL_FRACTION:
         counts = ", ".join(f"{rule}: {rejected[rule]:,}" for rule in RULES[:3] if rejected.get(rule))
-        windows = "" if filter_ is None else f" ({filter_.settings.windows(sample_period(window.checked.time)).text()})"
+        windows = "" if filter_ is None else f"; {filter_.settings.windows(sample_period(window.checked.time)).text()}"
         raise ResultRefused(
             f"refused to re-tare (nothing written): the window is not still: {100 * share:.0f} % of its {len(still):,} samples "
             f"pass the quasi-static rules (rejected by {counts or 'none'}), at least {100 * MIN_STILL_FRACTION:.0f} % must: "

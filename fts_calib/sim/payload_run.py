@@ -21,6 +21,38 @@ from .runs import joint_readings
 from .sensor import SimulatedSensor
 
 
+def still_poses_motion(targets, hold_s: float, move_s: float, rate_hz: float = 1000.0):
+    """A motion that holds each target still ``hold_s``, then moves to the next in ``move_s`` (a quintic, rest to rest).
+
+    For :func:`simulate_payload_motion`: still poses joined by moves, as a user records a payload
+    or a tare window (the arm at rest, then the next orientation).
+
+    Args:
+        targets: The joint positions held [rad], shape (P, n_joints).
+        hold_s: Time at each target [s].
+        move_s: Time of each move [s].
+        rate_hz: Sample rate [Hz].
+
+    Returns:
+        ``(time (N,), q, qd, qdd (N, n_joints))`` in [s, rad, rad/s, rad/s^2], time from 0.
+    """
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    n_hold, n_move = int(round(hold_s * rate_hz)), int(round(move_s * rate_hz))
+    s = np.arange(n_move) / max(n_move, 1)
+    position = 10 * s**3 - 15 * s**4 + 6 * s**5
+    velocity = (30 * s**2 - 60 * s**3 + 30 * s**4) / move_s
+    acceleration = (60 * s - 180 * s**2 + 120 * s**3) / move_s**2
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    zeros = np.zeros((n_hold, targets.shape[1]))
+    for k, target in enumerate(targets):
+        parts.append((np.tile(target, (n_hold, 1)), zeros, zeros))
+        if k + 1 < len(targets):
+            step = targets[k + 1] - target
+            parts.append((target + np.outer(position, step), np.outer(velocity, step), np.outer(acceleration, step)))
+    q, qd, qdd = (np.concatenate([part[i] for part in parts]) for i in range(3))
+    return np.arange(len(q)) / rate_hz, q, qd, qdd
+
+
 def simulate_payload_motion(
     path: str | Path,
     kin: Kinematics,
