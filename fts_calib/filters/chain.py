@@ -20,9 +20,11 @@ takes that part from here, never a rule of its own:
 
 - the checks alone (:meth:`FilterChain.accept`): ``validate`` compares every valid sample, and
   a payload's motion is fitted from every valid sample;
-- the joint-rate window (:meth:`FilterChain.derivative_window`, at the stream's sample period:
-  the duration or the minimum number of samples, :meth:`fts_calib.filters.settings.FilterConfig.windows`):
-  ``validate``'s expected wrench and a payload's motion see the joint rates the filter sees;
+- the joint-rate window's duration (:meth:`FilterChain.motion_window`, at the stream's sample
+  period: the duration, or the 3 samples of a quadratic if longer): ``validate``'s expected wrench
+  and a payload's motion see the rates of the filter's polynomial over the filter's duration (not
+  its 7 samples at a low rate, :meth:`FilterChain.derivative_window`: a moving sample's rates
+  want the shortest window, a still one's the quietest);
 - the quasi-static joint rules held over the strain window, from exact joint rates
   (:func:`fts_calib.filters.quasi_static.held_still`): the samples of a planned motion the
   filter will keep (:func:`fts_calib.budget.predicted.predicted_still`);
@@ -118,6 +120,10 @@ class FilterChain:
     def derivative_window(self, dt: float) -> float:
         """The joint-rate window of the still rules at the sample period ``dt`` [s], in [s]: the rates the filter judges."""
         return window_span(self.derivative_window_s, self.derivative_min_samples, dt)
+
+    def motion_window(self, dt: float) -> float:
+        """The joint-rate window of moving samples at the sample period ``dt`` [s], in [s]: the filter's duration, at least 3 samples."""
+        return window_span(self.derivative_window_s, 3, dt)
 
     @property
     def mode(self) -> str:

@@ -171,6 +171,12 @@ class FilterConfig:
             window_span(self.dynamic_window_s, self.dynamic_order + 2, dt),
         )
 
+    def low_rate_text(self, dt: float) -> str:
+        """:meth:`Windows.text` at the period ``dt`` [s] when a window holds its minimum of samples, not its duration; else ''."""
+        windows = self.windows(dt)
+        stretched = windows.derivative_s > self.derivative_window_s or windows.strain_s > self.strain_window_s
+        return windows.text() if stretched else ""
+
     def __post_init__(self):
         if self.mode not in FILTER_MODES:
             raise ConfigError("filter.mode", self.mode, " or ".join(FILTER_MODES))

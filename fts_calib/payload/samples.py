@@ -73,8 +73,8 @@ class PayloadSamples:
         limits: The channels' resolution and rails (declared, or detected in the samples).
         rails: One line per channel whose samples were refused at its rail.
         where: Where they come from, for the messages (a path, ``udp://HOST:PORT``).
-        derivative_window_s: The chain's joint-rate window at the samples' period [s]: a motion's rates are the ones
-            the filter judges (:meth:`fts_calib.filters.chain.FilterChain.derivative_window`).
+        derivative_window_s: The chain's joint-rate window for a motion at the samples' period [s] (the filter's duration,
+            at least 3 samples: :meth:`fts_calib.filters.chain.FilterChain.motion_window`).
     """
 
     checked: SampleBatch
@@ -127,7 +127,7 @@ def payload_samples(
     # a NaN, a railed channel or a row out of order never poisons a window; the payload is unknown: no tool
     step = chain.samples(samples, None, final=True)
     rails = () if chain.checks.rails is None else tuple(chain.checks.rails.lines(held or ["payload"]))
-    window = chain.derivative_window(sample_period(step.checked.time))
+    window = chain.motion_window(sample_period(step.checked.time))
     return PayloadSamples(step.checked, step.still, rows, found, rails, where, window)
 
 

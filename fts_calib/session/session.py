@@ -711,12 +711,7 @@ def _moving(session: CalibrationSession) -> bool:
 
 
 def without_stops(session: CalibrationSession) -> str:
-    """That the quasi-static filter's recording moves without stops, in words ('' otherwise: :func:`~.diagnosis.moving_words`).
-
-    At a rate low enough that the filter's windows hold their minimum of samples rather than their durations
-    (:meth:`fts_calib.filters.settings.FilterConfig.windows`), the words name the rate and the windows: its
-    stops may be shorter than the still rules' span at that rate.
-    """
+    """That the quasi-static filter's recording moves without stops, in words ('' otherwise: :func:`~.diagnosis.moving_words`)."""
     still, kept = session.filter, int(session.kept.sum())
     if still is None or isinstance(still, DynamicFilter):
         return ""
@@ -725,11 +720,9 @@ def without_stops(session: CalibrationSession) -> str:
         return ""
     starts = 1 + int(np.count_nonzero((np.diff(codes) != 0) | (np.diff(time) > UNIT_GAP_S))) if kept else 0
     per_configuration = starts / max(len(np.unique(codes)), 1)
+    low_rate = still.settings.low_rate_text(still.dt)  # its stops may be shorter than the windows at its rate
     words = moving_words(still.rejected, session.seen, kept, per_configuration)
-    windows, settings = still.settings.windows(still.dt), still.settings
-    if words and (windows.derivative_s > settings.derivative_window_s or windows.strain_s > settings.strain_window_s):
-        words += f" ({windows.text()})"
-    return words
+    return f"{words} ({low_rate})" if words and low_rate else words
 
 
 def strains_unexplained(session: CalibrationSession) -> bool:
