@@ -74,13 +74,16 @@ def test_without_kinematics_the_strains_alone_decide(rng):
 
 
 def test_held_still_is_the_filters_joint_rules_by_brute_force(short_plan):
-    """Every sample within half a strain window (by time) slow and steady: at 100 Hz and at 125 Hz."""
+    """Every sample within half a strain window (by time) slow and steady: at 100 Hz, and at 25 Hz where the window
+    holds its minimum of samples (5: 0.16 s, not 0.1 s)."""
     settings = FilterConfig()
     for stride in (1, 4):  # 100 Hz, and 25 Hz: windows of other sample counts
         time, qd, qdd = short_plan.time[::stride], short_plan.qd[::stride], short_plan.qdd[::stride]
         speed_ok, accel_ok, _, _ = held_still(time, qd, qdd, settings)
         ok = (np.max(np.abs(qd), axis=1) <= settings.max_joint_speed) & (np.max(np.abs(qdd), axis=1) <= settings.max_joint_acceleration)
-        half = settings.strain_window_s / 2  # [s] as the filter computes the window's ends: t - half, t + half
+        dt = float(np.median(np.diff(time)))
+        half = max(settings.strain_window_s, (settings.strain_min_samples - 1) * dt * (1 + 1e-6)) / 2  # [s] t - half .. t + half
+        assert stride == 1 or half == pytest.approx(0.08)
         near = (time[None, :] >= time[:, None] - half) & (time[None, :] <= time[:, None] + half)
         brute = np.array([ok[row].all() for row in near])
         assert np.array_equal(speed_ok & accel_ok, brute) and 0 < brute.sum() < len(brute)

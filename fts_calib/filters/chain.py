@@ -20,8 +20,11 @@ takes that part from here, never a rule of its own:
 
 - the checks alone (:meth:`FilterChain.accept`): ``validate`` compares every valid sample, and
   a payload's motion is fitted from every valid sample;
-- the joint-rate window (:attr:`FilterChain.derivative_window_s`): ``validate``'s expected wrench
-  and a payload's motion see the joint rates the filter sees;
+- the joint-rate window's duration (:meth:`FilterChain.motion_window`, at the stream's sample
+  period: the duration, or the 3 samples of a quadratic if longer): ``validate``'s expected wrench
+  and a payload's motion see the rates of the filter's polynomial over the filter's duration (not
+  its 7 samples at a low rate, :meth:`FilterChain.derivative_window`: a moving sample's rates
+  want the shortest window, a still one's the quietest);
 - the quasi-static joint rules held over the strain window, from exact joint rates
   (:func:`fts_calib.filters.quasi_static.held_still`): the samples of a planned motion the
   filter will keep (:func:`fts_calib.budget.predicted.predicted_still`);
@@ -50,7 +53,7 @@ from ..sources.batch import SampleBatch
 from .dynamic import DynamicFilter
 from .quasi_static import QuasiStaticFilter, StillSamples, quasi_static
 from .sample_checks import SampleChecks
-from .settings import AUTO_FILTER, DYNAMIC, FILTER_CHOICES, NO_FILTER, QUASI_STATIC, PipelineConfig
+from .settings import AUTO_FILTER, DYNAMIC, FILTER_CHOICES, NO_FILTER, QUASI_STATIC, PipelineConfig, window_span
 
 #: The chain's modes: the pipeline's filter modes, and none (every sample that passes the checks is kept).
 CHAIN_MODES = FILTER_CHOICES
@@ -85,12 +88,15 @@ class FilterChain:
         derivative_window_s: The joint-rate window of the still rules [s] (``filter.derivative_window_s``).
         n_channels: The sensor's channels.
         n_joints: Without kinematics: the stream's joint columns.
+        derivative_min_samples: The fewest samples the joint-rate window holds (``filter.derivative_min_samples``).
 
     Attributes:
         kin: The kinematics (None: no joints).
         checks: The checks, with what they skipped.
         filter: The filter (None without one), with what it rejected by rule and its noise floor.
-        derivative_window_s: The joint-rate window of the still rules [s]: the rates the filter judges.
+        derivative_window_s: The joint-rate window's duration [s] (``filter.derivative_window_s``);
+            at a sample period, :meth:`derivative_window`.
+        derivative_min_samples: The fewest samples that window holds (``filter.derivative_min_samples``).
     """
 
     def __init__(
@@ -101,13 +107,23 @@ class FilterChain:
         derivative_window_s: float,
         n_channels: int,
         n_joints: int = 0,
+        derivative_min_samples: int = 3,
     ):
         self.kin = kin
         self.checks = checks
         self.filter = filter_
         self.derivative_window_s = derivative_window_s
+        self.derivative_min_samples = derivative_min_samples
         self.n_channels = n_channels
         self.n_joints = n_joints
+
+    def derivative_window(self, dt: float) -> float:
+        """The joint-rate window of the still rules at the sample period ``dt`` [s], in [s]: the rates the filter judges."""
+        return window_span(self.derivative_window_s, self.derivative_min_samples, dt)
+
+    def motion_window(self, dt: float) -> float:
+        """The joint-rate window of moving samples at the sample period ``dt`` [s], in [s]: the filter's duration, at least 3 samples."""
+        return window_span(self.derivative_window_s, 3, dt)
 
     @property
     def mode(self) -> str:
@@ -234,4 +250,5 @@ def filter_chain(
         filter_ = DynamicFilter(settings.filter, continuous, limits, settings.nominal_c, scale, layout, n_configurations)
     elif mode == QUASI_STATIC:
         filter_ = QuasiStaticFilter(settings.filter, continuous, limits)
-    return FilterChain(kin, checks, filter_, settings.filter.derivative_window_s, layout.n_channels, n_joints)
+    derivative = settings.filter.derivative_window_s
+    return FilterChain(kin, checks, filter_, derivative, layout.n_channels, n_joints, settings.filter.derivative_min_samples)

@@ -8,9 +8,11 @@ session sees them, and refuses, naming the likely cause, when
 - every stamp is equal (no clock at all);
 - most consecutive stamps are equal and the clock ticks more coarsely than the filter's
   windows (``filter.strain_window_s``, ``filter.derivative_window_s``);
-- the sample period is longer than those windows: a time column in ms makes the period
-  look 1000x longer (in µs 1e6x); the unit whose conversion gives a controller's period
-  (100 Hz to 10 kHz) is suggested;
+- the sample period is longer than :data:`SLOWEST_PERIOD_S` (slower than 10 Hz): a time column
+  in ms makes the period look 1000x longer (in µs 1e6x); the unit whose conversion gives a
+  controller's period (100 Hz to 10 kHz) is suggested. From 10 Hz up the filter's windows
+  hold their minimum number of samples whatever the rate
+  (:meth:`fts_calib.filters.settings.FilterConfig.windows`): a 10 Hz log is a log, not a wrong clock;
 - the joint speeds implied by the stamps, ``|Δjoint| / Δt`` over :data:`SPEED_LAG` samples,
   are far beyond the velocity limits of the robot (:attr:`Kinematics.limits.velocity`,
   rad/s): joint columns in degrees (57x; named when a reading is beyond a turn), or a
@@ -44,6 +46,8 @@ from .settings import FilterConfig
 
 #: Sample periods of a robot controller or a sensor, in [s] (10 kHz to 100 Hz).
 PLAUSIBLE_PERIOD_S = (1e-4, 1e-2)
+#: The longest sample period read as a clock in [s] (10 Hz: a logger's, e.g. a sensor's own at its slowest).
+SLOWEST_PERIOD_S = 0.1
 #: Units a time column is mistakenly written in, with their value in [s].
 TIME_UNITS = (("ms", 1e-3), ("µs", 1e-6), ("ns", 1e-9))
 #: An implied speed this many times the velocity limit is impossible.
@@ -198,21 +202,20 @@ def check_clock(
 
 def _check_period(path: str | Path, period: float, repeated: float, settings: FilterConfig) -> None:
     window = min(settings.strain_window_s, settings.derivative_window_s)
-    if period <= window:
+    coarse = repeated > 0.5 and period > window
+    if not coarse and period <= SLOWEST_PERIOD_S * (1 + 1e-9):
         return
     strain, derivative = settings.strain_window_s, settings.derivative_window_s
     windows = f"the filter's windows (strain_window_s {strain:g} s, derivative_window_s {derivative:g} s)"
-    if repeated > 0.5:
+    if coarse:
         message = (
             f"the clock ticks every {period:g} s ({100 * repeated:.0f} % of consecutive rows have the same time stamp), more "
             f"coarsely than {windows}: the filter cannot tell still samples from moving ones; record the time in s with a "
             "finer resolution (e.g. the controller's clock, to the µs)"
         )
         raise RecordingError(path, None, "time", message)
-    advice = (
-        "the clock is too coarse for the filter; record at a higher rate (the time in s), or widen the windows in the pipeline settings"
-    )
-    raise RecordingError(path, None, "time", _slow_clock(period, f"longer than {windows}", advice))
+    advice = f"{settings.windows(period).text()}; record at {1 / SLOWEST_PERIOD_S:g} Hz or more (the time in s)"
+    raise RecordingError(path, None, "time", _slow_clock(period, f"slower than {1 / SLOWEST_PERIOD_S:g} Hz", advice))
 
 
 def check_sample_clock(path: str | Path, time: np.ndarray, why: str) -> None:

@@ -295,7 +295,6 @@ class DynamicFilter:
         self._nominal = None if nominal_c is None else np.asarray(nominal_c, dtype=float)
         self._full_scale = np.asarray(full_scale, dtype=float)
         self._continuous = np.asarray(continuous, dtype=bool)
-        self._half = settings.dynamic_window_s + abs(self.latency_s)  # context each side: the window, and the jerk's
         self._buffer: SampleBatch | None = None
         self._rates: tuple[np.ndarray, np.ndarray] | None = None
         self._context = 0
@@ -363,8 +362,10 @@ class DynamicFilter:
             held = self._rates
             exact = new if held is None else (np.concatenate([held[0], new[0]]), np.concatenate([held[1], new[1]]))
         time, n = buf.time, len(buf)
-        if self._dt is None and n > PERIOD_SAMPLES:
+        if self._dt is None and (n > PERIOD_SAMPLES or (final and n > 1)):
             self._dt = sample_period(time)
+        # context each side: the window, and the jerk's
+        half_s = self.settings.windows(self._dt or 0.0).dynamic_s + abs(self.latency_s) + (self._dt or 0.0)
         if self.measured_floor is None:
             if n < NOISE_SAMPLES and not final:
                 self._buffer, self._rates = buf, exact  # nothing is decided before the noise is known
@@ -372,13 +373,13 @@ class DynamicFilter:
             self.measured_floor = third_difference_noise(buf.channels)
             self.joint_noise = third_difference_noise(buf.joints)
         start = self._context
-        end = n if final else int(np.searchsorted(time, time[-1] - self._half, side="right")) if n else 0
+        end = n if final else int(np.searchsorted(time, time[-1] - half_s, side="right")) if n else 0
         end = max(end, start)
         decided = self._decide(kin, tool, buf, exact, start, end)
         if final or end >= n:
             self._buffer, self._rates, self._context = None, None, 0
         else:
-            first = min(int(np.searchsorted(time, time[end] - self._half, side="left")), end)
+            first = min(int(np.searchsorted(time, time[end] - half_s, side="left")), end)
             self._buffer, self._context = buf.rows(first, n), end - first
             self._rates = None if exact is None else (exact[0][first:], exact[1][first:])
         return decided
@@ -391,7 +392,8 @@ class DynamicFilter:
         rows = buf.rows(start, end)
         if end <= start:
             return self._none(buf)
-        window, dt = settings.dynamic_window_s, self._dt or 0.0
+        dt = self._dt or 0.0
+        window = settings.windows(dt).dynamic_s
         if exact is None:
             # a sample without a whole window is dropped, and so is one whose jerk window reaches one: their rates are never used
             motion = joint_rates(

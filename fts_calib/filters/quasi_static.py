@@ -5,12 +5,13 @@ A sample is kept when all four rules pass (thresholds in ``configs/pipeline.yaml
 1. *joint speed*: every joint slower than ``max_joint_speed`` [rad/s];
 2. *joint acceleration*: every joint accelerating less than ``max_joint_acceleration``
    [rad/s^2]; both estimated from the joint readings by a least-squares quadratic over
-   ``derivative_window_s`` (:func:`fts_calib.filters.joint_rates.joint_rates`: the feeds carry
+   ``derivative_window_s`` (at least ``derivative_min_samples`` samples:
+   :meth:`fts_calib.filters.settings.FilterConfig.windows`) (:func:`fts_calib.filters.joint_rates.joint_rates`: the feeds carry
    no velocities), and both must hold at every
    sample of the strain window around the sample (the first milliseconds of a
    jerk-limited motion hardly show in a difference estimate);
 3. *strain stationary*: the standard deviation of every bridge over ``strain_window_s``
-   (centred on the sample) at most ``max_strain_std``, or, with ``auto``,
+   (centred on the sample; at least ``strain_min_samples`` samples) at most ``max_strain_std``, or, with ``auto``,
    ``strain_std_factor`` times the noise floor: the median of that deviation over the first
    200 samples the joint rules keep (vibration after a stop shows here; until those
    samples have come, nothing is decided), never below a channel's quantization noise step / sqrt(12)
@@ -126,7 +127,12 @@ def windowed_std(values: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.
 
 
 def held_still(
-    time: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray, settings: FilterConfig, index: np.ndarray | None = None
+    time: np.ndarray,
+    velocity: np.ndarray,
+    acceleration: np.ndarray,
+    settings: FilterConfig,
+    index: np.ndarray | None = None,
+    dt: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Rules 1 and 2 held over the strain window around each sample: the joints slow and steady throughout it.
 
@@ -139,15 +145,17 @@ def held_still(
         acceleration: Joint accelerations [rad/s^2]. Shape (N, n_joints).
         settings: The thresholds (``max_joint_speed``, ``max_joint_acceleration``, ``strain_window_s``).
         index: The samples judged (their windows may reach the others), shape (m,); None: all.
+        dt: The sample period [s] that sets the strain window (:meth:`FilterConfig.windows`); None: from ``time``.
 
     Returns:
         ``(speed ok (m,), acceleration ok (m,), first (m,), last (m,))``: whether every sample of
         the window passes rule 1, rule 2, and the window's first and last sample indices.
     """
     index = np.arange(len(time)) if index is None else index
+    dt = sample_period(time) if dt is None else dt
     slow = np.max(np.abs(velocity), axis=1) <= settings.max_joint_speed
     steady = np.max(np.abs(acceleration), axis=1) <= settings.max_joint_acceleration
-    left, right = window_bounds(time, index, settings.strain_window_s / 2)
+    left, right = window_bounds(time, index, settings.windows(dt).strain_s / 2)
     bad_speed = np.concatenate([[0], np.cumsum(~slow)])
     bad_accel = np.concatenate([[0], np.cumsum(~steady)])
     return bad_speed[right + 1] == bad_speed[left], bad_accel[right + 1] == bad_accel[left], left, right
@@ -174,14 +182,16 @@ def window_moves(time: np.ndarray, joints: np.ndarray, settings: FilterConfig) -
 
 
 def sample_period(time: np.ndarray) -> float:
-    """A stream's sample period in [s], from its first intervals (the median of the first 100).
+    """A stream's sample period in [s], from its first intervals (the median of the first 100; 0 for fewer than 2 samples).
 
-    Estimated once per stream, from its start, so that chunking changes nothing.
+    Estimated once per stream, from its start (101 samples), so that chunking changes nothing;
+    a stream of fewer samples has the median of what it has.
 
     Args:
-        time: Sample times in [s], at least 101 of them. Shape (N,).
+        time: Sample times in [s]. Shape (N,).
     """
-    return float(np.median(np.diff(time[: PERIOD_SAMPLES + 1])))
+    steps = np.diff(np.asarray(time, dtype=float)[: PERIOD_SAMPLES + 1])
+    return float(np.median(steps)) if len(steps) else 0.0
 
 
 class QuasiStaticFilter:
@@ -201,11 +211,18 @@ class QuasiStaticFilter:
         self.grid = GridWatch(None if limits is None else limits.resolution)
         self._context = 0
         self._buffer: SampleBatch | None = None
-        # context kept on each side of a decided sample: its strain window, and the derivative
-        # window of every sample in it
-        self._half = (settings.derivative_window_s + settings.strain_window_s) / 2
         self._continuous = np.asarray(continuous, dtype=bool)
         self._dt: float | None = None
+
+    @property
+    def dt(self) -> float:
+        """The stream's sample period [s] (0 before it is known)."""
+        return self._dt or 0.0
+
+    def _half(self) -> float:
+        """Context kept on each side of a decided sample [s]: its strain window, and the derivative window of every sample in it."""
+        windows = self.settings.windows(self.dt)
+        return (windows.derivative_s + windows.strain_s) / 2 + self.dt
 
     @property
     def noise_floor(self) -> np.ndarray | None:
@@ -237,7 +254,14 @@ class QuasiStaticFilter:
         time = buf.time
         n = len(time)
         start = self._context
-        end = n if final else int(np.searchsorted(time, time[-1] - self._half, side="right")) if n else 0
+        if self._dt is None and n > PERIOD_SAMPLES:
+            self._dt = sample_period(time)
+        if self._dt is None and not final:  # the windows need the sample period: the first 101 samples
+            end = start
+        else:
+            if self._dt is None:  # a stream of 100 samples or fewer: the period of what there is
+                self._dt = sample_period(time)
+            end = n if final else int(np.searchsorted(time, time[-1] - self._half(), side="right")) if n else 0
         end = max(end, start)
         if self._waiting(buf, np.arange(start, end), final):
             self._buffer = buf  # nothing is decided before the noise floor is known
@@ -249,7 +273,7 @@ class QuasiStaticFilter:
         if final or end >= n:
             self._buffer, self._context = None, 0
         else:
-            first = int(np.searchsorted(time, time[end] - self._half, side="left"))
+            first = int(np.searchsorted(time, time[end] - self._half(), side="left"))
             first = min(first, end)
             self._buffer = buf.rows(first, n)
             self._context = end - first
@@ -275,7 +299,7 @@ class QuasiStaticFilter:
     def _joint_rates(self, time, joints) -> tuple[np.ndarray, np.ndarray]:
         if self._dt is None and len(time) > PERIOD_SAMPLES:
             self._dt = sample_period(time)
-        motion = joint_rates(time, joints, self.settings.derivative_window_s, self._dt or 0.0, self._continuous, order=2)
+        motion = joint_rates(time, joints, self.settings.windows(self.dt).derivative_s, self.dt, self._continuous, order=2)
         return motion.velocity, motion.acceleration
 
     def _still(self, buf: SampleBatch, index):
@@ -285,7 +309,7 @@ class QuasiStaticFilter:
         milliseconds of a jerk-limited motion hardly show in any estimate.
         """
         velocity_all, acceleration_all = self._joint_rates(buf.time, buf.joints)
-        speed_ok, accel_ok, s_left, s_right = held_still(buf.time, velocity_all, acceleration_all, self.settings, index)
+        speed_ok, accel_ok, s_left, s_right = held_still(buf.time, velocity_all, acceleration_all, self.settings, index, self.dt)
         return speed_ok, accel_ok, velocity_all[index], acceleration_all[index], s_left, s_right
 
     def _judged(self, time: np.ndarray, s_left: np.ndarray, s_right: np.ndarray) -> np.ndarray:
@@ -295,8 +319,8 @@ class QuasiStaticFilter:
         stream's edge or beside a gap has its window on one side only (and passes), a lone
         one or two has nothing to show.
         """
-        dt = self._dt if self._dt is not None else float(np.median(np.diff(time))) if len(time) > 1 else 0.0
-        need = max(3, int(np.ceil(0.75 * self.settings.strain_window_s / (2 * dt)))) if dt > 0 else 3
+        dt = self.dt or sample_period(time)
+        need = max(3, int(np.ceil(0.75 * self.settings.windows(dt).strain_s / (2 * dt)))) if dt > 0 else 3
         return s_right - s_left + 1 >= need
 
     def _waiting(self, buf: SampleBatch, index, final: bool) -> bool:

@@ -8,6 +8,18 @@ stationary over ``strain_window_s`` [s] (standard deviation of every bridge at m
 measured on still samples), and when the dynamic part of the tool's wrench is at most
 ``max_dynamic_fraction`` of its weight (force) and of weight times lever (moment).
 
+Windows at any sample rate: each window lasts its duration (``derivative_window_s``,
+``strain_window_s``, ``dynamic_window_s``) AND holds a minimum number of samples
+(``derivative_min_samples``, 7; ``strain_min_samples``, 5; the dynamic filter's polynomial:
+its degree + 2), whichever is longer at the stream's sample period ``dt``
+(:meth:`FilterConfig.windows`): at 1 kHz the durations rule (0.05 s: 51 samples; 0.1 s: 101),
+at 100 Hz the derivative window stretches to 0.06 s (7 samples: a quadratic through 5
+readings of a joint with 1e-5 rad of noise has 0.05 rad/s^2 of acceleration noise, half the
+``max_joint_acceleration``), at 10 Hz to 0.6 s and 0.4 s. A motion seen at 10 Hz, 100 Hz and
+1 kHz is then judged alike, within the noise; a stop shorter than the still rules' span (the
+strain window and a derivative window on each side: 1.0 s at 10 Hz) has no still sample at
+that rate, which the commands say (:meth:`Windows.text`).
+
 ``filter.mode``: ``auto`` (default: the rules above, ``quasi-static``; a recording that moves
 without stops, too few of whose samples are still for them, is read again with ``dynamic``:
 :func:`fts_calib.session.calibration_run.calibrate_recording`; a live feed, read once, stays
@@ -80,6 +92,50 @@ _AUTO_KEYS = ("max_strain_std", "latency_s", "joint_noise", "latency_uncertainty
 SECTIONS = ("filter", "live", "checks", "design", "offsets", "fit")
 
 
+def window_span(duration_s: float, min_samples: int, dt: float) -> float:
+    """A window's span [s]: ``duration_s``, or longer when that holds fewer than ``min_samples`` samples at the period ``dt`` [s].
+
+    ``min_samples`` samples centred on one span ``(min_samples - 1) dt`` (a millionth more: the end samples of a
+    stamped clock fall inside whatever their rounding); ``dt`` 0 (unknown): ``duration_s``.
+    """
+    return max(float(duration_s), (int(min_samples) - 1) * float(dt) * (1 + 1e-6)) if dt > 0 else float(duration_s)
+
+
+@dataclass(frozen=True)
+class Windows:
+    """The filter's windows at one sample period (:meth:`FilterConfig.windows`), in [s].
+
+    Attributes:
+        dt: The sample period [s] (0: unknown; the durations then).
+        derivative_s: The joint-rate window of the still rules.
+        strain_s: The strain-stationarity window.
+        dynamic_s: The dynamic filter's joint-rate window.
+    """
+
+    dt: float
+    derivative_s: float
+    strain_s: float
+    dynamic_s: float
+
+    @property
+    def still_span_s(self) -> float:
+        """The shortest stop with a still sample [s]: the strain window and a derivative window on each side."""
+        return self.strain_s + self.derivative_s
+
+    def text(self) -> str:
+        """The windows in words, with the rate: 'at 10 Hz the filter's windows hold ...'."""
+        rate = f"{1 / self.dt:.3g} Hz ({self.dt:g} s between samples)" if self.dt > 0 else "an unknown rate"
+
+        def one(name: str, span: float) -> str:
+            samples = f", {int(round(span / self.dt)) + 1} samples" if self.dt > 0 else ""
+            return f"{name} {span:.3g} s{samples}"
+
+        return (
+            f"at {rate} the filter's windows are {one('derivative', self.derivative_s)}, {one('strain', self.strain_s)}: "
+            f"a still sample needs the arm held still for {self.still_span_s:.3g} s or more"
+        )
+
+
 @dataclass(frozen=True)
 class FilterConfig:
     """Quasi-static sample filter thresholds (see the module docstring)."""
@@ -99,6 +155,27 @@ class FilterConfig:
     dynamic_order: int = 5
     inertia_tolerance: float = 0.01  # relative
     max_error_ratio: float = 3.0
+    derivative_min_samples: int = 7
+    strain_min_samples: int = 5
+
+    def windows(self, dt: float) -> Windows:
+        """The windows at the sample period ``dt`` [s]: each its duration, or its minimum number of samples if longer.
+
+        Args:
+            dt: The stream's sample period [s]; 0 (unknown): the durations.
+        """
+        return Windows(
+            dt,
+            window_span(self.derivative_window_s, self.derivative_min_samples, dt),
+            window_span(self.strain_window_s, self.strain_min_samples, dt),
+            window_span(self.dynamic_window_s, self.dynamic_order + 2, dt),
+        )
+
+    def low_rate_text(self, dt: float) -> str:
+        """:meth:`Windows.text` at the period ``dt`` [s] when a window holds its minimum of samples, not its duration; else ''."""
+        windows = self.windows(dt)
+        stretched = windows.derivative_s > self.derivative_window_s or windows.strain_s > self.strain_window_s
+        return windows.text() if stretched else ""
 
     def __post_init__(self):
         if self.mode not in FILTER_MODES:
@@ -108,6 +185,11 @@ class FilterConfig:
         for name in ("joint_noise", "latency_uncertainty_s", "inertia_tolerance"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, validation.non_negative(f"filter.{name}", getattr(self, name)))
+        for name in ("derivative_min_samples", "strain_min_samples"):
+            count = validation.number(f"filter.{name}", getattr(self, name))
+            if not (count.is_integer() and count >= 3):
+                raise ConfigError(f"filter.{name}", getattr(self, name), "an integer >= 3 (samples in the window)")
+            object.__setattr__(self, name, int(count))
         if self.dynamic_order not in (3, 5):
             raise ConfigError("filter.dynamic_order", self.dynamic_order, "3 or 5 (the degree of the local polynomial)")
         object.__setattr__(self, "dynamic_order", int(self.dynamic_order))

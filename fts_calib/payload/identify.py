@@ -34,7 +34,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..core.exceptions import ConfigError, ShapeError
+from ..core.exceptions import ConfigError, PayloadError, ShapeError
+from ..filters.quasi_static import sample_period
 from ..filters.settings import PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits
@@ -42,7 +43,7 @@ from ..robot.kinematics import Kinematics
 from .estimate import MOVING, STILL, PayloadEstimate
 from .moving import fit_motion_samples
 from .samples import IDLE_TIMEOUT_S, MotionProgress, PayloadSamples, PayloadSource, payload_samples, source_samples
-from .still import MIN_SPREAD_DEG, fit_payload_still, orientation_spread
+from .still import MIN_SPREAD_DEG, STILL_UNKNOWNS, fit_payload_still, orientation_spread
 
 #: ``motion``: decide from the data, still poses, or a continuous motion.
 AUTO = "auto"
@@ -156,17 +157,42 @@ def identify_payload(
     samples, names, where, live = source_samples(source, kin, settings, n_channels, seconds, idle_timeout_s, on_listening, on_progress)
     read = payload_samples(samples, names, where, kin, calibration, settings, limits)
     kind, why = decide_motion(read, min_spread_deg) if motion == AUTO else (motion, "")
-    if kind == STILL:
-        still = read.still
-        estimate = fit_payload_still(calibration.wrench(still.samples.channels), still.g_sensor, mount, min_spread_deg)
-    elif mount:
+    if mount and kind == MOVING:
         message = f"a mount rotation is estimated from still poses, but {why}: leave out the mount, or force still poses"
         raise ConfigError("mount", True, "still poses", message=message)
-    else:
-        start = (0.0 if live else settings.live.latency_s) if latency_s is None else latency_s
-        estimate = fit_motion_samples(read.checked, kin, calibration, read.derivative_window_s, start, where=where)
+    try:
+        if kind == STILL:
+            still = read.still
+            estimate = fit_payload_still(calibration.wrench(still.samples.channels), still.g_sensor, mount, min_spread_deg)
+        else:
+            start = (0.0 if live else settings.live.latency_s) if latency_s is None else latency_s
+            estimate = fit_motion_samples(read.checked, kin, calibration, read.derivative_window_s, start, where=where)
+    except PayloadError as exc:
+        raise _too_few_still(exc, read, settings, kind, motion == AUTO) from None
     gravity = float(np.linalg.norm(kin.g_world()))  # the robot model's: the one the estimate used
     return _with_source(estimate, gravity, read, why)
+
+
+def _too_few_still(exc: PayloadError, read: PayloadSamples, settings: PipelineConfig, kind: str, auto: bool) -> PayloadError:
+    """``exc``, with the rate and the filter's windows named when too few samples were still for a still fit.
+
+    A stop shorter than the still rules' span at the recording's rate (1.0 s at 10 Hz:
+    :meth:`fts_calib.filters.settings.FilterConfig.windows`) has no still sample; the message then says so,
+    whichever fit failed for want of samples (a continuous motion decided for want of still ones, at a
+    rate where a window holds its minimum of samples rather than its duration).
+    """
+    kept = int(np.count_nonzero(read.still.keep))
+    if (kind != STILL and not auto) or kept >= STILL_UNKNOWNS or (read.still.still is None and not len(read.checked)):
+        return exc
+    period = sample_period(read.checked.time)
+    if kind != STILL and not settings.filter.low_rate_text(period):
+        return exc  # a motion decided at a rate where the windows are their durations: the motion's own refusal says it
+    windows = settings.filter.windows(period)
+    moving = "" if kind == STILL else f"; as a continuous motion: {exc}"
+    return PayloadError(
+        f"{read.where}: {kept:,} of {len(read.checked):,} samples still, too few for a still fit of the payload's "
+        f"{STILL_UNKNOWNS} unknowns: {windows.text()}; hold each pose that long, or record at a higher rate{moving}"
+    )
 
 
 def _with_source(estimate: PayloadEstimate, gravity: float, read: PayloadSamples, decided: str) -> PayloadEstimate:

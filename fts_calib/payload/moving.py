@@ -65,7 +65,7 @@ from ..core.arrays import as_samples
 from ..core.exceptions import PayloadError, ShapeError
 from ..filters.joint_rates import MISSING_PERIODS, half_window, joint_rates, smoothed_like_acceleration
 from ..filters.latency import latency_regression, latency_sums, wrench_rate
-from ..filters.quasi_static import PERIOD_SAMPLES, sample_period
+from ..filters.quasi_static import sample_period
 from ..model.calibration import Calibration
 from ..robot import inertial
 from ..robot.kinematics import Kinematics
@@ -440,7 +440,7 @@ def fit_motion_samples(
     if len(samples) < 3:
         raise PayloadError(f"{where}: {len(samples)} usable rows, too few for a motion")
     time = samples.time
-    dt = sample_period(time) if len(time) > PERIOD_SAMPLES else float(np.median(np.diff(time)))
+    dt = sample_period(time)
     wrench, smooth = smoothed_like_acceleration(time, calibration.wrench(samples.channels), window_s, dt)
     left_out = _gaps_left_out(time, smooth, window_s, dt)
     if left_out and int(smooth.sum()) < _UNKNOWNS:

@@ -43,7 +43,7 @@ import numpy as np
 from ..core import arrays as validation
 from ..core.exceptions import PayloadError
 from ..filters.chain import filter_chain
-from ..filters.quasi_static import StillSamples
+from ..filters.quasi_static import StillSamples, sample_period
 from ..filters.settings import QUASI_STATIC, PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits, detect_limits
@@ -73,7 +73,8 @@ class PayloadSamples:
         limits: The channels' resolution and rails (declared, or detected in the samples).
         rails: One line per channel whose samples were refused at its rail.
         where: Where they come from, for the messages (a path, ``udp://HOST:PORT``).
-        derivative_window_s: The chain's joint-rate window [s]: a motion's rates are the ones the filter judges.
+        derivative_window_s: The chain's joint-rate window for a motion at the samples' period [s] (the filter's duration,
+            at least 3 samples: :meth:`fts_calib.filters.chain.FilterChain.motion_window`).
     """
 
     checked: SampleBatch
@@ -126,7 +127,8 @@ def payload_samples(
     # a NaN, a railed channel or a row out of order never poisons a window; the payload is unknown: no tool
     step = chain.samples(samples, None, final=True)
     rails = () if chain.checks.rails is None else tuple(chain.checks.rails.lines(held or ["payload"]))
-    return PayloadSamples(step.checked, step.still, rows, found, rails, where, chain.derivative_window_s)
+    window = chain.motion_window(sample_period(step.checked.time))
+    return PayloadSamples(step.checked, step.still, rows, found, rails, where, window)
 
 
 def read_payload(

@@ -37,6 +37,8 @@ from .estimate import STILL, PayloadEstimate
 _SAME_POSE_DEG = 5.0  # gravity directions closer than this are one orientation
 #: Smallest RMS spread of the gravity directions along each of two axes [deg] (``--min-spread``).
 MIN_SPREAD_DEG = 3.0
+#: Unknowns of a still fit: mass, centre of mass (3) and offsets (6); a fit needs at least that many samples.
+STILL_UNKNOWNS = 10
 _MAX_CONDITION = 1e8  # scaled normal matrix above this: the payload is not determined
 
 
@@ -145,8 +147,9 @@ def fit_payload_still(w_measured, g_sensor, mount: bool = False, min_spread_deg:
         min_spread_deg: Smallest RMS spread of the gravity directions along each of two axes [deg].
 
     Raises:
-        PayloadError: Gravity directions along one direction or one axis, or a fit too
-            poorly conditioned; the message names what is missing.
+        PayloadError: Fewer samples than :data:`STILL_UNKNOWNS` (with ``mount``, 3 more), gravity
+            directions along one direction or one axis, or a fit too poorly conditioned; the
+            message names what is missing.
         ShapeError: Wrong shapes.
     """
     W, _ = as_samples(w_measured, 6, "w_measured")
@@ -155,6 +158,12 @@ def fit_payload_still(w_measured, g_sensor, mount: bool = False, min_spread_deg:
         raise ShapeError(f"w_measured has {len(W)} rows but g_sensor has {len(g)}: expected the same N")
     ok = np.all(np.isfinite(W), axis=1) & np.all(np.isfinite(g), axis=1)
     W, g = W[ok], g[ok]
+    unknowns = STILL_UNKNOWNS + (3 if mount else 0)
+    if len(W) < unknowns:  # none at all would be a mean of nothing and an eigen-decomposition of NaN
+        raise PayloadError(
+            f"{len(W)} still samples, but the payload and offsets are {unknowns} unknowns (each sample gives 6 "
+            "equations, and the orientations must differ): record the payload held still in several orientations"
+        )
     _, poses = group_orientations(g)
     spread = _check_orientations(g, poses, min_spread_deg)
     A = _design(g)

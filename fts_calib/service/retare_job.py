@@ -43,7 +43,7 @@ import numpy as np
 from ..core import arrays as validation
 from ..core.exceptions import ConfigError, InsufficientExcitation, ResultRefused
 from ..filters.chain import FilterChain, filter_chain
-from ..filters.quasi_static import RULES, StillSamples
+from ..filters.quasi_static import RULES, StillSamples, sample_period
 from ..filters.settings import QUASI_STATIC, PipelineConfig
 from ..model.calibration import Calibration
 from ..model.channel_limits import ChannelLimits, detect_limits
@@ -161,10 +161,11 @@ def check_window(calibration: Calibration, window: _Window) -> np.ndarray:
     rejected = {} if filter_ is None else filter_.rejected
     if share < MIN_STILL_FRACTION:
         counts = ", ".join(f"{rule}: {rejected[rule]:,}" for rule in RULES[:3] if rejected.get(rule))
+        windows = "" if filter_ is None else f"; {filter_.settings.windows(sample_period(window.checked.time)).text()}"
         raise ResultRefused(
             f"refused to re-tare (nothing written): the window is not still: {100 * share:.0f} % of its {len(still):,} samples "
             f"pass the quasi-static rules (rejected by {counts or 'none'}), at least {100 * MIN_STILL_FRACTION:.0f} % must: "
-            "record a few seconds with the arm at rest (a calibration recording is no tare window)"
+            f"record a few seconds with the arm at rest (a calibration recording is no tare window){windows}"
         )
     noise_floor = window.chain.noise_floor
     floor = np.zeros(calibration.layout.n_channels) if noise_floor is None else noise_floor

@@ -344,7 +344,7 @@ def expected_wrench(
         codes: Configuration index of each sample, shape (N,).
         dt: The stream's sample period [s], for the joint-rate estimates.
         dynamic: Newton-Euler wrench of the moving tool (True) or its weight alone (False).
-        window_s: The joint-rate window [s]: the filter chain's (:attr:`fts_calib.filters.chain.FilterChain.derivative_window_s`),
+        window_s: The joint-rate window [s]: the filter chain's at ``dt`` (:meth:`fts_calib.filters.chain.FilterChain.motion_window`),
             so that the expected wrench sees the rates the filter sees.
 
     Returns:
@@ -402,7 +402,7 @@ def validate_recording(
     if max_abs_channel is not None:
         settings = dataclasses.replace(settings, checks=dataclasses.replace(settings.checks, max_abs_channel=max_abs_channel))
     chain = filter_chain(settings, kin, NO_FILTER, calibrations[0].layout)
-    window_s = chain.derivative_window_s
+    window_s = chain.motion_window(0.0)
     errors = [_Errors() for _ in calibrations]
     splits = [None if cal.region is None else _RegionSplit(cal.region) for cal in calibrations]
     between = _Errors()
@@ -449,6 +449,7 @@ def validate_recording(
             new = (t[forward], q[forward], s[forward], k[forward], T[forward])
             if dt == 0.0 and len(new[0]) > PERIOD_SAMPLES:
                 dt = sample_period(new[0])
+                window_s = chain.motion_window(dt)
                 half = half_window(window_s, dt)
             rows = join(context, waiting, new)
             first = 0 if context is None else len(context[0])

@@ -693,7 +693,9 @@ def without_stops(session: CalibrationSession) -> str:
         return ""
     starts = 1 + int(np.count_nonzero((np.diff(codes) != 0) | (np.diff(time) > UNIT_GAP_S))) if kept else 0
     per_configuration = starts / max(len(np.unique(codes)), 1)
-    return moving_words(still.rejected, session.seen, kept, per_configuration)
+    low_rate = still.settings.low_rate_text(still.dt)  # its stops may be shorter than the windows at its rate
+    words = moving_words(still.rejected, session.seen, kept, per_configuration)
+    return f"{words} ({low_rate})" if words and low_rate else words
 
 
 def strains_unexplained(session: CalibrationSession) -> bool:

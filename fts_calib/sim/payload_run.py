@@ -17,9 +17,40 @@ from ..robot.kinematics import Kinematics
 from ..robot.tool import ToolConfiguration
 from ..sources.recording import RecordingWriter
 from .drift import OffsetDrift
+from .runs import joint_readings
 from .sensor import SimulatedSensor
 
-ENCODER_STEP = 2 * np.pi / 2**20  # [rad] a 20-bit encoder's step
+
+def still_poses_motion(targets, hold_s: float, move_s: float, rate_hz: float = 1000.0):
+    """A motion that holds each target still ``hold_s``, then moves to the next in ``move_s`` (a quintic, rest to rest).
+
+    For :func:`simulate_payload_motion`: still poses joined by moves, as a user records a payload
+    or a tare window (the arm at rest, then the next orientation).
+
+    Args:
+        targets: The joint positions held [rad], shape (P, n_joints).
+        hold_s: Time at each target [s].
+        move_s: Time of each move [s].
+        rate_hz: Sample rate [Hz].
+
+    Returns:
+        ``(time (N,), q, qd, qdd (N, n_joints))`` in [s, rad, rad/s, rad/s^2], time from 0.
+    """
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    n_hold, n_move = int(round(hold_s * rate_hz)), int(round(move_s * rate_hz))
+    s = np.arange(n_move) / max(n_move, 1)
+    position = 10 * s**3 - 15 * s**4 + 6 * s**5
+    velocity = (30 * s**2 - 60 * s**3 + 30 * s**4) / move_s
+    acceleration = (60 * s - 180 * s**2 + 120 * s**3) / move_s**2
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    zeros = np.zeros((n_hold, targets.shape[1]))
+    for k, target in enumerate(targets):
+        parts.append((np.tile(target, (n_hold, 1)), zeros, zeros))
+        if k + 1 < len(targets):
+            step = targets[k + 1] - target
+            parts.append((target + np.outer(position, step), np.outer(velocity, step), np.outer(acceleration, step)))
+    q, qd, qdd = (np.concatenate([part[i] for part in parts]) for i in range(3))
+    return np.arange(len(q)) / rate_hz, q, qd, qdd
 
 
 def simulate_payload_motion(
@@ -59,9 +90,7 @@ def simulate_payload_motion(
     wrench = payload.dynamic_wrench(g, state.omega, state.alpha, state.a)
     if drift is not None:
         wrench = wrench - drift.offsets(time - time[0], 0)  # the sensor reads W - delta D: its offsets moved
-    readings = np.stack([np.interp(time - latency_s, time, q[:, k]) for k in range(q.shape[1])], axis=1)
-    if rng is not None:
-        readings = np.round((readings + joint_noise * rng.standard_normal(readings.shape)) / ENCODER_STEP) * ENCODER_STEP
+    readings = joint_readings(time, q, latency_s, joint_noise, rng)
     with RecordingWriter(path, kin.joint_names, sensor.layout.n_channels) as writer:
         writer.write(time, readings, sensor.channels(wrench, time=time, rng=rng), payload.name)
     return Path(path)
