@@ -160,15 +160,21 @@ def unit_errors(tool: Tool, matrices: Sequence[np.ndarray], mount_rotation: floa
     changes: list[np.ndarray] = []
     tolerance = tool.tolerance
     masses = [float(M[0, 0]) for M in matrices]
-    if tolerance is not None and tolerance.mass > 0 and min(masses) > 0:  # one mass error, every configuration
-        changes.append(np.stack([M / m for M, m in zip(matrices, masses, strict=True)]))
-        sigmas.append(tolerance.mass / math.sqrt(3.0))
-    for axis in range(3):
-        if tolerance is not None and tolerance.com > 0:  # one centre-of-mass error, every configuration
-            change = np.zeros((k, 6, 3))
-            change[:, 3:] = np.multiply.outer(masses, _cross(axis))
+    own = np.eye(k)[:, :, None, None]  # configuration c's change alone, (k, k, 1, 1)
+
+    def add(common: float, each: float, change: np.ndarray) -> None:  # one error for every configuration, then one each
+        if common > 0:
             changes.append(change)
-            sigmas.append(tolerance.com / math.sqrt(3.0))
+            sigmas.append(common / math.sqrt(3.0))
+        if each > 0:
+            changes.extend(own * change[None])
+            sigmas.extend([each / math.sqrt(3.0)] * k)
+
+    if tolerance is not None and min(masses) > 0:
+        add(tolerance.mass, tolerance.configuration_mass, np.stack([M / m for M, m in zip(matrices, masses, strict=True)]))
+    for axis in range(3):
+        if tolerance is not None:
+            add(tolerance.com, tolerance.configuration_com, np.stack([np.vstack([np.zeros((3, 3)), m * _cross(axis)]) for m in masses]))
         if mount_rotation > 0:  # one mount rotation, every configuration
             changes.append(np.stack([M @ _cross(axis) for M in matrices]))
             sigmas.append(mount_rotation / math.sqrt(3.0))
