@@ -117,25 +117,32 @@ class FitAllowance:
         n_joints: Joints whose readings place the sensor.
         floor: Absolute floor of the residual RMS per axis, [N, N, N, N m, N m, N m], shape (6,):
             below it a residual never refuses; None for none.
+        repeatability: The sensor's scatter from one still pose to another per axis (the sensor
+            file's ``repeatability``), [N, N, N, N m, N m, N m], shape (6,); None for none.
     """
 
     mount_rotation: float = 0.0
     encoder_resolution: float = 0.0
     n_joints: int = 0
     floor: np.ndarray | None = None
+    repeatability: np.ndarray | None = None
 
 
-def robot_allowance(accuracy: RobotAccuracy, n_joints: int, full_scale, floor_percent: float = DEFAULT_FLOOR_PERCENT) -> FitAllowance:
-    """The allowance of a robot file's accuracy and a sensor's full scale.
+def robot_allowance(
+    accuracy: RobotAccuracy, n_joints: int, full_scale, floor_percent: float = DEFAULT_FLOOR_PERCENT, repeatability=None
+) -> FitAllowance:
+    """The allowance of a robot file's accuracy and a sensor's full scale and repeatability.
 
     Args:
         accuracy: The robot file's ``accuracy`` (mount tolerance [rad], encoder step [rad]).
         n_joints: Joints of the robot.
         full_scale: Full scale per axis [N, N, N, N m, N m, N m], shape (6,).
         floor_percent: The setting ``fit.floor``, in % of each axis's full scale.
+        repeatability: The sensor file's ``repeatability`` per axis [N, N m], shape (6,), or None.
     """
     floor = np.asarray(full_scale, dtype=float).reshape(6) * floor_percent / 100.0
-    return FitAllowance(accuracy.mount_rotation, accuracy.encoder_resolution, int(n_joints), floor)
+    scatter = None if repeatability is None else np.asarray(repeatability, dtype=float).reshape(6)
+    return FitAllowance(accuracy.mount_rotation, accuracy.encoder_resolution, int(n_joints), floor, scatter)
 
 
 def _cross(axis: int) -> np.ndarray:
@@ -245,6 +252,8 @@ def tolerance_residual(
         angle = allowance.encoder_resolution * math.sqrt(allowance.n_joints / 12.0)
         rows = np.linalg.norm(np.stack([np.asarray(M, dtype=float) for M in matrices]), axis=2)  # |row_j M_c|, (k, 6)
         variance = variance + (rows * tool.gravity * angle) ** 2
+    if allowance.repeatability is not None:  # a sensor that does not repeat: a new offset at every pose, little of it absorbed
+        variance = variance + allowance.repeatability**2
     seen = counts > 0
     return np.sqrt(variance[seen].max(axis=0)) if seen.any() else np.zeros(6)
 
