@@ -117,6 +117,11 @@ class KeptSamples:
     def __len__(self) -> int:
         return sum(len(part[0]) for part in self._parts)
 
+    def samples_per_stop(self, gap_s: float = STOP_GAP_S) -> float:
+        """Kept samples per still stretch (a gap longer than ``gap_s`` [s] or a tool change starts one); 1 when none is kept."""
+        time, _, _, codes, _ = self.arrays()
+        return len(time) / (int(stops(time, codes, gap_s)[-1]) + 1) if len(time) else 1.0
+
     def arrays(self) -> tuple[np.ndarray, ...]:
         """``(time, w_sensor, channels, configuration, joints)``, every batch in order."""
         if not self._parts:
@@ -155,8 +160,9 @@ def measured_budget(
         accuracy: Encoders, timing and mount; the robot definition's when None (the dynamic mode
             gives the latency it fitted and applied, :meth:`fts_calib.filters.dynamic.DynamicFilter.budget_accuracy`).
         repeatability: The sensor's scatter from one still pose to another per axis [N, N m], shape (6,), or None:
-            the term :data:`fts_calib.budget.propagation.REPEATABILITY`, a new offset at every stop through the
-            least squares and the reading's own scatter, in quadrature; it is not model error.
+            the term :data:`fts_calib.budget.propagation.REPEATABILITY`, in quadrature a new offset at every stop
+            through the least squares, the bias it gives the fit (:func:`attenuation`) and the reading's own
+            scatter; it is not model error.
     """
     time, _, channels, codes, joints = kept.arrays()
     stride = max(1, int(math.ceil(len(time) / _MAX_BUDGET_SAMPLES)))  # bounded memory: white terms weigh the rest
@@ -190,11 +196,41 @@ def measured_budget(
     terms, random = dict(budget.terms), np.asarray(sigma_w, dtype=float)
     if repeatability is not None:  # the fitted C and D are off by what the stops' offsets leave, and every reading by its own
         scatter = np.asarray(repeatability, dtype=float).reshape(6)
-        terms[REPEATABILITY] = np.hypot(terms[REPEATABILITY], scatter)
+        bias = attenuation(calibration.C_bar, calibration.D, x, scatter, full_scale)
+        terms[REPEATABILITY] = np.sqrt(terms[REPEATABILITY] ** 2 + bias**2 + scatter**2)
         random = np.hypot(random, scatter)
     if residual_rms is not None:
         terms[MODEL_ERROR] = model_error(residual_rms, random, full_scale)
     return AccuracyBudget(terms, budget.full_scale, budget.coverage, budget.kind)
+
+
+def attenuation(C_bar, D, x: np.ndarray, repeatability, full_scale) -> np.ndarray:
+    r"""The bias of the fit from a scatter in the readings it regresses on, over the range, per axis [N, N m]. Shape (6,).
+
+    The offsets of a sensor that does not repeat are in the regressors ``x`` (the readings), not in the
+    known loads: least squares then shrinks the fitted map toward zero (regression dilution),
+    ``E[dTheta] = -Theta Sigma_d (x^T x / N)^{-1}`` with ``Sigma_d`` the covariance of the readings'
+    error, ``C_bar^{-1} diag(repeatability^2) C_bar^{-T}`` (the constant column has none), and
+    ``Theta = [C_bar, D]``: a systematic error of the calibration, ``sqrt(dTheta_j M dTheta_j^T)`` over
+    the full-scale box (:func:`fts_calib.budget.propagation.range_moments`). It grows as the loads
+    spread less along an axis than the scatter (a tool of one mass: the forces' magnitude).
+
+    Args:
+        C_bar: Modified calibration matrix, shape (6, 6).
+        D: Offsets [N, N m], shape (6,).
+        x: Regressors of the samples as measured, ``[P Delta; 1]``, shape (N, 7).
+        repeatability: Per axis [N, N, N, N m, N m, N m], shape (6,).
+        full_scale: Full scale per axis, same units, shape (6,).
+    """
+    C_bar, D = np.asarray(C_bar, dtype=float), np.asarray(D, dtype=float)
+    inverse = np.linalg.inv(C_bar)
+    sigma = np.zeros((7, 7))
+    sigma[:6, :6] = inverse @ np.diag(np.asarray(repeatability, dtype=float) ** 2) @ inverse.T
+    theta = np.hstack([C_bar, D[:, None]])
+    S = np.asarray(x, dtype=float).T @ np.asarray(x, dtype=float) / max(len(x), 1)
+    change = -theta @ sigma @ np.linalg.pinv(S, hermitian=True)
+    M = range_moments(C_bar, D, full_scale)
+    return np.sqrt(np.maximum(np.einsum("jk,kl,jl->j", change, M, change), 0.0))
 
 
 def repeatability_source(repeatability, stop: np.ndarray) -> ErrorSource:

@@ -630,21 +630,21 @@ class Repeatability:
     Attributes:
         within: The noise within a still pose (the residual's standard deviation about the pose's mean). Shape (6,).
         between: The scatter between poses (the standard deviation of the poses' mean residuals). Shape (6,).
-        random_share: What a function of gravity linear per configuration leaves of the pose means' scatter
-            (1: none explained, as for a random offset per pose; near 0: a smooth error such as a tool file's).
+        random_share: Per axis, what a function of gravity linear per configuration leaves of the pose means'
+            scatter, degrees of freedom counted (1: none explained, as for a random offset per pose; near 0: a
+            smooth error such as a tool file's). Shape (6,).
         poses: Still poses counted.
     """
 
     within: np.ndarray
     between: np.ndarray
-    random_share: float
+    random_share: np.ndarray
     poses: int
 
     def shown(self) -> bool:
-        """The data show a sensor that does not repeat: the pose means scatter beyond the noise, at random."""
-        noise_of_means = self.within / math.sqrt(POSE_SAMPLES)
-        beyond = bool(np.any(self.between > SCATTER_BEYOND_NOISE * np.maximum(noise_of_means, 1e-300)))
-        return beyond and self.random_share >= RANDOM_SHARE
+        """The data show a sensor that does not repeat: the pose means scatter beyond the noise, at random, on every axis they do."""
+        beyond = self.between > SCATTER_BEYOND_NOISE * np.maximum(self.within / math.sqrt(POSE_SAMPLES), 1e-300)
+        return bool(beyond.any() and np.all(self.random_share[beyond] >= RANDOM_SHARE))
 
     def words(self) -> str:
         """The two figures, forces and moments, e.g. 'within a still pose 0.021 N and 0.0013 N·m, between poses 1.5 N and ...'."""
@@ -690,7 +690,7 @@ def pose_scatter(time, W, channels, codes, layout: ChannelLayout, per_configurat
     gravity = np.zeros((len(counts), 3))
     np.add.at(gravity, pose, W[:, :3])
     gravity /= np.maximum(counts, 1)[:, None]
-    left, dof, total = 0.0, 0, 0.0
+    left, total, dof = np.zeros(6), np.zeros(6), 0
     for c in np.unique(pose_code[full]):
         mine = full & (pose_code == c)
         if mine.sum() < CONFIGURATION_POSES:
@@ -698,14 +698,14 @@ def pose_scatter(time, W, channels, codes, layout: ChannelLayout, per_configurat
         A = np.hstack([gravity[mine], np.ones((int(mine.sum()), 1))])
         A = A / np.maximum(np.linalg.norm(A, axis=0), 1e-300)
         fitted = A @ np.linalg.lstsq(A, means[mine], rcond=None)[0]
-        left += float(np.sum(((means[mine] - fitted) / np.maximum(means[full].std(axis=0), 1e-300)) ** 2))
-        total += float(np.sum((means[mine] / np.maximum(means[full].std(axis=0), 1e-300)) ** 2))
+        left += np.sum((means[mine] - fitted) ** 2, axis=0)
+        total += np.sum(means[mine] ** 2, axis=0)
         dof += int(mine.sum()) - A.shape[1]
-    if dof <= 0 or total <= 0:
+    if dof <= 0 or not np.all(total > 0):
         return None
-    share = math.sqrt(left / dof) / math.sqrt(total / int(full.sum()))
+    share = np.sqrt(left / dof) / np.sqrt(total / int(full.sum()))  # per axis
     between = np.sqrt(np.mean(means[full] ** 2, axis=0))
-    return Repeatability(within, between, min(share, 1.0), int(full.sum()))
+    return Repeatability(within, between, np.minimum(share, 1.0), int(full.sum()))
 
 
 def nonrepeating(session: Diagnosed, per_configuration: bool) -> Cause | None:

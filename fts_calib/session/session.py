@@ -437,6 +437,8 @@ class CalibrationSession:
                 leave a direction undetermined, as a wrong tool file or joint unit can).
         """
         self._flush_staged()
+        if self.settings.repeatability is not None:  # the samples of a still pose share its offset: the offsets' BIC counts poses
+            self.estimator.samples_per_draw = self.kept_samples.samples_per_stop()
         try:
             calibration = self.estimator.solve(configurations=self.tool.names, at=self._last, prior=prior)
         except InsufficientExcitation as exc:  # a wrong tool file or joint unit, not a short sweep: the fit names it
