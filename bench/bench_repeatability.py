@@ -39,7 +39,10 @@ def main() -> None:
     _, full_scale = case.sensor()
     declared = PipelineConfig().with_repeatability(case.SCATTER)
     start = time.perf_counter()
-    print("seed  before: ratio  within N, N·m    between N, N·m   after: ratio verdict     offsets   unseen RMS N, N·m  budget N, N·m  stops within")
+    print(
+        "seed  before: ratio  within N, N·m    between N, N·m   after: ratio verdict     offsets   "
+        "unseen RMS N, N·m  budget N, N·m  stops within"
+    )
     with tempfile.TemporaryDirectory() as folder:
         for seed in range(args.seeds):
             recording, held = case.record(Path(folder), seed)

@@ -71,8 +71,14 @@ def draw_fit(kin, tool, samples, rng, which):
     com = np.array([c.p_sensor_com for c in tool.configurations])[codes]
     k = len(tool.configurations)  # a common error, and one of each configuration's own
     own_mass, own_com = TOLERANCE.configuration_mass, TOLERANCE.configuration_com
-    true_mass = mass + (rng.uniform(-TOLERANCE.mass, TOLERANCE.mass) + rng.uniform(-own_mass, own_mass, k)[codes] if "tool mass" in which else 0.0)
-    true_com = com + (rng.uniform(-TOLERANCE.com, TOLERANCE.com, 3) + rng.uniform(-own_com, own_com, (k, 3))[codes] if "tool centre of mass" in which else 0.0)
+    true_mass = mass + (
+        rng.uniform(-TOLERANCE.mass, TOLERANCE.mass) + rng.uniform(-own_mass, own_mass, k)[codes] if "tool mass" in which else 0.0
+    )
+    true_com = com + (
+        rng.uniform(-TOLERANCE.com, TOLERANCE.com, 3) + rng.uniform(-own_com, own_com, (k, 3))[codes]
+        if "tool centre of mass" in which
+        else 0.0
+    )
     g_true = kin.g_sensor(joints, tool.gravity)
     if "sensor mount" in which:  # the real sensor frame is turned by phi: gravity in it turns by -phi
         g_true = rotate(g_true, -rng.uniform(-ACCURACY.mount_rotation, ACCURACY.mount_rotation, 3))

@@ -17,7 +17,10 @@ from fts_calib.session.calibration_run import calibrate_recording
 
 from . import repeatability_case as case
 
-FIGURE = r"within a still pose its noise is ([0-9.e-]+) N and [0-9.e-]+ N·m, between poses its readings scatter by ([0-9.e-]+) N and ([0-9.e-]+) N·m"
+FIGURE = (
+    r"within a still pose its noise is ([0-9.e-]+) N and [0-9.e-]+ N·m, "
+    r"between poses its readings scatter by ([0-9.e-]+) N and ([0-9.e-]+) N·m"
+)
 
 
 def test_the_sensor_file_declares_its_repeatability(tmp_path):

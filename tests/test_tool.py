@@ -131,7 +131,9 @@ def test_a_tolerance_per_configuration_is_read_and_the_old_form_is_the_conservat
     tool = load_tool(_tool(tmp_path, configs, tolerance=stated))
     assert tool.tolerance == ToolTolerance(mass=1e-5, com=1e-4, own_mass=0.0, own_com=5e-4)  # a part left out is 0
     assert load_tool(save_tool(tool, tmp_path / "saved.yaml")).tolerance == tool.tolerance
-    assert load_tool(save_tool(load_tool(_tool(tmp_path, configs, tolerance={"mass": 1e-5})), tmp_path / "o.yaml")).tolerance == ToolTolerance(1e-5)
+    assert load_tool(
+        save_tool(load_tool(_tool(tmp_path, configs, tolerance={"mass": 1e-5})), tmp_path / "o.yaml")
+    ).tolerance == ToolTolerance(1e-5)
     bad = {"mass": 1e-5, "per_configuration": {"com": -1e-4}}
     with pytest.raises(FileFormatError, match=r"field 'tolerance.per_configuration.com': is -0.0001 m but expected a finite value >= 0"):
         load_tool(_tool(tmp_path, configs, tolerance=bad))

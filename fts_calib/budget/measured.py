@@ -328,7 +328,15 @@ def with_measured_budget(
     residual = np.asarray(chosen[0]["heldout_rms"]) if chosen else quality.residual_rms  # held out when chosen so
     prior_weight = None if quality.prior is None else float(quality.prior["weight"])
     budget = measured_budget(
-        kin, tool, kept, calibration, sigma_w, full_scale, residual_rms=residual, prior_weight=prior_weight, accuracy=accuracy,
+        kin,
+        tool,
+        kept,
+        calibration,
+        sigma_w,
+        full_scale,
+        residual_rms=residual,
+        prior_weight=prior_weight,
+        accuracy=accuracy,
         repeatability=repeatability,
     )
     record = budget.to_dict()

@@ -131,10 +131,13 @@ def load_error_sources(
         com = np.zeros((n, 6, 3))
         com[:, 3:, :] = -mass[:, None, None] * g_cross
         tolerance = tool.tolerance
-        for groups, bound_mass, bound_com in ((common, tolerance.mass, tolerance.com), (codes, tolerance.configuration_mass, tolerance.configuration_com)):
+        for draws, bound_mass, bound_com in (
+            (common, tolerance.mass, tolerance.com),
+            (codes, tolerance.configuration_mass, tolerance.configuration_com),
+        ):
             sources += [  # one draw for every configuration, then one per configuration (its own)
-                ErrorSource("tool mass", (W / mass[:, None])[:, :, None], np.array([[bound_mass**2 / 3.0]]), groups),
-                ErrorSource("tool centre of mass", com, np.eye(3) * bound_com**2 / 3.0, groups),
+                ErrorSource("tool mass", (W / mass[:, None])[:, :, None], np.array([[bound_mass**2 / 3.0]]), draws),
+                ErrorSource("tool centre of mass", com, np.eye(3) * bound_com**2 / 3.0, draws),
             ]
     sources.append(ErrorSource("sensor mount", -matrices @ g_cross, np.eye(3) * accuracy.mount_rotation**2 / 3.0, common))
     dg_dq = gravity_jacobian(kin, joints, g)

@@ -31,7 +31,8 @@ collision checks, a cylinder along X of S from the sensor out (default: around t
 centres of mass), and optional ``tolerance`` ``{mass [kg], com [m], per_configuration: {mass
 [kg], com [m]}}``: how well the tool is known, for the accuracy budget and the fit check
 (:class:`ToolTolerance`: a part common to every configuration and one of each configuration's own;
-without ``per_configuration`` each configuration's own part is bounded like the common one). Any other key (a typo such as ``mas``) is refused with the known keys.
+without ``per_configuration`` each configuration's own part is bounded like the common one).
+Any other key (a typo such as ``mas``) is refused with the known keys.
 
 One quantity, two spellings, one rule: a file's keys are short because a tool file is in S
 throughout (``com``, ``inertia``); in code the frame is in the name, as everywhere in
@@ -325,7 +326,10 @@ class Tool:
             lightest = min(self.configurations, key=lambda c: c.mass)
             farthest = max(float(np.linalg.norm(c.p_sensor_com)) for c in self.configurations)
             tolerance = self.tolerance
-            for key, mass, com in (("tolerance.", tolerance.mass, tolerance.com), ("tolerance.per_configuration.", tolerance.own_mass, tolerance.own_com)):
+            for key, mass, com in (
+                ("tolerance.", tolerance.mass, tolerance.com),
+                ("tolerance.per_configuration.", tolerance.own_mass, tolerance.own_com),
+            ):
                 if mass is not None and mass >= lightest.mass:
                     reason = (
                         f"is {mass:g} kg, not below the mass of configuration {lightest.name} ({lightest.mass:g} kg): "

@@ -455,7 +455,16 @@ class CalibrationSession:
         accuracy = self.filter.budget_accuracy(self.kin) if isinstance(self.filter, DynamicFilter) else None  # the latency it fitted
         kept, n_kept = self.kept_samples, int(self.kept.sum())
         calibration, self.budget, self.latency = with_measured_budget(
-            calibration, self.kin, self.tool, kept, n_kept, noise_floor, self._moving, self.full_scale, accuracy, self.settings.repeatability
+            calibration,
+            self.kin,
+            self.tool,
+            kept,
+            n_kept,
+            noise_floor,
+            self._moving,
+            self.full_scale,
+            accuracy,
+            self.settings.repeatability,
         )
         return with_health(self, calibration, noise_floor)
 
