@@ -73,3 +73,48 @@ def test_a_wrong_tool_file_on_a_sensor_that_repeats_is_not_called_a_sensor_that_
     result = calibrate_recording(ur5_recording, ur5, dataclasses.replace(paper_tool, configurations=moved))
     assert isinstance(result.error, PoorFit), result.error
     assert "does not repeat" not in result.error.check.diagnosis, result.error.check.diagnosis
+
+
+def _visited_twice(rng, reading):
+    """Still poses of 3 configurations, 20 orientations each visited twice, 5 samples a pose: (time, W, channels, codes)."""
+    coms = np.array([[0.08, 0.0, 0.0], [0.05, 0.06, 0.0], [0.05, 0.0, 0.06]])
+    time, W, codes = [], [], []
+    for c, com in enumerate(coms):
+        g = rng.normal(size=(20, 3))
+        g = 9.81 * g / np.linalg.norm(g, axis=1, keepdims=True)
+        for visit in range(2):
+            for k, gk in enumerate(g):
+                start = 100.0 * (2 * c + visit) + k
+                time.append(start + 0.01 * np.arange(5))
+                W.append(np.tile(np.concatenate([1.2 * gk, np.cross(com, 1.2 * gk)]), (5, 1)))
+                codes.append(np.full(5, c))
+    time, W, codes = np.concatenate(time), np.vstack(W), np.concatenate(codes)
+    return time, W, reading(W, time) + rng.normal(size=W.shape) * [0.02, 0.02, 0.02, 0.001, 0.001, 0.001], codes
+
+
+def test_an_orientation_visited_twice_tells_a_sensor_that_does_not_repeat_from_a_bend(rng):
+    """A new offset at every visit reads a revisited orientation differently; a bend no quadratic follows reads it alike."""
+    from fts_calib.model.channels import WRENCH_6
+    from fts_calib.session.diagnosis import pose_scatter
+
+    scatter = np.array([1.0, 1.0, 1.0, 0.05, 0.05, 0.05])
+    offsets = rng.normal(size=(2000, 6)) * scatter
+
+    def drawn(W, time):  # a new offset at every still pose: the time's whole second numbers the poses
+        return W + offsets[np.floor(time).astype(int)]
+
+    def bent(W, time):  # odd on every axis: 1 N at 10 N, 0.1 N m at 1 N m, about the drawn scatter
+        scale = np.array([10.0, 10.0, 10.0, 1.0, 1.0, 1.0])
+        return W + 0.1 * scale * np.abs(W / scale) * (W / scale)
+
+    time, W, channels, codes = _visited_twice(rng, drawn)
+    found = pose_scatter(time, W, channels, codes, WRENCH_6, False)
+    assert found is not None and found.shown() and found.revisited is not None
+    np.testing.assert_allclose(found.revisited, found.between, rtol=0.35)  # both the drawn scatter
+    np.testing.assert_allclose(found.between, scatter, rtol=0.35)
+    time, W, channels, codes = _visited_twice(rng, bent)
+    found = pose_scatter(time, W, channels, codes, WRENCH_6, False)
+    assert found is not None and not found.shown(), (found.between, found.revisited, found.random_share)
+    # the same orientation, the same bend: only the noise differs (the noise of a mean of 5 samples)
+    np.testing.assert_allclose(found.revisited, found.within / np.sqrt(5), rtol=0.35)
+    assert np.all(found.between > 3 * found.revisited)
