@@ -453,18 +453,9 @@ class CalibrationSession:
             raise PoorFit(check, calibration)
         noise_floor = None if self.filter is None else self.filter.noise_floor
         accuracy = self.filter.budget_accuracy(self.kin) if isinstance(self.filter, DynamicFilter) else None  # the latency it fitted
-        kept, n_kept = self.kept_samples, int(self.kept.sum())
+        kept, n_kept, scatter = self.kept_samples, int(self.kept.sum()), self.settings.repeatability
         calibration, self.budget, self.latency = with_measured_budget(
-            calibration,
-            self.kin,
-            self.tool,
-            kept,
-            n_kept,
-            noise_floor,
-            self._moving,
-            self.full_scale,
-            accuracy,
-            self.settings.repeatability,
+            calibration, self.kin, self.tool, kept, n_kept, noise_floor, self._moving, self.full_scale, accuracy, scatter
         )
         return with_health(self, calibration, noise_floor)
 
