@@ -162,7 +162,7 @@ def measured_budget(
         repeatability: The sensor's scatter from one still pose to another per axis [N, N m], shape (6,), or None:
             the term :data:`fts_calib.budget.propagation.REPEATABILITY`, in quadrature a new offset at every stop
             through the least squares, the bias it gives the fit (:func:`attenuation`) and the reading's own
-            scatter; it is not model error.
+            scatter; it is not model error (the residual beyond the noise and this term is).
     """
     time, _, channels, codes, joints = kept.arrays()
     stride = max(1, int(math.ceil(len(time) / _MAX_BUDGET_SAMPLES)))  # bounded memory: white terms weigh the rest
@@ -198,7 +198,7 @@ def measured_budget(
         scatter = np.asarray(repeatability, dtype=float).reshape(6)
         bias = attenuation(calibration.C_bar, calibration.D, x, scatter, full_scale)
         terms[REPEATABILITY] = np.sqrt(terms[REPEATABILITY] ** 2 + bias**2 + scatter**2)
-        random = np.hypot(random, scatter)
+        random = np.hypot(random, terms[REPEATABILITY])  # a held-out residual holds the scatter and what it costs the fit
     if residual_rms is not None:
         terms[MODEL_ERROR] = model_error(residual_rms, random, full_scale)
     return AccuracyBudget(terms, budget.full_scale, budget.coverage, budget.kind)
