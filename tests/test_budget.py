@@ -28,7 +28,7 @@ FULL_SCALE = np.array([50.0, 50.0, 50.0, 5.0, 5.0, 5.0])  # [N, N m] the paper's
 NOISE = 1e-4  # [mV/V] per bridge: ten times the shipped sensor's, so that noise shows
 # Exaggerated but still small perturbations, so that every term shows and stays linear.
 ACCURACY = RobotAccuracy(encoder_resolution=2e-4, latency_s=0.005, jitter_s=0.002, mount_rotation=1e-3)
-TOLERANCE = ToolTolerance(mass=0.01, com=5e-4)
+TOLERANCE = ToolTolerance(mass=0.01, com=5e-4, own_mass=0.005, own_com=3e-4)  # common, and each configuration's own
 RUNS = 300  # the RMS of 300 draws is within about 4 % (a uniform draw) to 6 % (one Gaussian) of its own: 20 % is >3 sigma
 RELATIVE = 0.2  # the budget's figure against the Monte Carlo spread
 
@@ -69,8 +69,16 @@ def draw_fit(kin, tool, samples, rng, which):
     read -= (lag + jitter) * rates  # the readings lag the true joints
     mass = np.array([c.mass for c in tool.configurations])[codes]
     com = np.array([c.p_sensor_com for c in tool.configurations])[codes]
-    true_mass = mass + (rng.uniform(-TOLERANCE.mass, TOLERANCE.mass) if "tool mass" in which else 0.0)
-    true_com = com + (rng.uniform(-TOLERANCE.com, TOLERANCE.com, 3) if "tool centre of mass" in which else 0.0)
+    k = len(tool.configurations)  # a common error, and one of each configuration's own
+    own_mass, own_com = TOLERANCE.configuration_mass, TOLERANCE.configuration_com
+    true_mass = mass + (
+        rng.uniform(-TOLERANCE.mass, TOLERANCE.mass) + rng.uniform(-own_mass, own_mass, k)[codes] if "tool mass" in which else 0.0
+    )
+    true_com = com + (
+        rng.uniform(-TOLERANCE.com, TOLERANCE.com, 3) + rng.uniform(-own_com, own_com, (k, 3))[codes]
+        if "tool centre of mass" in which
+        else 0.0
+    )
     g_true = kin.g_sensor(joints, tool.gravity)
     if "sensor mount" in which:  # the real sensor frame is turned by phi: gravity in it turns by -phi
         g_true = rotate(g_true, -rng.uniform(-ACCURACY.mount_rotation, ACCURACY.mount_rotation, 3))

@@ -38,13 +38,14 @@ def _residual_by_lstsq(W, strains, codes, k):
 def test_what_a_declared_error_leaves_is_its_least_squares_residual(rng, masses):
     """Each unit error's projected RSS is the residual of a fit to the wrench it changes (mount, mass, centre of mass)."""
     configurations = tuple(ToolConfiguration(n, m, c) for n, m, c in zip("ABC", masses, COMS, strict=True))
-    tool = Tool("t", 9.81, configurations, tolerance=ToolTolerance(1e-3, 1e-3))
+    tool = Tool("t", 9.81, configurations, tolerance=ToolTolerance(1e-3, 1e-3))  # no per_configuration: both parts
     matrices = [c.wrench_matrix for c in tool.configurations]
     g = [random_gravity(200, rng) for _ in matrices]
     strains = [strains_eq22(C_BAR_TRUE, D_TRUE, tool_wrench(c.mass, c.p_sensor_com, x)) for c, x in zip(configurations, g, strict=True)]
     sums = np.stack([fit_rows(gc, s, MALTESE_CROSS_8).T @ fit_rows(gc, s, MALTESE_CROSS_8) for gc, s in zip(g, strains, strict=True)])
     sigma, changes = unit_errors(tool, matrices, 1e-3)
-    assert len(sigma) == 7  # one mass, three centre-of-mass coordinates, three mount axes: common to A, B, C
+    # a common and 3 own mass errors; per axis a common and 3 own centre-of-mass errors and a mount axis
+    assert len(sigma) == 4 + 3 * 5
     rss = projected_rss(changes, sums, _embeddings(sums, False))
     codes = np.repeat(np.arange(3), 200)
     projected = np.vstack([s @ P_PAPER.T for s in strains])
@@ -53,10 +54,17 @@ def test_what_a_declared_error_leaves_is_its_least_squares_residual(rng, masses)
         truth = _residual_by_lstsq(dW, projected, codes, 3)
         # the sums cancel to ~1e-16 of what the change moves (a change C_bar absorbs leaves 0 +- that)
         np.testing.assert_allclose(rss[p], truth, rtol=1e-6, atol=1e-12 * (dW**2).sum())
+    common_com, own_com, mount = [4, 9, 14], [i + k for i in (5, 10, 15) for k in range(3)], [8, 13, 18]
     # a centre of mass off by the same vector everywhere is absorbed by C_bar (paper eqs 17-18: dW = A W): no residual
-    assert rss[[1, 3, 5]].max() < 1e-9 * rss.max()
-    # a rotated mount on centres of mass that differ leaves one
-    assert rss[[2, 4, 6]].max() > 1e-3 * rss.max()
+    assert rss[common_com].max() < 1e-9 * rss.max()
+    # a rotated mount on centres of mass that differ leaves one, and so does one configuration's own centre of mass
+    assert rss[mount].max() > 1e-3 * rss.max()
+    assert rss[own_com].sum(axis=(1, 2)).min() > 1e-3 * rss.max()
+    # stated as common alone (per_configuration 0), the errors are the 7 of one body moved between configurations
+    alone = dataclasses.replace(tool, tolerance=ToolTolerance(1e-3, 1e-3, own_mass=0.0, own_com=0.0))
+    sigma_alone, changes_alone = unit_errors(alone, matrices, 1e-3)
+    assert len(sigma_alone) == 7
+    np.testing.assert_allclose(changes_alone, changes[[0, *common_com, *mount]][[0, 1, 4, 2, 5, 3, 6]])
 
 
 def _declared_budget_holds(result, error, budget):

@@ -7,7 +7,7 @@ import yaml
 from fts_calib import ConfigError, FileFormatError, FtsCalibError, FtsCalibWarning, Tool, ToolConfiguration
 from fts_calib.core.exceptions import UnknownToolConfiguration
 from fts_calib.core.resources import resolve
-from fts_calib.robot.tool import ToolShape, ToolTolerance, load_tool
+from fts_calib.robot.tool import ToolShape, ToolTolerance, load_tool, save_tool
 
 from .helpers import random_gravity, tool_wrench
 
@@ -119,6 +119,28 @@ def test_the_tolerance_is_read_and_a_bad_one_names_the_field(tmp_path):
         load_tool(_tool(tmp_path, configs, tolerance={"mass": -1e-3}))
     with pytest.raises(FileFormatError, match=r"'tolerance'.*'cog'"):
         load_tool(_tool(tmp_path, configs, tolerance={"cog": 1e-3}))
+
+
+def test_a_tolerance_per_configuration_is_read_and_the_old_form_is_the_conservative_one(tmp_path):
+    """``per_configuration`` states each configuration's own part; without it that part is bounded like the common one."""
+    configs = [{"name": "A", "mass": 1.2, "com": [0.08, 0, 0]}, {"name": "B", "mass": 1.2, "com": [0.05, 0.06, 0]}]
+    old = load_tool(_tool(tmp_path, configs, tolerance={"mass": 1e-5, "com": 5e-4})).tolerance
+    assert (old.configuration_mass, old.configuration_com) == (1e-5, 5e-4)  # either way the errors are drawn
+    assert (old.total_mass, old.total_com) == pytest.approx((2e-5, 1e-3))
+    stated = {"mass": 1e-5, "com": 1e-4, "per_configuration": {"com": 5e-4}}
+    tool = load_tool(_tool(tmp_path, configs, tolerance=stated))
+    assert tool.tolerance == ToolTolerance(mass=1e-5, com=1e-4, own_mass=0.0, own_com=5e-4)  # a part left out is 0
+    assert load_tool(save_tool(tool, tmp_path / "saved.yaml")).tolerance == tool.tolerance
+    assert load_tool(
+        save_tool(load_tool(_tool(tmp_path, configs, tolerance={"mass": 1e-5})), tmp_path / "o.yaml")
+    ).tolerance == ToolTolerance(1e-5)
+    bad = {"mass": 1e-5, "per_configuration": {"com": -1e-4}}
+    with pytest.raises(FileFormatError, match=r"field 'tolerance.per_configuration.com': is -0.0001 m but expected a finite value >= 0"):
+        load_tool(_tool(tmp_path, configs, tolerance=bad))
+    with pytest.raises(FileFormatError, match=r"field 'tolerance.per_configuration': unknown keys \['mas'\]"):
+        load_tool(_tool(tmp_path, configs, tolerance={"per_configuration": {"mas": 1e-5}}))
+    with pytest.raises(FileFormatError, match=r"field 'tolerance.per_configuration.com': is 0.5 m, not below the farthest"):
+        load_tool(_tool(tmp_path, configs, tolerance={"per_configuration": {"com": 0.5}}))
 
 
 def test_a_tolerance_of_the_size_of_the_mass_or_of_the_centre_of_mass_is_a_unit_slip(tmp_path):

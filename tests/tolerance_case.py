@@ -44,7 +44,7 @@ def declared(robot: str = "ur5") -> tuple[Kinematics, Tool]:
     accuracy = dataclasses.replace(definition.accuracy, mount_rotation=MOUNT_TOLERANCE)
     tool = load_tool(resolve("paper_tool", "configs"))
     return Kinematics(dataclasses.replace(definition, accuracy=accuracy)), dataclasses.replace(
-        tool, tolerance=ToolTolerance(mass=MASS_TOLERANCE, com=COM_TOLERANCE)
+        tool, tolerance=ToolTolerance(mass=MASS_TOLERANCE, com=COM_TOLERANCE, own_mass=0.0, own_com=0.0)
     )
 
 

@@ -94,7 +94,7 @@ def run(
     report, checkpoint = outputs.report, outputs.checkpoint
     check_outputs({"-o": output, "--checkpoint": checkpoint, "--report": report}, inputs)  # before any work: nothing lost, nothing wasted
     spec = setup.sensor
-    settings = setup.settings.with_nominal_c(nominal_c(spec))
+    settings = setup.settings.with_nominal_c(nominal_c(spec)).with_repeatability(spec.repeatability)
     bar = None if outputs.quiet else ProgressBar(1, "rows")  # its total is the recording's size, set once it is open
     collector = None if report is None else KeptCollector()
     result = calibrate_recording(
@@ -369,7 +369,7 @@ def _calibrate_live(
     if ur is not None and setup.robot_file is None:
         raise ConfigError("robot", None, "a robot definition", message=f"{ur} reads a UR's joints: give its robot definition with --robot")
     kin, loaded, spec = setup.kinematics, setup.tool, setup.sensor
-    settings = setup.settings.with_nominal_c(nominal_c(spec)).with_limits(spec.limits)  # railed samples refused from the start
+    settings = setup.settings.with_nominal_c(nominal_c(spec)).with_limits(spec.limits).with_repeatability(spec.repeatability)
     layout, shrink = spec.layout, setup.prior
     expected = None if plan is None else load_plan_progress(plan, spec.rate_hz)
     if expected is not None and expected.robot is not None and expected.robot != kin.robot.name:

@@ -77,8 +77,9 @@ class OffsetFeed:
         if tool.tolerance is not None:  # what a payload known to a tolerance adds to the residual
             heaviest = max(c.mass for c in tool.configurations)
             farthest = max(float(np.linalg.norm(c.p_sensor_com)) for c in tool.configurations)
-            allowance[:3] = tool.gravity * tool.tolerance.mass
-            allowance[3:] = tool.gravity * (heaviest * tool.tolerance.com + tool.tolerance.mass * farthest)
+            mass, com = tool.tolerance.total_mass, tool.tolerance.total_com  # a configuration's: common and own
+            allowance[:3] = tool.gravity * mass
+            allowance[3:] = tool.gravity * (heaviest * com + mass * farthest)
         self._noise, self._allowance = noise, allowance
         self.watch = OffsetWatch(noise, allowance)  # replaced by one with 0.1 s windows once the rate is known
         self._sized = False

@@ -33,10 +33,11 @@ from ..model.least_squares import information_rank
 from ..robot.definition import RobotAccuracy
 from ..robot.kinematics import Kinematics
 from ..robot.tool import Tool
-from .propagation import MODEL_ERROR, AccuracyBudget, ErrorSource, model_error, propagate, range_moments, wrench_noise
+from .propagation import MODEL_ERROR, REPEATABILITY, AccuracyBudget, ErrorSource, model_error, propagate, range_moments, wrench_noise
 from .sensitivities import SOURCE_NAMES, load_error_sources, stops
 
-_STOP_GAP_S = 0.05  # [s] a gap this long between kept samples: the arm moved to another stop
+#: [s] a gap this long between kept samples: the arm moved to another stop.
+STOP_GAP_S = 0.05
 _MAX_BUDGET_SAMPLES = 20_000  # samples the measured budget uses (every k-th beyond)
 
 
@@ -116,6 +117,11 @@ class KeptSamples:
     def __len__(self) -> int:
         return sum(len(part[0]) for part in self._parts)
 
+    def samples_per_stop(self, gap_s: float = STOP_GAP_S) -> float:
+        """Kept samples per still stretch (a gap longer than ``gap_s`` [s] or a tool change starts one); 1 when none is kept."""
+        time, _, _, codes, _ = self.arrays()
+        return len(time) / (int(stops(time, codes, gap_s)[-1]) + 1) if len(time) else 1.0
+
     def arrays(self) -> tuple[np.ndarray, ...]:
         """``(time, w_sensor, channels, configuration, joints)``, every batch in order."""
         if not self._parts:
@@ -130,10 +136,11 @@ def measured_budget(
     calibration: Calibration,
     sigma_w,
     full_scale,
-    gap_s: float = _STOP_GAP_S,
+    gap_s: float = STOP_GAP_S,
     residual_rms=None,
     prior_weight: float | None = None,
     accuracy: RobotAccuracy | None = None,
+    repeatability=None,
 ) -> AccuracyBudget:
     """The budget of a calibration from the samples it was solved from, with its model error.
 
@@ -152,6 +159,10 @@ def measured_budget(
         prior_weight: The weight of the prior C_bar was shrunk toward, or None (see :func:`sample_budget`).
         accuracy: Encoders, timing and mount; the robot definition's when None (the dynamic mode
             gives the latency it fitted and applied, :meth:`fts_calib.filters.dynamic.DynamicFilter.budget_accuracy`).
+        repeatability: The sensor's scatter from one still pose to another per axis [N, N m], shape (6,), or None:
+            the term :data:`fts_calib.budget.propagation.REPEATABILITY`, in quadrature a new offset at every stop
+            through the least squares, the bias it gives the fit (:func:`attenuation`) and the reading's own
+            scatter; it is not model error (the residual beyond the noise and this term is).
     """
     time, _, channels, codes, joints = kept.arrays()
     stride = max(1, int(math.ceil(len(time) / _MAX_BUDGET_SAMPLES)))  # bounded memory: white terms weigh the rest
@@ -180,11 +191,57 @@ def measured_budget(
         weight=stride,
         prior_weight=prior_weight,
         accuracy=accuracy,
+        extra=() if repeatability is None else [repeatability_source(repeatability, stop)],
     )
-    if residual_rms is None:
-        return budget
-    terms = {**budget.terms, MODEL_ERROR: model_error(residual_rms, sigma_w, full_scale)}
+    terms, random = dict(budget.terms), np.asarray(sigma_w, dtype=float)
+    if repeatability is not None:  # the fitted C and D are off by what the stops' offsets leave, and every reading by its own
+        scatter = np.asarray(repeatability, dtype=float).reshape(6)
+        bias = attenuation(calibration.C_bar, calibration.D, x, scatter, full_scale)
+        terms[REPEATABILITY] = np.sqrt(terms[REPEATABILITY] ** 2 + bias**2 + scatter**2)
+        random = np.hypot(random, terms[REPEATABILITY])  # a held-out residual holds the scatter and what it costs the fit
+    if residual_rms is not None:
+        terms[MODEL_ERROR] = model_error(residual_rms, random, full_scale)
     return AccuracyBudget(terms, budget.full_scale, budget.coverage, budget.kind)
+
+
+def attenuation(C_bar, D, x: np.ndarray, repeatability, full_scale) -> np.ndarray:
+    r"""The bias of the fit from a scatter in the readings it regresses on, over the range, per axis [N, N m]. Shape (6,).
+
+    The offsets of a sensor that does not repeat are in the regressors ``x`` (the readings), not in the
+    known loads: least squares then shrinks the fitted map toward zero (regression dilution),
+    ``E[dTheta] = -Theta Sigma_d (x^T x / N)^{-1}`` with ``Sigma_d`` the covariance of the readings'
+    error, ``C_bar^{-1} diag(repeatability^2) C_bar^{-T}`` (the constant column has none), and
+    ``Theta = [C_bar, D]``: a systematic error of the calibration, ``sqrt(dTheta_j M dTheta_j^T)`` over
+    the full-scale box (:func:`fts_calib.budget.propagation.range_moments`). It grows as the loads
+    spread less along an axis than the scatter (a tool of one mass: the forces' magnitude).
+
+    Args:
+        C_bar: Modified calibration matrix, shape (6, 6).
+        D: Offsets [N, N m], shape (6,).
+        x: Regressors of the samples as measured, ``[P Delta; 1]``, shape (N, 7).
+        repeatability: Per axis [N, N, N, N m, N m, N m], shape (6,).
+        full_scale: Full scale per axis, same units, shape (6,).
+    """
+    C_bar, D = np.asarray(C_bar, dtype=float), np.asarray(D, dtype=float)
+    inverse = np.linalg.inv(C_bar)
+    sigma = np.zeros((7, 7))
+    sigma[:6, :6] = inverse @ np.diag(np.asarray(repeatability, dtype=float) ** 2) @ inverse.T
+    theta = np.hstack([C_bar, D[:, None]])
+    S = np.asarray(x, dtype=float).T @ np.asarray(x, dtype=float) / max(len(x), 1)
+    change = -theta @ sigma @ np.linalg.pinv(S, hermitian=True)
+    M = range_moments(C_bar, D, full_scale)
+    return np.sqrt(np.maximum(np.einsum("jk,kl,jl->j", change, M, change), 0.0))
+
+
+def repeatability_source(repeatability, stop: np.ndarray) -> ErrorSource:
+    """A sensor that does not repeat as an error source: one wrench offset per stop, of standard deviation ``repeatability``.
+
+    Args:
+        repeatability: Per axis [N, N, N, N m, N m, N m], shape (6,).
+        stop: Still stretch of each sample, shape (N,) int.
+    """
+    scatter = np.asarray(repeatability, dtype=float).reshape(6)
+    return ErrorSource(REPEATABILITY, np.broadcast_to(np.eye(6), (len(stop), 6, 6)), np.diag(scatter**2), np.asarray(stop))
 
 
 #: Valid samples kept for the stream-latency estimate, at most: 100 s at 1 kHz (a whole sized run of three
@@ -233,6 +290,7 @@ def with_measured_budget(
     moving: MovingSamples,
     full_scale,
     accuracy: RobotAccuracy | None = None,
+    repeatability=None,
 ) -> tuple[Calibration, AccuracyBudget | None, LatencyEstimate | None]:
     """The calibration with its measured accuracy budget and stream-latency estimate in ``quality``.
 
@@ -254,6 +312,7 @@ def with_measured_budget(
         moving: The first valid samples, for the latency.
         full_scale: Full scale per axis [N, N m], shape (6,).
         accuracy: Encoders, timing and mount for the budget; the robot definition's when None.
+        repeatability: The sensor file's ``repeatability`` per axis [N, N m], shape (6,), or None (:func:`measured_budget`).
 
     Returns:
         ``(calibration, budget, latency)``; the calibration unchanged and None, None when
@@ -269,7 +328,16 @@ def with_measured_budget(
     residual = np.asarray(chosen[0]["heldout_rms"]) if chosen else quality.residual_rms  # held out when chosen so
     prior_weight = None if quality.prior is None else float(quality.prior["weight"])
     budget = measured_budget(
-        kin, tool, kept, calibration, sigma_w, full_scale, residual_rms=residual, prior_weight=prior_weight, accuracy=accuracy
+        kin,
+        tool,
+        kept,
+        calibration,
+        sigma_w,
+        full_scale,
+        residual_rms=residual,
+        prior_weight=prior_weight,
+        accuracy=accuracy,
+        repeatability=repeatability,
     )
     record = budget.to_dict()
     latency = None

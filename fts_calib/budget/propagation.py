@@ -52,6 +52,9 @@ COVERAGE = 2.0
 #: Name of the budget's model-error term (:func:`model_error`).
 MODEL_ERROR = "model error"
 
+#: Name of the budget's term of a sensor that does not repeat from pose to pose (the sensor file's ``repeatability``).
+REPEATABILITY = "sensor repeatability"
+
 #: Default accuracy target of a sized plan: every axis's budget total within this, [% of full scale].
 DEFAULT_TARGET_PERCENT = 0.05
 

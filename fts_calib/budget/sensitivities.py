@@ -4,8 +4,10 @@ The known wrench of sample i is ``W_i = M_c g_i`` (paper eqs 17-18, ``M_c = [m I
 of its configuration c, ``g_i`` gravity in the sensor frame S from the joint readings). Each
 source perturbs it as ``dW_i = B_i u`` (:class:`fts_calib.budget.propagation.ErrorSource`):
 
-- tool mass, one error ``dm`` for every configuration: ``B = W_i / m_c``;
-- tool centre of mass, one error ``dc`` (3,) for every configuration: ``dW = [0; m dc x g]``;
+- tool mass, one error ``dm`` for every configuration and one ``dm_c`` of each configuration's
+  own (:class:`fts_calib.robot.tool.ToolTolerance`): ``B = W_i / m_c``;
+- tool centre of mass, one error ``dc`` (3,) for every configuration and one ``dc_c`` (3,) of
+  each configuration's own: ``dW = [0; m dc x g]``;
 - sensor mount, a rotation ``dphi`` (3,) of S: the wrench is computed with gravity
   ``g_i + dphi x g_i``, so ``B = -M_c [g_i]x``;
 - joint encoders, a reading error ``dq`` per joint: ``B = M_c dg/dq`` with
@@ -128,10 +130,15 @@ def load_error_sources(
         W = np.einsum("nij,nj->ni", matrices, g)
         com = np.zeros((n, 6, 3))
         com[:, 3:, :] = -mass[:, None, None] * g_cross
-        sources += [
-            ErrorSource("tool mass", (W / mass[:, None])[:, :, None], np.array([[tool.tolerance.mass**2 / 3.0]]), common),
-            ErrorSource("tool centre of mass", com, np.eye(3) * tool.tolerance.com**2 / 3.0, common),
-        ]
+        tolerance = tool.tolerance
+        for draws, bound_mass, bound_com in (
+            (common, tolerance.mass, tolerance.com),
+            (codes, tolerance.configuration_mass, tolerance.configuration_com),
+        ):
+            sources += [  # one draw for every configuration, then one per configuration (its own)
+                ErrorSource("tool mass", (W / mass[:, None])[:, :, None], np.array([[bound_mass**2 / 3.0]]), draws),
+                ErrorSource("tool centre of mass", com, np.eye(3) * bound_com**2 / 3.0, draws),
+            ]
     sources.append(ErrorSource("sensor mount", -matrices @ g_cross, np.eye(3) * accuracy.mount_rotation**2 / 3.0, common))
     dg_dq = gravity_jacobian(kin, joints, g)
     B = matrices @ dg_dq  # (N, 6, n_joints)

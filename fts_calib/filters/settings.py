@@ -290,6 +290,8 @@ class PipelineConfig:
             the sensor file's.
         nominal_c: The sensor file's nominal C (6 x n, raw channels to [N, N m]) as rows, or
             None: the dynamic filter's noise through C (:mod:`fts_calib.filters.dynamic`).
+        repeatability: The sensor file's ``repeatability`` per axis [N, N, N, N m, N m, N m], or None:
+            what the fit check expects and the budget holds of a sensor that does not repeat from pose to pose.
     """
 
     filter: FilterConfig = field(default_factory=FilterConfig)
@@ -299,6 +301,7 @@ class PipelineConfig:
     offsets: OffsetConfig = field(default_factory=OffsetConfig)
     fit: FitConfig = field(default_factory=FitConfig)
     nominal_c: tuple[tuple[float, ...], ...] | None = None
+    repeatability: tuple[float, ...] | None = None
 
     def with_filter_mode(self, mode: str | None) -> PipelineConfig:
         """These settings with another filter mode ('quasi-static', 'dynamic'); unchanged for None."""
@@ -311,6 +314,11 @@ class PipelineConfig:
     def with_limits(self, limits: ChannelLimits | None) -> PipelineConfig:
         """These settings with the channels' declared resolution and rails (:attr:`SensorSpec.limits`; None: none)."""
         return replace(self, checks=replace(self.checks, limits=limits))
+
+    def with_repeatability(self, repeatability) -> PipelineConfig:
+        """These settings with the sensor's repeatability per axis (:attr:`SensorSpec.repeatability`, shape (6,); None: none)."""
+        values = None if repeatability is None else tuple(float(v) for v in np.asarray(repeatability, dtype=float).reshape(6))
+        return replace(self, repeatability=values)
 
     def with_offsets(self, model: str | None) -> PipelineConfig:
         """These settings with another offset model ('auto', 'constant', 'per-configuration', 'drift'); unchanged for None."""

@@ -115,6 +115,11 @@ class OnlineEstimator(SampleSums):
         full_channels: Regress on the raw channels (a free 6 x n C) instead of ``P Delta``.
         full_scale: Per-axis scale of the held-out error [N, N m], shape (6,); the RMS of
             the known wrench when None.
+
+    Attributes:
+        samples_per_draw: Samples that share one error draw, for the offset model's BIC (its
+            sample count is the weight sum over this): 1 for independent samples; a sensor that
+            does not repeat from pose to pose shares one offset over the samples of a still pose.
     """
 
     def __init__(
@@ -130,6 +135,7 @@ class OnlineEstimator(SampleSums):
         super().__init__(forgetting, layout, basis, model, full_channels)
         self.offsets = offset_setting(offsets)
         self.full_scale = None if full_scale is None else np.asarray(full_scale, dtype=float)
+        self.samples_per_draw = 1.0
         self._selection: tuple[int, Selection | None] | None = None  # (rows it was made from, selection)
 
     def merge(self, other: OnlineEstimator) -> OnlineEstimator:
@@ -212,7 +218,7 @@ class OnlineEstimator(SampleSums):
         return self._by_bic(rcond)
 
     def _by_bic(self, rcond: float = RCOND) -> tuple[Candidate, list[tuple[Candidate, float]]]:
-        return choose(self._current(), self.basis, self.offsets, self._weight_sum, rcond)
+        return choose(self._current(), self.basis, self.offsets, self._weight_sum / max(self.samples_per_draw, 1.0), rcond)
 
     def selection(self) -> Selection | None:
         """The choice of the sensor model and offset model by held-out error, or None.

@@ -24,6 +24,12 @@ What the channels can read (:mod:`fts_calib.model.channel_limits`), all optional
 (``[low, high]`` for every channel, or n of them: the lowest and highest reading, its
 rails) and ``adc_bits`` (with ``range``: the resolution is (high - low) / (2^bits - 1)).
 What is not declared is detected from the data.
+
+How well the sensor repeats, optional: ``repeatability`` ``{force [N], moment [N m]}``, the
+standard deviation of the scatter of its reading of one load from one still pose to another
+(hysteresis, creep), beyond the noise within a pose; the fit check expects it in the residual
+and the accuracy budget holds it (:attr:`SensorSpec.repeatability`). Absent: 0 (the sensor
+repeats to within its noise).
 """
 
 from __future__ import annotations
@@ -54,9 +60,11 @@ SENSOR_FILE_KEYS = (
     "resolution",
     "range",
     "adc_bits",
+    "repeatability",
     "simulation",
 )
 FULL_SCALE_KEYS = ("force", "moment")
+REPEATABILITY_KEYS = ("force", "moment")
 SIMULATION_KEYS = (
     "C",
     "C_bar",
@@ -212,6 +220,9 @@ class SensorSpec:
         model: The sensor model setting: 'auto' (chosen by held-out error), 'linear',
             'quadratic' or 'cubic' (:mod:`fts_calib.model.features`).
         full_channels: The model reads the raw channels (a free 6 x n C) instead of ``P Delta``.
+        repeatability: Standard deviation of the scatter of the reading of one load from one still
+            pose to another, beyond the noise within a pose (hysteresis, creep), per axis,
+            [N, N, N, N m, N m, N m], shape (6,); None when not declared (the sensor repeats).
     """
 
     name: str
@@ -223,9 +234,15 @@ class SensorSpec:
     limits: ChannelLimits | None = None
     model: str = AUTO_MODEL
     full_channels: bool = False
+    repeatability: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "layout", channel_layout(self.layout))
+        if self.repeatability is not None:
+            repeatability = as_matrix(self.repeatability, (6,), "repeatability")
+            if not np.all(np.isfinite(repeatability) & (repeatability >= 0)):
+                raise ConfigError("repeatability", repeatability.tolist(), "finite values >= 0", owner=f"sensor '{self.name}'")
+            object.__setattr__(self, "repeatability", frozen(repeatability))
         object.__setattr__(self, "model", model_setting(self.model))
         object.__setattr__(self, "full_channels", bool(self.full_channels))
         if self.simulated is not None and self.simulated.layout != self.layout:
@@ -372,6 +389,17 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     full_scale = np.array([force] * 3 + [moment] * 3)
     simulated = _read_simulation(data["simulation"], path, layout, full_scale) if data.get("simulation") is not None else None
     limits = _read_limits(data, path, layout.n_channels)
+    repeatability = None
+    if data.get("repeatability") is not None:
+        raw = data["repeatability"]
+        if not isinstance(raw, dict):
+            raise FileFormatError(path, "repeatability", "expected {force: N, moment: N·m}")
+        check_keys(raw, REPEATABILITY_KEYS, path, "repeatability")
+        parts = [read_number(raw.get(k, 0.0), path, f"repeatability.{k}", u) for k, u in (("force", "N"), ("moment", "N·m"))]
+        for k, v in zip(REPEATABILITY_KEYS, parts, strict=True):
+            if not v >= 0:
+                raise FileFormatError(path, f"repeatability.{k}", f"is {v:g} but expected a value >= 0")
+        repeatability = np.array([parts[0]] * 3 + [parts[1]] * 3)
     name = str(require(data, "name", path))
     rate_hz = read_number(data.get("rate_hz", 1000.0), path, "rate_hz", "Hz")
     with fields_of(path):
@@ -385,4 +413,5 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
             limits=limits,
             model=str(data.get("model", AUTO_MODEL)),
             full_channels=full_channels,
+            repeatability=repeatability,
         )

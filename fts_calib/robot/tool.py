@@ -28,8 +28,11 @@ A tool file (YAML, ``configs/``) holds ``name``, optional ``gravity`` (magnitude
 [m, in the sensor frame S], inertia (optional 3x3 about the centre of mass, axes of S,
 [kg m^2])}``, and optional ``shape`` ``{radius, length}`` [m]: the envelope used for
 collision checks, a cylinder along X of S from the sensor out (default: around the
-centres of mass), and optional ``tolerance`` ``{mass [kg], com [m]}``: how well the tool is
-known, for the accuracy budget (:class:`ToolTolerance`). Any other key (a typo such as ``mas``) is refused with the known keys.
+centres of mass), and optional ``tolerance`` ``{mass [kg], com [m], per_configuration: {mass
+[kg], com [m]}}``: how well the tool is known, for the accuracy budget and the fit check
+(:class:`ToolTolerance`: a part common to every configuration and one of each configuration's own;
+without ``per_configuration`` each configuration's own part is bounded like the common one).
+Any other key (a typo such as ``mas``) is refused with the known keys.
 
 One quantity, two spellings, one rule: a file's keys are short because a tool file is in S
 throughout (``com``, ``inertia``); in code the frame is in the name, as everywhere in
@@ -144,28 +147,65 @@ STANDARD_GRAVITY = 9.81
 TOOL_KEYS = ("name", "gravity", "shape", "configurations", "tolerance")
 CONFIGURATION_KEYS = ("name", "mass", "com", "inertia")
 SHAPE_KEYS = ("radius", "length")
-TOLERANCE_KEYS = ("mass", "com")
+TOLERANCE_KEYS = ("mass", "com", "per_configuration")
+PER_CONFIGURATION_KEYS = ("mass", "com")
 
 
 @dataclass(frozen=True)
 class ToolTolerance:
-    """How well the tool is known, for the accuracy budget: bounds of the errors, +- each value.
+    """How well the tool is known: bounds of its errors, +- each value, in two parts.
 
-    The tool is one body moved between configurations (the paper's tool moves one weight),
-    so the errors are common to every configuration: one mass error, one error of each
-    coordinate of the centre of mass, each anywhere within +- its bound (uniform).
+    A configuration's true mass is ``m_c + dm + dm_c`` and its true centre of mass
+    ``c_c + dc + dc_c``: ``dm`` and ``dc`` (3,) are common to every configuration (one weight
+    moved between positions, weighed once), ``dm_c`` and ``dc_c`` are each configuration's own
+    (positions machined one by one); every error is uniform within +- its bound, per coordinate
+    for the centre of mass. A fit absorbs most of a common error (a common centre-of-mass error
+    is ``dW = A W``, absorbed by C_bar) and little of a configuration's own one, which stays in
+    the residual: the fit check expects it, the budget holds both.
 
     Attributes:
-        mass: Bound of the mass error, in [kg] (>= 0).
-        com: Bound of the error of each coordinate of the centre of mass, in [m] (>= 0).
+        mass: Bound of the common mass error ``dm``, in [kg] (>= 0).
+        com: Bound of the common error of each coordinate of the centre of mass ``dc``, in [m] (>= 0).
+        own_mass: Bound of each configuration's own mass error ``dm_c``, in [kg] (>= 0), or None
+            when the file does not say (a tool file without ``per_configuration``): then it is
+            ``mass``, which covers any way the errors are drawn within +- ``mass`` per
+            configuration, common, one by one or both (the conservative reading).
+        own_com: Bound of each configuration's own error of each coordinate of the centre of
+            mass ``dc_c``, in [m] (>= 0), or None: then it is ``com`` (as ``own_mass``).
     """
 
     mass: float = 0.0
     com: float = 0.0
+    own_mass: float | None = None
+    own_com: float | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "mass", validation.non_negative("tolerance.mass", self.mass, "kg"))
         object.__setattr__(self, "com", validation.non_negative("tolerance.com", self.com, "m"))
+        for name, key, unit in (("own_mass", "mass", "kg"), ("own_com", "com", "m")):
+            if getattr(self, name) is not None:
+                value = validation.non_negative(f"tolerance.per_configuration.{key}", getattr(self, name), unit)
+                object.__setattr__(self, name, value)
+
+    @property
+    def configuration_mass(self) -> float:
+        """Bound of each configuration's own mass error [kg] (``own_mass``, or ``mass`` when not stated)."""
+        return self.mass if self.own_mass is None else self.own_mass
+
+    @property
+    def configuration_com(self) -> float:
+        """Bound of each configuration's own error per coordinate of the centre of mass [m] (``own_com``, or ``com``)."""
+        return self.com if self.own_com is None else self.own_com
+
+    @property
+    def total_mass(self) -> float:
+        """Bound of a configuration's whole mass error, common and own [kg]."""
+        return self.mass + self.configuration_mass
+
+    @property
+    def total_com(self) -> float:
+        """Bound of a configuration's whole error per coordinate of the centre of mass, common and own [m]."""
+        return self.com + self.configuration_com
 
 
 @dataclass(frozen=True)
@@ -284,19 +324,24 @@ class Tool:
             object.__setattr__(self, "shape", default_shape(self.configurations))
         if self.tolerance is not None:  # how well the tool is known: an error of the mass's size is a unit slip
             lightest = min(self.configurations, key=lambda c: c.mass)
-            if self.tolerance.mass >= lightest.mass:
-                reason = (
-                    f"is {self.tolerance.mass:g} kg, not below the mass of configuration {lightest.name} ({lightest.mass:g} kg): "
-                    "expected how well the masses are known, in kg (0.2 g is 2.0e-4)"
-                )
-                raise ConfigError("tolerance.mass", self.tolerance.mass, "", owner=owner, reason=reason)
             farthest = max(float(np.linalg.norm(c.p_sensor_com)) for c in self.configurations)
-            if farthest > 0 and self.tolerance.com >= farthest:
-                reason = (
-                    f"is {self.tolerance.com:g} m, not below the farthest centre of mass ({farthest:g} m from the sensor): "
-                    "expected how well the centres of mass are known, in m (20 µm is 2.0e-5)"
-                )
-                raise ConfigError("tolerance.com", self.tolerance.com, "", owner=owner, reason=reason)
+            tolerance = self.tolerance
+            for key, mass, com in (
+                ("tolerance.", tolerance.mass, tolerance.com),
+                ("tolerance.per_configuration.", tolerance.own_mass, tolerance.own_com),
+            ):
+                if mass is not None and mass >= lightest.mass:
+                    reason = (
+                        f"is {mass:g} kg, not below the mass of configuration {lightest.name} ({lightest.mass:g} kg): "
+                        "expected how well the masses are known, in kg (0.2 g is 2.0e-4)"
+                    )
+                    raise ConfigError(f"{key}mass", mass, "", owner=owner, reason=reason)
+                if com is not None and farthest > 0 and com >= farthest:
+                    reason = (
+                        f"is {com:g} m, not below the farthest centre of mass ({farthest:g} m from the sensor): "
+                        "expected how well the centres of mass are known, in m (20 µm is 2.0e-5)"
+                    )
+                    raise ConfigError(f"{key}com", com, "", owner=owner, reason=reason)
 
     @property
     def names(self) -> list[str]:
@@ -350,14 +395,14 @@ def _read_configuration(raw: object, index: int, path: Path) -> ToolConfiguratio
         return ToolConfiguration(name=str(name), mass=mass, p_sensor_com=com, inertia_com=inertia)
 
 
-def _section(data: Mapping, key: str, keys: Sequence[str], path: Path, expected: str) -> Mapping | None:
-    """An optional sub-mapping of a tool file with only known keys, or None when absent."""
+def _section(data: Mapping, key: str, keys: Sequence[str], path: Path, expected: str, prefix: str = "") -> Mapping | None:
+    """An optional sub-mapping of a tool file with only known keys, or None when absent (``prefix``: its parent's field)."""
     raw = data.get(key)
     if raw is None:
         return None
     if not isinstance(raw, Mapping):
-        raise FileFormatError(path, key, f"expected {expected}")
-    check_keys(raw, keys, path, key)
+        raise FileFormatError(path, prefix + key, f"expected {expected}")
+    check_keys(raw, keys, path, prefix + key)
     return raw
 
 
@@ -394,9 +439,14 @@ def load_tool(path: str | Path) -> Tool:
         with fields_of(path, "shape."):
             shape = ToolShape(radius=radius, length=length)
     tolerance = None
-    raw_tolerance = _section(data, "tolerance", TOLERANCE_KEYS, path, "{mass: kg, com: m}")
+    raw_tolerance = _section(data, "tolerance", TOLERANCE_KEYS, path, "{mass: kg, com: m, per_configuration: {mass: kg, com: m}}")
     if raw_tolerance is not None:
-        bounds = {k: read_number(raw_tolerance.get(k, 0.0), path, f"tolerance.{k}", u) for k, u in (("mass", "kg"), ("com", "m"))}
+        units = (("mass", "kg"), ("com", "m"))
+        bounds = {k: read_number(raw_tolerance.get(k, 0.0), path, f"tolerance.{k}", u) for k, u in units}
+        own = _section(raw_tolerance, "per_configuration", PER_CONFIGURATION_KEYS, path, "{mass: kg, com: m}", "tolerance.")
+        if own is not None:  # stated: a part it leaves out is 0
+            key = "tolerance.per_configuration."
+            bounds.update({f"own_{k}": read_number(own.get(k, 0.0), path, f"{key}{k}", u) for k, u in units})
         with fields_of(path):
             tolerance = ToolTolerance(**bounds)
     with fields_of(path):
@@ -424,7 +474,10 @@ def save_tool(tool: Tool, path: str | Path, header: str = "") -> Path:
     if tool.shape is not None:
         data["shape"] = {"radius": tool.shape.radius, "length": tool.shape.length}
     if tool.tolerance is not None:
-        data["tolerance"] = {"mass": tool.tolerance.mass, "com": tool.tolerance.com}
+        tolerance = tool.tolerance
+        data["tolerance"] = {"mass": tolerance.mass, "com": tolerance.com}
+        if tolerance.own_mass is not None or tolerance.own_com is not None:
+            data["tolerance"]["per_configuration"] = {"mass": tolerance.configuration_mass, "com": tolerance.configuration_com}
     data["configurations"] = []
     for c in tool.configurations:
         entry = {"name": c.name, "mass": c.mass, "com": c.p_sensor_com.tolist()}

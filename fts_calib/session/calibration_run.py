@@ -312,6 +312,7 @@ def calibrate(
     if not isinstance(settings, PipelineConfig):
         settings = load_pipeline_config(locate("pipeline" if settings is None else settings, "configs"))
     settings = settings if settings.nominal_c is not None else settings.with_nominal_c(nominal_c(spec))
+    settings = settings if settings.repeatability is not None else settings.with_repeatability(spec.repeatability)
     if isinstance(recording_or_arrays, (str, Path)) or (
         isinstance(recording_or_arrays, Sequence) and all(isinstance(p, (str, Path)) for p in recording_or_arrays)
     ):

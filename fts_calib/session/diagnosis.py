@@ -56,7 +56,8 @@ from typing import Protocol
 
 import numpy as np
 
-from ..budget.measured import KeptSamples
+from ..budget.measured import STOP_GAP_S, KeptSamples
+from ..budget.sensitivities import stops
 from ..filters.dynamic import DynamicFilter
 from ..filters.quasi_static import QuasiStaticFilter
 from ..filters.sample_checks import BACKWARDS, NON_FINITE, OUTSIDE_LIMITS
@@ -283,7 +284,7 @@ class Cause:
 
     Attributes:
         kind: 'missing centres', 'joint units', 'mount', 'weak excitation', 'nonlinear', 'drift', 'tool file'
-            (an alternative, an implausible value or a collinear file) or 'unexplained'.
+            (an alternative, an implausible value or a collinear file), 'repeatability' or 'unexplained'.
         text: The diagnosis, in words.
         ratio: The largest residual-to-noise ratio of the model it names (mount, drift, nonlinear), else NaN.
     """
@@ -386,7 +387,8 @@ def _kept(session: Diagnosed):
 def session_allowance(session: Diagnosed) -> FitAllowance:
     """What the robot file's mount and encoder tolerances and ``fit.floor`` add to the expected residual of the session's fit."""
     kin = session.kin
-    return robot_allowance(kin.robot.accuracy, kin.n_joints, session.full_scale, session.settings.fit.floor)
+    settings = session.settings
+    return robot_allowance(kin.robot.accuracy, kin.n_joints, session.full_scale, settings.fit.floor, settings.repeatability)
 
 
 def _noise_cov(session: Diagnosed) -> np.ndarray | None:
@@ -607,4 +609,160 @@ def cause(
     behaviours = [c for c in (drifting(session, check), nonlinear(session, check, per_configuration) if linear else None) if c is not None]
     if behaviours:
         return min(behaviours, key=lambda c: c.ratio)
+    if generic and (found := nonrepeating(session, per_configuration)) is not None:
+        return found
     return Cause("unexplained" if generic else "tool file", check.diagnosis)
+
+
+#: Pose means must scatter this many times more than the noise within a pose explains before a sensor is said not to repeat.
+SCATTER_BEYOND_NOISE = 3.0
+#: Share of the pose means' scatter that a smooth function of gravity per configuration, a quadratic (what a tool file's
+#: error, a turned mount or a bend leaves), must leave unexplained, degrees of freedom counted, for it to be a sensor's.
+RANDOM_SHARE = 0.7
+#: Two still poses of one configuration whose gravity directions are this close [deg] visit one orientation twice.
+REVISIT_DEG = 1.0
+#: Kept samples a still pose needs to count in the figures, and poses a configuration needs (a quadratic in gravity
+#: has 9 free coefficients: 18 poses leave as many degrees of freedom).
+POSE_SAMPLES, CONFIGURATION_POSES = 3, 18
+_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the products of gravity's components
+
+
+@dataclass(frozen=True)
+class Repeatability:
+    """What the kept samples show of a sensor's repeatability, per axis, [N, N, N, N m, N m, N m].
+
+    Attributes:
+        within: The noise within a still pose (the residual's standard deviation about the pose's mean). Shape (6,).
+        between: The scatter between poses (the standard deviation of the poses' mean residuals). Shape (6,).
+        random_share: Per axis, what a quadratic function of gravity per configuration leaves of the pose means'
+            scatter, degrees of freedom counted (1: none explained, as for a random offset per pose; near 0: a
+            smooth error such as a tool file's). Shape (6,).
+        poses: Still poses counted.
+        revisited: The scatter between two visits of one orientation (within :data:`REVISIT_DEG`, one configuration),
+            per axis, shape (6,); None when no orientation was visited twice. A sensor that does not repeat reads
+            a revisited orientation differently (about ``between``); a bend or any error of the orientation alone
+            reads it alike (about the noise).
+    """
+
+    within: np.ndarray
+    between: np.ndarray
+    random_share: np.ndarray
+    poses: int
+    revisited: np.ndarray | None = None
+
+    def shown(self) -> bool:
+        """The data show a sensor that does not repeat: the pose means scatter beyond the noise, at random, on every axis they do."""
+        beyond = self.between > SCATTER_BEYOND_NOISE * np.maximum(self.within / math.sqrt(POSE_SAMPLES), 1e-300)
+        if self.revisited is not None:  # the one test a function of the orientation cannot pass
+            beyond &= self.revisited > RANDOM_SHARE * self.between
+        return bool(beyond.any() and np.all(self.random_share[beyond] >= RANDOM_SHARE))
+
+    def words(self) -> str:
+        """The two figures, forces and moments, e.g. 'within a still pose 0.021 N and 0.0013 N·m, between poses 1.5 N and ...'."""
+        w, b, again = self.within, self.between, self.revisited
+        text = (
+            f"within a still pose its noise is {w[:3].max():.2g} N and {w[3:].max():.2g} N·m, between poses its readings "
+            f"scatter by {b[:3].max():.2g} N and {b[3:].max():.2g} N·m (standard deviations, largest axis, {self.poses} poses)"
+        )
+        if again is not None:
+            text += f"; one orientation visited twice reads {again[:3].max():.2g} N and {again[3:].max():.2g} N·m apart"
+        return text
+
+
+def pose_scatter(time, W, channels, codes, layout: ChannelLayout, per_configuration: bool) -> Repeatability | None:
+    """The noise within still poses and the scatter between them of a linear fit's residual (see :class:`Repeatability`).
+
+    Args:
+        time: Kept samples' times [s], shape (N,); a gap longer than the budget's stop gap starts a new pose.
+        W: Their known wrenches [N, N m], shape (N, 6).
+        channels: Their raw channels, shape (N, n).
+        codes: Their configuration indices, shape (N,).
+        layout: The sensor's channel layout.
+        per_configuration: One offset per configuration (the offset model in use), else one for all.
+
+    Returns:
+        The figures, or None when too few poses hold enough samples.
+    """
+    u = layout.project(channels).reshape(-1, 6)
+    offsets = np.eye(int(codes.max()) + 1)[codes] if per_configuration else np.ones((len(W), 1))
+    X = np.hstack([u - u.mean(axis=0), offsets])
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    residual = W - (X / scale) @ np.linalg.lstsq(X / scale, W, rcond=None)[0]
+    pose = stops(time, codes, STOP_GAP_S)
+    counts = np.bincount(pose)
+    full = counts >= POSE_SAMPLES
+    if full.sum() < 2 * CONFIGURATION_POSES:
+        return None
+    sums = np.zeros((len(counts), 6))
+    np.add.at(sums, pose, residual)
+    means = sums / np.maximum(counts, 1)[:, None]
+    deviation = residual - means[pose]
+    within = np.sqrt(np.sum(deviation[full[pose]] ** 2, axis=0) / max(int(np.sum(counts[full] - 1)), 1))
+    pose_code = np.zeros(len(counts), dtype=np.int64)
+    pose_code[pose] = codes
+    gravity = np.zeros((len(counts), 3))
+    np.add.at(gravity, pose, W[:, :3])
+    gravity /= np.maximum(counts, 1)[:, None]
+    left, total, dof = np.zeros(6), np.zeros(6), 0
+    for c in np.unique(pose_code[full]):
+        mine = full & (pose_code == c)
+        if mine.sum() < CONFIGURATION_POSES:
+            continue
+        g = gravity[mine] / np.maximum(np.linalg.norm(gravity[mine], axis=1, keepdims=True), 1e-300)
+        A = np.hstack([np.ones((len(g), 1)), g, np.stack([g[:, i] * g[:, j] for i, j in _PAIRS], axis=1)])
+        solution, _, rank, _ = np.linalg.lstsq(A, means[mine], rcond=1e-9)
+        left += np.sum((means[mine] - A @ solution) ** 2, axis=0)
+        total += np.sum(means[mine] ** 2, axis=0)
+        dof += int(mine.sum()) - int(rank)
+    if dof <= 0 or not np.all(total > 0):
+        return None
+    share = np.sqrt(left / dof) / np.sqrt(total / int(full.sum()))  # per axis
+    between = np.sqrt(np.mean(means[full] ** 2, axis=0))
+    return Repeatability(within, between, np.minimum(share, 1.0), int(full.sum()), _revisited(means, gravity, pose_code, full))
+
+
+def _revisited(means: np.ndarray, gravity: np.ndarray, pose_code: np.ndarray, full: np.ndarray) -> np.ndarray | None:
+    """The scatter of the pose means between two visits of one orientation, per axis, shape (6,); None without a revisit."""
+    unit = gravity / np.maximum(np.linalg.norm(gravity, axis=1, keepdims=True), 1e-300)
+    close = (unit @ unit.T > math.cos(math.radians(REVISIT_DEG))) & (pose_code[:, None] == pose_code[None, :])
+    close &= full[:, None] & full[None, :] & np.triu(np.ones_like(close), 1)
+    first, second = np.nonzero(close)
+    if not len(first):
+        return None
+    return np.sqrt(np.mean((means[first] - means[second]) ** 2, axis=0) / 2.0)
+
+
+def nonrepeating(session: Diagnosed, per_configuration: bool) -> Cause | None:
+    """A sensor that does not repeat from pose to pose (hysteresis, creep), when the kept samples show one, or None.
+
+    The residual of a linear fit to the kept samples, per still pose: its mean scatters between
+    poses far beyond what the noise within the poses explains, and at random (a quadratic function
+    of gravity per configuration, which a tool file's error or a bend leaves, explains little of
+    it; each configuration needs :data:`CONFIGURATION_POSES` poses for that test): named with its
+    two figures and the sensor file's field that declares it.
+
+    Args:
+        session: The session (its kept samples and channel layout).
+        per_configuration: One offset per configuration (the offset model in use), else one for all.
+    """
+    kept = _kept(session)
+    if kept is None:
+        return None
+    time, W, channels, codes, _ = kept
+    found = pose_scatter(time, W, channels, codes, session.layout, per_configuration)
+    if found is None or not found.shown():
+        return None
+    force, moment = float(found.between[:3].max()), float(found.between[3:].max())
+    text = (
+        f"the sensor does not repeat from pose to pose (hysteresis, creep): {found.words()}, and no model of the tool "
+        f"file, the mount, a bend or a drift fits better: declare it in the sensor file, repeatability: {{force: {force:.2g}, "
+        f"moment: {moment:.2g}}} (N, N·m); the fit check then expects it and the accuracy budget holds it"
+    )
+    if found.revisited is None:  # without a revisit, a bend no polynomial follows scatters alike
+        text += (
+            "; no orientation was visited twice, so a sensor whose response bends with the load in a way these loads "
+            "cannot show would scatter alike (a jig of 2 masses, each at 5 centres of mass, would show it: 'fts-calib "
+            "trajectory --tool TOOL --model quadratic' names one; --return-pass visits every stop twice and tells them apart)"
+        )
+    return Cause("repeatability", text)

@@ -410,6 +410,8 @@ class CalibrationSession:
                 leave a direction undetermined, as a wrong tool file or joint unit can).
         """
         self._flush_staged()
+        if self.settings.repeatability is not None:  # the samples of a still pose share its offset: the offsets' BIC counts poses
+            self.estimator.samples_per_draw = self.kept_samples.samples_per_stop()
         try:
             calibration = self.estimator.solve(configurations=self.tool.names, at=self._last, prior=prior)
         except InsufficientExcitation as exc:  # a wrong tool file or joint unit, not a short sweep: the fit names it
@@ -424,9 +426,9 @@ class CalibrationSession:
             raise PoorFit(check, calibration)
         noise_floor = None if self.filter is None else self.filter.noise_floor
         accuracy = self.filter.budget_accuracy(self.kin) if isinstance(self.filter, DynamicFilter) else None  # the latency it fitted
-        kept, n_kept = self.kept_samples, int(self.kept.sum())
+        kept, n_kept, scatter = self.kept_samples, int(self.kept.sum()), self.settings.repeatability
         calibration, self.budget, self.latency = with_measured_budget(
-            calibration, self.kin, self.tool, kept, n_kept, noise_floor, self._moving, self.full_scale, accuracy
+            calibration, self.kin, self.tool, kept, n_kept, noise_floor, self._moving, self.full_scale, accuracy, scatter
         )
         return with_health(self, calibration, noise_floor)
 
