@@ -10,8 +10,8 @@ from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core.resources import data_dir
 from fts_calib.model.sensor_config import DEFAULT_FULL_SCALE
-from fts_calib.robot.tool import STANDARD_GRAVITY
-from fts_calib.session.session import MAX_LOAD_RATIO, CalibrationSession, check_tool_load
+from fts_calib.robot.tool import MAX_LOAD_RATIO, STANDARD_GRAVITY, check_tool_load
+from fts_calib.session.session import CalibrationSession
 
 
 def _scaled(tool, factor):

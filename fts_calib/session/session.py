@@ -61,7 +61,7 @@ from ..budget.propagation import AccuracyBudget
 from ..budget.sensitivities import stops
 from ..core.arrays import as_matrix
 from ..core.deprecation import renamed
-from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
+from ..core.exceptions import FileFormatError, FtsCalibError, InsufficientExcitation, ModelNotDetermined, PoorFit, ShapeError
 from ..filters.chain import NO_FILTER, FilterChain, filter_chain
 from ..filters.dynamic import DynamicFilter
 from ..filters.latency import LatencyEstimate
@@ -77,7 +77,7 @@ from ..model.prior import Prior
 from ..model.region import RegionBuilder
 from ..model.sensor_config import DEFAULT_FULL_SCALE
 from ..robot.kinematics import Kinematics
-from ..robot.tool import STANDARD_GRAVITY, Tool, weight_wrench
+from ..robot.tool import Tool, check_tool_load, weight_wrench
 from ..sources.batch import SampleBatch, configuration_codes
 from ..sources.source import array_batch
 from .checkpoint import read_checkpoint, write_checkpoint
@@ -128,36 +128,6 @@ class Progress:
     def kept_fraction(self) -> float:
         """Kept samples over seen samples (0 when none seen)."""
         return self.kept / self.seen if self.seen else 0.0
-
-
-#: How far beyond the sensor's force full scale a tool's weight may be before it is refused: a
-#: calibration load stays within the range (a 2.5 kg tool is 0.5 of a 50 N sensor's); ten times
-#: it is no tool that sensor carries, while grams for kilograms make it a thousand times.
-MAX_LOAD_RATIO = 10.0
-
-
-def check_tool_load(tool: Tool, full_scale: np.ndarray) -> None:
-    """Refuse a tool configuration whose weight is far beyond the sensor's force full scale.
-
-    Args:
-        tool: The calibration tool.
-        full_scale: The sensor's full scale per wrench axis [N, N, N, N m, N m, N m]. Shape (6,).
-
-    Raises:
-        ConfigError: A configuration weighs more than :data:`MAX_LOAD_RATIO` times the largest
-            force full scale; the message names it, its weight and what to check.
-    """
-    force = float(np.max(full_scale[:3]))
-    for k, configuration in enumerate(tool.configurations):
-        # [N] on Earth: the mass alone is judged here (a gravity in cm/s² is the fit check's to name)
-        weight = configuration.mass * STANDARD_GRAVITY
-        if weight > MAX_LOAD_RATIO * force:
-            message = (
-                f"tool '{tool.name}', configuration {configuration.name}: mass {configuration.mass:g} kg weighs about {weight:,.0f} N, "
-                f"{weight / force:,.0f} times the sensor's full scale of {force:g} N: a calibration tool hangs on the sensor, "
-                "so the mass is in another unit than kg (grams?) or the sensor is not the one given (--sensor, its full_scale)"
-            )
-            raise ConfigError(f"configurations[{k}].mass", configuration.mass, "a weight within the sensor's range", message=message)
 
 
 __all__ = ["BACKWARDS", "BEFORE_CHECKPOINT", "NON_FINITE", "OUTSIDE_LIMITS", "UNKNOWN_TOOL", "CalibrationSession", "Progress"]
