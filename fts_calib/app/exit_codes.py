@@ -92,8 +92,17 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
         "the job ran but its result failed a check: a validation error above --max-error, a failed trajectory "
         "check, a live run to which no data came",
     ),
-    ExitCodeEntry(ExitCode.USAGE, (), "command-line usage: an unknown option, a missing argument, a malformed value (argparse)"),
-    ExitCodeEntry(ExitCode.CONFIG, (ConfigError,), "a setting, option or argument has a value fts-calib cannot use"),
+    ExitCodeEntry(
+        ExitCode.USAGE,
+        (),
+        "command-line usage: an unknown option, a missing argument, a malformed value (argparse; a numeric option "
+        "given text that is not a number, --x=-- too)",
+    ),
+    ExitCodeEntry(
+        ExitCode.CONFIG,
+        (ConfigError,),
+        "a setting, option or argument has a value fts-calib cannot use (a numeric option given nan or inf)",
+    ),
     ExitCodeEntry(
         ExitCode.FILE,
         (FileFormatError, ResourceNotFound, LimitError),
