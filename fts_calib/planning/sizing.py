@@ -44,6 +44,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -366,7 +367,12 @@ def _untrusted(kind: MotionKind, tool: Tool, plan: Plan, budgeting: _Budgeting) 
         return int(np.count_nonzero(filter_weights(budgeting.kin, tool, plan, sigma_w, stated)))
 
     now, total = kept(uncertainty), len(plan.time) * len(tool.configurations)
-    without = {term: kept(replace(uncertainty, **{term[0]: 0.0})) for term in TRUST_TERMS}
+
+    def kept_without(field: str) -> int:  # the term set to 0
+        changes: dict[str, Any] = {field: 0.0}
+        return kept(replace(uncertainty, **changes))
+
+    without = {term: kept_without(term[0]) for term in TRUST_TERMS}
     term = max(without, key=lambda t: without[t])
     field, name, option, unit = term
     head = (
