@@ -12,10 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import enum
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
-from pathlib import Path
 
 from ..core.exceptions import (
     ConfigError,
@@ -40,6 +37,8 @@ from ..core.exceptions import (
     UnknownToolConfiguration,
     UnsupportedJoint,
 )
+from ..core.files import naming
+from ..core.files import writing as writing  # the commands import it from here
 
 
 class ExitCode(enum.IntEnum):
@@ -174,26 +173,6 @@ def error_line(error: BaseException) -> str:
     return " ".join(part.strip() for part in text.splitlines() if part.strip()) or type(error).__name__
 
 
-@contextmanager
-def _naming(what: str) -> Iterator[None]:
-    """An OSError inside becomes ``cannot WHAT: reason`` (an fts-calib error passes as it is)."""
-    try:
-        yield
-    except OSError as exc:
-        if isinstance(exc, FtsCalibError):
-            raise
-        raise OSError(exc.errno, f"cannot {what}: {exc.strerror or exc}") from exc
-
-
-def writing(path: str | Path) -> contextlib.AbstractContextManager[None]:
-    """Say which file could not be written: an OSError inside becomes ``cannot write PATH: reason``.
-
-    The atomic writer works on a temporary file beside ``path``; the user asked for
-    ``path``, so that is the name the message shows.
-    """
-    return _naming(f"write {path}")
-
-
 def using_udp(host: str, port: int) -> contextlib.AbstractContextManager[None]:
     """Say which address could not be used: an OSError inside becomes ``cannot use udp://HOST:PORT: reason``."""
-    return _naming(f"use udp://{host}:{port}")
+    return naming(f"use udp://{host}:{port}")
