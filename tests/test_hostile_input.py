@@ -502,6 +502,24 @@ def test_two_samples_per_time_stamp_are_refused_by_the_dynamic_filter(tmp_path, 
     assert _calibrate(tmp_path, recording) == ExitCode.OK, "the quasi-static filter reads such a clock (it judges still samples only)"
 
 
+def test_a_few_repeated_stamps_are_dropped_by_the_dynamic_filter_without_a_numpy_warning(tmp_path, ur5_recording, capsys):
+    """Case 12: one row in 20 stamped as the row before: 0 x inf leaked 'invalid value encountered in multiply' and trusted them."""
+    head, *rows = ur5_recording.read_text().splitlines(keepends=True)
+    stamps = [row.split(",", 1)[0] for row in rows]
+    recording = tmp_path / "repeats.csv"
+    recording.write_text(
+        head + "".join((stamps[k - 1] if k % 20 == 1 else stamps[k]) + "," + row.split(",", 1)[1] for k, row in enumerate(rows))
+    )
+    kept = {}
+    for name, path in (("clean", ur5_recording), ("repeats", recording)):
+        assert _calibrate(tmp_path, path, "--filter", "dynamic") == ExitCode.OK  # 5 % repeated: under the clock check's 10 %
+        out, err = capsys.readouterr()
+        assert "warning" not in err, err
+        kept[name] = int(re.search(r"^samples: [\d,]+ seen, ([\d,]+) kept", out, re.MULTILINE).group(1).replace(",", ""))
+    # a stamp that says nothing of its sample never adds one (it added 22 % on a simulated UR5 run)
+    assert kept["repeats"] < kept["clean"], kept
+
+
 def test_swapped_rows_under_the_dynamic_filter_are_named_and_the_fit_checked(tmp_path, ur5_recording, capsys):
     """Case 12: 29 row pairs swapped: each late row is skipped and counted, and the fit is judged (not 'unchecked')."""
     head, *rows = ur5_recording.read_text().splitlines(keepends=True)
