@@ -23,7 +23,8 @@ they barely move from raster to raster: the first finite candidate's are the flo
 below it is refused at once, naming the term. On moving samples the floor is the least over the
 motions screened, and a target below :data:`MOVING_FLOOR_SHARE` of the least so far is refused
 at once (on the UR5 with the paper's tool the least over the 60 continuous candidates is 0.70 of
-the first finite one's: 0.0301 and 0.0427 % FS); a target between is refused once no candidate met it.
+the first finite one's: 0.0301 and 0.0427 % FS; Panda 0.618, Kinova 0.831:
+``bench/bench_moving_floor.py``); a target between is refused once no candidate met it.
 
 A continuous motion whose samples the dynamic filter's trust rule drops (a latency uncertainty
 or an inertia tolerance so large that no expected wrench is trusted) determines nothing: the
