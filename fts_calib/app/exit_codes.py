@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import enum
 from dataclasses import dataclass
+from pathlib import Path
 
 from ..core.exceptions import (
     ConfigError,
@@ -37,8 +38,6 @@ from ..core.exceptions import (
     UnknownToolConfiguration,
     UnsupportedJoint,
 )
-from ..core.files import naming
-from ..core.files import writing as writing  # the commands import it from here
 
 
 class ExitCode(enum.IntEnum):
@@ -173,6 +172,15 @@ def error_line(error: BaseException) -> str:
     return " ".join(part.strip() for part in text.splitlines() if part.strip()) or type(error).__name__
 
 
+def writing(path: str | Path) -> contextlib.AbstractContextManager[None]:
+    """Say which file could not be written: :func:`fts_calib.core.files.writing` (imported when used: this module stays light)."""
+    from ..core import files
+
+    return files.writing(path)
+
+
 def using_udp(host: str, port: int) -> contextlib.AbstractContextManager[None]:
     """Say which address could not be used: an OSError inside becomes ``cannot use udp://HOST:PORT: reason``."""
-    return naming(f"use udp://{host}:{port}")
+    from ..core import files
+
+    return files.naming(f"use udp://{host}:{port}")
