@@ -323,9 +323,10 @@ class Screening:
         kind = self.kind
         if self.best is None:
             return TrajectoryError(f"no {kind.name} motion {_extent(kind)} fits {robot}'s limits", "too short")
-        if kind.continuous and self.floor is None and self.last is not None:
+        every = len(tool.configurations) == len(full_tool.configurations)  # fewer: what each number reaches, below
+        if kind.continuous and every and self.floor is None and self.last is not None:  # no motion had a finite budget
             return TrajectoryError(_untrusted(kind, tool, self.last, budgeting), "target unreachable")
-        if len(tool.configurations) == len(full_tool.configurations) and (below := self.below_floor(target_percent)) is not None:
+        if every and (below := self.below_floor(target_percent)) is not None:
             return below
         if not kind.continuous:  # still samples of fewer configurations are refused before any search
             return TrajectoryError(
