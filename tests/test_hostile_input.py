@@ -6,6 +6,7 @@ and the exit code are asserted. The unit tests at the end check the bounded pars
 :mod:`fts_calib.core.bounded` on their own.
 """
 
+import dataclasses
 import json
 import math
 import os
@@ -476,6 +477,174 @@ def test_listen_any_binds_every_interface_and_a_network_address_is_warned_about(
         UdpReceiver("127.0.0.1", 0).close()  # loopback: no warning
 
 
+# -- round 4 (issue 33, cases 12-15): the dynamic filter, the latency, continuous plans, numeric options ------------
+
+
+def _stamps_repeated(source, path):
+    """``source`` with every second row stamped as the row before it: two samples per time stamp."""
+    head, *rows = source.read_text().splitlines(keepends=True)
+    stamps = [row.split(",", 1)[0] for row in rows]
+    path.write_text(head + "".join(stamps[k - k % 2] + "," + row.split(",", 1)[1] for k, row in enumerate(rows)))
+    return path
+
+
+def test_two_samples_per_time_stamp_are_refused_by_the_dynamic_filter(tmp_path, ur5_recording, capsys):
+    """Case 12: the jitter term was millions of % of full scale and 95 % of the samples kept, exit 0; now exit 5, nothing written."""
+    recording = _stamps_repeated(ur5_recording, tmp_path / "twice.csv")
+    code = _calibrate(tmp_path, recording, "--filter", "dynamic")
+    assert code == ExitCode.RECORDING == 5
+    line = _error(capsys)
+    assert line.startswith(f"fts-calib calibrate: error: {recording}, column 'time': "), line
+    assert re.search(r": [\d,]+ of [\d,]+ consecutive rows of the first [\d,]+ have the same time stamp as the row before", line), line
+    assert line.endswith(
+        "so it needs one time stamp per sample; record the time at the sample rate, or calibrate the still samples (--filter quasi-static)"
+    )
+    assert not (tmp_path / "cal.yaml").exists()
+    assert _calibrate(tmp_path, recording) == ExitCode.OK, "the quasi-static filter reads such a clock (it judges still samples only)"
+
+
+def test_a_few_repeated_stamps_are_dropped_by_the_dynamic_filter_without_a_numpy_warning(tmp_path, ur5_recording, capsys):
+    """Case 12: one row in 20 stamped as the row before: 0 x inf leaked 'invalid value encountered in multiply' and trusted them."""
+    head, *rows = ur5_recording.read_text().splitlines(keepends=True)
+    stamps = [row.split(",", 1)[0] for row in rows]
+    recording = tmp_path / "repeats.csv"
+    recording.write_text(
+        head + "".join((stamps[k - 1] if k % 20 == 1 else stamps[k]) + "," + row.split(",", 1)[1] for k, row in enumerate(rows))
+    )
+    kept = {}
+    for name, path in (("clean", ur5_recording), ("repeats", recording)):
+        argv = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(path), "-o", str(tmp_path / "cal.yaml"), "--filter", "dynamic"]
+        assert main(argv) == ExitCode.OK  # 5 % repeated: under the clock check's 10 % (not --quiet: the counts are read)
+        out, err = capsys.readouterr()
+        assert "warning" not in err, err
+        kept[name] = int(re.search(r"^samples: [\d,]+ seen, ([\d,]+) kept", out, re.MULTILINE).group(1).replace(",", ""))
+    # a stamp that says nothing of its sample never adds one (it added 22 % on a simulated UR5 run)
+    assert kept["repeats"] < kept["clean"], kept
+
+
+def test_swapped_rows_under_the_dynamic_filter_are_named_and_the_fit_checked(tmp_path, ur5_recording, capsys):
+    """Case 12: 29 row pairs swapped: each late row is skipped and counted, and the fit is judged (not 'unchecked')."""
+    head, *rows = ur5_recording.read_text().splitlines(keepends=True)
+    for k in range(200, 200 + 29 * 100, 100):
+        rows[k], rows[k + 1] = rows[k + 1], rows[k]
+    recording = tmp_path / "swapped.csv"
+    recording.write_text(head + "".join(rows))
+    argv = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(recording), "-o", str(tmp_path / "c.yaml"), "--filter", "dynamic"]
+    assert main(argv) == ExitCode.OK
+    out = capsys.readouterr().out
+    assert re.search(r"time going backwards\s+29\n", out), out
+    assert re.search(r"^fit consistent: largest residual [\d.]+x the expected noise", out, re.MULTILINE), out
+    assert load_calibration(tmp_path / "c.yaml").quality.fit["verdict"] == "consistent"
+
+
+@pytest.mark.parametrize("command", ["live", "calibrate"])
+def test_a_latency_of_nan_is_refused_at_start_naming_the_option(tmp_path, capsys, command):
+    """Case 13: refused before the socket opens (it named the internal field 'live.latency_s'), exit 3, nothing written."""
+    argv = live_calibrate(tmp_path / "c.yaml", "--latency", "nan")
+    if command == "live":  # the old spelling: live --listen HOST:PORT
+        argv = ["live", "--listen", "127.0.0.1:0", *argv[2:]]
+    assert main(argv) == ExitCode.CONFIG == 3
+    assert _error(capsys) == f"fts-calib {command}: error: option --latency: expected a finite number, got 'nan'"
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.fixture
+def two_continuous_plans(monkeypatch):
+    """The continuous search on a grid of two motions (the command searches 60; the refusal's words are the same)."""
+    from fts_calib.planning import sizing
+
+    grid = dataclasses.replace(sizing.MOTION_KINDS["continuous"], levels=(3,), stops=(1, 2), spans=(0.35,))
+    monkeypatch.setitem(sizing.MOTION_KINDS, "continuous", grid)
+
+
+def _continuous(tmp_path, *extra):
+    out = tmp_path / "plan"
+    argv = ["trajectory", "--robot", "ur5", "--tool", "paper_tool", "--motion", "continuous", "-o", str(out), "--no-plot", *extra]
+    return main(argv), out
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "term"),
+    [
+        ("--latency-uncertainty", "10", "the latency uncertainty (--latency-uncertainty 10 s; "),
+        ("--inertia-tolerance", "1e9", "the inertia tolerance (--inertia-tolerance 1e+09; "),
+    ],
+)
+def test_a_continuous_plan_whose_samples_are_all_untrusted_names_the_option(tmp_path, capsys, two_continuous_plans, option, value, term):
+    """Case 14: it said 'tool mass alone gives at least inf %': now the stated term that drops the samples."""
+    code, out = _continuous(tmp_path, option, value)
+    assert code == ExitCode.TRAJECTORY == 9
+    line = _error(capsys)
+    assert line.startswith("fts-calib trajectory: error: no continuous plan of up to 3 levels × 2 stops determines the calibration: "), line
+    assert re.search(r"the dynamic filter's trust rule keeps [\d,]+ of the [\d,]+ samples of the longest motion screened", line), line
+    assert f"set by {term}" in line and line.endswith(f"State a smaller {option} (know it better), or plan still samples (--motion stop)")
+    assert "inf" not in line.replace("1e+09", "")
+    assert not out.exists()
+
+
+def test_a_continuous_target_far_below_the_tool_and_mount_is_refused_after_one_motion(tmp_path, capsys, monkeypatch):
+    """Case 14: --target-error 1e-6 searched all 60 continuous plans (74 s) before refusing; now after the first."""
+    from fts_calib.planning import sizing
+
+    screened = []
+    add = sizing.Screening.add
+    monkeypatch.setattr(sizing.Screening, "add", lambda self, plan, budget: (screened.append(plan), add(self, plan, budget)))
+    code, out = _continuous(tmp_path, "--target-error", "1e-6")
+    assert code == ExitCode.TRAJECTORY
+    line = _error(capsys)
+    assert re.fullmatch(
+        r"fts-calib trajectory: error: no plan meets the target of 1e-06 % of full scale: (tool mass|tool centre of mass|sensor mount) "
+        r"alone gives ([\d.]+) % on [FM][xyz] on the motions screened so far, and no moving motion takes those terms below 0\.5 of "
+        r"that \(([\d.]+) %\) \(tool tolerance and sensor mount: .*\)\. "
+        r"State a larger --target-error, or know the tool and the mount better\.",
+        line,
+    ), line
+    assert len(screened) == 1 and not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [
+        ("monitor --calibration c.yaml --robot ur5 --tool paper_tool r.csv", "--false-alarms"),
+        ("report c.yaml r.csv", "--target-error"),
+        ("payload --calibration c.yaml r.csv", "--seconds"),
+        ("calibrate --robot ur5 --tool paper_tool r.csv", "--prior-weight"),
+        ("trajectory --robot ur5 --tool paper_tool", "--levels"),
+    ],
+)
+def test_a_numeric_option_given_no_number_is_a_usage_error_naming_it(tmp_path, capsys, command, option):
+    """Case 15: ``--x=--`` ended in a TypeError traceback (argparse dropped the '--' and stored []); 'abc' alike."""
+    name, *rest = command.split()
+    expected = "an integer" if option == "--levels" else "a number"
+    for text in ("--", "abc", ""):
+        with pytest.raises(SystemExit) as exit_:
+            main([name, *rest, f"{option}={text}", "-o", str(tmp_path / "out")])
+        assert exit_.value.code == ExitCode.USAGE == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err[0].startswith(f"usage: fts-calib {name} ") and "Traceback" not in "".join(err)
+        assert err[-1] == f"fts-calib {name}: error: argument {option}: expected {expected}, got {text!r}"
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "1e999"])
+def test_a_numeric_option_refuses_a_number_that_is_not_finite(tmp_path, capsys, value):
+    """Case 15: every numeric option goes through the one converter (options.Number): nan and inf are refused at start, exit 3."""
+    argv = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", "r.csv", "-o", str(tmp_path / "c.yaml")]
+    assert main([*argv, f"--prior-weight={value}"]) == ExitCode.CONFIG
+    assert _error(capsys) == f"fts-calib calibrate: error: option --prior-weight: expected a finite number, got {value!r}"
+    if not value.startswith("-"):  # argparse reads '-inf' after --mount as an option
+        assert main([*argv, "--mount", "0", value, "0"]) == ExitCode.CONFIG
+        assert _error(capsys) == f"fts-calib calibrate: error: option --mount: expected a finite number, got {value!r}"
+
+
+def test_every_numeric_option_is_declared_through_the_checked_converter():
+    from fts_calib.app.options import OPTIONS, Number
+
+    numeric = [o.name for o in OPTIONS.values() if isinstance(o.type, Number)]
+    assert len(numeric) >= 30 and {"latency", "false-alarms", "seconds", "prior-weight", "target-error", "levels", "seed"} <= set(numeric)
+    assert not [o.name for o in OPTIONS.values() if o.type in (float, int)], "a numeric option beside the converter"
+
+
 # -- the bounded parsers on their own ------------------------------------------------------
 
 
@@ -613,10 +782,13 @@ def test_a_tare_threshold_of_zero_or_below_is_refused_naming_the_option(ur5_reco
     """Case 2: before, --tare-threshold 0 re-tared every window (307 times in 42.6 s) and -1 did not end."""
     before = own_calibration.read_bytes()
     assert _monitor(own_calibration, *R, "--auto-tare", "--tare-threshold", threshold, str(ur5_recording)) == ExitCode.CONFIG
-    assert _error(capsys) == (
-        f"fts-calib monitor: error: --tare-threshold={float(threshold)} but expected a finite offset error in % of full scale "
+    expected = (  # nan: the numeric options' one converter refuses it first
+        "fts-calib monitor: error: option --tare-threshold: expected a finite number, got 'nan'"
+        if threshold == "nan"
+        else f"fts-calib monitor: error: --tare-threshold={float(threshold)} but expected a finite offset error in % of full scale "
         "above 0 and at most 100 (default 0.05): at 0 or below every window would re-tare"
     )
+    assert _error(capsys) == expected
     assert own_calibration.read_bytes() == before
 
 
@@ -748,10 +920,13 @@ def test_monitor_refuses_a_time_column_in_ms_or_without_a_clock(tmp_path, ur5_re
 def test_a_false_alarm_budget_out_of_range_names_the_option(ur5_recording, calibration_file, capsys, value):
     """Case 11: before, exit 3 naming internal values ('monitor=[100.0, 100, 15, 5]', 'probability=11574.07')."""
     assert _monitor(calibration_file, f"--false-alarms={value}", str(ur5_recording)) == ExitCode.CONFIG
-    assert _error(capsys) == (
-        f"fts-calib monitor: error: --false-alarms={float(value)} but expected a finite budget of false alarms per hour of "
+    expected = (  # nan: the numeric options' one converter refuses it first
+        "fts-calib monitor: error: option --false-alarms: expected a finite number, got 'nan'"
+        if value == "nan"
+        else f"fts-calib monitor: error: --false-alarms={float(value)} but expected a finite budget of false alarms per hour of "
         "service above 0 and at most 100 (default 1e-3)"
     )
+    assert _error(capsys) == expected
 
 
 def _still_service(path, calibration, ur5, paper_tool, poses, shift, rng, seconds=1.5):

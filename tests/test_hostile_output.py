@@ -17,6 +17,8 @@ import threading
 import numpy as np
 import pytest
 
+from fts_calib import FtsCalibWarning
+from fts_calib._version import __version__
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
 from fts_calib.core import files as outputs
@@ -270,6 +272,90 @@ def test_tare_keeps_the_fields_of_a_newer_version(tmp_path, sensor, cal_file, ur
     assert after["D"] != data["D"] and len(after["offset_history"]) == 1
 
 
+# -- round 4 (issue 33, cases 16-19): messages that name what is wrong, sensor and calibration files ------------------
+
+
+def test_a_typo_of_channels_full_lists_full_and_names_it(tmp_path, capsys):
+    """Case 16: 'channels: fulll' listed the layouts without 'full' (the sensor file's own value)."""
+    sensor = tmp_path / "sensor.yaml"
+    sensor.write_text(resolve("sensor", "configs").read_text() + "channels: fulll\n")
+    code = main(["calibrate", "--robot", "ur5", "--tool", "paper_tool", "--sensor", str(sensor), "r.csv", "-o", str(tmp_path / "c.yaml")])
+    assert code == ExitCode.FILE == 4
+    assert _error_line(capsys) == (
+        f"fts-calib calibrate: error: {sensor}: field 'channels': is 'fulll' but expected maltese-cross-8, wrench-6, full or "
+        "{projection: 6 x n rows} (did you mean 'full'?)"
+    )
+    assert not (tmp_path / "c.yaml").exists()
+
+
+def test_the_ati_export_of_a_linear_calibration_of_the_raw_channels_names_the_layout(tmp_path, ur5_recording, capsys):
+    """Case 16: it advised 'calibrate with --model linear', which the calibration was."""
+    sensor = tmp_path / "full.yaml"
+    sensor.write_text(resolve("sensor", "configs").read_text() + "channels: full\n")
+    cal = tmp_path / "cal.yaml"
+    argv = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", "--sensor", str(sensor), "--model", "linear", str(ur5_recording)]
+    assert main([*argv, "-o", str(cal), "--quiet"]) == ExitCode.OK
+    capsys.readouterr()
+    assert main(["export", "--format", "ati", "--calibration", str(cal), "-o", str(tmp_path / "c.cal")]) == ExitCode.CONFIG == 3
+    assert _error_line(capsys) == (
+        "fts-calib export: error: the ATI export (its UserAxis rows) holds one matrix C (wrench = C strain + D) but this "
+        "calibration is a linear model of the raw channels (8 features per axis): use the c-header or json export, or calibrate "
+        "with the sensor's channel layout (the sensor file's channels: maltese-cross-8, wrench-6 or a projection, not full)"
+    )
+    assert not (tmp_path / "c.cal").exists()
+
+
+def test_a_refused_connection_to_a_ur_names_the_host_the_port_and_rtde(tmp_path, monkeypatch, capsys):
+    """Case 17: nothing listening at the controller's address: it said 'Connection refused' alone, exit 14."""
+    import socket
+    import sys
+    import types
+
+    from fts_calib.sources import ur
+
+    monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host: None))
+    with socket.socket() as probe:  # a port nothing listens on: bound, then closed
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    monkeypatch.setattr(ur, "RTDE_PORT", port)
+    argv = ["--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path / "c.yaml")]
+    for command, sources in (("calibrate", ["ur://127.0.0.1", "udp://127.0.0.1:0"]), ("live", ["--ur", "127.0.0.1"])):
+        extra = ["--sensor", "factory_sensor"] if command == "live" else []
+        assert main([command, *sources, *argv, *extra]) == ExitCode.FILE_ACCESS == 14
+        assert _error_line(capsys) == (
+            f"fts-calib {command}: error: cannot connect to the UR controller at 127.0.0.1:{port} (RTDE): Connection refused; "
+            "is 127.0.0.1 the robot's controller, with RTDE enabled?"
+        )
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_full_disk_while_a_checkpoint_is_written_names_it_and_keeps_the_last(tmp_path, ur5_recording, monkeypatch, capsys):
+    """Case 18: 'No space left on device' without the file; the checkpoint before it and the calibration stay as they were."""
+    checkpoint, cal = tmp_path / "run.checkpoint.json", tmp_path / "cal.yaml"
+    argv = ["calibrate", "--robot", "ur5", "--tool", "paper_tool", str(ur5_recording), "-o", str(cal), "--checkpoint", str(checkpoint)]
+    assert main([*argv, "--quiet"]) == ExitCode.OK
+    before = {path.name: path.read_bytes() for path in (checkpoint, cal)}
+    real = os.fdopen
+    monkeypatch.setattr(outputs.os, "fdopen", lambda fd, mode: _FullDisk(real(fd, mode)))
+    assert main([*argv, "--restart", "--quiet"]) == ExitCode.FILE_ACCESS == 14
+    assert _error_line(capsys) == f"fts-calib calibrate: error: cannot write {checkpoint}: No space left on device"
+    assert {path.name: path.read_bytes() for path in (checkpoint, cal)} == before
+    assert _leftovers(tmp_path) == []
+
+
+def test_a_field_this_version_does_not_know_is_named_as_ignored(tmp_path, cal_file, capsys):
+    """Case 19: export dropped 'temperature_compensation' without a word, exit 0; now a warning names the field and the file."""
+    cal_file.write_text(cal_file.read_text() + "temperature_compensation:\n  coefficients: [0.1, 0.2]\n")
+    out = tmp_path / "cal.json"
+    assert main(["export", "--format", "json", "--calibration", str(cal_file), "-o", str(out)]) == ExitCode.OK
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"fts-calib: warning: {cal_file}: field 'temperature_compensation' not known to fts-calib {__version__} (a newer "
+        "version's?): ignored here (no computation and no export uses it), kept as it is when fts-calib rewrites the file (tare)"
+    ]
+    assert "temperature_compensation" not in out.read_text()
+
+
 # -- bags whose joint stamps are on another clock ------------------------------------------------------------
 
 
@@ -457,7 +543,9 @@ def test_fields_of_a_newer_version_survive_a_load_and_save_inside_quality_too(tm
     data["quality"]["drift_residual"] = {"Fx": 0.01}  # fields a newer version writes
     data["health_v2"] = [1, 2, 3]
     path.write_text(yaml.safe_dump(data, sort_keys=False))
-    again = yaml.safe_load(save_calibration(load_calibration(path), tmp_path / "again.yaml").read_text())
+    with pytest.warns(FtsCalibWarning, match=r"fields 'health_v2', 'quality\.drift_residual' not known to fts-calib"):
+        loaded = load_calibration(path)
+    again = yaml.safe_load(save_calibration(loaded, tmp_path / "again.yaml").read_text())
     assert again["quality"]["drift_residual"] == {"Fx": 0.01} and again["health_v2"] == [1, 2, 3]
     assert again["quality"]["rank"] == 7 and again["D"] == data["D"]
 

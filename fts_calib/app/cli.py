@@ -143,7 +143,8 @@ def _main(argv: list[str] | None) -> int:
         print(f"fts-calib {command}: interrupted" if command else "fts-calib: interrupted", file=sys.stderr)
         return int(ExitCode.INTERRUPTED)
     except (FtsCalibError, OSError) as exc:  # a user error, or the system refusing a file: one line, no traceback
-        print(f"fts-calib {command}: error: {error_line(exc)}", file=sys.stderr)
+        command = command or next((word for word in argv or sys.argv[1:] if not word.startswith("-")), None)  # while parsing
+        print(f"fts-calib {command}: error: {error_line(exc)}" if command else f"fts-calib: error: {error_line(exc)}", file=sys.stderr)
         return int(exit_code(exc))
 
 

@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import enum
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -92,8 +90,17 @@ EXIT_CODES: tuple[ExitCodeEntry, ...] = (
         "the job ran but its result failed a check: a validation error above --max-error, a failed trajectory "
         "check, a live run to which no data came",
     ),
-    ExitCodeEntry(ExitCode.USAGE, (), "command-line usage: an unknown option, a missing argument, a malformed value (argparse)"),
-    ExitCodeEntry(ExitCode.CONFIG, (ConfigError,), "a setting, option or argument has a value fts-calib cannot use"),
+    ExitCodeEntry(
+        ExitCode.USAGE,
+        (),
+        "command-line usage: an unknown option, a missing argument, a malformed value (argparse; a numeric option "
+        "given text that is not a number, --x=-- too)",
+    ),
+    ExitCodeEntry(
+        ExitCode.CONFIG,
+        (ConfigError,),
+        "a setting, option or argument has a value fts-calib cannot use (a numeric option given nan or inf)",
+    ),
     ExitCodeEntry(
         ExitCode.FILE,
         (FileFormatError, ResourceNotFound, LimitError),
@@ -165,26 +172,15 @@ def error_line(error: BaseException) -> str:
     return " ".join(part.strip() for part in text.splitlines() if part.strip()) or type(error).__name__
 
 
-@contextmanager
-def _naming(what: str) -> Iterator[None]:
-    """An OSError inside becomes ``cannot WHAT: reason`` (an fts-calib error passes as it is)."""
-    try:
-        yield
-    except OSError as exc:
-        if isinstance(exc, FtsCalibError):
-            raise
-        raise OSError(exc.errno, f"cannot {what}: {exc.strerror or exc}") from exc
-
-
 def writing(path: str | Path) -> contextlib.AbstractContextManager[None]:
-    """Say which file could not be written: an OSError inside becomes ``cannot write PATH: reason``.
+    """Say which file could not be written: :func:`fts_calib.core.files.writing` (imported when used: this module stays light)."""
+    from ..core import files
 
-    The atomic writer works on a temporary file beside ``path``; the user asked for
-    ``path``, so that is the name the message shows.
-    """
-    return _naming(f"write {path}")
+    return files.writing(path)
 
 
 def using_udp(host: str, port: int) -> contextlib.AbstractContextManager[None]:
     """Say which address could not be used: an OSError inside becomes ``cannot use udp://HOST:PORT: reason``."""
-    return _naming(f"use udp://{host}:{port}")
+    from ..core import files
+
+    return files.naming(f"use udp://{host}:{port}")

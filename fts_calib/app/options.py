@@ -21,12 +21,14 @@ from __future__ import annotations
 
 import argparse
 import builtins
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ..core.deprecation import OldFlag, OldSpelling, add_old_flag
+from ..core.exceptions import ConfigError
 from ..filters.settings import FILTER_CHOICES
 from ..model.features import MODEL_SETTINGS
 from ..model.offset_models import OFFSET_SETTINGS
@@ -81,6 +83,32 @@ def add_address(text: str) -> tuple[str, int]:
     if not 0 <= number <= 65535:
         raise argparse.ArgumentTypeError(f"port {number} in {text!r} but expected 0 to 65535 (0: any free port)")
     return (host or "127.0.0.1"), number
+
+
+@dataclass(frozen=True)
+class Number:
+    """The checked converter of every numeric option (``_declare`` gives it to each option declared ``type=float`` or ``int``).
+
+    Text that is not a number (``--``, ``abc``, an empty value) raises argparse's error type: a usage
+    error, exit 2, ``argument --x: expected a number, got '--'``. A number no option can use (nan,
+    inf, or 1e999, which overflows to inf) raises :class:`ConfigError` (exit 3), which the parser
+    re-raises naming the option (:meth:`fts_calib.app.parser.Parser._get_value`).
+
+    Attributes:
+        kind: ``float`` or ``int``.
+    """
+
+    kind: Callable[[str], float | int] = float
+
+    def __call__(self, text: str) -> float | int:
+        """The value of ``text``, finite."""
+        try:
+            value = self.kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if self.kind is int else 'a number'}, got {text!r}") from None
+        if not math.isfinite(value):
+            raise ConfigError("value", text, "a finite number", reason=f"expected a finite number, got {text!r}")
+        return value
 
 
 def udp_source(address: tuple[str, int]) -> str:
@@ -160,6 +188,8 @@ OPTIONS: dict[str, Option] = {}
 def _declare(*flags: str, dest: str, help: str, **kwargs: Any) -> Option:
     if kwargs.get("action") in ("store_true", "store_false"):  # a flag's value when not given
         kwargs.setdefault("default", kwargs["action"] == "store_false")
+    if kwargs.get("type") in (float, int):  # every numeric option through the one checked converter
+        kwargs["type"] = Number(kwargs["type"])
     option = Option(tuple(flags), dest, help, **kwargs)
     if option.name in OPTIONS:
         raise ValueError(f"option {option.name} declared twice")

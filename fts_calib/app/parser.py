@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..core.deprecation import SOURCES_DEST, OldFlag, OldSpelling, add_old_flag, apply_old_spellings
+from ..core.exceptions import ConfigError
 from .exit_codes import EXIT_CODES
 from .options import (
     DEFAULT_LISTEN,
@@ -31,6 +32,7 @@ from .options import (
     ORIENTATION_HELP,
     PLOT_SUFFIXES,
     RECORDING_HELP,
+    Number,
     Option,
     add_address,
     plot_path,
@@ -59,6 +61,30 @@ class Parser(argparse.ArgumentParser):
                 "(payload's flag that estimates a small mount rotation is now --estimate-mount)"
             )
         super().error(message)
+
+    def _get_values(self, action, arg_strings):
+        """Argparse's, but ``--x=--`` gives the option the text ``--`` (argparse would drop it and store an empty list)."""
+        if action.option_strings and action.nargs is None and arg_strings == ["--"]:
+            value = self._get_value(action, "--")
+            self._check_value(action, value)
+            return value
+        return super()._get_values(action, arg_strings)
+
+    def _get_value(self, action, arg_string):
+        """Argparse's; a numeric option's text through its checked converter (:class:`~fts_calib.app.options.Number`).
+
+        Text that is not a number is a usage error (exit 2), a number the option cannot use (nan,
+        inf) a :class:`ConfigError` (exit 3); both messages name the option.
+        """
+        if not isinstance(action.type, Number):
+            return super()._get_value(action, arg_string)
+        try:
+            return action.type(arg_string)
+        except argparse.ArgumentTypeError as error:
+            raise argparse.ArgumentError(action, str(error)) from None
+        except ConfigError as error:
+            flag = max(action.option_strings, key=len, default=action.dest)
+            raise ConfigError(flag, arg_string, error.expected, message=f"option {flag}: {error.reason}") from None
 
     def parse_known_args(self, args=None, namespace=None):
         """Argparse's, then what the old spellings given stand for is stored (and warned about)."""

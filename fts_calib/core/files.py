@@ -34,6 +34,7 @@ and refused in one line: :func:`check_distinct` raises :class:`ConfigError`,
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import errno
 import hashlib
@@ -50,7 +51,7 @@ from typing import IO, Any
 import numpy as np
 
 from .bounded import parse_yaml, read_bounded_text
-from .exceptions import ConfigError, FileFormatError, OutputInUse
+from .exceptions import ConfigError, FileFormatError, FtsCalibError, OutputInUse
 from .tables import utf8_safe
 
 try:
@@ -60,6 +61,26 @@ except ImportError:  # pragma: no cover - not POSIX: outputs are written unlocke
 
 #: The output name that means standard output.
 STDOUT = "-"
+
+
+@contextmanager
+def naming(what: str) -> Iterator[None]:
+    """An OSError inside becomes ``cannot WHAT: reason`` (an fts-calib error passes as it is)."""
+    try:
+        yield
+    except OSError as exc:
+        if isinstance(exc, FtsCalibError):
+            raise
+        raise OSError(exc.errno, f"cannot {what}: {exc.strerror or exc}") from exc
+
+
+def writing(path: str | Path) -> contextlib.AbstractContextManager[None]:
+    """Say which file could not be written: an OSError inside becomes ``cannot write PATH: reason``.
+
+    The atomic writer works on a temporary file beside ``path``; the user asked for
+    ``path``, so that is the name the message shows.
+    """
+    return naming(f"write {path}")
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:

@@ -183,7 +183,8 @@ def predicted_error(
     # the noise is the same for every sample: its norms once (one row), not per sample
     noise = through_tool(norms((gain_a * joint_noise)[None]), norms((gain_v * joint_noise)[None]))
     bias = through_tool(norms(bias), (0.0, 0.0))
-    latency = latency_sigma_s * np.abs(rate)
+    finite = np.isfinite(rate)  # a rate unbounded (a repeated time stamp): the latency's error unbounded, even when its sigma is 0
+    latency = np.where(finite, latency_sigma_s * np.abs(np.where(finite, rate, 0.0)), np.inf)
     inertia = inertia_tolerance * np.column_stack([np.zeros((n, 3)), np.abs(inertial)])
     return noise, np.sqrt(bias**2 + latency**2 + inertia**2)
 

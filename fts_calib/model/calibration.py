@@ -354,9 +354,15 @@ class Calibration:
         """
         if self.model is not None:
             kind = f"a {self.model.family} model" + (" of the raw channels" if self.model.full else "")
+            # a linear model of the raw channels is a free C, not C_bar P: the layout, not the model, is what to change
+            again = (
+                "with the sensor's channel layout (the sensor file's channels: maltese-cross-8, wrench-6 or a projection, not full)"
+                if self.model.family == "linear"
+                else "with --model linear"
+            )
             message = (
                 f"{what} holds one matrix C (wrench = C strain + D) but this calibration is {kind} "
-                f"({len(self.model.names)} features per axis): use the c-header or json export, or calibrate with --model linear"
+                f"({len(self.model.names)} features per axis): use the c-header or json export, or calibrate {again}"
             )
             raise ConfigError("model", self.model.family, "linear", message=message)
 
@@ -452,7 +458,8 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             number, or a C that does not equal ``C_bar @ P``; the message names the field.
 
     Fields this version does not know (a newer version's) are kept in ``extra`` (top level)
-    and ``quality.extra``, and :func:`save_calibration` writes them back.
+    and ``quality.extra``, and :func:`save_calibration` writes them back; a
+    :class:`FtsCalibWarning` names them and the file: nothing else uses them.
     """
     path = locate(path, "configs", "calibration")
     data = load_yaml(path)
@@ -490,6 +497,10 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
         if health is not None:
             ParityModel.from_dict(health)  # refused here, naming the field, rather than in service
     region = region_from_dict(data["region"], path) if data.get("region") is not None else None  # older files: none
+    extra = {key: value for key, value in data.items() if key not in FIELDS}
+    unknown = [*extra, *(f"quality.{key}" for key in (quality.extra if quality is not None else {}))]
+    if unknown:
+        warnings.warn(unknown_fields(path, unknown), FtsCalibWarning, stacklevel=2)
     with fields_of(path):
         return Calibration(
             C_bar=C_bar,
@@ -503,8 +514,19 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             model_selection=selection,
             health=health,
             region=region,
-            extra={key: value for key, value in data.items() if key not in FIELDS},
+            extra=extra,
         )
+
+
+def unknown_fields(path: str | Path, names: list[str]) -> str:
+    """The warning of a calibration file's fields this version does not know (``names``, dotted): ignored, kept on a rewrite."""
+    from .._version import __version__
+
+    listed = ", ".join(f"'{name}'" for name in names)
+    return (
+        f"{path}: field{'s' if len(names) > 1 else ''} {listed} not known to fts-calib {__version__} (a newer version's?): "
+        "ignored here (no computation and no export uses it), kept as it is when fts-calib rewrites the file (tare)"
+    )
 
 
 def _model_from(raw: Any, path: Path, layout: ChannelLayout) -> SensorModel | None:

@@ -269,12 +269,14 @@ MALTESE_CROSS_8 = ChannelLayout("maltese-cross-8", P)
 WRENCH_6 = ChannelLayout("wrench-6", np.eye(6))
 
 
-def channel_layout(value: Any = None) -> ChannelLayout:
+def channel_layout(value: Any = None, also: tuple[str, ...] = ()) -> ChannelLayout:
     """The layout named by a sensor-YAML ``channels`` value.
 
     Args:
         value: None or ``"maltese-cross-8"`` (the default), ``"wrench-6"``, a 6 x n list of
             rows, ``{"projection": rows}``, or a :class:`ChannelLayout` (returned as is).
+        also: Other names the caller reads before this (the sensor file's ``full``): an
+            error lists them with the layouts, and a typo of one is named.
 
     Raises:
         ConfigError: An unknown name or a bad matrix; the message says what is expected.
@@ -290,9 +292,10 @@ def channel_layout(value: Any = None) -> ChannelLayout:
             raise ConfigError("channels", dict(value), "maltese-cross-8, wrench-6 or {projection: 6 x n rows}")
         value = value["projection"]
     if isinstance(value, (str, int, float)):  # a typo of a name, or a channel count instead of a layout
-        close = difflib.get_close_matches(str(value), LAYOUT_NAMES, 1)
+        close = difflib.get_close_matches(str(value), [*LAYOUT_NAMES, *also], 1)
         hint = f" (did you mean '{close[0]}'?)" if close else ""
-        raise ConfigError("channels", value, "maltese-cross-8, wrench-6 or {projection: 6 x n rows}" + hint)
+        names = ", ".join(["maltese-cross-8", "wrench-6", *also])
+        raise ConfigError("channels", value, f"{names} or {{projection: 6 x n rows}}" + hint)
     rows = value if isinstance(value, list) and all(isinstance(row, list) for row in value) else None
     if rows is not None and len({len(row) for row in rows}) > 1:
         lengths = [len(row) for row in rows]

@@ -385,7 +385,7 @@ def load_sensor_config(path: str | Path) -> SensorSpec:
     moment = read_positive(full.get("moment", DEFAULT_FULL_SCALE[3]), path, "full_scale.moment")
     full_channels = data.get("channels") == "full"
     with fields_of(path, names={"projection": "channels.projection"}):
-        layout = channel_layout(None if full_channels else data.get("channels"))
+        layout = channel_layout(None if full_channels else data.get("channels"), also=("full",))
     full_scale = np.array([force] * 3 + [moment] * 3)
     simulated = _read_simulation(data["simulation"], path, layout, full_scale) if data.get("simulation") is not None else None
     limits = _read_limits(data, path, layout.n_channels)

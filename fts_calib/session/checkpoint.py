@@ -31,7 +31,7 @@ from typing import Any
 from .._version import __version__
 from ..core.bounded import load_json_file
 from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning
-from ..core.files import atomic_write_text
+from ..core.files import atomic_write_text, writing
 from ..model.calibration import now_iso
 from ..robot.tool import Tool
 from ..sources.bag import parse_bag_argument
@@ -117,7 +117,8 @@ def check_start(path: str | Path | None, resume: bool, restart: bool) -> None:
 def write_checkpoint(path: str | Path, state: dict[str, Any]) -> Path:
     """Write a session's ``state`` (plain data) as a checkpoint, atomically; returns the path."""
     document = {"format": CHECKPOINT_FORMAT, **state, "written": now_iso(), "software_version": __version__}
-    return atomic_write_text(Path(path), json.dumps(document))
+    with writing(path):  # a full disk names the checkpoint, not only the reason
+        return atomic_write_text(Path(path), json.dumps(document))
 
 
 #: Largest checkpoint read [bytes]: a checkpoint holds sums, not samples (about 20 kB).

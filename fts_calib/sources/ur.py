@@ -84,22 +84,20 @@ def probe_rtde(host: str, port: int = RTDE_PORT, timeout_s: float = TIMEOUT_S) -
         ConnectionError: The connection is refused or closed, or the answer is not RTDE's.
     """
     where = f"the UR controller at {host}:{port} (RTDE)"
+    answer = b""
     try:
         with socket.create_connection((host, port), timeout=timeout_s) as sock:
             sock.sendall(struct.pack(">HBH", 5, _RTDE_VERSION_REQUEST, _RTDE_PROTOCOL))
-            answer = b""
-            while len(answer) < 4:
-                part = sock.recv(4 - len(answer))
-                if not part:
-                    raise ConnectionError(f"{where} closed the connection without answering RTDE's protocol request")
+            while len(answer) < 4 and (part := sock.recv(4 - len(answer))):
                 answer += part
     except TimeoutError:
         hint = "is HOST the robot's controller, with RTDE enabled? (--ur-timeout sets the wait)"
         raise FeedTimeout(f"{where} to answer RTDE's protocol request", timeout_s, hint) from None
-    except OSError as exc:
-        if isinstance(exc, ConnectionError):
-            raise
-        raise ConnectionError(f"cannot connect to {where}: {exc.strerror or exc}") from None
+    except OSError as exc:  # refused, reset, no route: the OS's words, with the host, the port and RTDE
+        reason = exc.strerror or str(exc) or type(exc).__name__
+        raise ConnectionError(f"cannot connect to {where}: {reason}; is {host} the robot's controller, with RTDE enabled?") from None
+    if len(answer) < 4:
+        raise ConnectionError(f"{where} closed the connection without answering RTDE's protocol request")
     if answer[2] != _RTDE_VERSION_REQUEST:
         raise ConnectionError(f"{where} answered, but not as an RTDE server (package type {answer[2]}): is HOST a UR controller?")
 
