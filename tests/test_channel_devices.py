@@ -147,3 +147,78 @@ def test_stream_clock_recovers_offset_rate_and_jitter():
     assert clock.rate_hz == pytest.approx((arrivals.size - 1) / (arrivals[-1] - arrivals[0]), rel=1e-12)
     assert clock.jitter_s == pytest.approx(np.std(np.diff(arrivals), ddof=1), rel=1e-9)
     assert clock.latency_s == pytest.approx(np.mean(delays) - delays.min(), abs=1e-12)
+
+
+def test_serial_channels_with_joint_datagrams_on_one_clock(pty):
+    """Joints stamped on another clock (1000 s behind) are put on the host's: each placed sample's joints are q(its time).
+
+    The serial line carries the host time of its writing (µs) as a channel and the joints are
+    q(t) = 0.1 t on the sender's clock; placed on the host's clock, they must agree (an
+    independent truth) to the delays of the loopback, far below 0.05 s.
+    """
+    import socket
+    import threading
+
+    from fts_calib.sources.live_feed import DEVICE_LOST, StreamEnd
+    from fts_calib.sources.source import open_source
+    from fts_calib.sources.udp import Joints, ToolChange, encode
+
+    master, path = pty
+    feed = open_source(
+        f"serial://{path}?channels=2", ["a", "b"], ["A"], joints="udp://127.0.0.1:0", end=StreamEnd(idle_timeout_s=5.0), max_gap_s=0.2
+    )
+    address = feed.receiver.address
+    stop = threading.Event()
+
+    def sender() -> None:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.sendto(encode(ToolChange(time.monotonic() - 1000.0 - 1.0, "A")), address)
+            for k in range(400):
+                if stop.is_set():
+                    return
+                t_sender = time.monotonic() - 1000.0
+                sock.sendto(encode(Joints(t_sender, {"a": 0.1 * t_sender, "b": -0.1 * t_sender}, seq=k)), address)
+                if k % 2 == 0:
+                    now = time.monotonic()
+                    os.write(master, b"%d,%d\n" % (int(now * 1e6), k))
+                if k == 300:
+                    os.close(master)  # the cable pulled mid-run
+                    return
+                time.sleep(0.002)
+
+    os.write(master, b"\n")
+    thread = threading.Thread(target=sender, daemon=True)
+    thread.start()
+    batches = list(feed)
+    stop.set()
+    thread.join()
+    time_s = np.concatenate([b.time for b in batches])
+    joints = np.concatenate([b.joints for b in batches])
+    written = np.concatenate([b.channels for b in batches])[:, 0] * 1e-6
+    assert feed.ended_by == DEVICE_LOST and len(time_s) > 100
+    assert np.all(np.abs(time_s - written) < 0.05)  # stamped on arrival, on the host's clock
+    np.testing.assert_allclose(joints[:, 0], 0.1 * (time_s - 1000.0), atol=0.005)  # the sender's clock mapped onto the host's
+    assert feed.clocks["joints"].offset_s == pytest.approx(1000.0, abs=0.05)
+    assert feed.clocks["strain"].rate_hz is not None and "the run ends with what it has" in "\n".join(feed.notes())
+
+
+def test_netft_source_alone_and_silent_box_raises():
+    """netft:// through open_source: the counts alone (no joints); a box that never answers is a FeedTimeout naming it."""
+    from fts_calib.sources.source import open_source
+
+    counts = np.arange(60).reshape(10, 6) - 30
+    box = NetFtBox(Script(counts, silent_after=10))
+    try:
+        with open_source(box.url, None, None, device_timeout_s=0.3, n_channels=6, hold_s=0.0) as feed:
+            got = np.concatenate([b.channels for b in feed])
+        np.testing.assert_array_equal(got, counts)
+    finally:
+        box.close()
+    silent = NetFtBox(Script(np.zeros((0, 6))))
+    try:
+        with pytest.raises(FeedTimeout, match=f"127.0.0.1:{silent.port}"), open_source(silent.url, device_timeout_s=0.3) as feed:
+            list(feed)
+    finally:
+        silent.close()
+    with pytest.raises(ConfigError, match="gives 6 channels"):
+        open_source("netft://127.0.0.1", n_channels=8)

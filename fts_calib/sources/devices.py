@@ -42,7 +42,8 @@ class StreamClock:
         self._mean_interval = 0.0
         self._m2 = 0.0  # Welford's sum of squared deviations of the intervals [s²]
         self.offset_s = math.inf  # host time - sender time, the smallest seen [s]
-        self._delays: collections.deque[tuple[float, float]] = collections.deque()  # (arrival, stamp) of stamped samples
+        self._stamped = 0
+        self._delay_sum = 0.0  # sum of arrival - stamp over the stamped samples [s]
 
     def arrive(self, arrival_s: float, stamp_s: float | None = None) -> float:
         """Count one sample that arrived at ``arrival_s`` (host monotonic [s]); its time on the host's clock [s].
@@ -68,8 +69,8 @@ class StreamClock:
         if stamp_s is None:
             return arrival_s
         self.offset_s = min(self.offset_s, arrival_s - stamp_s)
-        if len(self._delays) < 200_000:
-            self._delays.append((arrival_s, stamp_s))
+        self._stamped += 1
+        self._delay_sum += arrival_s - stamp_s
         return stamp_s + self.offset_s
 
     @property
@@ -86,9 +87,9 @@ class StreamClock:
     @property
     def latency_s(self) -> float | None:
         """Mean delay of the stamped samples above the fastest one [s] (arrival - stamp - offset); None unstamped."""
-        if not self._delays:
+        if not self._stamped:
             return None
-        return sum(arrival - stamp for arrival, stamp in self._delays) / len(self._delays) - self.offset_s
+        return self._delay_sum / self._stamped - self.offset_s
 
     def summary(self) -> dict[str, Any]:
         """The figures, for the YAML beside a recording: samples, rate [Hz], jitter [s], latency [s], offset [s]."""
@@ -102,14 +103,17 @@ class StreamClock:
             "rate_hz": rounded(self.rate_hz, 4),
             "interval_jitter_s": rounded(self.jitter_s),
             "latency_s": rounded(self.latency_s),
-            "clock_offset_s": rounded(self.offset_s) if self._delays else None,
+            "clock_offset_s": rounded(self.offset_s) if self._stamped else None,
             "first_arrival_s": rounded(self.first_s, 6),
             "last_arrival_s": rounded(self.last_s, 6),
         }
 
 
-class DeviceLost(Exception):
-    """A channel device stopped giving samples (the cable pulled, the box silent); the run ends with what it has."""
+class DeviceLost(ConnectionError):
+    """A channel device cannot be opened, or stopped giving samples (the cable pulled); a run ends with what it has.
+
+    A :class:`ConnectionError`: before any sample it exits 14 (the system refused a file or a socket).
+    """
 
 
 class ChannelDevice:
