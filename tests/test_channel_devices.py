@@ -199,7 +199,7 @@ def test_serial_channels_with_joint_datagrams_on_one_clock(pty):
     assert np.all(np.abs(time_s - written) < 0.05)  # stamped on arrival, on the host's clock
     np.testing.assert_allclose(joints[:, 0], 0.1 * (time_s - 1000.0), atol=0.005)  # the sender's clock mapped onto the host's
     assert feed.clocks["joints"].offset_s == pytest.approx(1000.0, abs=0.05)
-    assert feed.clocks["strain"].rate_hz is not None and "the run ends with what it has" in "\n".join(feed.notes())
+    assert feed.clocks["channels"].rate_hz is not None and "the run ends with what it has" in "\n".join(feed.notes())
 
 
 def test_netft_source_alone_and_silent_box_raises():

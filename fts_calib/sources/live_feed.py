@@ -191,9 +191,9 @@ class LiveFeed:
         self.clocks: dict[str, StreamClock] = {}
         if self.host_clock:
             where = "" if receiver is None else f"udp://{receiver.address[0]}:{receiver.address[1]}"
-            self.clocks = {"joints": StreamClock("joints", where), "strain": StreamClock("channels", where)}
+            self.clocks = {"joints": StreamClock("joints", where), "channels": StreamClock("channels", where)}
             if device is not None:
-                self.clocks["strain"] = device.clock
+                self.clocks["channels"] = device.clock
             if rtde is not None:
                 self.clocks["joints"] = rtde.clock
         self.end = end or StreamEnd()
@@ -415,7 +415,7 @@ class LiveFeed:
             self.rtde.route(message, self.sync)
         elif isinstance(message, Strain):
             if self.device is None and not (self.rtde is not None and self.rtde.wrench):  # else the device's, or RTDE's
-                t = self.clocks["strain"].arrive(arrival_s, message.t)
+                t = self.clocks["channels"].arrive(arrival_s, message.t)
                 self.sync.add_strain(t, message.strain, message.temperature)
         elif isinstance(message, Joints):
             if self.rtde is None:

@@ -1,0 +1,173 @@
+"""fts-calib record: joints and channels on one clock into a whole recording, against real protocols on loopback."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import threading
+import time
+
+import numpy as np
+import pytest
+import yaml
+
+from fts_calib.app.cli import main
+from fts_calib.sources.recording import RecordingReader
+from fts_calib.sources.serial_line import PARTIAL
+from fts_calib.sources.udp import Joints, Strain, encode
+
+from .netft_box import NetFtBox, Script
+
+UR5 = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _q(t: float) -> dict[str, float]:
+    """The joints at the sender's time t [s]: slow ramps (rad), the truth the recording is checked against."""
+    return {name: 0.1 * k + 0.05 * t for k, name in enumerate(UR5)}
+
+
+def _read(path):
+    with RecordingReader(path, list(UR5), None) as reader:
+        batches = list(reader)
+    return (
+        np.concatenate([b.time for b in batches]),
+        np.concatenate([b.joints for b in batches]),
+        np.concatenate([b.channels for b in batches]),
+        reader,
+    )
+
+
+def _send_joints(port: int, stop: threading.Event, clock_shift_s: float, then=None, count: int = 600) -> threading.Thread:
+    """Joint datagrams every 2 ms on a clock ``clock_shift_s`` behind the host's; ``then(k)`` after each."""
+
+    def send() -> None:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            for k in range(count):
+                if stop.is_set():
+                    return
+                t = time.monotonic() - clock_shift_s
+                sock.sendto(encode(Joints(t, _q(t), seq=k)), ("127.0.0.1", port))
+                if then is not None and then(k):
+                    return
+                time.sleep(0.002)
+
+    thread = threading.Thread(target=send, daemon=True)
+    return thread
+
+
+def test_record_serial_and_joint_datagrams_until_the_cable_is_pulled(tmp_path, capsys):
+    master, slave = os.openpty()
+    path, port, stop = os.ttyname(slave), _free_port(), threading.Event()
+    written: list[tuple[float, int]] = []
+
+    def then(k: int) -> bool:
+        if k >= 50 and k % 2 == 0:  # the channels start 0.1 s after the joints: every channel sample can be placed
+            now = time.monotonic()
+            os.write(master, b"%d,%d,%d\n" % (int(now * 1e6), k, -k))
+            written.append((now, k))
+        if k == 400:
+            time.sleep(0.05)
+            os.close(master)  # the cable pulled
+            return True
+        return False
+
+    sender = _send_joints(port, stop, 500.0, then)
+    timer = threading.Timer(0.5, sender.start)
+    timer.start()
+    os.write(master, b"\n")
+    out = tmp_path / "a.csv"
+    try:
+        sources = [f"serial://{path}?channels=3", f"udp://127.0.0.1:{port}"]
+        code = main(["record", *sources, "--robot", "ur5", "--configuration", "A", "-o", str(out), "--quiet"])
+    finally:
+        stop.set()
+        os.close(slave)
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    t, q, channels, reader = _read(out)
+    assert reader.tool_names == ["A"] and channels.shape[1] == 3
+    sent = {k for _, k in written}
+    assert set(channels[:, 1].astype(int)) <= sent and len(channels) >= len(sent) - 3  # the last ones may pass the joints' end
+    assert np.all(np.abs(t - channels[:, 0] * 1e-6) < 0.05)  # stamped on arrival, on the host's clock
+    expected = np.array([list(_q(ti - 500.0).values()) for ti in t])
+    np.testing.assert_allclose(q, expected, atol=5e-4)  # the joints' clock (500 s behind) mapped onto the host's: 10 ms at 0.05 rad/s
+    figures = yaml.safe_load((tmp_path / "a.streams.yaml").read_text())
+    assert figures["ended_by"] == "channel device stopped" and figures["rows"] == len(t)
+    assert figures["streams"]["joints"]["clock_offset_s"] == pytest.approx(500.0, abs=0.05)
+    partial = figures["skipped"].get(PARTIAL, 0)  # pyserial empties the input on opening: the first line may come cut
+    assert figures["streams"]["channels"]["samples"] + partial == len(sent) and partial <= 1
+    assert figures["streams"]["channels"]["latency_s"] is None  # no stamps of its own: the arrival is its time
+    assert "the run ends with what it has" in captured.out and "A: " in captured.out
+
+
+def test_record_udp_ended_by_sigterm_leaves_a_whole_recording(tmp_path, capsys):
+    port, stop = _free_port(), threading.Event()
+
+    def then(k: int) -> bool:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            t = time.monotonic() - 20.0
+            sock.sendto(encode(Strain(t - 0.01, (float(k), 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0), seq=10_000 + k)), ("127.0.0.1", port))
+        if k == 300:
+            os.kill(os.getpid(), signal.SIGTERM)
+            return True
+        return False
+
+    sender = _send_joints(port, stop, 20.0, then)
+    timer = threading.Timer(0.5, sender.start)
+    timer.start()
+    out = tmp_path / "b.csv.gz"
+    try:
+        code = main(["record", f"udp://127.0.0.1:{port}", "--robot", "ur5", "--configuration", "B", "-o", str(out), "--quiet"])
+    finally:
+        stop.set()
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    t, q, channels, reader = _read(out)
+    assert len(t) > 200 and reader.tool_names == ["B"] and np.all(np.diff(t) > 0)
+    figures = yaml.safe_load((tmp_path / "b.streams.yaml").read_text())
+    assert figures["ended_by"] == "interrupted" and figures["rows"] == len(t)
+    assert set(figures["streams"]) == {"joints", "channels"}
+    assert figures["streams"]["channels"]["clock_offset_s"] == pytest.approx(20.0, abs=0.05)
+
+
+def test_record_netft_box_with_joint_datagrams(tmp_path, capsys):
+    port, stop = _free_port(), threading.Event()
+    counts = np.arange(6 * 3000).reshape(3000, 6) - 9000
+    box = NetFtBox(Script(counts, drop={400}, status={500: 0x80000000}, silent_after=600, period_s=0.001))
+    sender = _send_joints(port, stop, 3.0, count=3000)
+    sender.start()
+    out = tmp_path / "c.csv"
+    try:
+        code = main(["record", box.url, f"udp://127.0.0.1:{port}", "--robot", "ur5", "--configuration", "C", "-o", str(out), "--quiet"])
+    finally:
+        stop.set()
+        box.close()
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    _, _, channels, _ = _read(out)
+    rows = ((channels[:, 0] + 9000) // 6).astype(int)
+    np.testing.assert_array_equal(channels, counts[rows])  # the counts as sent, in order
+    assert 400 not in rows and 500 not in rows and np.all(np.diff(rows) > 0)
+    assert f"127.0.0.1:{box.port}" in captured.out and "status 0x80000000" in captured.out
+
+
+@pytest.mark.parametrize(
+    "sources",
+    [["netft://127.0.0.1", "serial:///dev/null"], ["netft://127.0.0.1"], ["ur://127.0.0.1"], ["run.csv"], []],
+)
+def test_record_refuses_sources_that_are_not_channels_and_joints(tmp_path, capsys, sources):
+    code = main(["record", *sources, "--robot", "ur5", "-o", str(tmp_path / "x.csv")]) if sources else None
+    if code is None:
+        with pytest.raises(SystemExit):
+            main(["record", "--robot", "ur5", "-o", str(tmp_path / "x.csv")])
+        return
+    assert code == 3
+    assert "expected the joints (ur://HOST, or udp://HOST:PORT datagrams) and the channels" in capsys.readouterr().err
+    assert not (tmp_path / "x.csv").exists()
