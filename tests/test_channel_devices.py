@@ -77,12 +77,13 @@ def test_serial_wrong_baud_junk_is_counted_not_fatal(pty):
         ("serial:///dev/ttyUSB0?baud=fast", "baud='fast'"),
         ("serial:///dev/ttyUSB0?parity=E", "unknown parameter 'parity'"),
         ("serial:///dev/ttyUSB0?channels=0", "channels='0'"),
+        ("serial:///dev/ttyUSB0?scale=-1", "scale='-1'"),
     ],
 )
 def test_serial_urls_refused(text, words):
     with pytest.raises(ConfigError, match=words):
         parse_serial_url(text)
-    assert parse_serial_url("serial:///dev/ttyACM1?baud=230400&sep=;&channels=6") == ("/dev/ttyACM1", 230400, ";", 6)
+    assert parse_serial_url("serial:///dev/ttyACM1?baud=230400&sep=;&channels=6") == ("/dev/ttyACM1", 230400, ";", 6, 1.0)
 
 
 def test_serial_missing_device_named():

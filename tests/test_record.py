@@ -171,3 +171,34 @@ def test_record_refuses_sources_that_are_not_channels_and_joints(tmp_path, capsy
     assert code == 3
     assert "expected the joints (ur://HOST, or udp://HOST:PORT datagrams) and the channels" in capsys.readouterr().err
     assert not (tmp_path / "x.csv").exists()
+
+
+@pytest.mark.parametrize(
+    ("sources", "words"),
+    [
+        (["serial:///dev/ttyUSB0"], "serial:///dev/ttyUSB0 gives the channels: calibrate needs the joints too"),
+        (["serial:///dev/ttyUSB0", "netft://10.0.0.2", "udp://127.0.0.1:0"], "one channel device at a time"),
+        (["netft://10.0.0.2", "ur://10.0.0.7", "udp://127.0.0.1:0"], "not both"),
+    ],
+)
+def test_calibrate_takes_a_channel_device_with_the_joints(tmp_path, capsys, sources, words):
+    code = main(["calibrate", *sources, "--robot", "ur5", "--tool", "paper_tool", "-o", str(tmp_path / "c.yaml")])
+    assert code == 3 and words in capsys.readouterr().err
+
+
+def test_calibrate_names_a_serial_device_that_cannot_be_opened(tmp_path, capsys):
+    code = main(
+        [
+            "calibrate",
+            "serial:///dev/no-such-tty",
+            "udp://127.0.0.1:0",
+            "--robot",
+            "ur5",
+            "--tool",
+            "paper_tool",
+            "-o",
+            str(tmp_path / "c.yaml"),
+        ]
+    )
+    err = capsys.readouterr().err
+    assert code == 14 and "cannot open /dev/no-such-tty" in err, err

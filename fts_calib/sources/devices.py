@@ -121,7 +121,7 @@ class ChannelDevice:
 
     Subclasses implement :meth:`_open` (connect, in the reading thread's caller) and
     :meth:`_read` (one blocking read of at most a fraction of a second, which calls
-    :meth:`_add` for each sample and :meth:`_skip` for what it drops); an exception out of
+    :meth:`_add` with the samples it read and :meth:`_skip` for what it drops); an exception out of
     :meth:`_read` ends the reading and becomes :attr:`error`.
 
     Args:
@@ -142,6 +142,7 @@ class ChannelDevice:
         self.skipped: Counter[str] = Counter()
         self._notes: list[str] = []
         self.error: BaseException | None = None
+        self._last_s = -math.inf  # the time of the last sample [s]
         self._pending: collections.deque[tuple[float, list[float]]] = collections.deque()
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -166,15 +167,30 @@ class ChannelDevice:
             self._note(f"{self.description}: the first {reason}: {detail}")
         self.skipped[reason] += 1
 
-    def _add(self, arrival_s: float, values: list[float]) -> None:
-        """One sample that arrived at ``arrival_s`` (host monotonic [s]); one of another length than the first is skipped."""
-        if self.n_channels is None:
-            self.n_channels = len(values)
-        if len(values) != self.n_channels:
-            self._skip(f"sample of another channel count (expected {self.n_channels})", f"{len(values)} values")
+    def _add(self, arrival_s: float, samples: list[list[float]]) -> None:
+        """Samples that arrived together at ``arrival_s`` (host monotonic [s]); those of another length than the first are skipped.
+
+        Samples that arrive together (lines in one read) are spread evenly between the previous
+        sample's time and ``arrival_s``, the last at ``arrival_s``: times strictly increase, and
+        a steady stream read in bursts keeps its rate.
+        """
+        kept = []
+        for values in samples:
+            if self.n_channels is None:
+                self.n_channels = len(values)
+            if len(values) != self.n_channels:
+                self._skip(f"sample of another channel count (expected {self.n_channels})", f"{len(values)} values")
+            else:
+                kept.append(values)
+        if not kept:
             return
+        previous = self._last_s if math.isfinite(self._last_s) else arrival_s
+        step = max(arrival_s - previous, 0.0) / len(kept)
         with self._lock:
-            self._pending.append((self.clock.arrive(arrival_s), values))
+            for k, values in enumerate(kept):
+                t = max(arrival_s - (len(kept) - 1 - k) * step, self._last_s + 1e-9)
+                self._last_s = t
+                self._pending.append((self.clock.arrive(t), values))
 
     def drain(self) -> list[tuple[float, list[float]]]:
         """The (host time [s], values) read since the last call, in arrival order."""

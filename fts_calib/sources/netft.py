@@ -225,7 +225,7 @@ class NetFtChannels(ChannelDevice):
             self.first_status = self.first_status if self.first_status is not None else status
             self._skip(FAULT, f"status 0x{status:08x} at rdt_sequence {sequence}")
             return
-        self._add(arrival, [float(c) for c in counts])
+        self._add(arrival, [[float(c) for c in counts]])
 
     def notes(self) -> list[str]:
         """The first problems, the records lost, and why the reading stopped."""

@@ -2,7 +2,9 @@
 
 ``serial:///dev/ttyUSB0?baud=115200&sep=,&channels=8``: the device path, the baud rate
 (115200 by default), the separator of the values (``,`` by default; ``space`` or ``tab`` for
-whitespace) and the channel count (the first sample's when not given). Each line is
+whitespace), the channel count (the first sample's when not given) and ``scale``, the raw units
+per count (1 by default: the channels are the counts; a calibration made in other units, e.g.
+volts, reads ``scale=LSB``). Each line is
 ``v1<sep>v2<sep>...<sep>vn`` ended by a line feed (a carriage return before it is ignored); each sample is
 stamped on arrival with the host's monotonic clock (:mod:`fts_calib.sources.devices`).
 
@@ -21,6 +23,7 @@ ends the run with what it has and says so. ``pyserial`` is an optional extra
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
@@ -41,8 +44,8 @@ BAUD_RATES = (9600, 19200, 38400, 57600, 115200, 230400, 250000, 460800, 500000,
 EXPECTED = "serial:///dev/ttyUSB0?baud=115200&sep=,&channels=8"
 
 
-def parse_serial_url(text: str) -> tuple[str, int, str | None, int | None]:
-    """The device path, baud rate, separator (None: whitespace) and channel count (None: the first line's) of a ``serial://`` text.
+def parse_serial_url(text: str) -> tuple[str, int, str | None, int | None, float]:
+    """The device path, baud rate, separator (None: whitespace), channel count (None: the first line's) and scale of a ``serial://`` text.
 
     Raises:
         ConfigError: No device path, a baud rate or channel count that is not a positive
@@ -53,9 +56,9 @@ def parse_serial_url(text: str) -> tuple[str, int, str | None, int | None]:
     if not path or path == "/":
         raise ConfigError("source", text, EXPECTED, message=f"{text}: no device: expected {EXPECTED}")
     query = parse_qs(parts.query, keep_blank_values=True)
-    unknown = sorted(set(query) - {"baud", "sep", "channels"})
+    unknown = sorted(set(query) - {"baud", "sep", "channels", "scale"})
     if unknown:
-        message = f"{text}: unknown parameter {unknown[0]!r}: expected baud, sep and channels ({EXPECTED})"
+        message = f"{text}: unknown parameter {unknown[0]!r}: expected baud, sep, channels and scale ({EXPECTED})"
         raise ConfigError("source", text, EXPECTED, message=message)
 
     def count(name: str, default: int | None) -> int | None:
@@ -69,7 +72,14 @@ def parse_serial_url(text: str) -> tuple[str, int, str | None, int | None]:
     baud = count("baud", 115200)
     sep = query.get("sep", [","])[-1]
     separator = SEPARATORS.get(sep.lower(), sep) if sep.strip() else None
-    return path, int(baud or 115200), separator, count("channels", None)
+    given = query.get("scale", ["1"])[-1]
+    try:
+        scale = float(given)
+    except ValueError:
+        scale = math.nan
+    if not (math.isfinite(scale) and scale > 0):
+        raise ConfigError("source", text, EXPECTED, message=f"{text}: scale={given!r} is not a number > 0 (raw units per count)")
+    return path, int(baud or 115200), separator, count("channels", None), scale
 
 
 class SerialChannels(ChannelDevice):
@@ -86,7 +96,7 @@ class SerialChannels(ChannelDevice):
     """
 
     def __init__(self, text: str, n_channels: int | None = None):
-        path, self.baud, self.separator, given = parse_serial_url(text)
+        path, self.baud, self.separator, given, self.scale = parse_serial_url(text)
         if given is not None and n_channels is not None and given != n_channels:
             message = (
                 f"{text}: channels={given} but the sensor has {n_channels} channels: give channels={n_channels} or another sensor file"
@@ -133,25 +143,24 @@ class SerialChannels(ChannelDevice):
             self._started = True
             if first.strip():
                 self._skip(PARTIAL, f"{first[:40]!r}")
-        for line in lines:
-            self._line(line, arrival)
+        samples = [values for values in map(self._line, lines) if values is not None]
+        self._add(arrival, samples)
         if len(self._buffer) > MAX_LINE:
             self._skip(TOO_LONG, f"{self._buffer[:40]!r}...")
             self._buffer = b""
             self._started = False  # what follows up to the next line end is the rest of that line
 
-    def _line(self, raw: bytes, arrival: float) -> None:
-        """One line: a sample, or counted and skipped."""
+    def _line(self, raw: bytes) -> list[float] | None:
+        """One line's values, or None (an empty line; garbage, counted and skipped)."""
         self.lines += 1
         text = raw.rstrip(b"\r")
         if not text.strip():
-            return
+            return None
         try:
-            values = [float(int(field)) for field in text.decode("ascii").split(self.separator)]
+            return [int(field) * self.scale for field in text.decode("ascii").split(self.separator)]
         except (UnicodeDecodeError, ValueError):
             self._skip(GARBAGE, f"line {self.lines}: {text[:40]!r}")
-            return
-        self._add(arrival, values)
+            return None
 
     def _close(self) -> None:
         if self._port is not None:
