@@ -212,3 +212,45 @@ def test_tare_and_payload_say_how_to_read_a_channel_device(tmp_path, capsys):
     assert code == 3 and "fts-calib record netft://10.0.0.2 udp://HOST:PORT" in capsys.readouterr().err
     code = main(["tare", "serial:///dev/ttyUSB0", "udp://127.0.0.1:0", "--calibration", str(cal)])
     assert code == 3 and "one source to re-tare from, not 2" in capsys.readouterr().err
+
+
+class _RealTimeController:
+    """The methods of rtde_receive.RTDEReceiveInterface of a controller publishing every 2 ms, its clock 1000 s behind the host's."""
+
+    def getTimestamp(self):  # noqa: N802 (ur_rtde's names)
+        return float(np.floor((time.monotonic() - 1000.0) / 0.002) * 0.002)
+
+    def getActualQ(self):  # noqa: N802
+        return list(_q(self.getTimestamp()).values())
+
+    def getFtRawWrench(self):  # noqa: N802
+        return [0.0] * 6
+
+
+def test_record_netft_with_ur_joints(tmp_path, capsys, monkeypatch):
+    """netft:// channels with ur:// joints (ur_rtde's interface replaced, its handshake answered on loopback): one clock."""
+    import sys
+    import types
+
+    from .test_rtde import FakeRtdeServer
+
+    server = FakeRtdeServer()
+    monkeypatch.setattr("fts_calib.sources.ur.RTDE_PORT", server.port)
+    monkeypatch.setitem(sys.modules, "rtde_receive", types.SimpleNamespace(RTDEReceiveInterface=lambda host: _RealTimeController()))
+    counts = np.arange(6 * 800).reshape(800, 6)
+    box = NetFtBox(Script(counts, silent_after=800, period_s=0.001))
+    out = tmp_path / "d.csv"
+    try:
+        code = main(["record", box.url, "ur://127.0.0.1", "--robot", "ur5", "--configuration", "A", "-o", str(out), "--quiet"])
+    finally:
+        box.close()
+        server.close()
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    t, q, channels, _ = _read(out)
+    assert len(t) > 300
+    expected = np.array([list(_q(ti - 1000.0).values()) for ti in t])
+    np.testing.assert_allclose(q, expected, atol=5e-4)  # the controller's clock put on the host's (10 ms at 0.05 rad/s)
+    figures = yaml.safe_load((tmp_path / "d.streams.yaml").read_text())
+    assert figures["streams"]["joints"]["source"] == "RTDE"
+    assert figures["streams"]["joints"]["clock_offset_s"] == pytest.approx(1000.0, abs=0.01)
