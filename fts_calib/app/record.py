@@ -173,6 +173,8 @@ def run(setup: Setup, source: SourceOptions, outputs: OutputOptions) -> int:
     except BaseException:
         if writer is not None:
             writer.abort()
+        if not outputs.quiet:
+            print(file=sys.stderr)  # the error on a line of its own, after the status line
         raise
     if not outputs.quiet:
         print(file=sys.stderr)
