@@ -38,6 +38,7 @@ and what to check. Times in [s].
 from __future__ import annotations
 
 import collections
+import dataclasses
 import math
 import signal
 import threading
@@ -52,7 +53,7 @@ from ..core.exceptions import FeedTimeout, FtsCalibError
 from .batch import SampleBatch
 from .devices import ChannelDevice, StreamClock
 from .synchronizer import Synchronizer
-from .udp import Joints, LiveStats, Strain, ToolChange, UdpReceiver, feed_datagram
+from .udp import Joints, LiveStats, Message, Orientation, Strain, ToolChange, UdpReceiver, feed_datagram
 from .ur import RtdePoller
 
 #: How often the synchronizer places what it can [s].
@@ -406,28 +407,28 @@ class LiveFeed:
         self._signalled = signum
 
     def _handle(self, data: bytes, sender: object = None, arrival_s: float = math.nan) -> None:
-        routed = self.rtde is not None or self.host_clock
-        message = feed_datagram(data, None if routed else self.sync, self.stats, sender)
-        if message is None or not routed:
+        if self.host_clock:  # every stream on the host's clock (see the module docstring)
+            feed_datagram(data, self.sync, self.stats, sender, lambda message: self._on_host_clock(message, arrival_s))
             return
-        if not self.host_clock:
-            assert self.rtde is not None
+        message = feed_datagram(data, None if self.rtde is not None else self.sync, self.stats, sender)
+        if self.rtde is not None and message is not None:
             self.rtde.route(message, self.sync)
-        elif isinstance(message, Strain):
-            if self.device is None and not (self.rtde is not None and self.rtde.wrench):  # else the device's, or RTDE's
-                t = self.clocks["channels"].arrive(arrival_s, message.t)
-                self.sync.add_strain(t, message.strain, message.temperature)
-        elif isinstance(message, Joints):
-            if self.rtde is None:
-                t = self.clocks["joints"].arrive(arrival_s, message.t)
-                if not (self.sync.strain_only or self.sync.add_joints(t, message.q)):
-                    self.stats.joints -= 1  # counted by feed_datagram: not the robot's joints
-                    self.stats.malformed += 1
-                    self.stats.first_malformed = self.stats.first_malformed or "malformed datagram: a joints message of other joints"
-        elif isinstance(message, ToolChange):  # on the joint sender's clock (the one that knows the tool), or now
-            clock = self.clocks["joints"]
-            at = message.t + clock.offset_s if math.isfinite(clock.offset_s) and self.rtde is None else arrival_s
-            self.sync.add_tool(at, message.name)
+
+    def _on_host_clock(self, message: Message, arrival_s: float) -> Message | None:
+        """A datagram's message with its time on the host's clock, or None for a stream another source gives."""
+        if isinstance(message, Strain):
+            if self.device is not None or (self.rtde is not None and self.rtde.wrench):
+                return None  # the device's, or RTDE's
+            return dataclasses.replace(message, t=self.clocks["channels"].arrive(arrival_s, message.t))
+        if isinstance(message, Joints | Orientation):
+            if self.rtde is not None:
+                return None  # RTDE's
+            return dataclasses.replace(message, t=self.clocks["joints"].arrive(arrival_s, message.t))
+        if isinstance(message, ToolChange):  # on the joint sender's clock (the one that knows the tool), or now
+            offset = self.clocks["joints"].offset_s
+            known = math.isfinite(offset) and self.rtde is None
+            return dataclasses.replace(message, t=message.t + offset if known else arrival_s)
+        return message
 
     def _drain_device(self) -> int:
         """The channel device's samples read since the last call, into the synchronizer (counted as strain messages)."""
