@@ -254,3 +254,40 @@ def test_record_netft_with_ur_joints(tmp_path, capsys, monkeypatch):
     figures = yaml.safe_load((tmp_path / "d.streams.yaml").read_text())
     assert figures["streams"]["joints"]["source"] == "RTDE"
     assert figures["streams"]["joints"]["clock_offset_s"] == pytest.approx(1000.0, abs=0.01)
+
+
+def test_record_follows_tool_datagrams_per_configuration(tmp_path, capsys):
+    """Tool datagrams on the joint sender's clock switch the configuration at their time, put on the host's clock."""
+    from fts_calib.sources.udp import ToolChange
+
+    port, stop = _free_port(), threading.Event()
+    switch: list[float] = []
+
+    def then(k: int) -> bool:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            t = time.monotonic() - 50.0
+            if k in (0, 150):
+                sock.sendto(encode(ToolChange(t, "A" if k == 0 else "B", seq=20_000 + k)), ("127.0.0.1", port))
+                switch.append(t + 50.0)
+            sock.sendto(encode(Strain(t - 0.001, (float(k),) * 8, seq=10_000 + k)), ("127.0.0.1", port))
+        return k == 300
+
+    sender = _send_joints(port, stop, 50.0, then, count=301)
+    timer = threading.Timer(0.5, sender.start)
+    timer.start()
+    out = tmp_path / "e.csv"
+    try:
+        code = main(["record", f"udp://127.0.0.1:{port}", "--robot", "ur5", "-o", str(out), "--idle-timeout", "0.5", "--quiet"])
+    finally:
+        stop.set()
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    with RecordingReader(out, list(UR5), None) as reader:
+        batches = list(reader)
+        names = reader.tool_names
+    t = np.concatenate([b.time for b in batches])
+    tools = np.array(names)[np.concatenate([b.configuration for b in batches])]
+    k = np.concatenate([b.channels for b in batches])[:, 0]
+    assert set(tools) == {"A", "B"} and np.all(tools[k < 149] == "A") and np.all(tools[k > 150] == "B")
+    assert abs(t[np.argmax(tools == "B")] - switch[1]) < 0.05  # the switch where the sender said, on the host's clock
+    assert "A: " in captured.out and "B: " in captured.out
