@@ -23,7 +23,7 @@ import threading
 from collections import Counter
 from typing import Any
 
-from ..core.exceptions import FeedTimeout
+from ..core.exceptions import DeviceLost, FeedTimeout
 
 
 class StreamClock:
@@ -107,13 +107,6 @@ class StreamClock:
             "first_arrival_s": rounded(self.first_s, 6),
             "last_arrival_s": rounded(self.last_s, 6),
         }
-
-
-class DeviceLost(ConnectionError):
-    """A channel device cannot be opened, or stopped giving samples (the cable pulled); a run ends with what it has.
-
-    A :class:`ConnectionError`: before any sample it exits 14 (the system refused a file or a socket).
-    """
 
 
 class ChannelDevice:
