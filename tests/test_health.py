@@ -407,3 +407,51 @@ def test_cli_monitor_counts_the_samples_outside_the_calibrated_load_region(calib
     assert main(["monitor", "--calibration", str(bare), str(tmp_path / "service.csv"), "--json", str(tmp_path / "b.json")]) == 0
     assert "load region: the calibration records none" in capsys.readouterr().out
     assert json.loads((tmp_path / "b.json").read_text())["region"] is None
+
+
+def test_cli_monitor_watches_a_serial_line_until_the_cable_is_pulled(parity, sensor, calibrated, tmp_path, capsys):
+    """The frozen bridge 4 found from a serial line of integer counts (a pseudo-terminal), the run ended by the cable pulled."""
+    import os
+    import threading
+    from dataclasses import replace
+
+    from fts_calib.app.cli import main
+
+    cal = replace(calibrated, health=parity.to_dict()).save(tmp_path / "cal.yaml")
+    rng = np.random.default_rng(31)
+    t, w = service_wrenches(3.0, 1000.0, rng)
+    broken = np.round(inject_fault(sensor.channels(w, t, rng), t, "frozen", 4, 1.5) / sensor.lsb).astype(np.int64)  # ADC codes
+    master, slave = os.openpty()
+    lines = [b",".join(b"%d" % v for v in row) + b"\n" for row in broken]
+
+    def write() -> None:
+        time_module.sleep(0.3)
+        os.write(master, b"\n")
+        for k in range(0, len(lines), 20):  # 20 samples every 20 ms: 1 kHz
+            os.write(master, b"".join(lines[k : k + 20]))
+            time_module.sleep(0.02)
+        time_module.sleep(0.1)
+        os.close(master)
+
+    writer = threading.Thread(target=write, daemon=True)
+    writer.start()
+    try:
+        code = main(
+            [
+                "monitor",
+                "--calibration",
+                str(cal),
+                f"serial://{os.ttyname(slave)}?channels=8&scale={sensor.lsb!r}",
+                "--quiet",
+                "--json",
+                str(tmp_path / "s.json"),
+            ]
+        )
+    finally:
+        writer.join()
+        os.close(slave)
+    captured = capsys.readouterr()
+    assert code == 1, captured
+    data = json.loads((tmp_path / "s.json").read_text())
+    assert [(e["kind"], e["channel"]) for e in data["events"]] == [("frozen", 4)], data
+    assert data["samples"] >= len(t) - 1  # the first line may come cut (pyserial empties the input on opening)

@@ -118,6 +118,40 @@ def test_re_tare_from_a_live_window(setup, rng):
     assert f"live window of 0.8 s on udp://127.0.0.1:{bound[0][1]}," in reason and bound[0][1] != 0, reason
 
 
+def test_re_tare_from_a_serial_line(setup, rng):
+    """Nothing mounted: ADC codes on a serial line (a pseudo-terminal), scaled to raw units: the shift recovered."""
+    import os
+    import threading
+    import time
+
+    from fts_calib.service.retare_job import tare_live
+
+    sensor, cal = setup
+    drifted = type(sensor)(**{**sensor.__dict__, "D": sensor.D + SHIFT})
+    codes = np.round(drifted.channels(np.zeros((2000, 6)), rng=rng) / sensor.lsb).astype(np.int64)
+    master, slave = os.openpty()
+    lines = [b",".join(b"%d" % v for v in row) + b"\n" for row in codes]
+
+    def write() -> None:
+        time.sleep(0.1)
+        for k in range(0, len(lines), 50):  # 50 lines every 10 ms: 5 kHz
+            os.write(master, b"".join(lines[k : k + 50]))
+            time.sleep(0.01)
+
+    writer = threading.Thread(target=write)
+    writer.start()
+    try:
+        result = tare_live(cal, "", 0, 0.8, device=f"serial://{os.ttyname(slave)}?channels=8&scale={sensor.lsb!r}")
+    finally:
+        writer.join()
+        os.close(master)
+        os.close(slave)
+    assert result.estimate.samples_used > 100
+    np.testing.assert_allclose(result.calibration.D - cal.D, SHIFT, atol=2e-3)
+    assert np.all(np.abs(result.calibration.D - cal.D - SHIFT) < 5 * result.estimate.stderr_D)
+    assert "live window of 0.8 s on serial://" in result.calibration.offset_history[-1]["reason"]
+
+
 def test_a_live_window_with_nothing_sent_says_so_without_rank_words(setup):
     from fts_calib.core.exceptions import InsufficientExcitation
     from fts_calib.service.retare_job import tare_live

@@ -33,7 +33,7 @@ from ..sources.udp import listen_host
 from ..sources.ur import RtdePoller
 from .exit_codes import ExitCode, using_udp, writing
 from .report import format_budget, format_model_selection, format_offsets
-from .setup import OutputOptions, Setup, SourceOptions
+from .setup import OutputOptions, Setup, SourceOptions, channel_device
 
 #: What ``--joint-unit`` says of the joint columns: degrees, rad, or None: decided from the data.
 JOINTS_IN_DEGREES = {"deg": True, "rad": False, "auto": None}
@@ -360,6 +360,7 @@ def _calibrate_live(
     ending = StreamEnd(idle_timeout_s=source.idle_timeout_s, signals=LIVE_SIGNALS)  # before any work: a wrong timeout wastes nothing
     live = source.live
     udp, ur = live.get("udp"), live.get("ur")
+    device = channel_device(live, "calibrate")
     host, port = live_address(udp) if udp is not None else ("", 0)
     if udp is not None:
         host = listen_host(host, source.listen_any, port)  # before any work: a refused address wastes nothing
@@ -380,7 +381,7 @@ def _calibrate_live(
     configuration = setup.configuration
     if configuration is not None and configuration not in loaded.names:
         raise UnknownToolConfiguration(configuration, loaded.names)
-    ur_wrench = ur is not None and (source.ur_wrench or udp is None)  # ur:// alone: the channels are its built-in sensor's
+    ur_wrench = ur is not None and device is None and (source.ur_wrench or udp is None)  # ur:// alone: its built-in sensor's
     if source.ur_wrench and ur is None:
         raise ConfigError("ur_wrench", True, "", message="--ur-wrench reads a UR's built-in sensor: give the arm as the source ur://HOST")
     if ur_wrench and layout.n_channels != 6:
@@ -392,6 +393,9 @@ def _calibrate_live(
         raise ConfigError("ur_wrench", True, "", message=message)
     described = f"live udp://{host}:{port}" if udp is not None else f"live {ur}"
     record = live_source(host, port) if udp is not None else {"kind": "live", "listen": ur}
+    if device is not None:
+        described = f"live {device} with {udp or ur}"
+        record = {"kind": "live", "listen": f"{device} {udp or ur}"}
     models: dict[str, Any] = {"model": setup.sensor_model, "full_channels": spec.full_channels, "full_scale": spec.full_scale}
     collector = None if report is None or resume else KeptCollector()
     if resume:
@@ -416,7 +420,7 @@ def _calibrate_live(
 
     with using_udp(host, port) if udp is not None and ur is None else contextlib.nullcontext():
         feed = open_source(
-            ur or udp or "",
+            device or ur or udp or "",
             kin.joint_names,
             loaded.names,
             continuous=kin.continuous,
@@ -425,11 +429,12 @@ def _calibrate_live(
             n_channels=layout.n_channels,
             configuration=configuration,
             listen_any=source.listen_any,
-            udp=udp if ur is not None else None,
+            udp=udp if ur is not None and device is None else None,
             ur_wrench=ur_wrench,
             ur_timeout_s=source.ur_timeout_s,
             end=ending,
             on_listening=listening,
+            joints=None if device is None else ur or udp,
         )
     if not isinstance(feed, LiveFeed):  # open_source opens a live feed for a live name: never
         raise FtsCalibError(f"internal error: {ur or udp} did not open a live feed")

@@ -9,6 +9,7 @@ of the service the calibration was not determined on.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
@@ -32,7 +33,7 @@ from ..sources.live_feed import FeedStatus, LiveFeed, StreamEnd
 from ..sources.recording_set import describe_files
 from ..sources.source import live_address, open_recording, open_source
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import OutputOptions, Setup, SourceOptions
+from .setup import OutputOptions, Setup, SourceOptions, channel_device
 
 #: Windows without contact before an automatic re-tare is trusted (since the last re-tare): at most one re-tare a second
 #: of still windows (0.1 s each), and still windows off the tracked offset beyond this many (and beyond those that agree)
@@ -263,9 +264,10 @@ def run(
     outputs = outputs or OutputOptions()
     check_settings(false_alarms_per_hour, tare_threshold_percent)
     live = source.live.get("udp")
+    device = channel_device(source.live, "monitor", joints=setup.robot_file is not None)
     if not source.given:
         raise ConfigError("source", [], "a recording, or a live feed udp://HOST:PORT (one of them)")
-    paths = source.paths() if live is None else []
+    paths = source.paths() if live is None and device is None else []
     json_path = outputs.json_path
     check_outputs({"--json": json_path}, {"the calibration": calibration, **{f"recording {k + 1}": p for k, p in enumerate(paths)}})
     cal = load_calibration(calibration)
@@ -285,7 +287,9 @@ def run(
     elif auto_tare:
         raise ConfigError("auto_tare", True, "--robot and --tool: the payload's wrench needs the joints")
     watch = HealthWatch(parity, false_alarms_per_hour, region, offsets, source.rate_hz)
-    if live is not None:
+    if device is not None:
+        _listen(device, source, watch, outputs.quiet, joints=live)
+    elif live is not None:
         _listen(live, source, watch, outputs.quiet)
     else:
         names = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else (None, None)
@@ -526,8 +530,11 @@ def _report(watch: HealthWatch, calibration: str | Path, json_path: str | Path |
     return ExitCode.CHECK_FAILED if events else ExitCode.OK
 
 
-def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -> None:
+def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool, joints: str | None = None) -> None:
     """Watch the live feed ``name`` (``udp://HOST:PORT``): its strain datagrams, or with the offsets the samples paired with the joints.
+
+    ``name`` may be a channel device (``serial://``, ``netft://``): its samples are the strains,
+    and ``joints`` (``udp://HOST:PORT``) the joint datagrams the offsets need.
 
     The one live loop reads the feed (:func:`fts_calib.sources.source.open_source`: until an
     'end' datagram, Ctrl-C, SIGTERM or the idle timeout). Datagrams are decoded by the bounded
@@ -537,8 +544,11 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
     largest statistics of the last block. With the offsets (a payload and its robot), the strains
     are paired with the joint datagrams by the synchronizer first, and the offset state shows too.
     """
-    host, port = live_address(name)
+    udp = name if joints is None else joints
+    host, port = live_address(udp) if udp.startswith("udp") else ("", 0)
     offsets, n = watch.offsets, watch.parity.n_channels
+    if not udp.startswith("udp"):
+        watch.description = name
 
     def listening(bound: tuple[str, int]) -> None:
         watch.description = f"udp://{bound[0]}:{bound[1]}"
@@ -557,11 +567,11 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
         offset = "" if offsets is None else f"; {offsets.status()}"
         status.show(f"{state}; malformed {counts.malformed:,}{offset}")
 
-    joints = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else ([], None)
-    with using_udp(host, port):
+    named = (offsets.kin.joint_names, offsets.tool.names) if offsets is not None else ([], None)
+    with using_udp(host, port) if host else contextlib.nullcontext():
         feed = open_source(
             name,
-            *joints,
+            *named,
             continuous=None if offsets is None else offsets.kin.continuous,
             n_channels=n,
             hold_s=None if offsets is not None else 0.0,  # the strains alone: each placed on arrival
@@ -570,6 +580,7 @@ def _listen(name: str, source: SourceOptions, watch: HealthWatch, quiet: bool) -
             on_status=None if quiet else show,
             status_interval_s=1.0,
             on_listening=listening,
+            joints=joints,
         )
     if not isinstance(feed, LiveFeed):  # open_source opens a live feed for a live name: never
         raise FtsCalibError(f"internal error: {name} did not open a live feed")

@@ -172,6 +172,17 @@ TEXTS: dict[str, tuple[str, str, str]] = {
         "calibrate's, and the run is calibrate's.",
         "fts-calib live --robot ur5 --tool paper_tool --listen 127.0.0.1:5005 -o calibration.yaml   # calibrate udp://127.0.0.1:5005",
     ),
+    "record": (
+        "record joints and raw channels on one clock (UR, UDP, a serial line, an ATI Net F/T)",
+        "Read the joints (ur://HOST through RTDE, or the joint datagrams of udp://HOST:PORT) and the raw channels "
+        "(serial://DEVICE?baud=115200&sep=,&channels=8: one line of integers per sample; netft://HOST: an ATI Net F/T "
+        "box's counts over RDT; or the strain datagrams of udp://HOST:PORT), stamp every stream on arrival with this "
+        "host's monotonic clock, pair them and write a recording (CSV) that calibrate reads; beside it FILE.streams.yaml "
+        "gives each stream's rate, interval jitter, latency and clock offset. Progress per configuration on a status line; "
+        "the sender's end, --seconds, --idle-timeout, a device that stops, Ctrl-C or SIGTERM end it, the recording whole.",
+        "fts-calib record serial:///dev/ttyUSB0?baud=115200 udp://127.0.0.1:5005 --robot ur5 --configuration A -o a.csv\n"
+        "  fts-calib record netft://192.168.1.1 ur://192.168.1.10 --robot ur5 --configuration B -o b.csv",
+    ),
     "replay": (
         "send a recording as the live protocol",
         "Send a recording's rows as live datagrams (joints, strain, tool, end), with options for a slower joint "
@@ -618,6 +629,23 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
 }
 
 #: ``live``: calibrate's options without SOURCE, its sources given the old way.
+COMMAND_OPTIONS["record"] = [
+    (
+        "source",
+        [
+            use(
+                "names",
+                nargs="+",
+                metavar="SOURCE",
+                help="the channels (serial://DEVICE?baud=&sep=&channels=, netft://HOST, or udp://HOST:PORT) and the joints "
+                "(ur://HOST, or udp://HOST:PORT)",
+            )
+        ],
+    ),
+    ("setup", [use("robot", required=True), use("configuration", " (default: the tool datagrams')")]),
+    ("output", [use("output", ": the recording (CSV or CSV.gz; its streams' figures beside it, FILE.streams.yaml)", required=True)]),
+    ("advanced: live sources", _uses("seconds", "idle-timeout", "listen-any", "ur-timeout", "quiet")),
+]
 COMMAND_OPTIONS["live"] = [group for group in COMMAND_OPTIONS["calibrate"] if group[0] != "source"]
 #: The old options of the commands that had them: (command, old spellings of the source).
 OLD_SOURCES = {
@@ -664,7 +692,7 @@ def _maker(name: str):
 COMMANDS = {
     name: _maker(name)
     for name in (
-        *("demo", "robots", "trajectory", "calibrate", "live", "replay", "simulate"),
+        *("demo", "robots", "trajectory", "calibrate", "live", "record", "replay", "simulate"),
         *("validate", "report", "tare", "payload", "export", "monitor"),
     )
 }

@@ -29,7 +29,7 @@ from ..payload.samples import IDLE_TIMEOUT_S, MotionProgress, collect_motion
 from ..payload.still import MIN_SPREAD_DEG
 from ..robot.kinematics import Kinematics
 from ..session.calibration_run import StatusLine, format_stats
-from ..sources.source import live_address
+from ..sources.source import DEVICE_SCHEMES, live_address
 from .exit_codes import ExitCode, using_udp, writing
 from .setup import Setup, SourceOptions
 
@@ -274,6 +274,13 @@ def _live_source(source: SourceOptions) -> tuple[str, int] | None:
         )
         raise ConfigError("source", [str(name) for name in given], "a recording or udp://HOST:PORT", message=message)
     live = source.live.get("udp")
+    device = next((name for kind, name in source.live.items() if kind in DEVICE_SCHEMES), None)
+    if device is not None:
+        message = (
+            f"{device}: payload reads a recording or udp://HOST:PORT; record the device with the joints first "
+            f"(fts-calib record {device} udp://HOST:PORT --robot ROBOT --configuration NAME -o payload.csv)"
+        )
+        raise ConfigError("source", str(device), "a recording or udp://HOST:PORT", message=message)
     if live is None and source.window_s is not None:
         message = f"--seconds is the length of a live motion, read from a udp://HOST:PORT source ({given[0]} is used whole)"
         raise ConfigError("--seconds", source.window_s, "with a live source", message=message)

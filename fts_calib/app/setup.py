@@ -44,7 +44,7 @@ from ..robot.tool import Tool, ToolShape, load_tool
 from ..service.ati import SUFFIX as ATI_SUFFIX
 from ..service.ati import load_ati_calibration, read_calibration
 from ..sources.bag import BagTopics
-from ..sources.source import LIVE_SCHEMES, recording_paths
+from ..sources.source import DEVICE_SCHEMES, LIVE_SCHEMES, recording_paths
 from ..sources.ur import TIMEOUT_S
 
 #: The weight of a prior when --prior-weight is not given (as much as the data).
@@ -342,6 +342,34 @@ class SourceOptions:
     def paths(self) -> list[str | Path]:
         """The recordings' paths, each pattern (``'poses/*.csv'``) replaced by its matches."""
         return recording_paths(self.given)
+
+
+def channel_device(live: dict[str, str], command: str, joints: bool = True) -> str | None:
+    """The channel device of the live sources given (``serial://``, ``netft://``), or None; checked.
+
+    Args:
+        live: The live sources by scheme (:attr:`SourceOptions.live`).
+        command: The command, for the messages.
+        joints: The command needs the joints: a device comes with ``udp://`` or ``ur://``.
+
+    Raises:
+        ConfigError: Two devices, or a device without the joints' source when ``joints``
+            (the message says what to add).
+    """
+    devices = [live[kind] for kind in DEVICE_SCHEMES if kind in live]
+    if len(devices) > 1:
+        message = f"{' and '.join(devices)}: one channel device at a time"
+        raise ConfigError("source", devices, "one channel device", message=message)
+    if devices and joints and "udp" not in live and "ur" not in live:
+        message = f"{devices[0]} gives the channels: {command} needs the joints too: add ur://HOST or udp://HOST:PORT (joint datagrams)"
+        raise ConfigError("source", devices, "a channel device and the joints' source", message=message)
+    if devices and joints and "udp" in live and "ur" in live:
+        message = f"{devices[0]} gives the channels: the joints come from ur://HOST or from udp://HOST:PORT, not both"
+        raise ConfigError("source", list(live.values()), "one joints' source", message=message)
+    if devices and not joints and len(live) > 1:
+        message = f"{' '.join(live.values())}: {command} reads the channels alone ({devices[0]}): give it alone"
+        raise ConfigError("source", list(live.values()), "the channel device alone", message=message)
+    return devices[0] if devices else None
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from ..robot.tool import Tool
 from ..service.retare_job import TareResult, tare_live, tare_recording
 from ..sources.source import live_address
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import Setup, SourceOptions
+from .setup import Setup, SourceOptions, channel_device
 
 
 def format_tare(result: TareResult) -> str:
@@ -74,7 +74,8 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
         )
         raise ConfigError("source", [str(name) for name in given], "a recording or a live address", message=message)
     live = source.live.get("udp")
-    recording = None if live is not None else given[0]
+    device = channel_device(source.live, "tare", joints=False)
+    recording = None if live is not None or device is not None else given[0]
     if output is not None:  # without -o the calibration is updated in place: that is the job
         check_outputs(
             {"-o": output},
@@ -96,6 +97,13 @@ def run(setup: Setup, source: SourceOptions, *, calibration: str | Path, output:
     settings = setup.settings
     if recording is not None:
         result = tare_recording(current, recording, kin, mounted, configuration, settings)
+    elif device is not None:
+        if kin is not None:
+            message = f"{device}: a re-tare from a channel device is made with nothing mounted (no --configuration)"
+            raise ConfigError("configuration", configuration, "nothing mounted with a channel device", message=message)
+        window_s = WINDOW_S if source.window_s is None else source.window_s
+        print(f"reading {device} for {window_s:g} s: hold the sensor still...", flush=True)
+        result = tare_live(current, "", 0, window_s, None, None, None, settings, device=device)
     else:
         host, port = live_address(str(live))
         window_s = WINDOW_S if source.window_s is None else source.window_s

@@ -319,6 +319,13 @@ class FeedTimeout(FtsCalibError):
         super().__init__(f"no answer within {timeout_s:g} s: waited for {what}" + (f"; {hint}" if hint else ""))
 
 
+class DeviceLost(ConnectionError):
+    """A channel device cannot be opened, or stopped giving samples (the cable pulled); a run ends with what it has.
+
+    A :class:`ConnectionError`: before any sample it exits 14 (the system refused a file or a socket).
+    """
+
+
 class PayloadError(FtsCalibError):
     """The orientations cannot determine the payload; the message says which are missing or too close."""
 

@@ -328,8 +328,12 @@ def tare_live(
     settings: PipelineConfig | None = None,
     on_listening: Callable[[tuple[str, int]], None] | None = None,
     limits: ChannelLimits | None = None,
+    device: str | None = None,
 ) -> TareResult:
     """Re-tare from a live window of ``seconds`` [s] (> 0) on the UDP protocol (:mod:`fts_calib.sources.live_feed`).
+
+    With ``device`` (``serial://...``, ``netft://...``) the channels come from that device and
+    the datagrams on ``host:port`` give only the joints (with ``kin``; without, no socket).
 
     The window ends early on the sender's ``end``, Ctrl-C or SIGTERM (what came is used).
     With ``kin`` the strains are paired with the joints; without, the strains alone are
@@ -348,7 +352,28 @@ def tare_live(
     sync = Synchronizer(joint_names, continuous, settings.live.max_gap_s, settings.live.latency_s, hold_s=math.inf)
     if kin is not None and configuration is not None:  # mounted throughout: the sender need not announce it
         sync.add_tool(-math.inf, configuration)
-    feed = LiveFeed(UdpReceiver(host, port), sync, end=StreamEnd(duration_s=seconds), on_listening=on_listening)
+    feed: LiveFeed
+    if device is None:
+        feed = LiveFeed(UdpReceiver(host, port), sync, end=StreamEnd(duration_s=seconds), on_listening=on_listening)
+    else:
+        from ..sources.source import open_source
+
+        opened = open_source(
+            device,
+            joint_names,
+            None,
+            continuous=continuous,
+            max_gap_s=settings.live.max_gap_s,
+            latency_s=settings.live.latency_s,
+            n_channels=calibration.layout.n_channels,
+            configuration=configuration if kin is not None else None,
+            hold_s=math.inf,
+            end=StreamEnd(duration_s=seconds),
+            on_listening=on_listening,
+            joints=None if kin is None else f"udp://{host}:{port}",
+        )
+        assert isinstance(opened, LiveFeed)  # a device's name opens a live feed
+        feed = opened
     with feed:
         batches = list(feed)
     stats = feed.stats

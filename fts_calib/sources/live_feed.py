@@ -18,7 +18,16 @@ it, and the stream ends here, once, for all of them (:class:`StreamEnd`):
 - ``INTERRUPTED``: Ctrl-C or a stop signal (SIGINT and SIGTERM by default): handlers are
   installed while the stream runs, in the main thread only, and the previous ones restored;
 - ``RTDE_LOST``: the connection to the UR controller is lost, or its first sample does not
-  come within the poller's ``timeout_s`` (its ``error`` then says which).
+  come within the poller's ``timeout_s`` (its ``error`` then says which);
+- ``DEVICE_LOST``: the channel device (a serial line, a Net F/T box:
+  :mod:`fts_calib.sources.devices`) stopped: the cable pulled, the box silent (its ``error``
+  says which; before any sample that error is raised).
+
+With a channel device, or ``host_clock``, every stream is on the host's monotonic clock: the
+device stamps its samples on arrival, and the datagrams' own stamps are mapped onto it
+(:class:`~fts_calib.sources.devices.StreamClock`, per kind: joints and tool changes on the
+joint sender's offset, strains on theirs); a strain datagram beside a device is counted and
+ignored. :attr:`LiveFeed.clocks` holds each stream's rate, jitter and latency.
 
 However it ends, what came is kept: the datagrams that arrived with the end are read, and the
 samples still held are placed. Only a stream that heard nothing at all within
@@ -29,6 +38,7 @@ and what to check. Times in [s].
 from __future__ import annotations
 
 import collections
+import dataclasses
 import math
 import signal
 import threading
@@ -41,8 +51,9 @@ from typing import Any
 from ..core import arrays as validation
 from ..core.exceptions import FeedTimeout, FtsCalibError
 from .batch import SampleBatch
+from .devices import ChannelDevice, StreamClock
 from .synchronizer import Synchronizer
-from .udp import LiveStats, UdpReceiver, feed_datagram
+from .udp import Joints, LiveStats, Message, Orientation, Strain, ToolChange, UdpReceiver, feed_datagram
 from .ur import RtdePoller
 
 #: How often the synchronizer places what it can [s].
@@ -64,6 +75,7 @@ DURATION = "duration"
 STREAM = "stream time"
 INTERRUPTED = "interrupted"
 RTDE_LOST = "RTDE connection lost"
+DEVICE_LOST = "channel device stopped"
 
 #: Reasons of :attr:`LiveFeed.skipped` for datagrams, beside the synchronizer's for samples.
 MALFORMED = "malformed datagram"
@@ -146,11 +158,17 @@ class LiveFeed:
         status_interval_s: Time between two calls of ``on_status`` [s].
         on_listening: Called with the bound (host, port) when the stream starts.
         description: The source in words; ``udp://HOST:PORT`` of the receiver when None.
+        device: The channel device (a serial line, a Net F/T box) that gives the strains;
+            the datagrams then add the joints and tool changes, on the host's clock.
+        host_clock: Put the datagrams on the host's monotonic clock even without a device
+            (``record``: every stream stamped on arrival).
 
     Attributes:
         stats: The datagram counts (:class:`~fts_calib.sources.udp.LiveStats`).
         ended_by: Why the stream ended (:data:`END`, :data:`IDLE`, ...), None before.
         samples: Samples placed so far.
+        clocks: Each stream's arrival statistics on the host's clock, by name (with a device
+            or ``host_clock``; empty otherwise).
     """
 
     def __init__(
@@ -164,10 +182,21 @@ class LiveFeed:
         status_interval_s: float = 0.5,
         on_listening: Callable[[tuple[str, int]], None] | None = None,
         description: str | None = None,
+        device: ChannelDevice | None = None,
+        host_clock: bool = False,
     ):
-        if receiver is None and rtde is None:
-            raise FtsCalibError("a live feed reads a UDP receiver, a UR controller (RTDE), or both: neither was given")
-        self.receiver, self.sync, self.rtde = receiver, sync, rtde
+        if receiver is None and rtde is None and device is None:
+            raise FtsCalibError("a live feed reads a UDP receiver, a UR controller (RTDE) or a channel device: neither was given")
+        self.receiver, self.sync, self.rtde, self.device = receiver, sync, rtde, device
+        self.host_clock = host_clock or device is not None
+        self.clocks: dict[str, StreamClock] = {}
+        if self.host_clock:
+            where = "" if receiver is None else f"udp://{receiver.address[0]}:{receiver.address[1]}"
+            self.clocks = {"joints": StreamClock("joints", where), "channels": StreamClock("channels", where)}
+            if device is not None:
+                self.clocks["channels"] = device.clock
+            if rtde is not None:
+                self.clocks["joints"] = rtde.clock
         self.end = end or StreamEnd()
         self.on_status, self.status_interval_s, self.on_listening = on_status, float(status_interval_s), on_listening
         self.address: tuple[str, int] | None = None if receiver is None else (receiver.address[0], receiver.address[1])
@@ -201,6 +230,8 @@ class LiveFeed:
         for reason, count in ((MALFORMED, self.stats.malformed), (OVERSIZED, self.stats.oversized), (DUPLICATE, self.stats.duplicates)):
             if count:
                 out[reason] += count
+        if self.device is not None:
+            out.update(self.device.skipped)
         return out
 
     def notes(self) -> list[str]:
@@ -208,7 +239,7 @@ class LiveFeed:
         lines = [] if self.stats.first_malformed is None else [f"the first skipped: {self.stats.first_malformed}"]
         if self.stats.gaps:
             lines.append(f"{self.stats.gaps:,} datagrams lost on the way (gaps in seq)")
-        return lines
+        return lines + ([] if self.device is None else self.device.notes())
 
     @property
     def stream_s(self) -> float:
@@ -265,6 +296,8 @@ class LiveFeed:
             self._running.close()
         if self.rtde is not None:
             self.rtde.stop()
+        if self.device is not None:
+            self.device.stop()
         if self.receiver is not None:
             self.receiver.close()
 
@@ -279,6 +312,8 @@ class LiveFeed:
     def _stream(self) -> Generator[SampleBatch, None, None]:
         start, cpu0 = time.monotonic(), time.process_time()
         last_data = last_place = last_status = start
+        if self.device is not None:
+            self.device.start()  # before the handlers: a device that cannot be opened is an error, nothing to keep
         previous = self._install_handlers()
         if self.rtde is not None:
             self.rtde.start()
@@ -288,12 +323,12 @@ class LiveFeed:
             while True:
                 datagrams = self.receiver.drain_from() if self.receiver is not None else []
                 now = time.monotonic()
-                if self._drain_rtde():
+                if self._drain_rtde() + self._drain_device():
                     last_data = now
                 if datagrams:
                     last_data = now
                     for data, sender in datagrams:
-                        self._handle(data, sender)
+                        self._handle(data, sender, now)
                         if self.stats.ended:
                             break
                 else:
@@ -316,10 +351,14 @@ class LiveFeed:
                 signal.signal(sig, handler)
             if self.rtde is not None:
                 self.rtde.stop()
+            if self.device is not None:
+                self.device.stop()
             if self.receiver is not None:
                 self.receiver.close()
+        arrival = time.monotonic()
         for data, sender in self.receiver.drain_from() if self.receiver is not None else ():  # whatever arrived with the end
-            self._handle(data, sender)
+            self._handle(data, sender, arrival)
+        self._drain_device()
         batch = self.place(final=True)
         self.stats.wall_s, self.stats.cpu_s = time.monotonic() - start, time.process_time() - cpu0
         if len(batch):
@@ -341,6 +380,11 @@ class LiveFeed:
                 rtde.error = FeedTimeout("the first sample of the UR controller (RTDE)", rtde.timeout_s)
             if rtde.error is not None:
                 return RTDE_LOST  # what was read is kept
+        device = self.device
+        if device is not None and device.error is not None:
+            if not device.samples:
+                raise device.error  # nothing to keep: the device's own error (a FeedTimeout naming the box, ...)
+            return DEVICE_LOST  # what was read is kept
         silent = not self.stats.received and (rtde is None or not rtde.samples)
         if end.first_timeout_s is not None and silent and elapsed_s >= end.first_timeout_s:
             raise FeedTimeout(f"the first datagram on {self.description}", end.first_timeout_s, SILENT_HINT)
@@ -362,10 +406,39 @@ class LiveFeed:
         """Signal handler: end the stream at the next step of the loop."""
         self._signalled = signum
 
-    def _handle(self, data: bytes, sender: object = None) -> None:
+    def _handle(self, data: bytes, sender: object = None, arrival_s: float = math.nan) -> None:
+        if self.host_clock:  # every stream on the host's clock (see the module docstring)
+            feed_datagram(data, self.sync, self.stats, sender, lambda message: self._on_host_clock(message, arrival_s))
+            return
         message = feed_datagram(data, None if self.rtde is not None else self.sync, self.stats, sender)
         if self.rtde is not None and message is not None:
             self.rtde.route(message, self.sync)
+
+    def _on_host_clock(self, message: Message, arrival_s: float) -> Message | None:
+        """A datagram's message with its time on the host's clock, or None for a stream another source gives."""
+        if isinstance(message, Strain):
+            if self.device is not None or (self.rtde is not None and self.rtde.wrench):
+                return None  # the device's, or RTDE's
+            return dataclasses.replace(message, t=self.clocks["channels"].arrive(arrival_s, message.t))
+        if isinstance(message, Joints | Orientation):
+            if self.rtde is not None:
+                return None  # RTDE's
+            return dataclasses.replace(message, t=self.clocks["joints"].arrive(arrival_s, message.t))
+        if isinstance(message, ToolChange):  # on the joint sender's clock (the one that knows the tool), or now
+            offset = self.clocks["joints"].offset_s
+            known = math.isfinite(offset) and self.rtde is None
+            return dataclasses.replace(message, t=message.t + offset if known else arrival_s)
+        return message
+
+    def _drain_device(self) -> int:
+        """The channel device's samples read since the last call, into the synchronizer (counted as strain messages)."""
+        if self.device is None:
+            return 0
+        samples = self.device.drain()
+        for t, values in samples:
+            self.sync.add_strain(t, values)
+        self.stats.strain += len(samples)
+        return len(samples)
 
     def _drain_rtde(self) -> int:
         """The RTDE samples read since the last call, into the synchronizer (counted as joint and strain messages)."""

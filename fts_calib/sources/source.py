@@ -20,7 +20,11 @@ of them without knowing which:
 - ``udp://HOST:PORT``: the live protocol on that address (port 0: any free port; a wildcard
   host such as ``0.0.0.0`` only with ``listen_any``);
 - ``ur://HOST``: a UR controller's joints (and with ``ur_wrench`` its built-in sensor's wrench)
-  through RTDE (``ur_rtde``), with the datagrams of ``udp`` for what RTDE does not give.
+  through RTDE (``ur_rtde``), with the datagrams of ``udp`` for what RTDE does not give;
+- ``serial://DEVICE?baud=...&sep=...&channels=...`` (:mod:`fts_calib.sources.serial_line`) and
+  ``netft://HOST`` (:mod:`fts_calib.sources.netft`): channel devices, with the joints of
+  ``joints`` (``udp://HOST:PORT`` datagrams, or ``ur://HOST``), every stream on the host's
+  monotonic clock; without ``joints``, the channels alone (a re-tare, the monitor).
 
 Recordings count what they skip in ``skipped`` (by reason) and ``notes()`` (the first problems
 with file and line), and tell ``rows_read``, ``bytes_read`` of ``size`` for progress.
@@ -317,10 +321,15 @@ def orientation_source(reader: RecordingReader | RecordingSet | BagReader, joint
     return orientation_form(reader.columns)
 
 
+#: The schemes of a channel device's name.
+DEVICE_SCHEMES = ("serial", "netft")
 #: The schemes of a live source's name.
-LIVE_SCHEMES = ("udp", "ur")
+LIVE_SCHEMES = ("udp", "ur", *DEVICE_SCHEMES)
 #: The accepted names of a source, in words (for errors and help texts).
-SOURCES = f"{ACCEPTED}; or udp://HOST:PORT (live datagrams), or ur://HOST (a UR arm through RTDE)"
+SOURCES = (
+    f"{ACCEPTED}; or udp://HOST:PORT (live datagrams), ur://HOST (a UR arm through RTDE), "
+    "serial:///dev/ttyUSB0?baud=115200 (a line of counts per sample) or netft://HOST (an ATI Net F/T box)"
+)
 _SCHEME = re.compile(r"^([A-Za-z][A-Za-z0-9+.-]*)://")
 
 
@@ -345,6 +354,9 @@ def open_source(
     on_status: Callable[[FeedStatus], None] | None = None,
     status_interval_s: float = 0.5,
     on_listening: Callable[[tuple[str, int]], None] | None = None,
+    joints: str | None = None,
+    host_clock: bool = False,
+    device_timeout_s: float | None = None,
 ) -> Source:
     """The source a name gives, as a user types it (see the module docstring).
 
@@ -373,6 +385,10 @@ def open_source(
         on_status: Live: called with the counts every ``status_interval_s`` [s].
         status_interval_s: Live: time between two statuses [s].
         on_listening: Live: called with the bound (host, port) when the stream starts.
+        joints: With ``serial://`` or ``netft://``: where the joints come from,
+            ``udp://HOST:PORT`` (datagrams) or ``ur://HOST`` (RTDE); None for the channels alone.
+        host_clock: Live: every stream on the host's monotonic clock (always with a device).
+        device_timeout_s: ``netft://``: the longest silence of the box [s] (its default when None).
 
     Raises:
         ConfigError: A name of an unknown scheme, a live address without a host, with a port
@@ -398,10 +414,33 @@ def open_source(
     )
     if configuration is not None:
         sync.add_tool(-math.inf, configuration)
+    if kind in DEVICE_SCHEMES:
+        return _device_feed(
+            text,
+            kind,
+            sync,
+            joints,
+            joint_names,
+            listen_any,
+            ur_timeout_s,
+            device_timeout_s,
+            end,
+            on_status,
+            status_interval_s,
+            on_listening,
+        )
     if kind == "udp":
         host, port = live_address(text)
         receiver = UdpReceiver(host, port, listen_any)
-        return LiveFeed(receiver, sync, end=end, on_status=on_status, status_interval_s=status_interval_s, on_listening=on_listening)
+        return LiveFeed(
+            receiver,
+            sync,
+            end=end,
+            on_status=on_status,
+            status_interval_s=status_interval_s,
+            on_listening=on_listening,
+            host_clock=host_clock,
+        )
     host = _ur_host(text)
     if udp is None and not ur_wrench:
         message = f"{text}: RTDE gives the joints; the strains come as datagrams: give their address (udp=HOST:PORT), or ur_wrench"
@@ -409,7 +448,7 @@ def open_source(
     from .ur import RtdePoller, connect_ur
 
     datagrams = None if udp is None else live_address(udp if "://" in udp else f"udp://{udp}")  # a wrong address before the arm
-    clock = None if ur_wrench else time.time  # the strain datagrams' clock: the joints are put on it
+    clock = time.monotonic if host_clock else None if ur_wrench else time.time  # the strain datagrams' clock: joints put on it
     rtde = RtdePoller(connect_ur(host, ur_timeout_s), list(joint_names or []), ur_wrench, clock, timeout_s=ur_timeout_s)
     listening = None if datagrams is None else UdpReceiver(*datagrams, listen_any)
     described = f"ur://{host}" + ("" if listening is None else f" with udp://{listening.address[0]}:{listening.address[1]}")
@@ -422,6 +461,65 @@ def open_source(
         status_interval_s=status_interval_s,
         on_listening=on_listening,
         description=described,
+        host_clock=host_clock,
+    )
+
+
+def _device_feed(
+    text: str,
+    kind: str,
+    sync: Synchronizer,
+    joints: str | None,
+    joint_names: Sequence[str] | None,
+    listen_any: bool,
+    ur_timeout_s: float,
+    device_timeout_s: float | None,
+    end: StreamEnd | None,
+    on_status: Callable[[FeedStatus], None] | None,
+    status_interval_s: float,
+    on_listening: Callable[[tuple[str, int]], None] | None,
+) -> LiveFeed:
+    """The live feed of a channel device (``serial://``, ``netft://``) with the joints of ``joints`` (see :func:`open_source`)."""
+    from .devices import ChannelDevice
+
+    device: ChannelDevice
+    if kind == "serial":
+        from .serial_line import SerialChannels
+
+        device = SerialChannels(text, sync.n_channels)
+    else:
+        from .netft import TIMEOUT_S as NETFT_TIMEOUT_S
+        from .netft import NetFtChannels
+
+        if sync.n_channels not in (None, 6):
+            message = f"{text}: a Net F/T box gives 6 channels (its counts Fx..Tz), the sensor has {sync.n_channels}"
+            raise ConfigError("source", text, "a 6-channel sensor file (e.g. factory_sensor)", message=message)
+        device = NetFtChannels(text, NETFT_TIMEOUT_S if device_timeout_s is None else device_timeout_s)
+    named = None if joints is None else _SCHEME.match(joints)
+    joint_kind = "udp" if named is None else named.group(1).lower()
+    if joints is not None and joint_kind not in ("udp", "ur"):
+        message = f"{text}: its joints come as udp://HOST:PORT datagrams or from ur://HOST, not {joints}"
+        raise ConfigError("source", joints, "udp://HOST:PORT or ur://HOST", message=message)
+    if joints is not None and joint_names and joint_kind == "ur":
+        from .ur import RtdePoller, connect_ur
+
+        rtde = RtdePoller(connect_ur(_ur_host(joints), ur_timeout_s), list(joint_names), False, time.monotonic, timeout_s=ur_timeout_s)
+        described = f"{text} with {joints}"
+        interval = status_interval_s
+        return LiveFeed(None, sync, rtde, end=end, on_status=on_status, status_interval_s=interval, description=described, device=device)
+    receiver = None
+    if joints is not None:
+        receiver = UdpReceiver(*live_address(joints if "://" in joints else f"udp://{joints}"), listen_any)
+    described = text if receiver is None else f"{text} with udp://{receiver.address[0]}:{receiver.address[1]}"
+    return LiveFeed(
+        receiver,
+        sync,
+        end=end,
+        on_status=on_status,
+        status_interval_s=status_interval_s,
+        on_listening=on_listening,
+        description=described,
+        device=device,
     )
 
 

@@ -51,6 +51,7 @@ import math
 import socket
 import threading
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -464,7 +465,13 @@ class LiveStats:
         return self.seq.missing
 
 
-def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, sender: object = None) -> Message | None:
+def feed_datagram(
+    data: bytes,
+    sync: Synchronizer | None,
+    stats: LiveStats,
+    sender: object = None,
+    restamp: Callable[[Message], Message | None] | None = None,
+) -> Message | None:
     """Decode one datagram, count it and hand it to the synchronizer.
 
     Args:
@@ -473,6 +480,8 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
             that expects no joints (``sync.strain_only``) counts the joint messages and takes the rest.
         stats: Counts to update (received, per kind, malformed, oversized, ended, seq gaps).
         sender: Who sent it (its address), whose ``seq`` numbers it continues.
+        restamp: The message as the synchronizer takes it (its time put on another clock), or
+            None for one counted but not taken (another source gives that stream); None: as it came.
 
     Returns:
         The message, or None for a malformed, oversized or duplicated datagram (counted,
@@ -491,6 +500,29 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
     if message.seq is not None and not stats.seq.observe(sender, message.seq):
         stats.duplicates += 1
         return None
+    if restamp is not None and sync is not None and not isinstance(message, End):
+        fed = restamp(message)
+        if fed is None:  # counted, not taken
+            _count(message, stats)
+            return message
+        _feed(fed, sync, stats)
+        return message
+    _feed(message, sync, stats)
+    return message
+
+
+def _count(message: Message, stats: LiveStats) -> None:
+    """Count a message of the protocol that is not taken."""
+    if isinstance(message, Strain):
+        stats.strain += 1
+    elif isinstance(message, Joints | Orientation):
+        stats.joints += 1
+    elif isinstance(message, ToolChange):
+        stats.tool += 1
+
+
+def _feed(message: Message, sync: Synchronizer | None, stats: LiveStats) -> None:
+    """Count a decoded message and hand it to ``sync`` (None: count only)."""
     if isinstance(message, Strain):
         stats.strain += 1
         if sync is not None:
@@ -515,7 +547,6 @@ def feed_datagram(data: bytes, sync: Synchronizer | None, stats: LiveStats, send
             sync.add_tool(message.t, message.name)
     elif isinstance(message, End):
         stats.ended = True
-    return message
 
 
 def _feed_orientation(message: Orientation, sync: Synchronizer | None, stats: LiveStats) -> None:

@@ -40,6 +40,7 @@ from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from ..core.exceptions import ConfigError, FeedTimeout
+from .devices import StreamClock
 from .synchronizer import Synchronizer
 from .udp import Joints, Message, Strain, ToolChange
 
@@ -191,6 +192,7 @@ class RtdePoller:
         self.samples = 0
         self.dropped = 0
         self.offset_s = math.inf if host_clock is not None else 0.0
+        self.clock = StreamClock("joints", "RTDE")  # arrivals on host_clock (the controller's time when None)
         self._last = -math.inf
         self.latest_s = -math.inf
         self.ignored = 0
@@ -209,7 +211,10 @@ class RtdePoller:
         q = [float(v) for v in self.receiver.getActualQ()]
         w = [float(v) for v in self.receiver.getFtRawWrench()] if self.wrench else None
         if self.host_clock is not None:
-            self.offset_s = min(self.offset_s, self.host_clock() - t)
+            self.clock.arrive(self.host_clock(), t)
+            self.offset_s = self.clock.offset_s
+        else:
+            self.clock.arrive(t)
         self._last = t
         with self._lock:
             self.samples += 1
