@@ -26,8 +26,9 @@ $(STAMP): pyproject.toml uv.lock | $(BIN)/uv
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/fts-calib demo --out $(OUT)
 
+# Two workers (pytest-xdist), a test file to each at a time: its module fixtures are built once.
 test: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -q
+	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check fts_calib tests bench examples

@@ -132,10 +132,13 @@ def test_re_tare_from_a_serial_line(setup, rng):
     master, slave = os.openpty()
     lines = [b",".join(b"%d" % v for v in row) + b"\n" for row in codes]
 
-    def write() -> None:
-        time.sleep(0.1)
-        for k in range(0, len(lines), 50):  # 50 lines every 10 ms: 5 kHz
-            os.write(master, b"".join(lines[k : k + 50]))
+    done = threading.Event()
+
+    def write() -> None:  # a sensor streams until the window is taken, whenever the reader starts
+        k = 0
+        while not done.is_set():
+            os.write(master, b"".join(lines[k : k + 50]))  # 50 lines every 10 ms: 5 kHz
+            k = (k + 50) % len(lines)
             time.sleep(0.01)
 
     writer = threading.Thread(target=write)
@@ -143,6 +146,7 @@ def test_re_tare_from_a_serial_line(setup, rng):
     try:
         result = tare_live(cal, "", 0, 0.8, device=f"serial://{os.ttyname(slave)}?channels=8&scale={sensor.lsb!r}")
     finally:
+        done.set()
         writer.join()
         os.close(master)
         os.close(slave)
