@@ -126,6 +126,7 @@ def _main(argv: list[str] | None) -> int:
     try:
         with warnings.catch_warnings():  # warnings as 'fts-calib: warning: ...', for this command only (old spellings too)
             warnings.simplefilter("default")
+            warnings.simplefilter("ignore", ResourceWarning)  # a file the collector closes late is no advice to a user
             warnings.showwarning = _show_warning
             args = parser.parse_args(argv)  # a usage error exits with 2 (argparse)
             if args.command is None:
