@@ -4,10 +4,13 @@ import numpy as np
 import pytest
 
 from fts_calib.core.resources import resolve
+from fts_calib.model.sensor_config import load_sensor_config
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.sim.sensor import load_simulated_sensor
+from fts_calib.sim.runs import simulate_batches
+from fts_calib.sim.sensor import load_simulated_sensor, simulated_sensor
 
 #: The one seed of the normal suite. ``--seed S`` runs the suite with another one, and
 #: ``--seeds N`` (or ``--seeds A:B``) runs every randomized test once per seed in range(N):
@@ -141,3 +144,20 @@ def ur5_recording(tmp_path_factory, short_plan, seed):
     trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
     path = tmp_path_factory.mktemp("recordings") / "ur5.csv"
     return simulate_recording(path, kin, tool, trajectories, sensor, np.random.default_rng(seed))
+
+
+@pytest.fixture(scope="session")
+def factory_runs(short_plan, seed):
+    """The short UR5 plan through the simulated factory-calibrated sensor: per configuration, (time, q, wrench)."""
+    path = resolve("factory_sensor", "configs")
+    sensor = simulated_sensor(load_sensor_config(path), path)
+    kin = Kinematics(load_robot(resolve("ur5", "robots")))
+    tool = load_tool(resolve("paper_tool", "configs"))
+    p = short_plan
+    trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
+    batches = list(simulate_batches(kin, tool, trajectories, sensor, np.random.default_rng(seed), start_time=5000.0))
+    runs = {}
+    for k, name in enumerate(tool.names):
+        rows = [b for b in batches if b.configuration[0] == k]
+        runs[name] = tuple(np.concatenate([getattr(b, field) for b in rows]) for field in ("time", "joints", "channels"))
+    return sensor, runs

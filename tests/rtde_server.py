@@ -144,7 +144,8 @@ class Script:
         wrench: The built-in sensor's raw wrench (``ft_raw_wrench``), shape (n, 6) [N, N·m].
         period_s: Wall time between two data packages [s].
         close_after: Send this many samples, then drop the connection (a lost controller); None: all,
-            then stay connected and silent.
+            then the last one again each period, its time unchanged (connected, nothing new), until
+            the client goes.
     """
 
     time: np.ndarray
@@ -220,6 +221,7 @@ class RtdeController:
     def _client(self, client: socket.socket) -> None:
         """Answer one client's requests; stream its data packages from a start request on."""
         client.settimeout(0.05)
+        client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)  # one package per cycle, not batched by Nagle's algorithm
         send_lock, streaming = threading.Lock(), threading.Event()
         closed = threading.Event()
         recipe: list[str] = []
@@ -275,19 +277,21 @@ class RtdeController:
         with send_lock:
             client.sendall(text_message("RTDE streaming started"))
         due = time.monotonic()
-        for k in range(count):
-            if closed.is_set() or self._stop.is_set():
-                return
+        k = 0
+        while not closed.is_set() and not self._stop.is_set():
             while not streaming.is_set() and not closed.is_set():
                 time.sleep(0.01)
+            if k == count and script.close_after is not None:
+                break
+            row = min(k, count - 1)  # after the script: its last sample again, time unchanged (nothing new)
             values = []
             for name in recipe:
                 if name == "timestamp":
-                    values.append(float(script.time[k]))
+                    values.append(float(script.time[row]))
                 elif name in ("actual_q", "target_q"):
-                    values.extend(float(v) for v in script.q[k])
+                    values.extend(float(v) for v in script.q[row])
                 elif name == "ft_raw_wrench":
-                    values.extend(float(v) for v in script.wrench[k])
+                    values.extend(float(v) for v in script.wrench[row])
                 else:
                     fmt = FORMATS[output_type(name)]
                     width = int(fmt[:-1]) if len(fmt) > 1 else 1
@@ -297,7 +301,9 @@ class RtdeController:
                     client.sendall(package("U", struct.pack(formats, 1, *values)))
             except OSError:
                 return
-            self.sent += 1
+            if k < count:
+                self.sent += 1
+                k += 1
             due += script.period_s
             pause = due - time.monotonic()
             if pause > 0:

@@ -377,7 +377,8 @@ class LiveFeed:
         rtde, end = self.rtde, self.end
         if rtde is not None:
             if rtde.samples == 0 and rtde.error is None and elapsed_s >= rtde.timeout_s:
-                rtde.error = FeedTimeout("the first sample of the UR controller (RTDE)", rtde.timeout_s)
+                at = f" at {rtde.where}" if rtde.where else ""
+                rtde.error = FeedTimeout(f"the first sample of the UR controller{at} (RTDE)", rtde.timeout_s)
             if rtde.error is not None:
                 return RTDE_LOST  # what was read is kept
         device = self.device

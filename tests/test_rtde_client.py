@@ -1,0 +1,94 @@
+"""UR arms through the real ``ur_rtde`` client, against an RTDE controller on loopback (tests/rtde_server.py).
+
+``ur_rtde``'s ``RTDEReceiveInterface(host)`` takes no port: the controller binds 127.0.0.1:30004
+and a test skips, saying why, when that port is taken (or ``ur_rtde`` is not installed).
+"""
+
+import numpy as np
+import pytest
+
+from fts_calib.app.cli import main
+from fts_calib.app.exit_codes import ExitCode
+from fts_calib.model.calibration import load_calibration
+from fts_calib.sources import ur
+from fts_calib.sources.writer import RecordingWriter
+
+from .rtde_server import RTDE_PORT, ControllerProcess, Script
+
+pytest.importorskip("rtde_receive", reason="ur_rtde is not installed (pip install 'fts-calib[ur]')")
+
+#: Wall time between two data packages [s]: the controller's stamps keep the rows' own rate.
+PERIOD_S = 0.001
+ARM = ["--robot", "ur5", "--tool", "paper_tool", "--sensor", "factory_sensor"]
+
+
+def controller(script: Script, tmp_path) -> ControllerProcess:
+    """The RTDE controller in its own process; the test skips when 127.0.0.1:30004 is taken."""
+    try:
+        return ControllerProcess(script, tmp_path)
+    except OSError as exc:
+        pytest.skip(f"the RTDE controller needs 127.0.0.1:{RTDE_PORT} (ur_rtde connects to no other port): {exc}")
+
+
+@pytest.fixture
+def rows_read(monkeypatch):
+    """The controller times of the samples the poller reads (each once), in order."""
+    read: list[float] = []
+    poll = ur.RtdePoller.poll
+
+    def recording(self):
+        fresh = poll(self)
+        if fresh:
+            read.append(self._last)
+        return fresh
+
+    monkeypatch.setattr(ur.RtdePoller, "poll", recording)
+    return read
+
+
+def _calibrate_ur(name, out, *options, idle_s=0.5):
+    """`calibrate ur://127.0.0.1` of configuration ``name`` into ``out``; ends ``idle_s`` after the last new sample."""
+    return main(["calibrate", "ur://127.0.0.1", *ARM, "--configuration", name, "-o", str(out), "--idle-timeout", str(idle_s), *options])
+
+
+@pytest.mark.slow  # streams three runs of 1,502 controller samples at 1 kHz through the real client
+def test_the_real_client_calibrates_as_calibrate_does_on_the_rows_it_read(factory_runs, ur5, tmp_path, rows_read, capsys):
+    """`calibrate ur://` for A, then --resume with B and C: the calibration of an offline `calibrate` of the same rows."""
+    sensor, runs = factory_runs
+    out = tmp_path / "ur.yaml"
+    for k, (name, run) in enumerate(runs.items()):
+        with controller(Script(*(column[::2] for column in run), period_s=PERIOD_S), tmp_path) as arm:
+            code = _calibrate_ur(name, out, "--quiet", *(["--resume"] if k else []))
+        assert arm.summary["requests"][:2] == ["V", "V"] and "O" in arm.summary["requests"]  # the probe, then ur_rtde
+        text = capsys.readouterr().out
+    assert code == ExitCode.OK, text
+    recording = tmp_path / "read.csv"
+    read = np.asarray(rows_read)
+    with RecordingWriter(recording, ur5.joint_names, n_channels=6) as writer:
+        for name, (time, q, wrench) in runs.items():
+            kept = np.isin(time, read)
+            writer.write(time[kept], q[kept], wrench[kept], name)
+    offline = tmp_path / "offline.yaml"
+    assert main(["calibrate", *ARM, str(recording), "-o", str(offline), "--quiet"]) == ExitCode.OK
+    live, batch = load_calibration(out), load_calibration(offline)
+    assert live.quality.samples_seen == batch.quality.samples_seen == len(read)
+    scale = np.abs(batch.C_bar).max()
+    assert np.abs(live.C_bar - batch.C_bar).max() <= 2e-5 * scale, np.abs(live.C_bar - batch.C_bar).max() / scale
+    z = np.abs(live.C_bar - sensor.C_bar) / live.quality.stderr_C_bar
+    assert z.max() <= 5.0, z.max()  # and the truth within 5 standard errors (36 coefficients: P < 3e-5)
+
+
+def test_a_lost_connection_ends_the_run_with_what_was_read(factory_runs, tmp_path, rows_read, capsys):
+    """The controller drops the connection halfway: ur_rtde only turns isConnected() false; the run ends like Ctrl-C."""
+    _, runs = factory_runs
+    time, q, wrench = (column[::2] for column in runs["A"])
+    out = tmp_path / "ur.yaml"
+    with controller(Script(time, q, wrench, period_s=PERIOD_S, close_after=len(time) // 2), tmp_path):
+        code = _calibrate_ur("A", out, "--quiet", idle_s=600)  # not the idle timeout: the lost connection ends it
+    text = capsys.readouterr().out
+    assert code == ExitCode.EXCITATION, text  # one configuration: checkpoint kept, as after Ctrl-C
+    assert "the UR controller at 127.0.0.1:30004 closed the RTDE connection" in text, text
+    assert f"the last sample at controller time {time[len(time) // 2 - 1]:.3f} s" in text, text
+    assert 0 < len(rows_read) <= len(time) // 2
+    assert f"samples: {len(rows_read):,} seen" in text  # every sample read is in the checkpoint
+    assert (tmp_path / "ur.yaml.checkpoint.json").exists()
