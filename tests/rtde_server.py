@@ -109,7 +109,14 @@ OUTPUTS = {
     "joint_mode": "VECTOR6INT32",
 }
 #: Values other than zero: a running arm in normal safety mode, a program playing, full speed.
-STATE = {"robot_mode": 7, "safety_mode": 1, "runtime_state": 2, "robot_status_bits": 0b1111, "speed_scaling": 1.0, "target_speed_fraction": 1.0}
+STATE = {
+    "robot_mode": 7,
+    "safety_mode": 1,
+    "runtime_state": 2,
+    "robot_status_bits": 0b1111,
+    "speed_scaling": 1.0,
+    "target_speed_fraction": 1.0,
+}
 
 
 def output_type(name: str) -> str:

@@ -4,6 +4,8 @@
 and a test skips, saying why, when that port is taken (or ``ur_rtde`` is not installed).
 """
 
+import socket
+
 import numpy as np
 import pytest
 
@@ -92,3 +94,19 @@ def test_a_lost_connection_ends_the_run_with_what_was_read(factory_runs, tmp_pat
     assert 0 < len(rows_read) <= len(time) // 2
     assert f"samples: {len(rows_read):,} seen" in text  # every sample read is in the checkpoint
     assert (tmp_path / "ur.yaml.checkpoint.json").exists()
+
+
+def test_a_refused_connection_exits_14_naming_host_and_port(tmp_path, capsys):
+    """Nothing listens at 127.0.0.1:30004: the system's refusal, with the controller's address (exit 14)."""
+    free = socket.socket()
+    free.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # a connection of an earlier test may linger in TIME_WAIT
+    try:
+        free.bind(("127.0.0.1", RTDE_PORT))  # free now: nothing listens there (it stays free once closed)
+    except OSError as exc:
+        pytest.skip(f"127.0.0.1:{RTDE_PORT} is in use, a refused connection cannot be made: {exc}")
+    finally:
+        free.close()
+    code = _calibrate_ur("A", tmp_path / "ur.yaml", "--quiet")
+    error = capsys.readouterr().err
+    assert code == ExitCode.FILE_ACCESS == 14, error
+    assert "cannot connect to the UR controller at 127.0.0.1:30004 (RTDE): Connection refused" in error, error
