@@ -4,6 +4,7 @@
 and a test skips, saying why, when that port is taken (or ``ur_rtde`` is not installed).
 """
 
+import re
 import socket
 
 import numpy as np
@@ -48,36 +49,49 @@ def rows_read(monkeypatch):
     return read
 
 
-def _calibrate_ur(name, out, *options, idle_s=0.5):
-    """`calibrate ur://127.0.0.1` of configuration ``name`` into ``out``; ends ``idle_s`` after the last new sample."""
-    return main(["calibrate", "ur://127.0.0.1", *ARM, "--configuration", name, "-o", str(out), "--idle-timeout", str(idle_s), *options])
+@pytest.mark.slow  # streams three runs of 1,502 controller samples at 1 kHz through the real client (about 9 s)
+def test_the_real_client_across_a_controller_restart_calibrates_as_calibrate_of_its_rows(factory_runs, ur5, tmp_path, rows_read, capsys):
+    """`calibrate ur://` for A, then --resume with B and C after the controller rebooted (its clock near 0 again).
 
-
-@pytest.mark.slow  # streams three runs of 1,502 controller samples at 1 kHz through the real client
-def test_the_real_client_calibrates_as_calibrate_does_on_the_rows_it_read(factory_runs, ur5, tmp_path, rows_read, capsys):
-    """`calibrate ur://` for A, then --resume with B and C: the calibration of an offline `calibrate` of the same rows."""
+    The resumed runs re-base the restarted clock instead of skipping every sample as before the
+    checkpoint, and the calibration is the one of an offline `calibrate` of the rows the client read.
+    """
     sensor, runs = factory_runs
     out = tmp_path / "ur.yaml"
-    for k, (name, run) in enumerate(runs.items()):
-        with controller(Script(*(column[::2] for column in run), period_s=PERIOD_S), tmp_path) as arm:
+    restart = runs["B"][0][0] - 0.4  # the controller rebooted during the change to B: its clock at 0.4 s on B's first sample
+    read = {}
+    for k, (name, (time, q, wrench)) in enumerate(runs.items()):
+        stamps = (time if name == "A" else time - restart)[::2]
+        before = len(rows_read)
+        with controller(Script(stamps, q[::2], wrench[::2], period_s=PERIOD_S), tmp_path) as arm:
             code = _calibrate_ur(name, out, "--quiet", *(["--resume"] if k else []))
         assert arm.summary["requests"][:2] == ["V", "V"] and "O" in arm.summary["requests"]  # the probe, then ur_rtde
         text = capsys.readouterr().out
+        shift = re.search(r"its times re-based by ([-+0-9.]+) s", text)
+        read[name] = (stamps, np.asarray(rows_read[before:]), float(shift[1]) if shift else 0.0)
+        assert "before the checkpoint (already counted)" not in text, text  # the reason of samples skipped
+        if name != "A":  # B's first sample near 0.4 s; C's where B's clock went on (both before the checkpoint's last)
+            assert re.search(r"the stream's clock restarted since the checkpoint \(its first sample at \d+\.\d{3} s", text), text
     assert code == ExitCode.OK, text
     recording = tmp_path / "read.csv"
-    read = np.asarray(rows_read)
     with RecordingWriter(recording, ur5.joint_names, n_channels=6) as writer:
-        for name, (time, q, wrench) in runs.items():
-            kept = np.isin(time, read)
-            writer.write(time[kept], q[kept], wrench[kept], name)
+        for name, (_, q, wrench) in runs.items():  # the rows read, at the times the run gave them
+            stamps, rows, shift = read[name]
+            kept = np.isin(stamps, rows)
+            writer.write(stamps[kept] + shift, q[::2][kept], wrench[::2][kept], name)
     offline = tmp_path / "offline.yaml"
     assert main(["calibrate", *ARM, str(recording), "-o", str(offline), "--quiet"]) == ExitCode.OK
     live, batch = load_calibration(out), load_calibration(offline)
-    assert live.quality.samples_seen == batch.quality.samples_seen == len(read)
+    assert live.quality.samples_seen == batch.quality.samples_seen == sum(len(rows) for _, rows, _ in read.values())
     scale = np.abs(batch.C_bar).max()
     assert np.abs(live.C_bar - batch.C_bar).max() <= 2e-5 * scale, np.abs(live.C_bar - batch.C_bar).max() / scale
     z = np.abs(live.C_bar - sensor.C_bar) / live.quality.stderr_C_bar
     assert z.max() <= 5.0, z.max()  # and the truth within 5 standard errors (36 coefficients: P < 3e-5)
+
+
+def _calibrate_ur(name, out, *options, idle_s=0.5):
+    """`calibrate ur://127.0.0.1` of configuration ``name`` into ``out``; ends ``idle_s`` after the last new sample."""
+    return main(["calibrate", "ur://127.0.0.1", *ARM, "--configuration", name, "-o", str(out), "--idle-timeout", str(idle_s), *options])
 
 
 def test_a_lost_connection_ends_the_run_with_what_was_read(factory_runs, tmp_path, rows_read, capsys):

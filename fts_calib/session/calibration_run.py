@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -489,8 +490,20 @@ class StatusLine:
             self._shown = 0
 
 
+#: A resumed live stream whose first sample is this much before the checkpoint's last has a restarted clock [s].
+CLOCK_RESTART_S = 5.0
+#: The time left between the checkpoint's last sample and a re-based stream's first [s].
+REBASE_GAP_S = 1.0
+
+
 class LiveRunner:
     """Runs a session on a live stream (see the module docstring).
+
+    A resumed session skips the samples up to its checkpoint's last (already counted). A stream
+    whose first sample comes more than :data:`CLOCK_RESTART_S` before that has a restarted clock
+    (a UR controller rebooted during a tool change: its time starts again near 0): its times are
+    re-based, put :data:`REBASE_GAP_S` after the checkpoint's last, instead of all being skipped,
+    and :attr:`rebase_note` says so.
 
     Args:
         session: The calibration session (fresh or resumed).
@@ -515,6 +528,25 @@ class LiveRunner:
         self._line = None if status is None else StatusLine(status)
         if status is not None:
             feed.on_status = lambda counts: self._show(self.status_line(counts))
+        self.rebased_s = 0.0  # added to the stream's times: its clock restarted since the checkpoint [s]
+        self.rebase_note: str | None = None
+        self._first: float | None = None
+
+    def rebased(self, batch: SampleBatch) -> SampleBatch:
+        """``batch`` with its times re-based when the stream's clock restarted since the checkpoint (see the class docstring)."""
+        if self._first is None and len(batch):
+            self._first = float(batch.time[0])
+            resume = self.session.checks.resume_time
+            if math.isfinite(resume) and self._first < resume - CLOCK_RESTART_S:
+                self.rebased_s = resume + REBASE_GAP_S - self._first
+                self.rebase_note = (
+                    f"the stream's clock restarted since the checkpoint (its first sample at {self._first:.3f} s, the "
+                    f"checkpoint's last at {resume:.3f} s: a controller rebooted?): its times re-based by "
+                    f"{self.rebased_s:+.3f} s, so that its samples count instead of being skipped as before the checkpoint"
+                )
+        if not self.rebased_s:
+            return batch
+        return dataclasses.replace(batch, time=batch.time + self.rebased_s)
 
     @property
     def stats(self) -> LiveStats:
@@ -554,7 +586,7 @@ class LiveRunner:
         """Feed the session until the stream ends (:mod:`fts_calib.sources.live_feed`); then checkpoint; return the counts."""
         with self.feed:
             for batch in self.feed:
-                self.session.add_samples(batch)
+                self.session.add_samples(self.rebased(batch))
         self.session.flush()
         self.session.checkpoint()
         if self.status is not None:
