@@ -100,8 +100,14 @@ def test_a_lost_connection_ends_the_run_with_what_was_read(factory_runs, tmp_pat
     time, q, wrench = (column[::2] for column in runs["A"])
     out = tmp_path / "ur.yaml"
     with controller(Script(time, q, wrench, period_s=PERIOD_S, close_after=len(time) // 2), tmp_path):
-        code = _calibrate_ur("A", out, "--quiet", idle_s=600)  # not the idle timeout: the lost connection ends it
-    text = capsys.readouterr().out
+        code = _calibrate_ur("A", out, idle_s=600)  # not the idle timeout: the lost connection ends it
+    text, status = capsys.readouterr()
+    lines = [line for line in status.replace("\r", "\n").splitlines() if line.startswith("elapsed")]
+    assert lines, status
+    for line in lines:  # the run's wall time (a few seconds), not the controller's stamps (5,000 s) nor epoch time
+        assert 0.0 <= float(line.split()[1]) < 60.0, line
+    assert "messages: 0 datagrams (0 joints, 0 strain, 0 tool) and " in text, text
+    assert f"and {len(rows_read):,} RTDE controller samples (joints and wrench)" in text, text
     assert code == ExitCode.EXCITATION, text  # one configuration: checkpoint kept, as after Ctrl-C
     assert "the UR controller at 127.0.0.1:30004 closed the RTDE connection" in text, text
     assert f"the last sample at controller time {time[len(time) // 2 - 1]:.3f} s" in text, text

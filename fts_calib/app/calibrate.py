@@ -452,7 +452,8 @@ def _calibrate_live(
         if not resume:  # a checkpoint of nothing would only stand in the way of the next run
             checkpoint.unlink(missing_ok=True)
         raise rtde.error
-    print(format_stats(stats, feed.sync))
+    drained = 0 if rtde is None else rtde.samples - rtde.dropped  # the RTDE samples among the joint (and strain) counts
+    print(format_stats(stats, feed.sync, drained, rtde is not None and rtde.wrench))
     if rtde is not None:
         print(format_rtde(rtde))
     if runner.rebase_note is not None:

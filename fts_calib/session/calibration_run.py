@@ -564,7 +564,7 @@ class LiveRunner:
         per = " ".join(f"{k} {v}" for k, v in p.kept_by_configuration.items())
         bad = counts.malformed + counts.oversized
         text = (
-            f"t {p.last_time if p.last_time is not None else 0.0:8.2f} s | joints {counts.joints_hz:6.0f} Hz "
+            f"elapsed {counts.elapsed_s:7.1f} s | joints {counts.joints_hz:6.0f} Hz "
             f"strain {counts.strain_hz:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} "
             f"| rank {p.rank} of {p.full_rank}"
         )
@@ -594,10 +594,19 @@ class LiveRunner:
         return self.feed.stats
 
 
-def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
-    """Message counts and CPU use of a live run, one line each."""
+def format_stats(stats: LiveStats, sync: Synchronizer, rtde_samples: int = 0, rtde_wrench: bool = False) -> str:
+    """Message counts and CPU use of a live run, one line each.
+
+    Args:
+        stats: The run's counts (its ``joints`` and ``strain`` include the RTDE samples).
+        sync: The run's synchronizer (its drops).
+        rtde_samples: Samples of a UR controller through RTDE among them (counted apart from the datagrams).
+        rtde_wrench: Whether those samples also gave the strains (the built-in sensor's wrench).
+    """
+    joints, strain = stats.joints - rtde_samples, stats.strain - (rtde_samples if rtde_wrench else 0)
+    rtde = f" and {rtde_samples:,} RTDE controller samples (joints{' and wrench' if rtde_wrench else ''})" if rtde_samples else ""
     lines = [
-        f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
+        f"messages: {stats.received:,} datagrams ({joints:,} joints, {strain:,} strain, {stats.tool} tool){rtde}, "
         f"{stats.malformed} malformed and {stats.oversized} oversized skipped, {_lost(stats)}"
         f"{f', {stats.duplicates:,} duplicates dropped (a seq number received twice)' if stats.duplicates else ''}; "
         f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "
