@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from fts_calib.core.resources import resolve
-from fts_calib.model.sensor_config import load_sensor_config
 from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
-from fts_calib.sim.runs import simulate_batches
-from fts_calib.sim.sensor import load_simulated_sensor, simulated_sensor
+from fts_calib.sim.sensor import load_simulated_sensor
+
+from .rtde_case import factory_runs_of, short_ur5_plan
 
 #: The one seed of the normal suite. ``--seed S`` runs the suite with another one, and
 #: ``--seeds N`` (or ``--seeds A:B``) runs every randomized test once per seed in range(N):
@@ -118,23 +118,12 @@ def random_readings(kin, n, rng):
 @pytest.fixture(scope="session")
 def short_plan():
     """A short UR5 calibration motion (3 levels x 4 stops, 100 Hz) for all three configurations."""
-    from fts_calib.planning.motion import plan_sweeps
-    from fts_calib.planning.sweeps import SweepPattern, sweep_ranges, wrist_ranges
-    from fts_calib.robot.collision import CollisionChecker
-
-    kin = Kinematics(load_robot(resolve("ur5", "robots")))
-    tool = load_tool(resolve("paper_tool", "configs"))
-    pattern = SweepPattern(levels=3, stops=4, dwell=0.4)
-    checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])
-    home = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])
-    ranges = wrist_ranges(kin, checker, home, sweep_ranges(kin, home, pattern.margin), 0.02).ranges
-    return plan_sweeps(kin, home, ranges, pattern, 100.0)
+    return short_ur5_plan()
 
 
 @pytest.fixture(scope="session")
 def ur5_recording(tmp_path_factory, short_plan, seed):
     """A simulated UR5 recording of the short plan: noise, 24-bit ADC, moving tool (Newton-Euler)."""
-    from fts_calib.planning.trajectory_files import TrajectoryFile
     from fts_calib.sim.runs import simulate_recording
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
@@ -148,16 +137,5 @@ def ur5_recording(tmp_path_factory, short_plan, seed):
 
 @pytest.fixture(scope="session")
 def factory_runs(short_plan, seed):
-    """The short UR5 plan through the simulated factory-calibrated sensor: per configuration, (time, q, wrench)."""
-    path = resolve("factory_sensor", "configs")
-    sensor = simulated_sensor(load_sensor_config(path), path)
-    kin = Kinematics(load_robot(resolve("ur5", "robots")))
-    tool = load_tool(resolve("paper_tool", "configs"))
-    p = short_plan
-    trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
-    batches = list(simulate_batches(kin, tool, trajectories, sensor, np.random.default_rng(seed), start_time=5000.0))
-    runs = {}
-    for k, name in enumerate(tool.names):
-        rows = [b for b in batches if b.configuration[0] == k]
-        runs[name] = tuple(np.concatenate([getattr(b, field) for b in rows]) for field in ("time", "joints", "channels"))
-    return sensor, runs
+    """The short UR5 plan through the simulated factory-calibrated sensor: (sensor, per configuration (time, q, wrench))."""
+    return factory_runs_of(short_plan, seed)

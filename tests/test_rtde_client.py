@@ -10,19 +10,15 @@ import socket
 import numpy as np
 import pytest
 
-from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.model.calibration import load_calibration
-from fts_calib.sources import ur
-from fts_calib.sources.writer import RecordingWriter
 
+from .rtde_case import calibrate_ur, reading_rows, run_case
 from .rtde_server import RTDE_PORT, ControllerProcess, Script
 
 pytest.importorskip("rtde_receive", reason="ur_rtde is not installed (pip install 'fts-calib[ur]')")
 
 #: Wall time between two data packages [s]: the controller's stamps keep the rows' own rate.
 PERIOD_S = 0.001
-ARM = ["--robot", "ur5", "--tool", "paper_tool", "--sensor", "factory_sensor"]
 
 
 def controller(script: Script, tmp_path) -> ControllerProcess:
@@ -34,64 +30,39 @@ def controller(script: Script, tmp_path) -> ControllerProcess:
 
 
 @pytest.fixture
-def rows_read(monkeypatch):
+def rows_read():
     """The controller times of the samples the poller reads (each once), in order."""
-    read: list[float] = []
-    poll = ur.RtdePoller.poll
-
-    def recording(self):
-        fresh = poll(self)
-        if fresh:
-            read.append(self._last)
-        return fresh
-
-    monkeypatch.setattr(ur.RtdePoller, "poll", recording)
-    return read
+    with reading_rows() as read:
+        yield read
 
 
 @pytest.mark.slow  # streams three runs of 1,502 controller samples at 1 kHz through the real client (about 9 s)
-def test_the_real_client_across_a_controller_restart_calibrates_as_calibrate_of_its_rows(factory_runs, ur5, tmp_path, rows_read, capsys):
+def test_the_real_client_across_a_controller_restart_calibrates_as_calibrate_of_its_rows(factory_runs, ur5, tmp_path):
     """`calibrate ur://` for A, then --resume with B and C after the controller rebooted (its clock near 0 again).
 
     The resumed runs re-base the restarted clock instead of skipping every sample as before the
     checkpoint, and the calibration is the one of an offline `calibrate` of the rows the client read.
     """
     sensor, runs = factory_runs
-    out = tmp_path / "ur.yaml"
-    restart = runs["B"][0][0] - 0.4  # the controller rebooted during the change to B: its clock at 0.4 s on B's first sample
-    read = {}
-    for k, (name, (time, q, wrench)) in enumerate(runs.items()):
-        stamps = (time if name == "A" else time - restart)[::2]
-        before = len(rows_read)
-        with controller(Script(stamps, q[::2], wrench[::2], period_s=PERIOD_S), tmp_path) as arm:
-            code = _calibrate_ur(name, out, "--quiet", *(["--resume"] if k else []))
-        assert arm.summary["requests"][:2] == ["V", "V"] and "O" in arm.summary["requests"]  # the probe, then ur_rtde
-        text = capsys.readouterr().out
-        shift = re.search(r"its times re-based by ([-+0-9.]+) s", text)
-        read[name] = (stamps, np.asarray(rows_read[before:]), float(shift[1]) if shift else 0.0)
+    case = run_case(runs, ur5.joint_names, tmp_path, PERIOD_S, step=2, start=controller)
+    for name, text in case.texts.items():
+        assert case.requests[name][:2] == ["V", "V"] and "O" in case.requests[name]  # the probe, then ur_rtde
         assert "before the checkpoint (already counted)" not in text, text  # the reason of samples skipped
         if name != "A":  # B's first sample near 0.4 s; C's where B's clock went on (both before the checkpoint's last)
             assert re.search(r"the stream's clock restarted since the checkpoint \(its first sample at \d+\.\d{3} s", text), text
-    assert code == ExitCode.OK, text
-    recording = tmp_path / "read.csv"
-    with RecordingWriter(recording, ur5.joint_names, n_channels=6) as writer:
-        for name, (_, q, wrench) in runs.items():  # the rows read, at the times the run gave them
-            stamps, rows, shift = read[name]
-            kept = np.isin(stamps, rows)
-            writer.write(stamps[kept] + shift, q[::2][kept], wrench[::2][kept], name)
-    offline = tmp_path / "offline.yaml"
-    assert main(["calibrate", *ARM, str(recording), "-o", str(offline), "--quiet"]) == ExitCode.OK
-    live, batch = load_calibration(out), load_calibration(offline)
-    assert live.quality.samples_seen == batch.quality.samples_seen == sum(len(rows) for _, rows, _ in read.values())
-    scale = np.abs(batch.C_bar).max()
-    assert np.abs(live.C_bar - batch.C_bar).max() <= 2e-5 * scale, np.abs(live.C_bar - batch.C_bar).max() / scale
+    assert case.codes["C"] == ExitCode.OK, case.texts["C"]
+    live, batch = case.live, case.offline
+    assert live is not None and batch is not None
+    assert live.quality.samples_seen == batch.quality.samples_seen == sum(case.read.values())
+    # the same rows by another path: the filter learns its noise floor batch by batch (20 ms live, the
+    # whole file offline), so a borderline sample may be kept by one and not the other (bench/bench_rtde.py:
+    # 3e-10 to 1.4e-4 of C_bar's largest coefficient over 5 runs): kept counts within 1 %, C_bar within a
+    # quarter of its standard errors
+    used, used_offline = live.quality.samples_used, batch.quality.samples_used
+    assert abs(used - used_offline) <= 0.01 * used_offline
+    assert np.all(np.abs(live.C_bar - batch.C_bar) <= 0.25 * batch.quality.stderr_C_bar)
     z = np.abs(live.C_bar - sensor.C_bar) / live.quality.stderr_C_bar
     assert z.max() <= 5.0, z.max()  # and the truth within 5 standard errors (36 coefficients: P < 3e-5)
-
-
-def _calibrate_ur(name, out, *options, idle_s=0.5):
-    """`calibrate ur://127.0.0.1` of configuration ``name`` into ``out``; ends ``idle_s`` after the last new sample."""
-    return main(["calibrate", "ur://127.0.0.1", *ARM, "--configuration", name, "-o", str(out), "--idle-timeout", str(idle_s), *options])
 
 
 def test_a_lost_connection_ends_the_run_with_what_was_read(factory_runs, tmp_path, rows_read, capsys):
@@ -100,7 +71,7 @@ def test_a_lost_connection_ends_the_run_with_what_was_read(factory_runs, tmp_pat
     time, q, wrench = (column[::2] for column in runs["A"])
     out = tmp_path / "ur.yaml"
     with controller(Script(time, q, wrench, period_s=PERIOD_S, close_after=len(time) // 2), tmp_path):
-        code = _calibrate_ur("A", out, idle_s=600)  # not the idle timeout: the lost connection ends it
+        code = calibrate_ur("A", out, idle_s=600)  # not the idle timeout: the lost connection ends it
     text, status = capsys.readouterr()
     lines = [line for line in status.replace("\r", "\n").splitlines() if line.startswith("elapsed")]
     assert lines, status
@@ -126,7 +97,7 @@ def test_a_refused_connection_exits_14_naming_host_and_port(tmp_path, capsys):
         pytest.skip(f"127.0.0.1:{RTDE_PORT} is in use, a refused connection cannot be made: {exc}")
     finally:
         free.close()
-    code = _calibrate_ur("A", tmp_path / "ur.yaml", "--quiet")
+    code = calibrate_ur("A", tmp_path / "ur.yaml", "--quiet")
     error = capsys.readouterr().err
     assert code == ExitCode.FILE_ACCESS == 14, error
     assert "cannot connect to the UR controller at 127.0.0.1:30004 (RTDE): Connection refused" in error, error
