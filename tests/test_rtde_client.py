@@ -9,11 +9,19 @@ import socket
 
 import numpy as np
 import pytest
+import yaml
 
+from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
+from fts_calib.sources.batch import SampleBatch
+from fts_calib.sources.recording import RecordingReader
 
+from .netft_box import NetFtBox
+from .netft_box import Script as NetFtScript
 from .rtde_case import calibrate_ur, reading_rows, run_case
 from .rtde_server import RTDE_PORT, ControllerProcess, Script
+
+UR5_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
 
 pytest.importorskip("rtde_receive", reason="ur_rtde is not installed (pip install 'fts-calib[ur]')")
 
@@ -101,3 +109,42 @@ def test_a_refused_connection_exits_14_naming_host_and_port(tmp_path, capsys):
     error = capsys.readouterr().err
     assert code == ExitCode.FILE_ACCESS == 14, error
     assert "cannot connect to the UR controller at 127.0.0.1:30004 (RTDE): Connection refused" in error, error
+
+
+def test_live_ur_runs_the_real_client(factory_runs, tmp_path, rows_read, capsys):
+    """`live --ur HOST --ur-wrench` (the old spelling of `calibrate ur://`): the same real client, every sample read counted."""
+    _, runs = factory_runs
+    time, q, wrench = (column[::4] for column in runs["A"])
+    out = tmp_path / "ur.yaml"
+    with controller(Script(time, q, wrench, period_s=PERIOD_S), tmp_path):
+        options = ["--ur", "127.0.0.1", "--ur-wrench", "--sensor", "factory_sensor", "--configuration", "A", "--quiet"]
+        timing = ["--listen", "127.0.0.1:0", "--idle-timeout", "0.5"]
+        code = main(["live", "--robot", "ur5", "--tool", "paper_tool", *options, "-o", str(out), *timing])
+    text = capsys.readouterr().out
+    assert code == ExitCode.EXCITATION, text  # one configuration: C_bar needs three
+    assert 0 < len(rows_read) <= len(time)
+    assert f"RTDE: {len(rows_read):,} controller samples" in text, text
+    assert f"samples: {len(rows_read):,} seen" in text, text
+
+
+def test_record_netft_channels_with_the_joints_of_the_real_client(tmp_path, capsys):
+    """`record netft://BOX ur://127.0.0.1`: the controller's joints through ur_rtde put on the host's clock beside the box's counts."""
+    n = 1500  # 3 s of controller samples at 500 Hz, longer than the box's 0.8 s
+    stamps = 1000.0 + 0.002 * np.arange(n)  # the controller's clock [s]
+    speed = np.linspace(-0.05, 0.05, 6)  # [rad/s]
+    q = 0.1 + (stamps - 1000.0)[:, None] * speed
+    box = NetFtBox(NetFtScript(np.arange(6 * 800).reshape(800, 6), silent_after=800, period_s=0.001))
+    out = tmp_path / "d.csv"
+    try:
+        with controller(Script(stamps, q, np.zeros((n, 6)), period_s=0.002), tmp_path):
+            code = main(["record", box.url, "ur://127.0.0.1", "--robot", "ur5", "--configuration", "A", "-o", str(out), "--quiet"])
+    finally:
+        box.close()
+    assert code == ExitCode.OK, capsys.readouterr().err
+    with RecordingReader(out, UR5_JOINTS, None) as reader:
+        rows = SampleBatch.concatenate(list(reader))
+    assert len(rows.time) > 300
+    joints = yaml.safe_load((tmp_path / "d.streams.yaml").read_text())["streams"]["joints"]
+    assert joints["source"] == "RTDE"
+    expected = 0.1 + (rows.time - joints["clock_offset_s"] - 1000.0)[:, None] * speed
+    np.testing.assert_allclose(rows.joints, expected, atol=5e-4)  # 10 ms of the clocks' offset at 0.05 rad/s
