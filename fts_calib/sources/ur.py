@@ -26,6 +26,12 @@ plain socket (:func:`probe_rtde`), so that a host that accepts the connection an
 nothing is named in one line instead of hanging ``ur_rtde``'s constructor, which does not
 return to Python (Ctrl-C included) until it is answered; the constructor then runs in a
 daemon thread that the caller waits for in short, interruptible steps.
+
+A connection the controller drops raises nothing in ``ur_rtde``: it prints "End of file" on
+standard error, keeps answering ``getTimestamp()`` with the last sample's time and turns
+``isConnected()`` false. So :class:`RtdePoller` asks ``isConnected()`` after :data:`CHECK_S`
+without a new sample, and stops with a ``ConnectionError`` naming the controller's address: the
+live loop then ends like Ctrl-C, with what was read.
 """
 
 from __future__ import annotations
