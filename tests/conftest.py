@@ -4,10 +4,13 @@ import numpy as np
 import pytest
 
 from fts_calib.core.resources import resolve
+from fts_calib.planning.trajectory_files import TrajectoryFile
 from fts_calib.robot.definition import load_robot
 from fts_calib.robot.kinematics import Kinematics
 from fts_calib.robot.tool import load_tool
 from fts_calib.sim.sensor import load_simulated_sensor
+
+from .rtde_case import factory_runs_of, short_ur5_plan
 
 #: The one seed of the normal suite. ``--seed S`` runs the suite with another one, and
 #: ``--seeds N`` (or ``--seeds A:B``) runs every randomized test once per seed in range(N):
@@ -115,23 +118,12 @@ def random_readings(kin, n, rng):
 @pytest.fixture(scope="session")
 def short_plan():
     """A short UR5 calibration motion (3 levels x 4 stops, 100 Hz) for all three configurations."""
-    from fts_calib.planning.motion import plan_sweeps
-    from fts_calib.planning.sweeps import SweepPattern, sweep_ranges, wrist_ranges
-    from fts_calib.robot.collision import CollisionChecker
-
-    kin = Kinematics(load_robot(resolve("ur5", "robots")))
-    tool = load_tool(resolve("paper_tool", "configs"))
-    pattern = SweepPattern(levels=3, stops=4, dwell=0.4)
-    checker = CollisionChecker(kin, tool.shape, kin.sweep_joints[0])
-    home = np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0])
-    ranges = wrist_ranges(kin, checker, home, sweep_ranges(kin, home, pattern.margin), 0.02).ranges
-    return plan_sweeps(kin, home, ranges, pattern, 100.0)
+    return short_ur5_plan()
 
 
 @pytest.fixture(scope="session")
 def ur5_recording(tmp_path_factory, short_plan, seed):
     """A simulated UR5 recording of the short plan: noise, 24-bit ADC, moving tool (Newton-Euler)."""
-    from fts_calib.planning.trajectory_files import TrajectoryFile
     from fts_calib.sim.runs import simulate_recording
 
     kin = Kinematics(load_robot(resolve("ur5", "robots")))
@@ -141,3 +133,9 @@ def ur5_recording(tmp_path_factory, short_plan, seed):
     trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
     path = tmp_path_factory.mktemp("recordings") / "ur5.csv"
     return simulate_recording(path, kin, tool, trajectories, sensor, np.random.default_rng(seed))
+
+
+@pytest.fixture(scope="session")
+def factory_runs(short_plan, seed):
+    """The short UR5 plan through the simulated factory-calibrated sensor: (sensor, per configuration (time, q, wrench))."""
+    return factory_runs_of(short_plan, seed)

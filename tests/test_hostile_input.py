@@ -402,7 +402,8 @@ def test_a_controller_that_connects_and_never_publishes_is_named(tmp_path, monke
         monkeypatch.setattr("fts_calib.sources.ur.RTDE_PORT", server.port)
         code = _in_thread(_live_ur(tmp_path, "--ur-timeout", "0.3", "--quiet"))
     assert code == ExitCode.TIMEOUT
-    assert _error(capsys) == "fts-calib calibrate: error: no answer within 0.3 s: waited for the first sample of the UR controller (RTDE)"
+    expected = "no answer within 0.3 s: waited for the first sample of the UR controller at 127.0.0.1:30004 (RTDE)"
+    assert _error(capsys) == f"fts-calib calibrate: error: {expected}"
     assert not list(tmp_path.iterdir()), "nothing written: the next run starts afresh"
 
 

@@ -12,18 +12,10 @@ from fts_calib import ConfigError, PoorFit
 from fts_calib.app.calibrate import format_rtde
 from fts_calib.app.cli import main
 from fts_calib.app.exit_codes import ExitCode
-from fts_calib.core.resources import resolve
 from fts_calib.model.calibration import load_calibration
 from fts_calib.model.channels import WRENCH_6
-from fts_calib.model.sensor_config import load_sensor_config
-from fts_calib.planning.trajectory_files import TrajectoryFile
-from fts_calib.robot.definition import load_robot
-from fts_calib.robot.kinematics import Kinematics
-from fts_calib.robot.tool import load_tool
 from fts_calib.session.calibration_run import LiveRunner
 from fts_calib.session.session import CalibrationSession
-from fts_calib.sim.runs import simulate_batches
-from fts_calib.sim.sensor import simulated_sensor
 from fts_calib.sources.batch import SampleBatch
 from fts_calib.sources.live_feed import LiveFeed, StreamEnd
 from fts_calib.sources.recording import RecordingReader
@@ -163,23 +155,6 @@ def test_a_controller_that_does_not_answer(monkeypatch):
 def test_a_robot_that_is_not_a_six_joint_arm_is_refused():
     with pytest.raises(ConfigError, match="six joints"):
         RtdePoller(FakeUR(*_linear_run(2)[:3]), JOINTS[:5], wrench=False)
-
-
-@pytest.fixture(scope="module")
-def factory_runs(short_plan, seed):
-    """The short UR5 plan through the simulated factory-calibrated sensor: per configuration, (time, q, wrench)."""
-    path = resolve("factory_sensor", "configs")
-    sensor = simulated_sensor(load_sensor_config(path), path)
-    kin = Kinematics(load_robot(resolve("ur5", "robots")))
-    tool = load_tool(resolve("paper_tool", "configs"))
-    p = short_plan
-    trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
-    batches = list(simulate_batches(kin, tool, trajectories, sensor, np.random.default_rng(seed), start_time=5000.0))
-    runs = {}
-    for k, name in enumerate(tool.names):
-        rows = [b for b in batches if b.configuration[0] == k]
-        runs[name] = tuple(np.concatenate([getattr(b, field) for b in rows]) for field in ("time", "joints", "channels"))
-    return sensor, runs
 
 
 def test_live_ur_with_the_built_in_sensor_one_run_per_configuration(tmp_path, monkeypatch, factory_runs, capsys):

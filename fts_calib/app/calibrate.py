@@ -446,14 +446,18 @@ def _calibrate_live(
         print(f"reading the {what} of the UR at {arm} through RTDE", flush=True)
         if udp is None:
             print(f"no datagrams: Ctrl-C writes the calibration ({kin.robot.name} with '{loaded.name}')", flush=True)
-    stats = LiveRunner(session, feed, status=None if outputs.quiet else sys.stderr, plan=expected).run()
+    runner = LiveRunner(session, feed, status=None if outputs.quiet else sys.stderr, plan=expected)
+    stats = runner.run()
     if rtde is not None and rtde.samples == 0 and isinstance(rtde.error, FeedTimeout):
         if not resume:  # a checkpoint of nothing would only stand in the way of the next run
             checkpoint.unlink(missing_ok=True)
         raise rtde.error
-    print(format_stats(stats, feed.sync))
+    drained = 0 if rtde is None else rtde.samples - rtde.dropped  # the RTDE samples among the joint (and strain) counts
+    print(format_stats(stats, feed.sync, drained, rtde is not None and rtde.wrench))
     if rtde is not None:
         print(format_rtde(rtde))
+    if runner.rebase_note is not None:
+        print(runner.rebase_note)
     if setup.use_filter and settings.filter.mode == AUTO_FILTER:
         print("filter: quasi-static (--filter auto: a live feed is read once: its still samples; --filter dynamic for no stops)")
     print("\n".join(format_counts(session)))

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -489,8 +490,20 @@ class StatusLine:
             self._shown = 0
 
 
+#: A resumed live stream whose first sample is this much before the checkpoint's last has a restarted clock [s].
+CLOCK_RESTART_S = 5.0
+#: The time left between the checkpoint's last sample and a re-based stream's first [s].
+REBASE_GAP_S = 1.0
+
+
 class LiveRunner:
     """Runs a session on a live stream (see the module docstring).
+
+    A resumed session skips the samples up to its checkpoint's last (already counted). A stream
+    whose first sample comes more than :data:`CLOCK_RESTART_S` before that has a restarted clock
+    (a UR controller rebooted during a tool change: its time starts again near 0): its times are
+    re-based, put :data:`REBASE_GAP_S` after the checkpoint's last, instead of all being skipped,
+    and :attr:`rebase_note` says so.
 
     Args:
         session: The calibration session (fresh or resumed).
@@ -515,6 +528,25 @@ class LiveRunner:
         self._line = None if status is None else StatusLine(status)
         if status is not None:
             feed.on_status = lambda counts: self._show(self.status_line(counts))
+        self.rebased_s = 0.0  # added to the stream's times: its clock restarted since the checkpoint [s]
+        self.rebase_note: str | None = None
+        self._first: float | None = None
+
+    def rebased(self, batch: SampleBatch) -> SampleBatch:
+        """``batch`` with its times re-based when the stream's clock restarted since the checkpoint (see the class docstring)."""
+        if self._first is None and len(batch):
+            self._first = float(batch.time[0])
+            resume = self.session.checks.resume_time
+            if math.isfinite(resume) and self._first < resume - CLOCK_RESTART_S:
+                self.rebased_s = resume + REBASE_GAP_S - self._first
+                self.rebase_note = (
+                    f"the stream's clock restarted since the checkpoint (its first sample at {self._first:.3f} s, the "
+                    f"checkpoint's last at {resume:.3f} s: a controller rebooted?): its times re-based by "
+                    f"{self.rebased_s:+.3f} s, so that its samples count instead of being skipped as before the checkpoint"
+                )
+        if not self.rebased_s:
+            return batch
+        return dataclasses.replace(batch, time=batch.time + self.rebased_s)
 
     @property
     def stats(self) -> LiveStats:
@@ -532,7 +564,7 @@ class LiveRunner:
         per = " ".join(f"{k} {v}" for k, v in p.kept_by_configuration.items())
         bad = counts.malformed + counts.oversized
         text = (
-            f"t {p.last_time if p.last_time is not None else 0.0:8.2f} s | joints {counts.joints_hz:6.0f} Hz "
+            f"elapsed {counts.elapsed_s:7.1f} s | joints {counts.joints_hz:6.0f} Hz "
             f"strain {counts.strain_hz:6.0f} Hz | kept {100 * p.kept_fraction:5.1f} % | {per} "
             f"| rank {p.rank} of {p.full_rank}"
         )
@@ -554,7 +586,7 @@ class LiveRunner:
         """Feed the session until the stream ends (:mod:`fts_calib.sources.live_feed`); then checkpoint; return the counts."""
         with self.feed:
             for batch in self.feed:
-                self.session.add_samples(batch)
+                self.session.add_samples(self.rebased(batch))
         self.session.flush()
         self.session.checkpoint()
         if self.status is not None:
@@ -562,10 +594,19 @@ class LiveRunner:
         return self.feed.stats
 
 
-def format_stats(stats: LiveStats, sync: Synchronizer) -> str:
-    """Message counts and CPU use of a live run, one line each."""
+def format_stats(stats: LiveStats, sync: Synchronizer, rtde_samples: int = 0, rtde_wrench: bool = False) -> str:
+    """Message counts and CPU use of a live run, one line each.
+
+    Args:
+        stats: The run's counts (its ``joints`` and ``strain`` include the RTDE samples).
+        sync: The run's synchronizer (its drops).
+        rtde_samples: Samples of a UR controller through RTDE among them (counted apart from the datagrams).
+        rtde_wrench: Whether those samples also gave the strains (the built-in sensor's wrench).
+    """
+    joints, strain = stats.joints - rtde_samples, stats.strain - (rtde_samples if rtde_wrench else 0)
+    rtde = f" and {rtde_samples:,} RTDE controller samples (joints{' and wrench' if rtde_wrench else ''})" if rtde_samples else ""
     lines = [
-        f"messages: {stats.received:,} datagrams ({stats.joints:,} joints, {stats.strain:,} strain, {stats.tool} tool), "
+        f"messages: {stats.received:,} datagrams ({joints:,} joints, {strain:,} strain, {stats.tool} tool){rtde}, "
         f"{stats.malformed} malformed and {stats.oversized} oversized skipped, {_lost(stats)}"
         f"{f', {stats.duplicates:,} duplicates dropped (a seq number received twice)' if stats.duplicates else ''}; "
         f"{'ended by the sender' if stats.ended else 'stopped'} after {stats.wall_s:.1f} s, CPU {stats.cpu_s:.1f} s "

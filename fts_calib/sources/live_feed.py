@@ -125,6 +125,7 @@ class FeedStatus:
         strain_hz: Strain messages per second of wall time, likewise [Hz].
         samples: Samples placed (joints paired with strains).
         stream_s: Time the placed samples span on the sender's clock [s].
+        elapsed_s: Wall time since the stream started [s].
     """
 
     received: int
@@ -139,6 +140,7 @@ class FeedStatus:
     strain_hz: float
     samples: int
     stream_s: float
+    elapsed_s: float = 0.0
 
 
 class LiveFeed:
@@ -208,6 +210,7 @@ class LiveFeed:
         self._signalled: int | None = None
         self._rates: collections.deque[tuple[float, int, int]] = collections.deque(maxlen=20)  # (wall time, joints, strain)
         self._running: Generator[SampleBatch, None, None] | None = None
+        self._started: float | None = None  # time.monotonic() when the stream started
 
     # -- the source -----------------------------------------------------------------------
 
@@ -271,6 +274,7 @@ class LiveFeed:
             (stats.strain - s0) / span,
             self.samples,
             self.stream_s,
+            now - self._started if self._started is not None else 0.0,
         )
 
     def place(self, final: bool = False) -> SampleBatch:
@@ -311,6 +315,7 @@ class LiveFeed:
 
     def _stream(self) -> Generator[SampleBatch, None, None]:
         start, cpu0 = time.monotonic(), time.process_time()
+        self._started = start
         last_data = last_place = last_status = start
         if self.device is not None:
             self.device.start()  # before the handlers: a device that cannot be opened is an error, nothing to keep
@@ -377,7 +382,8 @@ class LiveFeed:
         rtde, end = self.rtde, self.end
         if rtde is not None:
             if rtde.samples == 0 and rtde.error is None and elapsed_s >= rtde.timeout_s:
-                rtde.error = FeedTimeout("the first sample of the UR controller (RTDE)", rtde.timeout_s)
+                at = f" at {rtde.where}" if rtde.where else ""
+                rtde.error = FeedTimeout(f"the first sample of the UR controller{at} (RTDE)", rtde.timeout_s)
             if rtde.error is not None:
                 return RTDE_LOST  # what was read is kept
         device = self.device

@@ -449,7 +449,9 @@ def open_source(
 
     datagrams = None if udp is None else live_address(udp if "://" in udp else f"udp://{udp}")  # a wrong address before the arm
     clock = time.monotonic if host_clock else None if ur_wrench else time.time  # the strain datagrams' clock: joints put on it
-    rtde = RtdePoller(connect_ur(host, ur_timeout_s), list(joint_names or []), ur_wrench, clock, timeout_s=ur_timeout_s)
+    rtde = RtdePoller(
+        connect_ur(host, ur_timeout_s), list(joint_names or []), ur_wrench, clock, timeout_s=ur_timeout_s, where=f"{host}:{RTDE_PORT}"
+    )
     listening = None if datagrams is None else UdpReceiver(*datagrams, listen_any)
     described = f"ur://{host}" + ("" if listening is None else f" with udp://{listening.address[0]}:{listening.address[1]}")
     return LiveFeed(
@@ -503,7 +505,10 @@ def _device_feed(
     if joints is not None and joint_names and joint_kind == "ur":
         from .ur import RtdePoller, connect_ur
 
-        rtde = RtdePoller(connect_ur(_ur_host(joints), ur_timeout_s), list(joint_names), False, time.monotonic, timeout_s=ur_timeout_s)
+        arm = _ur_host(joints)
+        rtde = RtdePoller(
+            connect_ur(arm, ur_timeout_s), list(joint_names), False, time.monotonic, timeout_s=ur_timeout_s, where=f"{arm}:{RTDE_PORT}"
+        )
         described = f"{text} with {joints}"
         interval = status_interval_s
         return LiveFeed(None, sync, rtde, end=end, on_status=on_status, status_interval_s=interval, description=described, device=device)

@@ -26,6 +26,12 @@ plain socket (:func:`probe_rtde`), so that a host that accepts the connection an
 nothing is named in one line instead of hanging ``ur_rtde``'s constructor, which does not
 return to Python (Ctrl-C included) until it is answered; the constructor then runs in a
 daemon thread that the caller waits for in short, interruptible steps.
+
+A connection the controller drops raises nothing in ``ur_rtde``: it prints "End of file" on
+standard error, keeps answering ``getTimestamp()`` with the last sample's time and turns
+``isConnected()`` false. So :class:`RtdePoller` asks ``isConnected()`` after :data:`CHECK_S`
+without a new sample, and stops with a ``ConnectionError`` naming the controller's address: the
+live loop then ends like Ctrl-C, with what was read.
 """
 
 from __future__ import annotations
@@ -52,6 +58,8 @@ MAX_PENDING = 10_000
 RTDE_PORT = 30004
 #: How long each wait on the controller lasts at most, by default [s] (``--ur-timeout``).
 TIMEOUT_S = 5.0
+#: How long without a new sample before the receiver's connection is checked (``isConnected()``) [s].
+CHECK_S = 0.1
 #: RTDE's request for the protocol version (package type 'V'), and the version asked for.
 _RTDE_VERSION_REQUEST, _RTDE_PROTOCOL = 86, 2
 
@@ -67,6 +75,16 @@ class RtdeReceive(Protocol):
 
     def getFtRawWrench(self) -> Sequence[float]:  # noqa: D102, N802
         ...
+
+
+def connection_lost(receiver: object) -> bool:
+    """True when ``receiver`` says its connection is down (``ur_rtde``'s ``isConnected()`` false); False without that method.
+
+    When the controller drops the connection, ``ur_rtde`` prints "End of file" on standard error
+    and keeps answering ``getTimestamp()`` with the last sample's time: only ``isConnected()`` tells.
+    """
+    is_connected = getattr(receiver, "isConnected", None)
+    return callable(is_connected) and not is_connected()
 
 
 def probe_rtde(host: str, port: int = RTDE_PORT, timeout_s: float = TIMEOUT_S) -> None:
@@ -160,6 +178,7 @@ class RtdePoller:
         poll_s: Pause between two reads [s].
         timeout_s: The longest wait for the first sample after :meth:`start` [s] (the live
             runner's watchdog: a controller that connects and never publishes).
+        where: The controller's ``HOST:PORT``, named when the connection is lost ("": not named).
 
     Attributes:
         samples: Controller samples read (each once).
@@ -167,7 +186,8 @@ class RtdePoller:
         offset_s: ``host_clock() - controller time`` in use [s] (0 on the controller's clock).
         latest_s: Time of the latest sample drained, on the synchronizer's clock [s].
         ignored: Datagrams that RTDE makes redundant (joints; strains with the built-in sensor), ignored.
-        error: Why polling stopped (the receiver raised), or None.
+        error: Why polling stopped (the receiver raised, or its connection is down: a
+            ``ConnectionError`` naming ``where``), or None.
     """
 
     def __init__(
@@ -178,6 +198,7 @@ class RtdePoller:
         host_clock: Callable[[], float] | None = None,
         poll_s: float = POLL_S,
         timeout_s: float = TIMEOUT_S,
+        where: str = "",
     ):
         if len(joint_names) != 6:
             raise ConfigError(
@@ -189,6 +210,7 @@ class RtdePoller:
         self.host_clock = host_clock
         self.poll_s = float(poll_s)
         self.timeout_s = float(timeout_s)
+        self.where = where
         self.samples = 0
         self.dropped = 0
         self.offset_s = math.inf if host_clock is not None else 0.0
@@ -261,12 +283,23 @@ class RtdePoller:
         self._thread.start()
 
     def _run(self) -> None:
+        checked = time.monotonic()
         while not self._stop.is_set():
             try:
                 fresh = self.poll()
             except (RuntimeError, OSError) as exc:  # the connection to the controller is lost
                 self.error = exc
                 return
+            now = time.monotonic()
+            if fresh:
+                checked = now
+            elif now - checked >= CHECK_S:  # no new sample for a while: is the connection still up?
+                checked = now
+                if connection_lost(self.receiver):
+                    last = f"; the last sample at controller time {self._last:.3f} s" if self.samples else ""
+                    at = f" at {self.where}" if self.where else ""
+                    self.error = ConnectionError(f"the UR controller{at} closed the RTDE connection{last}")
+                    return
             if not fresh:
                 time.sleep(self.poll_s)
 
