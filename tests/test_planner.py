@@ -251,8 +251,12 @@ def test_planning_without_a_nominal_sensor_model_is_refused_before_planning(setu
         plan_trajectories(resolve("ur5", "robots"), tool, bare, pipeline.filter, 1e-5, SweepPattern(), 100.0)
 
 
-@pytest.mark.parametrize(("robot", "rate", "dwell", "continuous"), [("ur5", 100.0, 0.3, False), ("panda", 137.0, 0.0, True), ("xarm7", 250.0, 0.05, False)])
-def test_a_freshly_sampled_motion_ends_at_rest_at_home_on_the_first_sample_at_or_after_its_end(robot, rate, dwell, continuous, robot_kinematics):
+@pytest.mark.parametrize(
+    ("robot", "rate", "dwell", "continuous"), [("ur5", 100.0, 0.3, False), ("panda", 137.0, 0.0, True), ("xarm7", 250.0, 0.05, False)]
+)
+def test_a_freshly_sampled_motion_ends_at_rest_at_home_on_the_first_sample_at_or_after_its_end(
+    robot, rate, dwell, continuous, robot_kinematics
+):
     """A property on any stops and rate: the last row is home with velocity and acceleration 0 (round-off), at the motion's
     length (ruckig's segment durations plus the dwells, summed without sampling) rounded up to the sample grid."""
     from fts_calib.planning.motion import passing_velocities, sample_motion, segment_durations

@@ -642,7 +642,19 @@ COMMAND_OPTIONS["record"] = [
             )
         ],
     ),
-    ("setup", [use("robot", required=True), use("configuration", " (default: the tool datagrams')")]),
+    (
+        "setup",
+        [
+            use("robot", required=True),
+            use("configuration", " (default: the tool datagrams')"),
+            use(
+                "plan",
+                help="the plan being followed (its plan.yaml, its folder, or a shipped plan by name: ur5): its configurations "
+                "in order, each for the plan's duration; on a terminal each tool change is asked for (mount it, press Enter), "
+                "else they follow one another unasked; the run ends after the last (not with --configuration)",
+            ),
+        ],
+    ),
     ("output", [use("output", ": the recording (CSV or CSV.gz; its streams' figures beside it, FILE.streams.yaml)", required=True)]),
     ("advanced: live sources", _uses("seconds", "idle-timeout", "listen-any", "ur-timeout", "quiet")),
 ]
