@@ -205,11 +205,12 @@ def test_calibrate_names_a_serial_device_that_cannot_be_opened(tmp_path, capsys)
 
 
 def test_tare_and_payload_say_how_to_read_a_channel_device(tmp_path, capsys):
-    """tare reads a device alone (nothing mounted); payload points to record (exit 3, naming the device)."""
+    """tare reads a device alone (nothing mounted); payload reads it with the joints' source (exit 3 without, naming the device)."""
     cal = tmp_path / "cal.yaml"
     cal.write_text("x")
     code = main(["payload", "netft://10.0.0.2", "--calibration", str(cal), "--robot", "ur5", "-o", str(tmp_path / "p.yaml")])
-    assert code == 3 and "fts-calib record netft://10.0.0.2 udp://HOST:PORT" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 3 and "netft://10.0.0.2 gives the channels: payload needs the joints too: add ur://HOST or udp://HOST:PORT" in err, err
     code = main(["tare", "serial:///dev/ttyUSB0", "udp://127.0.0.1:0", "--calibration", str(cal)])
     assert code == 3 and "one source to re-tare from, not 2" in capsys.readouterr().err
 
