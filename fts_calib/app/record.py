@@ -212,7 +212,7 @@ def _plan_steps(plan: str, robot: str, stdin: TextIO, out: TextIO) -> PlanSteps:
     return PlanSteps(list(planned.expected), planned.duration_s, stdin, out)
 
 
-def run(setup: Setup, source: SourceOptions, outputs: OutputOptions, plan: str | None = None) -> int:
+def run(setup: Setup, source: SourceOptions, outputs: OutputOptions, *, plan: str | None = None) -> int:
     """Record joints and channels on one clock (``fts-calib record``; see the module docstring).
 
     Args:
