@@ -2,7 +2,7 @@
 
 Each test is a case of issue 12 that failed before: a traceback, a silent acceptance, a
 run lost to one cell, or a message that sent the user the wrong way. Recordings are
-variants of the small simulated UR5 recording of ``conftest.py`` (9,009 rows at 100 Hz).
+variants of the small simulated UR5 recording of ``conftest.py`` (9,012 rows at 100 Hz).
 """
 
 import dataclasses
@@ -77,7 +77,7 @@ def _calibrate(path, tmp_path, *extra):
     [
         ("ms.csv", _retime(1e3), "the time column looks like ms (0.01 s, 100 Hz when read as ms); write the time in s (divide it by 1000)"),
         ("us.csv", _retime(1e6), "the time column looks like µs"),
-        ("equal.csv", _retime(fn=lambda t: 0.0), "all 9,009 time stamps of the first rows are equal"),
+        ("equal.csv", _retime(fn=lambda t: 0.0), "all 9,012 time stamps of the first rows are equal"),
         ("coarse.csv", _retime(fn=lambda t: float(np.floor(10 * t) / 10)), "the clock ticks every 0.1 s (90 % of consecutive rows"),
         ("fast.csv", _retime(1e-2), "the time column advances too slowly for the motion"),
     ],
@@ -218,7 +218,7 @@ def test_validate_over_no_usable_sample_fails(tmp_path, ur5_recording, capsys):
     args = ["validate", "--robot", "ur5", "--tool", "validation_tool", "--calibration", calibration, str(ur5_recording)]
     assert main([*args, "--max-error", "0.2"]) == ExitCode.CHECK_FAILED  # the rows are of A, B, C: none of V
     line = _one_error_line(capsys)
-    assert "no sample was compared: every row was skipped (unknown tool configuration: 9,009)" in line, line
+    assert "no sample was compared: every row was skipped (unknown tool configuration: 9,012)" in line, line
 
 
 def test_bad_cells_are_named_with_their_lines_and_the_notes_end_with_how_many_more(tmp_path, ur5_recording, capsys):
@@ -265,7 +265,7 @@ def test_a_gzip_file_named_csv_and_a_bom_header_are_read(tmp_path, ur5, paper_to
     bom = tmp_path / "bom.csv"
     bom.write_bytes(b"\xef\xbb\xbf" + ur5_recording.read_bytes())  # Excel's "CSV UTF-8"
     with RecordingReader(bom, ur5.joint_names, paper_tool.names) as reader:
-        assert sum(len(chunk) for chunk in reader) == 9009
+        assert sum(len(chunk) for chunk in reader) == 9012
 
 
 # -- YAML: typos and degrees are refused ---------------------------------------------------
@@ -336,7 +336,7 @@ def test_a_recording_whose_every_row_is_skipped_says_so_not_hold_the_arm_still(t
     assert _calibrate(path, tmp_path) == ExitCode.EXCITATION
     out = capsys.readouterr().out
     assert "warm.csv, line 2: column 'temperature': 'warm' is not a number" in out, out
-    expected = "NO CALIBRATION: no usable sample: every row was skipped before the filter (malformed line: 9,009); the notes above"
+    expected = "NO CALIBRATION: no usable sample: every row was skipped before the filter (malformed line: 9,012); the notes above"
     assert expected in out and "hold the arm still" not in out, out
     assert not (tmp_path / "cal.yaml").exists()
 

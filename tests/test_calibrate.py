@@ -45,7 +45,7 @@ def test_cli_calibrate_summary_and_file(tmp_path, ur5_recording, capsys):
         assert part in text, part
     cal = load_calibration(out)
     assert cal.provenance["robot"]["name"] == "ur5" and cal.provenance["source"] == str(ur5_recording)
-    assert cal.quality.samples_seen == 9009 and cal.quality.skipped["filter: joint speed"] > 0
+    assert cal.quality.samples_seen == 9012 and cal.quality.skipped["filter: joint speed"] > 0
     # the measured budget: its total is the largest error a user reads, the latency from the moves (none simulated)
     assert "measured accuracy budget" in text and "largest error: " in text and "stream latency: joint stream behind" in text
     budget = cal.quality.budget

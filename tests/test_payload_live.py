@@ -72,7 +72,7 @@ def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_p
     bound, listening = [], threading.Event()
     original = payload_motion.collect_motion
 
-    def collect(*args):  # the CLI's collection, telling the sender the port it bound
+    def collect(*args, **kwargs):  # the CLI's collection, telling the sender the port it bound
         shown = args[7]
 
         def on_listening(address):
@@ -80,7 +80,7 @@ def test_a_motion_replayed_as_datagrams_gives_the_payload_of_its_recording(tmp_p
             bound.append(address)
             listening.set()
 
-        return original(*args[:7], on_listening, *args[8:])
+        return original(*args[:7], on_listening, *args[8:], **kwargs)
 
     monkeypatch.setattr(payload_motion, "collect_motion", collect)
     sent = {}
@@ -259,7 +259,9 @@ def test_a_silent_feed_times_out_with_exit_18_naming_the_address(tmp_path, capsy
 @pytest.mark.parametrize(
     ("extra", "says"),
     [
-        (["--motion", "--listen", "5005", "rec.csv"], "one source of the payload, not 2"),
+        (["--motion", "--listen", "5005", "rec.csv"], "rec.csv, udp://127.0.0.1:5005: a live feed (udp://, ur://) is read alone"),
+        (["--motion", "moving", "a.csv", "b.csv"], "one source of the payload, not 2 (a.csv, b.csv)"),
+        (["serial:///dev/ttyUSB0", "udp://127.0.0.1:5005", "ur://10.0.0.3"], "the joints come from ur://HOST or from udp://HOST:PORT"),
         (["--motion"], "give a recording of the payload, or a live feed udp://HOST:PORT"),
         (["--motion", "rec.csv", "--seconds", "5"], "--seconds is the length of a live motion, read from a udp://HOST:PORT source"),
     ],
@@ -269,3 +271,60 @@ def test_the_source_options_are_checked_before_any_waiting(tmp_path, capsys, ext
     cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
     assert main(["payload", "--calibration", str(cal), "--robot", "ur5", "-o", str(tmp_path / "p.yaml"), *extra]) == ExitCode.CONFIG
     assert says in capsys.readouterr().err
+
+
+def test_payload_reads_a_serial_device_with_the_joint_datagrams(tmp_path, ur5, capsys, seed):
+    """``payload serial://PTY udp://HOST:PORT``: the validation payload (1.4 kg) held 0.5 s in each of six orientations, the
+    channels printed as ADC counts (1e-7 mV/V per count, after the sensor's noise) on a pseudo-terminal, the joints as
+    datagrams on a clock 20 s behind the host's. Identified as from a recording: mass within 0.1 %, centre of mass within
+    0.5 mm of the tool file's (the truth), from the still samples only (the jumps between poses refused)."""
+    import os
+    import time
+
+    from fts_calib.sources.udp import Joints, encode
+
+    sensor = load_simulated_sensor(resolve("sensor", "configs"))
+    payload = load_tool(resolve("validation_tool", "configs")).configurations[0]
+    cal = save_calibration(Calibration(sensor.C_bar, sensor.D), tmp_path / "cal.yaml")
+    rng = np.random.default_rng(seed)
+    poses = [(0.0, 0.0), (1.2, 0.0), (-1.2, 0.5), (0.6, 2.0), (-0.5, -2.2), (2.2, 1.0)]
+    master, slave = os.openpty()
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+
+    def send() -> None:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            time.sleep(0.5)  # the command opens the device and binds the port
+            k = 0
+            for a, b in poses:
+                reading = HOME.copy()
+                reading[4], reading[5] = a, b
+                W = payload.static_wrench(ur5.g_sensor(reading, 9.81))
+                counts = np.round(sensor.channels(np.tile(W, (250, 1)), rng=rng) / 1e-7).astype(np.int64)
+                for row in counts:
+                    t = time.monotonic() - 20.0
+                    sock.sendto(encode(Joints(t, dict(zip(ur5.joint_names, reading.tolist(), strict=True)), seq=k)), ("127.0.0.1", port))
+                    os.write(master, (",".join(map(str, row.tolist())) + "\n").encode())
+                    k += 1
+                    time.sleep(0.002)
+            time.sleep(0.2)
+            os.close(master)  # the cable pulled: the run ends with what it has
+
+    sender = threading.Thread(target=send, daemon=True)
+    sender.start()
+    out = tmp_path / "gripper.yaml"
+    try:
+        source = [f"serial://{os.ttyname(slave)}?channels=8&scale=1e-7", f"udp://127.0.0.1:{port}"]
+        args = ["payload", *source, "--motion", "still", "--idle-timeout", "20", "--calibration", str(cal), "--robot", "ur5"]
+        code = main([*args, "-o", str(out), "--name", "gripper"])
+    finally:
+        sender.join(timeout=60.0)
+        os.close(slave)
+    captured = capsys.readouterr()
+    assert code == ExitCode.OK, captured.err
+    assert "reading the channels of serial://" in captured.out and f"with the joints of udp://127.0.0.1:{port}" in captured.out
+    assert "in 6 orientations" in captured.out, captured.out
+    written = load_tool(out).configuration("gripper")
+    assert written.mass == pytest.approx(payload.mass, rel=1e-3)
+    np.testing.assert_allclose(written.p_sensor_com, payload.p_sensor_com, atol=5e-4)

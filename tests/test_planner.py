@@ -249,3 +249,41 @@ def test_planning_without_a_nominal_sensor_model_is_refused_before_planning(setu
     bare = dataclasses.replace(sensor, simulated=None)
     with pytest.raises(ConfigError, match=r"the sensor configuration needs a 'simulation' section \(a nominal C\)"):
         plan_trajectories(resolve("ur5", "robots"), tool, bare, pipeline.filter, 1e-5, SweepPattern(), 100.0)
+
+
+@pytest.mark.parametrize(
+    ("robot", "rate", "dwell", "continuous"), [("ur5", 100.0, 0.3, False), ("panda", 137.0, 0.0, True), ("xarm7", 250.0, 0.05, False)]
+)
+def test_a_freshly_sampled_motion_ends_at_rest_at_home_on_the_first_sample_at_or_after_its_end(
+    robot, rate, dwell, continuous, robot_kinematics
+):
+    """A property on any stops and rate: the last row is home with velocity and acceleration 0 (round-off), at the motion's
+    length (ruckig's segment durations plus the dwells, summed without sampling) rounded up to the sample grid."""
+    from fts_calib.planning.motion import passing_velocities, sample_motion, segment_durations
+
+    kin = robot_kinematics(robot)
+    rng = np.random.default_rng(7)
+    index = [kin.joint_names.index(name) for name in kin.sweep_joints]
+    home = np.where(np.isfinite(kin.limits.lower), (kin.limits.lower + kin.limits.upper) / 2, 0.0)
+    stops = home[index] + rng.uniform(-0.6, 0.6, size=(5, 2))
+    velocities = passing_velocities(kin, home, kin.sweep_joints, stops) if continuous else None
+    time, q, qd, qdd = sample_motion(kin, home, kin.sweep_joints, stops, dwell, rate, velocities)
+    length = sum(segment_durations(kin, home, stops, continuous)) + dwell * len(stops)
+    assert time[-2] < length - 1e-9 / rate and time[-1] >= length - 1e-9 / rate  # the end rounded up to the grid: no row missing
+    assert time[-1] - length < 1 / rate
+    np.testing.assert_array_equal(q[-1], home)
+    np.testing.assert_allclose(qd[-1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(qdd[-1], 0.0, atol=1e-12)
+    # the row before is ruckig's, one step or less from the end: within what the jerk limit allows there
+    lim = kin.limits
+    assert np.all(np.abs(qdd[-2, index]) <= lim.jerk[index] / rate * (1 + 1e-9))
+
+
+@pytest.mark.parametrize("robot", SHIPPED)
+def test_the_shipped_plans_end_at_rest(robot):
+    """Every configuration's last row: at home (the first row's pose), velocity and acceleration 0 as printed (%.9f)."""
+    for config in "ABC":
+        traj = read_trajectory(ROOT / "trajectories" / robot / f"{config}.csv.gz")
+        np.testing.assert_allclose(traj.q[-1], traj.q[0], atol=ROUNDING * 1.01)
+        np.testing.assert_allclose(traj.qd[-1], 0.0, atol=ROUNDING * 1.01)
+        np.testing.assert_allclose(traj.qdd[-1], 0.0, atol=ROUNDING * 1.01)

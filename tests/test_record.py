@@ -205,11 +205,12 @@ def test_calibrate_names_a_serial_device_that_cannot_be_opened(tmp_path, capsys)
 
 
 def test_tare_and_payload_say_how_to_read_a_channel_device(tmp_path, capsys):
-    """tare reads a device alone (nothing mounted); payload points to record (exit 3, naming the device)."""
+    """tare reads a device alone (nothing mounted); payload reads it with the joints' source (exit 3 without, naming the device)."""
     cal = tmp_path / "cal.yaml"
     cal.write_text("x")
     code = main(["payload", "netft://10.0.0.2", "--calibration", str(cal), "--robot", "ur5", "-o", str(tmp_path / "p.yaml")])
-    assert code == 3 and "fts-calib record netft://10.0.0.2 udp://HOST:PORT" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 3 and "netft://10.0.0.2 gives the channels: payload needs the joints too: add ur://HOST or udp://HOST:PORT" in err, err
     code = main(["tare", "serial:///dev/ttyUSB0", "udp://127.0.0.1:0", "--calibration", str(cal)])
     assert code == 3 and "one source to re-tare from, not 2" in capsys.readouterr().err
 
@@ -291,3 +292,132 @@ def test_record_follows_tool_datagrams_per_configuration(tmp_path, capsys):
     assert set(tools) == {"A", "B"} and np.all(tools[k < 149] == "A") and np.all(tools[k > 150] == "B")
     assert abs(t[np.argmax(tools == "B")] - switch[1]) < 0.05  # the switch where the sender said, on the host's clock
     assert "A: " in captured.out and "B: " in captured.out
+
+
+def _plan_folder(tmp_path, seconds: float):
+    """The shipped UR5 plan with its motion shortened to ``seconds`` [s] per configuration, configurations A, B (in order)."""
+    from fts_calib.core.resources import locate_trajectory
+
+    plan = yaml.safe_load((locate_trajectory("ur5") / "plan.yaml").read_text())
+    plan["duration_s"] = seconds
+    plan["configurations"] = ["A", "B"]
+    plan["excitation"]["quasi_static_samples"] = {"A": 10, "B": 10}
+    folder = tmp_path / "plan"
+    folder.mkdir()
+    (folder / "plan.yaml").write_text(yaml.safe_dump(plan, sort_keys=False))
+    return folder
+
+
+def _record_plan(tmp_path, monkeypatch, stdin, enter=None):
+    """record --plan from a pseudo-terminal serial device and joint datagrams; ``enter(k)`` after the k-th joint datagram."""
+    master, slave = os.openpty()
+    path, port, stop = os.ttyname(slave), _free_port(), threading.Event()
+
+    def then(k: int) -> bool:
+        if k >= 20 and k % 2 == 0:
+            os.write(master, b"%d,%d\n" % (k, -k))
+        if enter is not None:
+            enter(k)
+        return False
+
+    sender = _send_joints(port, stop, 20.0, then, count=3000)
+    timer = threading.Timer(0.3, sender.start)
+    timer.start()
+    os.write(master, b"\n")
+    monkeypatch.setattr("sys.stdin", stdin)
+    out = tmp_path / "p.csv"
+    try:
+        sources = [f"serial://{path}?channels=2", f"udp://127.0.0.1:{port}"]
+        code = main(
+            [
+                "record",
+                *sources,
+                "--robot",
+                "ur5",
+                "--plan",
+                str(_plan_folder(tmp_path, 0.3)),
+                "-o",
+                str(out),
+                "--quiet",
+                "--idle-timeout",
+                "2",
+            ]
+        )
+    finally:
+        stop.set()
+        os.close(master)
+        os.close(slave)
+    with RecordingReader(out, list(UR5), None) as reader:
+        batches = list(reader)
+        names = reader.tool_names
+    t = np.concatenate([b.time for b in batches])
+    tools = np.array(names)[np.concatenate([b.configuration for b in batches])]
+    k = np.concatenate([b.channels for b in batches])[:, 0]
+    return code, t, tools, k, yaml.safe_load((tmp_path / "p.streams.yaml").read_text())
+
+
+def test_record_plan_asks_for_each_configuration_on_a_terminal(tmp_path, capsys, monkeypatch):
+    """On a terminal: nothing written before Enter; each configuration for the plan's 0.3 s; the run ends after B."""
+    keyboard, terminal = os.openpty()
+    pressed: list[float] = []
+
+    def enter(k: int) -> None:
+        if k in (150, 600):  # 0.3 s after the channels start, and long after A's 0.3 s ended
+            pressed.append(time.monotonic())
+            os.write(keyboard, b"\n")
+
+    with open(terminal, encoding="utf-8", closefd=False) as stdin:
+        code, t, tools, k, figures = _record_plan(tmp_path, monkeypatch, stdin, enter)
+    os.close(keyboard)
+    os.close(terminal)
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "mount configuration A, start the plan's motion and press Enter" in out
+    assert "mount configuration B, start the plan's motion and press Enter" in out
+    assert list(dict.fromkeys(tools)) == ["A", "B"]
+    for name, after in zip("AB", pressed, strict=True):
+        held = t[tools == name]
+        assert held[0] >= after  # nothing of the tool change before Enter
+        assert 0.25 <= held[-1] - held[0] <= 0.3  # the plan's 0.3 s, to a channel interval (4 ms) or a late batch
+    assert np.all(k[tools == "A"] > 150) and np.all(k[tools == "B"] > 600)
+    assert figures["ended_by"] == "the plan's last configuration" and figures["rows"] >= len(t)
+    assert figures["skipped"]["not in a configuration of the plan (tool changes)"] > 0
+    assert "A: " in out and "of 0.3 s" in out
+
+
+def test_record_plan_follows_the_plan_order_unasked_when_stdin_is_not_a_terminal(tmp_path, capsys, monkeypatch):
+    read, write = os.pipe()
+    with open(read, encoding="utf-8") as stdin:
+        code, t, tools, k, figures = _record_plan(tmp_path, monkeypatch, stdin)
+    os.close(write)
+    out = capsys.readouterr().out
+    assert code == 0 and "standard input is not a terminal: nothing asked" in out and "press Enter" not in out
+    a, b = t[tools == "A"], t[tools == "B"]
+    assert list(dict.fromkeys(tools)) == ["A", "B"] and a[-1] < b[0]
+    assert 0.25 <= a[-1] - a[0] <= 0.3 and 0.25 <= b[-1] - b[0] <= 0.3
+    assert b[0] - a[-1] < 0.05  # B starts where A ended
+    assert figures["ended_by"] == "the plan's last configuration"
+
+
+def test_record_plan_is_refused_with_a_configuration_or_another_robots_plan(tmp_path, capsys):
+    plan = _plan_folder(tmp_path, 0.3)
+    code = main(
+        [
+            "record",
+            "serial:///dev/null",
+            "udp://127.0.0.1:0",
+            "--robot",
+            "ur5",
+            "--plan",
+            str(plan),
+            "--configuration",
+            "A",
+            "-o",
+            str(tmp_path / "x.csv"),
+        ]
+    )
+    assert code == 3 and "leave out --configuration A" in capsys.readouterr().err
+    code = main(
+        ["record", "serial:///dev/null", "udp://127.0.0.1:0", "--robot", "ur10", "--plan", str(plan), "-o", str(tmp_path / "x.csv")]
+    )
+    assert code == 3 and "is a plan for ur5, but --robot is ur10" in capsys.readouterr().err

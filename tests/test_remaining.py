@@ -39,8 +39,8 @@ def test_the_time_left_and_the_configuration_to_mount_follow_the_kept_samples():
 def test_a_shipped_plan_file_gives_the_expectations_at_the_channel_rate():
     plan = load_plan_progress(ROOT / "trajectories" / "ur5" / "plan.yaml", rate_hz=1000.0)
     assert set(plan.expected) == {"A", "B", "C"} and plan.target_percent == 0.05
-    assert plan.duration_s == pytest.approx(13.44, abs=0.01)
-    assert plan.expected["A"] == pytest.approx(129 * 10)  # 129 samples at the plan's 100 Hz
+    assert plan.duration_s == pytest.approx(13.45, abs=0.01)
+    assert plan.expected["A"] == pytest.approx(130 * 10)  # 130 samples at the plan's 100 Hz
     with pytest.raises(FileFormatError, match="duration_s"):
         load_plan_progress(resolve("paper_tool", "configs"), 1000.0)
 
@@ -49,8 +49,8 @@ def test_the_plan_counts_follow_the_rate_the_stream_shows():
     """A 1 kHz sensor's plan replayed at 100 Hz: its counts are a tenth, so the plan is done, not stuck at 9 %."""
     plan = load_plan_progress(ROOT / "trajectories" / "ur5" / "plan.yaml", rate_hz=1000.0)
     at_100 = plan.at_rate(100.0)
-    assert at_100.expected["A"] == pytest.approx(129) and at_100.rate_hz == 100.0
-    done = progress(A=129, B=int(at_100.expected["B"]), C=int(at_100.expected["C"]))
+    assert at_100.expected["A"] == pytest.approx(130) and at_100.rate_hz == 100.0
+    done = progress(A=130, B=int(at_100.expected["B"]), C=int(at_100.expected["C"]))
     assert plan.status(done).startswith("~") and at_100.status(done).startswith("plan done")
     assert plan.at_rate(None) is plan and plan.at_rate(0.0) is plan
 

@@ -198,7 +198,7 @@ def test_ur_wrench_needs_a_six_channel_sensor(tmp_path):
     )
 
 
-@pytest.mark.slow  # streams the 9,009-row recording over loopback (about 2 s); its seeded noise is swept in test_calibrate.py
+@pytest.mark.slow  # streams the 9,012-row recording over loopback (about 2 s); its seeded noise is swept in test_calibrate.py
 def test_live_with_rtde_joints_and_strain_datagrams_gives_the_calibration_of_calibrate(ur5, paper_tool, ur5_recording):
     """An external sensor: joints from RTDE (on the host's clock), strains and tools over UDP, into one session."""
     with RecordingReader(ur5_recording, ur5.joint_names, paper_tool.names) as reader:

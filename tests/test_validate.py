@@ -155,17 +155,17 @@ def test_the_calibrations_own_static_poses_lie_inside_its_region(poses):
     full_scale = load_sensor_config(resolve("sensor", "configs")).full_scale
     result = validate_recording(path, kin, tool, [calibration], full_scale, dynamic=False)
     split, quality = result.regions[0], calibration.quality
-    # every stop of the sweeps is inside. Each configuration's motion starts with one still sample at the home
-    # pose: too short for the filter's window, it is not kept, and its load (gravity along -Y of S: Fy = -19.62 N)
-    # lies beyond the box of the sweeps: the region says so
-    assert split.outside_samples == len(tool.names) == quality.samples_seen - quality.samples_used
+    # every stop of the sweeps is inside. Each configuration's motion starts and ends with one still sample at the
+    # home pose (the plan ends at rest there): too short for the filter's window, neither is kept, and their load
+    # (gravity along -Y of S: Fy = -19.62 N) lies beyond the box of the sweeps: the region says so
+    assert split.outside_samples == 2 * len(tool.names) == quality.samples_seen - quality.samples_used
     assert split.inside_samples == quality.samples_used > 1000
     _check_split(result)
     home = result.expected[~split.region.contains(result.expected)]
     weight = 2.0 * tool.gravity  # [N]
     np.testing.assert_allclose(home[:, 1], -weight, rtol=0, atol=1e-6 * weight)  # joints as the CSV writes them
     data = result.as_json()
-    assert set(data["region"]) == {"inside", "outside"} and data["region"]["outside"]["samples"] == len(tool.names)
+    assert set(data["region"]) == {"inside", "outside"} and data["region"]["outside"]["samples"] == 2 * len(tool.names)
     assert data["region"]["inside"]["samples"] + data["region"]["outside"]["samples"] == data["samples"]
 
 

@@ -228,7 +228,8 @@ TEXTS: dict[str, tuple[str, str, str]] = {
     ),
     "payload": (
         "identify an unknown payload: mass, centre of mass, offsets",
-        "From a recording (or the live feed of udp://HOST:PORT) of the payload held still in orientations that tilt "
+        "From a recording (or the live feed of udp://HOST:PORT, or a channel device with the joints' source) of the payload "
+        "held still in orientations that tilt "
         "gravity about two axes: its mass, centre of mass (in the sensor frame) and the offsets, with standard errors, "
         "written as a tool file for gravity compensation. Judges the whole set (the spread of the gravity directions, "
         "the fit's conditioning) and refuses one that cannot determine the payload, saying what is missing. From a short "
@@ -329,16 +330,17 @@ class PayloadMotion(argparse.Action):
 
 
 class PayloadSource(argparse.Action):
-    """``payload``'s SOURCE: kept when a bare ``--motion`` took it already; two are refused."""
+    """``payload``'s SOURCE: kept when a bare ``--motion`` took it already; two are refused (a device and its joints excepted)."""
 
     def __call__(self, parser, namespace, values, option_string=None):
-        """Store the SOURCE unless ``--motion`` stored it (two sources: an error)."""
+        """Store the SOURCE unless ``--motion`` stored it (two sources: an error, unless both are given here: checked later)."""
         given = getattr(namespace, self.dest, None)
-        if values is None or values == given:
+        items = [values] if isinstance(values, str) else list(values or [])
+        if not items or items == [given]:
             return
         if given is not None:
-            parser.error(f"two sources, {given} and {values}: give one (--motion takes {', '.join(MOTIONS)})")
-        setattr(namespace, self.dest, values)
+            parser.error(f"two sources, {given} and {' '.join(items)}: give one (--motion takes {', '.join(MOTIONS)})")
+        setattr(namespace, self.dest, items[0] if len(items) == 1 else items)
 
 
 #: The groups of each command: (title, options), the advanced ones last.
@@ -543,9 +545,10 @@ COMMAND_OPTIONS: dict[str, list[tuple[str, list[Use]]]] = {
             [
                 use(
                     "names",
-                    nargs="?",
+                    nargs="*",
                     action=PayloadSource,
-                    help="recording of the payload (still in several orientations, or moving), or udp://HOST:PORT for a live feed",
+                    help="recording of the payload (still in several orientations, or moving), or udp://HOST:PORT for a live feed, "
+                    "or a channel device (serial://..., netft://HOST) with the joints' source (udp://HOST:PORT or ur://HOST)",
                 )
             ],
         ),
@@ -642,7 +645,19 @@ COMMAND_OPTIONS["record"] = [
             )
         ],
     ),
-    ("setup", [use("robot", required=True), use("configuration", " (default: the tool datagrams')")]),
+    (
+        "setup",
+        [
+            use("robot", required=True),
+            use("configuration", " (default: the tool datagrams')"),
+            use(
+                "plan",
+                help="the plan being followed (its plan.yaml, its folder, or a shipped plan by name: ur5): its configurations "
+                "in order, each for the plan's duration; on a terminal each tool change is asked for (mount it, press Enter), "
+                "else they follow one another unasked; the run ends after the last (not with --configuration)",
+            ),
+        ],
+    ),
     ("output", [use("output", ": the recording (CSV or CSV.gz; its streams' figures beside it, FILE.streams.yaml)", required=True)]),
     ("advanced: live sources", _uses("seconds", "idle-timeout", "listen-any", "ur-timeout", "quiet")),
 ]

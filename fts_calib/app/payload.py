@@ -1,6 +1,8 @@
 """The ``payload`` command: identify an unknown payload from a source and write its tool file.
 
-One SOURCE, a recording or ``udp://HOST:PORT`` (a live feed, with its progress shown); still
+One SOURCE, a recording or ``udp://HOST:PORT`` (a live feed, with its progress shown), or a
+channel device (``serial://...``, ``netft://HOST``) with the joints' source (``udp://HOST:PORT``
+or ``ur://HOST``), read live as ``calibrate`` reads them; still
 poses or a continuous motion decided from the data (``--motion auto``, the line that says it
 printed first) or forced (``--motion still``, ``--motion moving``); one estimate printed with its
 standard errors and written (:func:`fts_calib.payload.identify.identify_payload`,
@@ -11,6 +13,7 @@ working, warned about: a bare ``--motion`` (now ``--motion moving``) and ``--lis
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import warnings
@@ -29,9 +32,9 @@ from ..payload.samples import IDLE_TIMEOUT_S, MotionProgress, collect_motion
 from ..payload.still import MIN_SPREAD_DEG
 from ..robot.kinematics import Kinematics
 from ..session.calibration_run import StatusLine, format_stats
-from ..sources.source import DEVICE_SCHEMES, live_address
+from ..sources.source import live_address
 from .exit_codes import ExitCode, using_udp, writing
-from .setup import Setup, SourceOptions
+from .setup import Setup, SourceOptions, channel_device
 
 
 def format_motion_payload(estimate: PayloadEstimate) -> str:
@@ -102,11 +105,13 @@ def live_payload(
     motion: str,
     mount: bool,
     min_spread_deg: float,
+    device: tuple[str, str] | None = None,
 ) -> PayloadEstimate:
     """Collect the live feed on ``address`` (its progress shown, its counts printed), then identify the payload.
 
     Args:
-        address: (host, port) to bind (port 0: a free one, printed).
+        address: (host, port) to bind (port 0: a free one, printed); with ``device`` and ``ur://``
+            joints, unused.
         seconds: End after this much motion [s]; None: at the sender's ``end`` or Ctrl-C.
         idle_timeout_s: The longest wait for a datagram [s]: none at all is a timeout.
         kin: Kinematics of the robot (the gimbal's for a feed of the sensor's orientation).
@@ -115,9 +120,12 @@ def live_payload(
         motion: ``auto``, ``still`` or ``moving``.
         mount: Also estimate a small mount rotation (still poses).
         min_spread_deg: Smallest RMS spread of the gravity directions about each of two axes [deg].
+        device: A channel device and the joints' source (``serial://...``, ``udp://HOST:PORT``),
+            or None for the datagrams of ``address`` alone.
 
     Raises:
-        FeedTimeout: No datagram within ``idle_timeout_s``.
+        FeedTimeout: No datagram within ``idle_timeout_s`` (a box or controller that never answers).
+        DeviceLost: A serial device that cannot be opened.
         PayloadError: Nothing paired, or data that do not determine the payload.
     """
     host, port = address
@@ -134,8 +142,13 @@ def live_payload(
     def show(progress: MotionProgress) -> None:
         status.show(progress.line())
 
-    with using_udp(host, port):
-        collected = collect_motion(host, port, kin, settings, calibration.layout.n_channels, seconds, idle_timeout_s, listening, show)
+    udp = device is None or device[1].lower().startswith("udp")
+    if device is not None:
+        print(f"reading the channels of {device[0]} with the joints of {device[1]}", flush=True)
+    with using_udp(host, port) if udp else contextlib.nullcontext():
+        collected = collect_motion(
+            host, port, kin, settings, calibration.layout.n_channels, seconds, idle_timeout_s, listening, show, device=device
+        )
     status.close()
     print(format_stats(collected.stats, collected.sync))
     return identify_payload(collected, kin, calibration, motion, settings=settings, mount=mount, min_spread_deg=min_spread_deg)
@@ -181,18 +194,21 @@ def run(
         OSError: ``output`` cannot be written (a folder); checked before any work.
     """
     kind = _motion(motion)
-    address = _live_source(source)
+    address, device = _live_source(source)
     if estimate_mount and kind == MOVING:
         message = "--estimate-mount is for still poses: leave it out with --motion moving"
         raise ConfigError("--estimate-mount", True, "not with --motion moving", message=message)
-    recording = None if address is not None else source.given[0]
+    live = address is not None or device is not None
+    recording = None if live else source.given[0]
     check_outputs({"-o": output}, {"the recording": recording, "the calibration": calibration, **setup.inputs()})
     kin = setup.kinematics
     settings = setup.settings
     cal = load_calibration(calibration)
-    if address is not None:
+    if live:
         idle_timeout_s = IDLE_TIMEOUT_S if source.idle_timeout_s is None else source.idle_timeout_s
-        estimate = live_payload(address, source.window_s, idle_timeout_s, kin, cal, settings, kind, estimate_mount, min_spread_deg)
+        estimate = live_payload(
+            address or ("", 0), source.window_s, idle_timeout_s, kin, cal, settings, kind, estimate_mount, min_spread_deg, device=device
+        )
     else:
         assert recording is not None  # _live_source
         estimate = identify_payload(recording, kin, cal, kind, settings=settings, mount=estimate_mount, min_spread_deg=min_spread_deg)
@@ -263,9 +279,23 @@ def _motion(motion: str | bool) -> str:
     return motion
 
 
-def _live_source(source: SourceOptions) -> tuple[str, int] | None:
-    """The live feed's (host, port), or None for a recording; the source's options checked before any waiting."""
+def _live_source(source: SourceOptions) -> tuple[tuple[str, int] | None, tuple[str, str] | None]:
+    """The live feed's (host, port) and the channel device with its joints' source, the options checked before any wait.
+
+    The address is None for a recording or ``ur://`` joints; the device None without one.
+
+    Raises:
+        ConfigError: No source, more than one (a device takes the joints' source too), two devices, a device without
+            the joints' source, ``--seconds`` with a recording.
+    """
     given = source.given
+    device = channel_device(source.live, "payload", joints=True)
+    if device is not None:
+        joints = source.live.get("udp") or source.live["ur"]  # channel_device: one of them is given
+        if len(given) != 2:
+            message = f"{' '.join(map(str, given))}: the channels of {device} and the joints' source, nothing more"
+            raise ConfigError("source", [str(name) for name in given], "a channel device and the joints' source", message=message)
+        return (live_address(joints) if joints.lower().startswith("udp") else None), (device, joints)
     if len(given) != 1:
         message = (
             "give a recording of the payload, or a live feed udp://HOST:PORT"
@@ -274,14 +304,7 @@ def _live_source(source: SourceOptions) -> tuple[str, int] | None:
         )
         raise ConfigError("source", [str(name) for name in given], "a recording or udp://HOST:PORT", message=message)
     live = source.live.get("udp")
-    device = next((name for kind, name in source.live.items() if kind in DEVICE_SCHEMES), None)
-    if device is not None:
-        message = (
-            f"{device}: payload reads a recording or udp://HOST:PORT; record the device with the joints first "
-            f"(fts-calib record {device} udp://HOST:PORT --robot ROBOT --configuration NAME -o payload.csv)"
-        )
-        raise ConfigError("source", str(device), "a recording or udp://HOST:PORT", message=message)
     if live is None and source.window_s is not None:
         message = f"--seconds is the length of a live motion, read from a udp://HOST:PORT source ({given[0]} is used whole)"
         raise ConfigError("--seconds", source.window_s, "with a live source", message=message)
-    return None if live is None else live_address(live)
+    return (None if live is None else live_address(live)), None

@@ -335,6 +335,7 @@ def collect_motion(
     idle_timeout_s: float = IDLE_TIMEOUT_S,
     on_listening: Callable[[tuple[str, int]], None] | None = None,
     on_progress: Callable[[MotionProgress], None] | None = None,
+    device: tuple[str, str] | None = None,
 ) -> LiveMotion:
     """Collect a continuous motion from the live feeds (see the module docstring).
 
@@ -348,20 +349,45 @@ def collect_motion(
         idle_timeout_s: The longest wait for a datagram [s] (> 0).
         on_listening: Called with the bound (host, port) once the socket listens.
         on_progress: Called with the progress every half second of collection and at its end.
+        device: A channel device and the joints' source, ``("serial://...", "udp://HOST:PORT")``
+            or ``("netft://HOST", "ur://HOST")``, opened as every command opens them
+            (:func:`fts_calib.sources.source.open_source`, every stream on the host's clock);
+            None for the datagrams of ``host``:``port`` (then unused).
 
     Raises:
-        FeedTimeout: No datagram at all within ``idle_timeout_s``.
+        FeedTimeout: No datagram at all within ``idle_timeout_s`` (a box or controller that never answers).
         ConfigError: A wildcard ``host``, or a ``seconds`` or ``idle_timeout_s`` that is not positive.
+        DeviceLost: A serial device that cannot be opened.
     """
     if seconds is not None:
         validation.positive("seconds", seconds, "s")
     validation.positive("idle_timeout_s", idle_timeout_s, "s")
-    sync = Synchronizer(kin.joint_names, kin.continuous, settings.live.max_gap_s, settings.live.latency_s, n_channels=n_channels)
-    sync.add_tool(-math.inf, _PLACEHOLDER)
     progress, turning, batches = MotionProgress(), _Turning(kin), []
     end = StreamEnd(idle_timeout_s=idle_timeout_s, first_timeout_s=idle_timeout_s, stream_s=seconds)
     show = None if on_progress is None else (lambda _counts: on_progress(progress))
-    feed = LiveFeed(UdpReceiver(host, port), sync, end=end, on_status=show, status_interval_s=_PROGRESS_S, on_listening=on_listening)
+    if device is None:
+        sync = Synchronizer(kin.joint_names, kin.continuous, settings.live.max_gap_s, settings.live.latency_s, n_channels=n_channels)
+        sync.add_tool(-math.inf, _PLACEHOLDER)
+        feed = LiveFeed(UdpReceiver(host, port), sync, end=end, on_status=show, status_interval_s=_PROGRESS_S, on_listening=on_listening)
+    else:
+        opened = open_source(
+            device[0],
+            kin.joint_names,
+            None,
+            continuous=kin.continuous,
+            max_gap_s=settings.live.max_gap_s,
+            latency_s=settings.live.latency_s,
+            n_channels=n_channels,
+            configuration=_PLACEHOLDER,
+            end=end,
+            on_status=show,
+            status_interval_s=_PROGRESS_S,
+            on_listening=on_listening,
+            joints=device[1],
+            host_clock=True,
+        )
+        assert isinstance(opened, LiveFeed)  # a device's name always opens a live feed
+        feed, sync = opened, opened.sync
     progress.stats = feed.stats
     with feed:
         for batch in feed:

@@ -133,7 +133,8 @@ def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, 
         if dwell > 0 and target is not start:
             pieces.append((t, dwell, None, target))
             t += dwell
-    n = int(math.floor(t * rate + 1e-9)) + 1
+    # the last sample at or after the end (the time rounded up to the sample grid): rows past it hold the end at rest
+    n = int(math.ceil(t * rate - 1e-9)) + 1
     time = np.arange(n) / rate
     q = np.repeat(home[None, :], n, axis=0)
     qd = np.zeros((n, len(home)))
@@ -148,6 +149,9 @@ def sample_motion(kin: Kinematics, home: np.ndarray, joints, stops: np.ndarray, 
         for row in rows:
             p, v, a = trajectory.at_time(min(time[row] - t0, duration))
             q[row, index], qd[row, index], qdd[row, index] = p, v, a
+    done = time >= t - 1e-9 / rate  # at or past the end: home at rest exactly (not ruckig's end state, off by round-off)
+    q[np.ix_(done, np.asarray(index, dtype=np.intp))] = start
+    qd[done], qdd[done] = 0.0, 0.0
     return time, q, qd, qdd
 
 

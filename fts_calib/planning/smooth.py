@@ -122,7 +122,7 @@ def smooth_motion(kin: Kinematics, home: np.ndarray, amp: np.ndarray, duration: 
         else:
             half[order[0]] += 1
     omega = half * np.pi / steady
-    n = int(math.floor(duration * rate + 1e-9)) + 1
+    n = int(math.ceil(duration * rate - 1e-9)) + 1  # the last sample at or after the end, where the motion is at rest
     time = np.arange(n) / rate
     tau, w, dw = _warp(time, duration, ramp)
     phase = omega[None, :] * tau[:, None]
