@@ -148,6 +148,7 @@ class SampleSums:
         temperature=None,
         unit=None,
         w_static=None,
+        *,
         precision: bool = False,
     ) -> int:
         """Add many samples; the sums equal those of calling :meth:`update` on each in order.
@@ -256,7 +257,7 @@ class SampleSums:
         if self.temperature_origin is None and temperature is not None and len(temperature):
             self.temperature_origin = float(temperature[0])
 
-    def _add_block(self, W, S, weight, time, codes, temperature, unit=None, static=None, precision: bool = False) -> int:
+    def _add_block(self, W, S, weight, time, codes, temperature, unit=None, static=None, *, precision: bool = False) -> int:
         Z = np.empty((W.shape[0], self._sums.shape[0]))
         Z[:, :6] = W
         with np.errstate(over="ignore", invalid="ignore"):  # bad rows are found below
