@@ -1,5 +1,6 @@
 """The calibration file (format fts-calib/1): round trip, atomic writes, clear errors."""
 
+import dataclasses
 import os
 
 import numpy as np
@@ -135,3 +136,44 @@ def test_constructor_refuses_what_the_file_refuses_non_finite_coefficients():
     C_bar[2, 3] = np.inf
     with pytest.raises(ConfigError, match=r"C_bar=\[\[.*inf.*\]\] but expected finite values"):
         Calibration(C_bar=C_bar, D=D_TRUE)
+
+
+def test_save_refuses_exactly_what_load_refuses(tmp_path, calibration, monkeypatch, rng):
+    """Property over random corruptions of the quality (NaN, inf, -inf at random places, or none):
+    save_calibration refuses a calibration iff the file it would write, written unchecked, fails
+    load_calibration; a refusal is an internal error naming the field, with no file left."""
+    import fts_calib.model.calibration as module
+    from fts_calib.core.exceptions import FtsCalibError
+
+    fields = ("residual_rms", "stderr_C_bar", "stderr_D", "stderr_C")
+    check = module.check_loadable
+    refused = 0
+    for trial in range(40):
+        changes = {}
+        for name in fields:
+            value = np.array(getattr(calibration.quality, name), dtype=float)
+            if rng.random() < 0.16:  # none of the four corrupted in half the trials
+                value.flat[rng.integers(value.size)] = rng.choice([np.nan, np.inf, -np.inf])
+            changes[name] = value
+        corrupt = dataclasses.replace(calibration, quality=dataclasses.replace(calibration.quality, **changes))
+        bad = [name for name in fields if not np.all(np.isfinite(changes[name]))]
+        unchecked = tmp_path / f"unchecked{trial}.yaml"
+        monkeypatch.setattr(module, "check_loadable", lambda text, path: None)
+        save_calibration(corrupt, unchecked)
+        monkeypatch.setattr(module, "check_loadable", check)
+        try:
+            load_calibration(unchecked)
+            loads = True
+        except FileFormatError:
+            loads = False
+        assert loads == (not bad)
+        target = tmp_path / f"checked{trial}.yaml"
+        if loads:
+            load_calibration(save_calibration(corrupt, target))
+            continue
+        refused += 1
+        with pytest.raises(FtsCalibError, match=rf"internal error: .*quality\.{bad[0]}'?: contains NaN or inf.*nothing written"):
+            save_calibration(corrupt, target)
+        expected = {f"{kind}{t}.yaml" for t in range(trial + 1) for kind in ("unchecked", "checked")} - {target.name}
+        assert {p.name for p in tmp_path.iterdir()} <= expected  # no file, no temporary left behind
+    assert 5 <= refused <= 35  # both sides of the property were exercised

@@ -337,3 +337,42 @@ def test_a_bad_first_row_neither_enters_the_sums_nor_sets_the_time_origin(rng):
     assert a.update_batch(W, bad, time=t) == 49 and b.update_batch(W[1:], S[1:], time=t[1:]) == 49
     assert a.time_origin == b.time_origin == t[1] and a.skipped == {"non-finite wrench, strain or weight": 1}
     np.testing.assert_allclose(a.state()["S"], b.state()["S"], rtol=1e-12, atol=1e-12)  # the same rows, summed by BLAS
+
+
+def test_precision_weights_keep_one_observation_per_sample(rng):
+    """Weights that are inverse variances (the dynamic filter's 1 / (1 + rho^2), often ~0.004): equal ones give the plain least
+    squares' standard errors exactly, not infinite ones (their sum, 0.6 here, was taken as the samples' count: below the 7
+    coefficients, 'inf' was written and the file refused on reading)."""
+    W, S, _ = paper_simulation(50, rng, noise_std=1e-4)
+    plain, precise = OnlineEstimator(), OnlineEstimator()
+    plain.update_batch(W, S)
+    precise.update_batch(W, S, np.full(len(W), 0.004), precision=True)
+    a, b = plain.solve(), precise.solve()
+    assert precise.weight_sum == pytest.approx(0.6) and precise.observations == len(W)
+    for name in ("stderr_C_bar", "stderr_D", "stderr_C"):
+        np.testing.assert_allclose(getattr(b.quality, name), getattr(a.quality, name), rtol=RTOL_STDERR)
+    frequency = OnlineEstimator()  # the same weights as frequencies: 0.6 samples for 7 coefficients, refused
+    frequency.update_batch(W, S, np.full(len(W), 0.004))
+    with pytest.raises(
+        InsufficientExcitation,
+        match=r"150 samples \(0.6 observations after weights and forgetting\) for 7 coefficients per wrench axis leave 0 degrees",
+    ):
+        frequency.solve()
+
+
+@pytest.mark.parametrize("n, refused", [(7, True), (8, False)])
+def test_no_degree_of_freedom_is_refused_not_an_infinite_stderr(rng, n, refused):
+    """n samples that determine the 7 coefficients per axis: 7 leave no residual to estimate the noise from (refused, naming
+    the samples and the degrees of freedom), 8 leave one (finite standard errors)."""
+    W, S, _ = paper_simulation(3, rng, noise_std=1e-4)
+    est = OnlineEstimator()
+    est.update_batch(W[:n], S[:n])
+    assert est.rank()[0] == 7
+    if refused:
+        with pytest.raises(
+            InsufficientExcitation,
+            match=r"insufficient data: 7 samples for 7 coefficients per wrench axis leave 0 degrees of freedom.*at least 8 kept",
+        ):
+            est.solve()
+    else:
+        assert np.all(np.isfinite(est.solve().quality.stderr_C_bar))

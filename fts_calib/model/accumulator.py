@@ -7,7 +7,10 @@ configuration, time [s] and temperature [°C] (:mod:`fts_calib.model.offset_mode
 memory does not grow with the number of samples.
 
 Weights are frequency weights: a sample of weight 2 counts exactly like the same sample
-given twice. The forgetting factor ``lam`` in (0, 1] multiplies the sums by ``lam``
+given twice; or, with ``precision=True`` (the dynamic filter's ``1 / (1 + rho^2)``), inverse
+variances relative to the unit weight's: the sums are the same, but each row of positive
+weight is one observation for the residual's degrees of freedom (a weight of 0.004 does not
+make a sample 0.004 of one: it is one sample of a larger noise). The forgetting factor ``lam`` in (0, 1] multiplies the sums by ``lam``
 before each accepted sample (1 keeps everything). A sample with a non-finite value is
 skipped and counted.
 """
@@ -77,6 +80,9 @@ class SampleSums:
         self._sums = np.zeros((width, width))
         self._staged: list[tuple] = []  # samples of update() not yet in the sums
         self._weight_sum = 0.0
+        #: Observations for the residual's degrees of freedom, after forgetting: the frequency weights' sum, and
+        #: one per row of positive precision weight.
+        self._count_sum = 0.0
         self.samples_used = 0
         self.samples_seen = 0
         self.skipped: Counter[str] = Counter()
@@ -133,7 +139,17 @@ class SampleSums:
 
     @renamed(strain="channels")
     def update_batch(
-        self, w_sensor, channels, weight=None, time=None, configuration=None, temperature=None, unit=None, w_static=None
+        self,
+        w_sensor,
+        channels,
+        weight=None,
+        time=None,
+        configuration=None,
+        temperature=None,
+        unit=None,
+        w_static=None,
+        *,
+        precision: bool = False,
     ) -> int:
         """Add many samples; the sums equal those of calling :meth:`update` on each in order.
 
@@ -151,6 +167,9 @@ class SampleSums:
             w_static: The weight-only part of each known wrench (paper eqs 17-18) [N, N m],
                 shape (N, 6): what the loads determine of a nonlinear model is judged on it
                 (:mod:`fts_calib.model.determination`); ``w_sensor`` when None.
+            precision: The weights are inverse variances relative to the unit weight's, not
+                frequencies: the same sums, each row of positive weight one observation for the
+                residual's degrees of freedom (the standard errors).
 
         Returns:
             Number of samples used; rows with a non-finite value are skipped and counted.
@@ -173,7 +192,7 @@ class SampleSums:
         for start in range(0, n, _CHUNK):
             part = slice(start, min(start + _CHUNK, n))
             columns = (weight, time, codes, temperature, units, static)
-            used += self._add_block(W[part], S[part], *(None if v is None else v[part] for v in columns))
+            used += self._add_block(W[part], S[part], *(None if v is None else v[part] for v in columns), precision=precision)
         self.samples_seen += n
         self.samples_used += used
         return used
@@ -238,7 +257,7 @@ class SampleSums:
         if self.temperature_origin is None and temperature is not None and len(temperature):
             self.temperature_origin = float(temperature[0])
 
-    def _add_block(self, W, S, weight, time, codes, temperature, unit=None, static=None) -> int:
+    def _add_block(self, W, S, weight, time, codes, temperature, unit=None, static=None, *, precision: bool = False) -> int:
         Z = np.empty((W.shape[0], self._sums.shape[0]))
         Z[:, :6] = W
         with np.errstate(over="ignore", invalid="ignore"):  # bad rows are found below
@@ -263,7 +282,7 @@ class SampleSums:
         self._set_origins(time, temperature)
         self.basis._fill(Z[:, 12:], time, codes, temperature, self.time_origin or 0.0, self.temperature_origin or 0.0)
         self._add_units(Z, S, unit, weight, static, codes)
-        self._accumulate(Z, weight)
+        self._accumulate(Z, weight, precision)
         self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
         return len(Z)
 
@@ -281,19 +300,24 @@ class SampleSums:
             return False
         self._sums += block
         self._weight_sum += float(len(Z))
+        self._count_sum += float(len(Z))
         self.trace.note(time, codes, temperature, self.temperature_origin or 0.0)
         return True
 
-    def _accumulate(self, Z: np.ndarray, weight: np.ndarray | None) -> None:
-        """Add finite rows ``z`` (in order) to the sums, with weights and forgetting."""
+    def _accumulate(self, Z: np.ndarray, weight: np.ndarray | None, precision: bool = False) -> None:
+        """Add finite rows ``z`` (in order) to the sums, with weights (frequencies, or precisions) and forgetting."""
+        counted = np.ones(len(Z)) if weight is None else (weight > 0).astype(float) if precision else weight
         if self.forgetting != 1.0 and len(Z):
             # row i of m is multiplied by lam once per later row, the old sums m times
             decay = self.forgetting ** np.arange(len(Z) - 1, -1, -1, dtype=float)
             weight = decay if weight is None else weight * decay
+            counted = counted * decay
             self._sums *= self.forgetting ** len(Z)
             self._weight_sum *= self.forgetting ** len(Z)
+            self._count_sum *= self.forgetting ** len(Z)
         self._sums += gram(Z, weight)
         self._weight_sum += float(len(Z)) if weight is None else float(weight.sum())
+        self._count_sum += float(counted.sum())
 
     def _flush(self) -> None:
         if self._staged:

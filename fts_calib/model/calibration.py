@@ -31,8 +31,9 @@ import numpy as np
 
 from ..core import arrays as validation
 from ..core.arrays import as_matrix, frozen
+from ..core.bounded import MAX_TEXT_BYTES, parse_yaml
 from ..core.deprecation import renamed
-from ..core.exceptions import ConfigError, FileFormatError, FtsCalibWarning, ShapeError
+from ..core.exceptions import ConfigError, FileFormatError, FtsCalibError, FtsCalibWarning, ShapeError
 from ..core.files import atomic_write_text, dump_yaml, fields_of, load_yaml, read_array, require
 from ..core.resources import locate
 from .channels import MALTESE_CROSS_8, WRENCH_AXES, WRENCH_UNITS, ChannelLayout, channel_layout, wrench_from_strain
@@ -441,7 +442,35 @@ def save_calibration(calibration: Calibration, path: str | Path) -> Path:
         data["region"] = calibration.region.as_dict()
     data.update({key: value for key, value in calibration.extra.items() if key not in FIELDS})  # a newer version's fields, kept
     header = "# fts-calib calibration: W = C @ strain + D (wrench [Fx Fy Fz Mx My Mz] in N and N·m, sensor frame)\n"
-    return atomic_write_text(path, header + dump_yaml(data))
+    text = header + dump_yaml(data)
+    check_loadable(text, path)
+    return atomic_write_text(path, text)
+
+
+def check_loadable(text: str, path: str | Path) -> None:
+    """Refuse to write a calibration file that :func:`load_calibration` would refuse: its rules, on the text to write.
+
+    The text is parsed and read by :func:`calibration_from_data` (the loader's one reader) and
+    checked against the loader's size limit, before any file is touched.
+
+    Args:
+        text: The file's YAML text.
+        path: Where it would be written, for the message.
+
+    Raises:
+        FtsCalibError: An internal error naming the field the loader would refuse (a
+            standard error that is NaN or inf, a wrong shape); nothing is written.
+    """
+    size = len(text.encode("utf-8"))
+    try:
+        if size > MAX_TEXT_BYTES:
+            raise FileFormatError(path, None, f"{size:,} bytes, above the limit of {MAX_TEXT_BYTES:,} bytes the loader reads")
+        data = parse_yaml(text, path)
+        if not isinstance(data, dict):
+            raise FileFormatError(path, None, "expected a mapping at the top level")
+        calibration_from_data(data, Path(path))
+    except FtsCalibError as error:  # whatever the loader would raise
+        raise FtsCalibError(f"internal error: the calibration for {path} would not load back ({error}); nothing written") from error
 
 
 def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
@@ -462,7 +491,28 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
     :class:`FtsCalibWarning` names them and the file: nothing else uses them.
     """
     path = locate(path, "configs", "calibration")
-    data = load_yaml(path)
+    calibration = calibration_from_data(load_yaml(path), path, rtol)
+    quality = calibration.quality
+    unknown = [*calibration.extra, *(f"quality.{key}" for key in (quality.extra if quality is not None else {}))]
+    if unknown:
+        warnings.warn(unknown_fields(path, unknown), FtsCalibWarning, stacklevel=2)
+    return calibration
+
+
+def calibration_from_data(data: Mapping[str, Any], path: Path, rtol: float = 1e-9) -> Calibration:
+    """The calibration of a file's parsed YAML: every rule of :func:`load_calibration` (which warns of unknown fields).
+
+    :func:`save_calibration` reads what it is about to write with it, so a written file always loads.
+
+    Args:
+        data: The file's top-level mapping.
+        path: The file, for messages.
+        rtol: Accepted mismatch between C and ``C_bar @ P``, relative to max|C|.
+
+    Raises:
+        FileFormatError: Another format, a missing field, a wrong shape, a non-finite
+            number, or a C that does not equal ``C_bar @ P``; the message names the field.
+    """
     fmt = data.get("format")
     if fmt != FORMAT:
         raise FileFormatError(path, "format", f"is {fmt!r} but expected {FORMAT!r}: not a calibration file of this version")
@@ -498,9 +548,6 @@ def load_calibration(path: str | Path, rtol: float = 1e-9) -> Calibration:
             ParityModel.from_dict(health)  # refused here, naming the field, rather than in service
     region = region_from_dict(data["region"], path) if data.get("region") is not None else None  # older files: none
     extra = {key: value for key, value in data.items() if key not in FIELDS}
-    unknown = [*extra, *(f"quality.{key}" for key in (quality.extra if quality is not None else {}))]
-    if unknown:
-        warnings.warn(unknown_fields(path, unknown), FtsCalibWarning, stacklevel=2)
     with fields_of(path):
         return Calibration(
             C_bar=C_bar,

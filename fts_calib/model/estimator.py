@@ -63,7 +63,16 @@ from .accumulator import SampleSums
 from .calibration import Calibration, now_iso
 from .channels import MALTESE_CROSS_8, WRENCH_AXES, ChannelLayout, channel_layout
 from .features import SensorModel
-from .least_squares import RCOND, excitation_rank, fit_quality, information_rank, residual_sums, solve_normal, undetermined_columns
+from .least_squares import (
+    RCOND,
+    excitation_rank,
+    fit_quality,
+    information_rank,
+    residual_sigma,
+    residual_sums,
+    solve_normal,
+    undetermined_columns,
+)
 from .model_choice import HOLD_RULE, Chooser, Selection
 from .offset_models import (
     AUTO,
@@ -184,6 +193,17 @@ class OnlineEstimator(SampleSums):
         """Effective number of samples (sum of weights, after forgetting)."""
         self._flush()
         return self._weight_sum
+
+    @property
+    def observations(self) -> float:
+        """Observations for the residual's degrees of freedom, after forgetting: frequency weights summed, precision weights counted.
+
+        A precision weight (``update_batch(..., precision=True)``, the dynamic filter's) is an inverse
+        variance relative to the strain noise's: ``sum(w r^2) / (observations - p)`` estimates that noise's
+        variance with one observation per sample, whatever its weight.
+        """
+        self._flush()
+        return self._count_sum
 
     def rank(self, rcond: float = RCOND) -> tuple[int, float]:
         """Numerical rank and condition number of S_XX of the model in use; see :func:`information_rank`.
@@ -309,6 +329,7 @@ class OnlineEstimator(SampleSums):
             self.skipped,
             self._P,
             a_end,
+            self._count_sum,
         )
         trace = self.trace.with_end()
         trace += [end] if not trace or trace[-1] != end else []
@@ -434,6 +455,7 @@ def merge_estimators(first: OnlineEstimator, other: OnlineEstimator) -> OnlineEs
     decay = first.forgetting**other.samples_used
     out._sums = first._sums * decay + G @ other._sums @ G.T
     out._weight_sum = first._weight_sum * decay + other._weight_sum
+    out._count_sum = first._count_sum * decay + other._count_sum
     out.samples_used = first.samples_used + other.samples_used
     out.samples_seen = first.samples_seen + other.samples_seen
     out.trace = first.trace.merged(other.trace)
@@ -467,6 +489,7 @@ def estimator_state(est: OnlineEstimator) -> dict:
         "trace": est.trace.state(),
         "S": est._current().tolist(),
         "weight_sum": est._weight_sum,
+        "observations": est._count_sum,
         "samples_used": est.samples_used,
         "samples_seen": est.samples_seen,
         "skipped": dict(est.skipped),
@@ -496,6 +519,7 @@ def restore_estimator(cls: type[OnlineEstimator], state: Mapping) -> OnlineEstim
     width = 12 + basis.size
     out._sums = as_matrix(state["S"], (width, width), "state['S']").copy()
     out._weight_sum = float(state["weight_sum"])
+    out._count_sum = float(state.get("observations", state["samples_used"]))  # an older state: every sample one observation
     out.samples_used = int(state["samples_used"])
     out.samples_seen = int(state["samples_seen"])
     out.skipped = Counter({str(k): int(v) for k, v in state.get("skipped", {}).items()})
@@ -562,12 +586,25 @@ def solve_model(est: OnlineEstimator, selection: Selection, configurations, at) 
     padded[d - 6 : d - 6 + k_m] = a_end  # where the offsets sit among the regressors after the first six
     P = est.layout.projection if not est.full_channels else np.eye(6, est.layout.n_channels)
     quality = fit_quality(
-        S_WW, S_WX, S_XX, theta, inv, est.weight_sum, est.samples_used, est.samples_seen, rank, condition, est.skipped, P, padded
+        S_WW,
+        S_WX,
+        S_XX,
+        theta,
+        inv,
+        est.weight_sum,
+        est.samples_used,
+        est.samples_seen,
+        rank,
+        condition,
+        est.skipped,
+        P,
+        padded,
+        est.observations,
     )
     coefficients = _features_first(theta, d, k_m)
     model = SensorModel(score.family, coefficients, None if est.full_channels else est.layout.projection, est.layout.n_channels)
     if est.full_channels:  # the free C's standard errors are those of its own columns
-        sigma = np.sqrt(np.maximum(quality.residual_rms**2 * est.weight_sum / max(est.weight_sum - theta.shape[1], 1.0), 0.0))
+        sigma = residual_sigma(quality.residual_rms**2 * est.weight_sum, est.observations, theta.shape[1], est.samples_used)
         stderr_C = sigma[:, None] * np.sqrt(np.maximum(np.diag(inv)[:d], 0.0))[None, :]
         quality = replace(quality, stderr_C=stderr_C)
     held = theta.shape[1] - rank

@@ -23,6 +23,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..core.exceptions import InsufficientExcitation
 from .calibration import Quality
 
 #: Default relative eigenvalue threshold for the numerical rank of the scaled S_XX.
@@ -267,6 +268,33 @@ def residual_sums(S_WW, S_WX, S_XX, theta) -> np.ndarray:
     return np.maximum(rss, 0.0)  # cancellation can leave -1e-16 relative on exact data
 
 
+def residual_sigma(rss, observations: float, p: int, used: int) -> np.ndarray:
+    """Residual standard deviation per wrench axis, ``sqrt(RSS / (observations - p))``, shape (6,).
+
+    Args:
+        rss: Weighted residual sum of squares per axis, [N^2 or (N m)^2]. Shape (6,).
+        observations: Observations (samples of positive weight, after forgetting).
+        p: Coefficients per wrench axis.
+        used: Samples that entered the sums, for the message.
+
+    Raises:
+        InsufficientExcitation: Fewer than one degree of freedom (``observations - p < 1``):
+            the residual variance, hence every standard error, is not determined.
+    """
+    dof = observations - p
+    if not dof >= 1.0:  # also NaN
+        counted = "" if observations == used else f" ({observations:.3g} observations after weights and forgetting)"
+        raise InsufficientExcitation(
+            0,
+            0,
+            f"{used:,} samples{counted} for {p} coefficients per wrench axis leave {max(dof, 0.0):.3g} degrees of freedom for "
+            f"the residual noise, at least 1 needed: the standard errors are not determined; record more samples (at least "
+            f"{p + 1} kept, a longer still span at each stop or a higher rate)",
+            full=p,
+        )
+    return np.sqrt(np.asarray(rss, dtype=float) / dof)
+
+
 def fit_quality(
     S_WW,
     S_WX,
@@ -281,13 +309,16 @@ def fit_quality(
     skipped: Mapping[str, int],
     projection,
     offset_row=None,
+    observations: float | None = None,
 ) -> Quality:
     """Residuals and standard errors of a least-squares fit from its normal matrices.
 
     ``theta`` is (6, p) with p = 6 (C_bar only), 7 (C_bar and D) or 6 + k (C_bar and the k
     offset terms of :mod:`fts_calib.model.offset_models`); ``inv`` is the (p, p)
     (pseudo-)inverse of S_XX; ``projection`` the layout's P (6, n). The residual variance
-    per axis is RSS / (n_eff - p). ``offset_row`` (k,) is the offset basis of the time the
+    per axis is RSS / (observations - p): the weights are inverse variances relative to the
+    unit weight's (the dynamic filter's ``1 / (1 + rho^2)``), so a weighted sample is still one
+    observation and ``n_eff`` (their sum) is not the count to subtract p from. ``offset_row`` (k,) is the offset basis of the time the
     reported D belongs to (``D = theta[:, 6:] @ offset_row``): its standard error is
     ``sigma_j sqrt(a^T S_XX^-1 a)``; None means the single constant column (p = 7).
 
@@ -305,16 +336,21 @@ def fit_quality(
         skipped: Samples not used, by reason.
         projection: The channel layout's P, shape (6, n).
         offset_row: Offset basis row of the reported D, shape (k,), or None (see above).
+        observations: Samples of positive weight (after forgetting), for the degrees of
+            freedom; ``n_eff`` when None (unit weights).
 
     Returns:
         The :class:`~fts_calib.model.calibration.Quality` (residual RMS and standard errors
-        in N and N m).
+        in N and N m), every standard error finite.
+
+    Raises:
+        InsufficientExcitation: No degree of freedom is left for the residual variance
+            (observations <= p): the standard errors are not determined.
     """
     p = theta.shape[1]
     rss = residual_sums(S_WW, S_WX, S_XX, theta)
     residual_rms = np.sqrt(rss / n_eff) if n_eff > 0 else np.full(6, np.nan)
-    dof = n_eff - p
-    sigma = np.sqrt(rss / dof) if dof > 0 else np.full(6, math.inf)
+    sigma = residual_sigma(rss, n_eff if observations is None else observations, p, used)
     stderr_theta, stderr_C = coefficient_stderr(sigma, inv, projection)
     if offset_row is not None:
         a = np.asarray(offset_row, dtype=float)

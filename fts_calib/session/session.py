@@ -326,7 +326,7 @@ class CalibrationSession:
         if self.estimator.units is not None:  # the held-out units, and the weight alone: what the jig gave there
             units, static = held_out_units(codes, g), weight_wrench(self.tool, g, codes)
         columns = {"time": kept.time, "configuration": codes, "temperature": kept.temperature, "unit": units, "w_static": static}
-        self.estimator.update_batch(W, kept.channels, weight, **columns)
+        self.estimator.update_batch(W, kept.channels, weight, **columns, precision=True)  # the filters' weights: 1 / variance
         self.kept_samples(kept.time, W, kept.channels, codes, kept.joints)
         if self._on_kept is not None:
             self._on_kept(kept.time, W, kept.channels, codes, kept.joints, kept.temperature)
