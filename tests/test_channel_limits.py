@@ -171,3 +171,17 @@ def test_a_pipeline_file_cannot_declare_channel_limits(tmp_path):
     path.write_text("checks:\n  limits: 5\n")
     with pytest.raises(FileFormatError, match=r"checks.limits.*the sensor file's"):
         load_pipeline_config(path)
+
+
+def test_a_grid_read_from_a_file_of_ten_digits_is_seen_and_one_its_digits_do_not_resolve_is_not(rng):
+    """The recording writer's ``%.9e``: a gap between two readings is off its multiple of the step by
+    up to 1e-9 of the readings (1.7e-6 of a 16-bit step at 0.4 mV/V, beyond GRID_TOLERANCE alone)."""
+    lsb = 2.0**-22 * 1000  # 16 bits [mV/V]
+    written = np.vectorize(lambda v: float(f"{v:.9e}"))
+    codes = np.round(rng.uniform(-0.45, 0.45, (300, 1)) / lsb) * lsb  # codes hundreds of steps apart
+    free = rng.uniform(-0.45, 0.45, (300, 1))  # off any grid
+    step = detect_resolution(written(np.hstack([codes, free])))
+    np.testing.assert_allclose(step[0], lsb, rtol=1e-6)
+    assert step[1] == 0.0
+    fine = np.round(rng.uniform(-0.45, 0.45, 300) / (lsb / 256)) * (lsb / 256)  # 24 bits: codes within the digits' rounding
+    assert detect_resolution(written(fine)) == 0.0

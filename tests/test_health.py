@@ -455,3 +455,24 @@ def test_cli_monitor_watches_a_serial_line_until_the_cable_is_pulled(parity, sen
     data = json.loads((tmp_path / "s.json").read_text())
     assert [(e["kind"], e["channel"]) for e in data["events"]] == [("frozen", 4)], data
     assert data["samples"] >= len(t) - 1  # the first line may come cut (pyserial empties the input on opening)
+
+
+def test_the_parity_covariance_is_at_least_the_sample_and_the_floor_and_positive_definite(rng):
+    """The matrix order's maximum of a near-singular sample covariance (the 16-bit still run's,
+    seed 1, that stopped a calibration) and a floor of rank 1 (one channel's step known): each
+    difference positive semidefinite, the result positive definite; a sample above the floor stays."""
+    from fts_calib.model.parity import covariance_floored
+
+    sample = np.array([[1.1568688483422668e-09, 6.977219320422668e-11], [6.977219320422668e-11, 4.2080473957819465e-12]])
+    v = np.array([0.3, -0.5])
+    floor = np.outer(v, v) * (2.0**-22 * 1000) ** 2 / 12
+    got = covariance_floored(sample, floor)
+    scale = np.trace(got)
+    assert np.linalg.eigvalsh(got - sample).min() >= -1e-12 * scale
+    assert np.linalg.eigvalsh(got - floor).min() >= -1e-12 * scale
+    assert np.linalg.eigvalsh(got).min() > 1e-7 * scale
+    np.linalg.cholesky(got)
+    above = rng.standard_normal((50, 2))
+    above = above.T @ above / 50 * 1e-8
+    np.testing.assert_allclose(covariance_floored(above, 1e-3 * above), above, rtol=1e-9, atol=1e-6 * np.trace(above))
+    assert covariance_floored(np.zeros((2, 2)), np.zeros((2, 2))) is None

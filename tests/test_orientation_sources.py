@@ -46,11 +46,7 @@ def real_run(tmp_path_factory, short_plan, seed):
     tool = load_tool(resolve("paper_tool", "configs"))
     sensor = dataclasses.replace(load_simulated_sensor(resolve("sensor", "configs")), adc_bits=16)
     p = short_plan
-    # without the plan's last row (at rest at home, a lone still sample 2 s after the last pose): with a 16-bit ADC the
-    # filter keeps only 12 to 58 of the 1,443 samples, rank 4 to 11 over seeds (known: this run is marginal), and the
-    # rows as the plans gave them before they ended at rest keep the seed's draws that reach rank 7
-    end = len(p.time) - 1
-    trajectories = [TrajectoryFile(p.joint_names, p.time[:end], p.q[:end], p.qd[:end], p.qdd[:end], c.name) for c in tool.configurations]
+    trajectories = [TrajectoryFile(p.joint_names, p.time, p.q, p.qd, p.qdd, c.name) for c in tool.configurations]
     folder = tmp_path_factory.mktemp("real")
     rng = np.random.default_rng(seed)
     path = simulate_recording(folder / "raw.csv", kin, tool, trajectories, sensor, rng, poses_only=True)
@@ -461,3 +457,31 @@ def test_mount_angles_give_the_rotation_back_and_no_split_at_gimbal_lock(rng):
     roll, pitch, yaw = mount_rpy(locked)
     assert (roll, pitch, yaw) == pytest.approx((-1.5708, -np.pi / 2, 0.0), abs=1e-4)
     assert np.linalg.norm(pin.log3(pin.rpy.rpyToMatrix(roll, pitch, yaw).T @ locked)) < GIMBAL_LOCK
+
+
+def test_a_16_bit_still_recording_calibrates_and_its_health_section_loads_and_monitors(real_run, tmp_path, capsys):
+    """The 16-bit still run (every row at a still pose): the quasi-static filter keeps nearly all
+    of it, the health covariance is at least what the ADC's step alone gives (step^2 / 12 per
+    channel, through N), the file written loads back, and ``monitor`` runs on it."""
+    import json
+
+    from fts_calib.app.cli import main
+    from fts_calib.model.calibration import load_calibration
+    from fts_calib.model.parity import ParityModel
+
+    kin, tool, folder, table, R, joints_path = real_run
+    lsb = dataclasses.replace(load_simulated_sensor(resolve("sensor", "configs")), adc_bits=16).lsb
+    result = calibrate_recording(joints_path, kin, tool)
+    assert result.calibration is not None, result.error
+    assert result.session.kept.sum() >= 0.98 * len(table)  # seen: 1,440 of 1,446 for seeds 0-4 (12-58 before)
+    health = ParityModel.from_dict(result.calibration.health)
+    np.testing.assert_allclose(health.resolution, lsb, rtol=1e-6)  # the ADC's step, detected from the file's 10 digits
+    floor = health.N @ np.diag(np.full(8, lsb**2 / 12)) @ health.N.T
+    assert np.linalg.eigvalsh(health.covariance - floor).min() >= -1e-9 * np.trace(floor)
+    path = result.calibration.save(tmp_path / "cal.yaml")
+    loaded = load_calibration(path)
+    np.testing.assert_array_equal(np.asarray(loaded.health["covariance"]), health.covariance)
+    code = main(["monitor", "--calibration", str(path), str(joints_path), "--json", str(tmp_path / "health.json")])
+    out = capsys.readouterr().out
+    assert code == 0 and "health: ok, no fault found" in out, out
+    assert json.loads((tmp_path / "health.json").read_text())["samples"] == len(table), out

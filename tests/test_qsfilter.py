@@ -143,3 +143,25 @@ def test_a_lone_sample_after_a_gap_at_the_end_shows_nothing_and_is_not_kept(ur5,
     assert not keep[-1]
     assert keep[200:300].all()  # the still samples before the gap, their window on one side only, are kept
     assert filt.rejected["strain not stationary"] == 1
+
+
+def test_a_quantized_still_pose_read_from_a_file_of_ten_digits_is_kept(ur5, paper_tool, rng):
+    """Ten still poses at 100 Hz on a 16-bit grid (noise 1/10 of a step: a channel mostly holds one
+    code and now and then flips one), values written with 10 digits as the recording writer does.
+
+    The noise floor measured over the first still windows is 0 for such a channel; the floor
+    must be the step's own step / sqrt(12), from the grid detected despite the file's rounding
+    (before: the grid went unseen and one flip failed the sample's whole window).
+    """
+    lsb = 2.0**-22 * 1000  # the simulated sensor's step at 16 bits [mV/V]
+    t = np.arange(2000) / 100.0
+    q = np.tile(np.array([1.3485, -2.092, -0.6562, -1.9642, 0.0, 0.0]), (len(t), 1))
+    q[:, 5] = np.repeat(0.3 * np.arange(10), 200)  # ten poses (the jumps between them: not still)
+    level = np.repeat(rng.uniform(-0.4, 0.4, (10, 8)), 200, axis=0)
+    s = np.round((level + lsb / 10 * rng.standard_normal((len(t), 8))) / lsb) * lsb
+    s = np.array([[float(f"{v:.9e}") for v in row] for row in s])
+    filt, keep = _decide(FilterConfig(), ur5, paper_tool, t, q, s, np.zeros(len(t), dtype=np.int64))
+    np.testing.assert_allclose(filt.grid.resolution, lsb, rtol=1e-6)
+    pose = np.arange(len(t)) % 200
+    inner = (pose > 30) & (pose < 170)  # away from the pose changes (joint and strain windows)
+    assert keep[inner].all(), f"{np.sum(~keep[inner])} of {inner.sum()} still samples dropped"

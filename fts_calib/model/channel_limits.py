@@ -34,6 +34,13 @@ from ..core.exceptions import ConfigError, ShapeError
 #: Largest relative rounding error tolerated when values are compared with a grid (float noise of
 #: values such as 0.1 k written in decimal, or counts scaled by a float factor).
 GRID_TOLERANCE = 1e-6
+#: Relative rounding error of a reading read from a text file of 10 significant digits (the
+#: recording writer's ``%.9e``); a float's own 1e-16 is within it.
+TEXT_ROUNDING = 5e-10
+#: Largest error of a gap between two readings, as a fraction of the step, for which a grid is
+#: still asserted: beyond it the file's digits do not resolve the codes (a 24-bit grid written
+#: with 10 digits) and a channel off any grid could pass the test.
+GRID_RESOLVED = 1e-4
 #: Samples a channel must hold its extreme, with no spread, for the stretch to count as a rail.
 RAIL_MIN_SAMPLES = 20
 #: Separate stretches at the same extreme that make it a detected rail, off a grid.
@@ -77,7 +84,14 @@ def detect_resolution(values) -> np.ndarray:
 
 
 def _step(column: np.ndarray) -> float:
-    """The grid step of one channel's values (see :func:`detect_resolution`)."""
+    """The grid step of one channel's values (see :func:`detect_resolution`).
+
+    A gap between two readings read from a text file is off its whole number of steps by up
+    to twice the readings' rounding (:data:`TEXT_ROUNDING` of the largest value): the step is
+    refined over all gaps (least squares on their multiples), and each gap must lie within
+    that rounding plus :data:`GRID_TOLERANCE` of a step of a whole multiple. A grid whose
+    codes the digits do not resolve (:data:`GRID_RESOLVED`) shows no step.
+    """
     unique = np.unique(column[np.isfinite(column)])
     if len(unique) < 2:
         return 0.0
@@ -87,11 +101,14 @@ def _step(column: np.ndarray) -> float:
     if not len(gaps):
         return 0.0
     step = float(gaps.min())
-    multiples = gaps / step
-    # the error of a difference of two rounded values is about 1e-16 of the values: tolerate that
-    # on the multiple, and a relative GRID_TOLERANCE of the step
-    tolerance = GRID_TOLERANCE + 4e-16 * scale / step
-    if np.max(np.abs(multiples - np.round(multiples))) > tolerance:
+    rounding = 2 * TEXT_ROUNDING * scale  # the largest error of one gap, raw units
+    if rounding > GRID_RESOLVED * step:
+        return 0.0
+    for _ in range(2):  # the smallest gap carries the rounding: refine the step over all gaps
+        multiples = np.round(gaps / step)
+        step = float(gaps @ multiples / (multiples @ multiples))
+    multiples = np.round(gaps / step)
+    if np.max(np.abs(gaps - multiples * step)) > GRID_TOLERANCE * step + rounding:
         return 0.0
     return step
 

@@ -434,9 +434,9 @@ def fit_parity(
     measured = np.sqrt(np.mean(fitted**2, axis=0))  # the channels' scatter the load does not explain
     noise = measured if channel_noise is None else np.asarray(channel_noise, dtype=float)
     noise = np.maximum(noise, quantization)
-    floor = N @ np.diag(np.maximum(noise, 1e-300) ** 2) @ N.T  # what the channels' noise alone gives r
-    if np.any(np.diag(covariance) < np.diag(floor)) or np.linalg.eigvalsh(covariance).min() <= 0.0:
-        covariance = np.maximum(covariance, floor) if np.linalg.eigvalsh(np.maximum(covariance, floor)).min() > 0 else floor
+    covariance = covariance_floored(covariance, N @ np.diag(noise**2) @ N.T)
+    if covariance is None:
+        return None
     reach = np.abs(gain) @ np.abs(np.asarray(full_scale, dtype=float))
     return ParityModel(
         N=N,
@@ -454,6 +454,43 @@ def fit_parity(
         samples=len(channels),
         dwell=dwell,
     )
+
+
+#: Smallest eigenvalue of the parity covariance, relative to its mean variance: r of a channel
+#: noise that neither the samples nor the resolution show (a noiseless simulation) still whitens.
+COVARIANCE_CONDITION = 1e-6
+
+
+def covariance_floored(sample, floor) -> np.ndarray | None:
+    """The smallest covariance at least both ``sample`` and ``floor`` (in the matrix order), positive definite.
+
+    The sample covariance of r from few or quantized samples can be near singular (a channel
+    that held one code); the floor (what the channels' noise, never below step / sqrt(12),
+    gives r) is the physical least. In the floor's whitened frame the sample's eigenvalues are
+    raised to 1: ``F^(1/2) U max(mu, 1) U^T F^(1/2)``. A floor that is itself near singular
+    (channels of unknown resolution and no measured noise) is first raised to
+    :data:`COVARIANCE_CONDITION` of the mean variance of both.
+
+    Args:
+        sample: Sample covariance of r, raw units squared, shape (m, m).
+        floor: ``N diag(noise^2) N^T``, raw units squared, shape (m, m).
+
+    Returns:
+        Shape (m, m), symmetric positive definite; None when both are zero or not finite
+        (nothing to learn the health model from).
+    """
+    sample = 0.5 * (np.asarray(sample, dtype=float) + np.asarray(sample, dtype=float).T)
+    floor = 0.5 * (np.asarray(floor, dtype=float) + np.asarray(floor, dtype=float).T)
+    m = len(sample)
+    level = max(float(np.trace(sample)), float(np.trace(floor))) / m
+    if not np.isfinite(level) or level <= 0.0 or not np.all(np.isfinite(sample)):
+        return None
+    floor = floor + COVARIANCE_CONDITION * level * np.eye(m)
+    root = np.linalg.cholesky(floor)
+    inverse = np.linalg.inv(root)
+    mu, U = np.linalg.eigh(inverse @ sample @ inverse.T)
+    raised = root @ (U * np.maximum(mu, 1.0)) @ U.T @ root.T
+    return 0.5 * (raised + raised.T)
 
 
 def chi2_sf(x: float, dof: int) -> float:
