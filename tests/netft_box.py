@@ -3,7 +3,8 @@
 RDT over UDP: it waits for a 8-byte request (``uint16 0x1234``, ``uint16 command``,
 ``uint32 count``, big-endian); on command 2 it sends 36-byte records (``uint32 rdt_sequence``,
 ``uint32 ft_sequence``, ``uint32 status``, ``int32`` Fx..Tz counts) to the requester, on 0 it
-stops. The calibration page ``/netftapi2.xml`` over HTTP gives ``cfgcpf``, ``cfgcpt`` and the
+stops (a start after a stop resumes the script where it stopped; a start while streaming is
+ignored). The calibration page ``/netftapi2.xml`` over HTTP gives ``cfgcpf``, ``cfgcpt`` and the
 units. What it sends is scripted (:class:`Script`): counts, records dropped, pairs swapped, a
 status word with an error bit, silence after some records.
 """
@@ -71,6 +72,8 @@ class NetFtBox:
         self.http = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Handler) if serve_page else None
         self.http_port = self.http.server_address[1] if self.http is not None else _closed_port()
         self._stop = threading.Event()
+        self._streaming = threading.Event()
+        self._sent = 0  # records of the script sent (or dropped) so far: a new start resumes there
         self._threads = [threading.Thread(target=self._serve_rdt, daemon=True)]
         if self.http is not None:
             self._threads.append(threading.Thread(target=self.http.serve_forever, daemon=True))
@@ -94,22 +97,26 @@ class NetFtBox:
                 continue
             header, command, count = struct.unpack(">HHI", data)
             self.requests.append((header, command, count))
-            if header == 0x1234 and command == 2 and len([r for r in self.requests if r[1] == 2]) == 1:
+            if header == 0x1234 and command == 0:
+                self._streaming.clear()
+            elif header == 0x1234 and command == 2 and not self._streaming.is_set():  # a start while streaming: ignored
+                self._streaming.set()
                 threading.Thread(target=self._stream, args=(peer,), daemon=True).start()
 
     def _stream(self, peer) -> None:
+        """Send the script's records from where the last stream stopped, until a stop request."""
         script = self.script
         order = list(range(len(script.counts)))
         for k in sorted(script.swap):
             if k + 1 < len(order):
                 order[k], order[k + 1] = order[k + 1], order[k]
-        sent = 0
-        for k in order:
-            if self._stop.is_set() or (script.silent_after is not None and sent >= script.silent_after):
+        while self._sent < len(order):
+            if self._stop.is_set() or (script.silent_after is not None and self._sent >= script.silent_after):
                 return
-            if any(r[1] == 0 for r in self.requests):  # stopped
+            if not self._streaming.is_set():  # stopped
                 return
-            sent += 1
+            k = order[self._sent]
+            self._sent += 1
             if k in script.drop:
                 continue
             record = struct.pack(">III6i", k + 1, 16 * (k + 1), script.status.get(k, 0), *(int(c) for c in script.counts[k]))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 
 from fts_calib.core.exceptions import ConfigError, FeedTimeout
 from fts_calib.sources.devices import DeviceLost, StreamClock
-from fts_calib.sources.netft import FAULT, REORDERED, NetFtChannels, parse_netft_url
+from fts_calib.sources.netft import FAULT, REORDERED, NetFtChannels, PyNetFtChannels, open_netft, parse_netft_url, pynetft_installed
 from fts_calib.sources.serial_line import GARBAGE, PARTIAL, SerialChannels, parse_serial_url
 
 from .netft_box import NetFtBox, Script
@@ -92,24 +93,58 @@ def test_serial_missing_device_named():
         device.start()
 
 
-def test_netft_loss_reorder_fault_and_silence():
+def _run_faulty_box(open_device):
+    """A box that loses records 5 and 30, swaps 10 and 11, flags 20 with bit 31, and falls silent after 60.
+
+    Returns:
+        (counts, shape (80, 6); the device, stopped after its silence timeout; the box, closed).
+    """
     rng = np.random.default_rng(5)
     counts = rng.integers(-(2**20), 2**20, size=(80, 6))
     box = NetFtBox(Script(counts, drop={5, 30}, swap={10}, status={20: 0x80000000}, silent_after=60), 1_000_000, 2_000_000)
-    device = NetFtChannels(box.url, timeout_s=0.5)
+    device = open_device(box.url, timeout_s=0.5)
     try:
         device.start()
         _wait(lambda: device.error is not None)
     finally:
         device.stop()
         box.close()
-    kept = [k for k in range(60) if k not in {5, 30, 10, 20}]  # 10 came after 11: out of order; 20: a fault
-    np.testing.assert_array_equal(np.array([v for _, v in device.drain()]), counts[kept])
-    assert device.skipped == {REORDERED: 1, FAULT: 1} and device.lost == 2
     assert device.calibration is not None and device.calibration.scale() == [1e-6] * 3 + [5e-7] * 3
     assert isinstance(device.error, FeedTimeout) and f"127.0.0.1:{box.port}" in str(device.error)
     assert "0x80000000" in "\n".join(device.notes())
     assert box.requests[0] == (0x1234, 2, 0) and box.requests[-1] == (0x1234, 0, 0)
+    return counts, device, box
+
+
+def test_netft_loss_reorder_fault_and_silence():
+    counts, device, _ = _run_faulty_box(NetFtChannels)
+    kept = [k for k in range(60) if k not in {5, 30, 10, 20}]  # 10 came after 11: out of order; 20: a fault
+    np.testing.assert_array_equal(np.array([v for _, v in device.drain()]), counts[kept])
+    assert device.skipped == {REORDERED: 1, FAULT: 1} and device.lost == 2
+
+
+@pytest.mark.skipif(not pynetft_installed(), reason="pynetft (the netft extra) is not installed: netft:// reads RDT directly")
+def test_netft_through_pynetft_loss_reorder_fault_and_silence():
+    """The same box through pynetft: the same counts up to the fault, after it a restarted stream; stamps on the host's monotonic clock."""
+    before = time.monotonic()
+    counts, device, _ = _run_faulty_box(open_netft)
+    assert isinstance(device, PyNetFtChannels)
+    got = device.drain()
+    values, times = np.array([v for _, v in got]), np.array([t for t, _ in got])
+    np.testing.assert_array_equal(values[:18], counts[[k for k in range(20) if k not in {5, 10}]])
+    after = [k for k in range(21, 60) if k != 30]  # the fault restarts the stream: records sent meanwhile may be lost
+    rows = {tuple(row) for row in counts[after]}
+    assert len(values) - 18 >= 30 and all(tuple(row) in rows for row in values[18:])
+    assert before <= times[0] and np.all(np.diff(times) > 0) and times[-1] <= time.monotonic()
+    assert device.skipped[REORDERED] == 1 and device.skipped[FAULT] == 1 and device.lost >= 2
+
+
+def test_netft_reader_without_pynetft(monkeypatch):
+    """Without pynetft (its import fails) netft:// reads RDT directly."""
+    monkeypatch.setitem(sys.modules, "pynetft", None)
+    assert not pynetft_installed()
+    device = open_netft("netft://127.0.0.1:5000?http=8080", timeout_s=0.3)
+    assert type(device) is NetFtChannels and (device.port, device.http_port, device.timeout_s) == (5000, 8080, 0.3)
 
 
 def test_netft_silent_box_and_no_calibration_page():

@@ -35,6 +35,7 @@ import urllib.error
 import urllib.request
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
+from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 from ..core.exceptions import ConfigError, FeedTimeout
@@ -193,13 +194,17 @@ class NetFtChannels(ChannelDevice):
             except OSError:
                 pass  # an unreachable port answers with ICMP: seen as silence, named by the timeout
 
+    def _check_silence(self, now: float) -> None:
+        """End the reading with a :class:`FeedTimeout` when no record came for ``timeout_s`` (``now``: host monotonic [s])."""
+        if now - self._last_record >= self.timeout_s:
+            what = f"an RDT record from {self.where}" + (" (it had been streaming)" if self.samples else "")
+            raise FeedTimeout(what, self.timeout_s, SILENT_HINT)
+
     def _read(self) -> None:
         """Receive one record (at most 50 ms of waiting); a silence of ``timeout_s`` ends the reading."""
         assert self._sock is not None
         now = time.monotonic()
-        if now - self._last_record >= self.timeout_s:
-            what = f"an RDT record from {self.where}" + (" (it had been streaming)" if self.samples else "")
-            raise FeedTimeout(what, self.timeout_s, SILENT_HINT)
+        self._check_silence(now)
         if not self.samples and now - self._last_request >= RETRY_S:
             self._last_request = now
             self._send(START_STREAMING)
@@ -237,3 +242,92 @@ class NetFtChannels(ChannelDevice):
             self._send(STOP_STREAMING)
             self._sock.close()
             self._sock = None
+
+
+def pynetft_installed() -> bool:
+    """Whether the optional client ``pynetft`` (the ``netft`` extra) can be imported."""
+    try:
+        import pynetft  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def open_netft(text: str, timeout_s: float = TIMEOUT_S) -> NetFtChannels:
+    """The reader of ``netft://`` ``text``: through ``pynetft`` when it is installed, else ATI's RDT read directly.
+
+    Args:
+        text: ``netft://HOST[:RDT_PORT][?http=HTTP_PORT]``.
+        timeout_s: The longest silence of the box [s].
+    """
+    reader = PyNetFtChannels if pynetft_installed() else NetFtChannels
+    return reader(text, timeout_s)
+
+
+class PyNetFtChannels(NetFtChannels):
+    """The same six raw counts read through ``pynetft`` (the ``netft`` extra), used when it is installed.
+
+    ``pynetft`` discovers the calibration page, streams RDT and reconnects after a fault (a status
+    word with an error bit: it stops and restarts the stream). Its counts (``raw_wrench``) are the
+    channels, stamped with its arrival time (``received_at_ns``, the host's monotonic clock).
+    Records it drops as late are counted in :data:`REORDERED`, those it counts lost in
+    :attr:`lost`. Unlike the direct reader, without the calibration page it gives no record (it
+    keeps retrying): the silence ends the reading with the same :class:`FeedTimeout`.
+    """
+
+    _client: Any = None
+
+    def _open(self) -> None:
+        import pynetft
+
+        config = pynetft.Config(
+            sensor_host=self.host,
+            rdt_port=self.port,
+            http_port=self.http_port,
+            receive_timeout=min(self.timeout_s, 0.5),
+            configuration_timeout=self.timeout_s,
+            deliver_samples_with_error_status=True,
+            recovery_policy=pynetft.RecoveryPolicy.RECONNECT,
+        )
+        try:
+            self._client = pynetft.Client(config, queue_size=1 << 16)
+            self._client.start()
+        except (pynetft.NetFTError, OSError) as exc:
+            raise ConnectionError(f"cannot reach {self.where}: {exc}") from None
+        self._last_record = time.monotonic()
+
+    def _read(self) -> None:
+        """Take one record from ``pynetft`` (at most 50 ms of waiting); a silence of ``timeout_s`` ends the reading."""
+        self._check_silence(time.monotonic())
+        try:
+            sample = next(self._client.samples(timeout=0.05))
+        except (TimeoutError, StopIteration):
+            return
+        self._last_record = time.monotonic()
+        if sample.status:
+            self.first_status = self.first_status if self.first_status is not None else sample.status
+            self._skip(FAULT, f"status 0x{sample.status:08x} at rdt_sequence {sample.rdt_sequence}")
+            return
+        self._add(sample.received_at_ns * 1e-9, [[float(c) for c in sample.raw_wrench]])
+
+    def _close(self) -> None:
+        client = self._client
+        if client is None:
+            return
+        health = client.health()
+        client.stop()
+        self._client = None
+        if health.last_error and not self.samples:  # e.g. the calibration page could not be read
+            self._note(f"{self.where}: pynetft: {health.last_error}")
+        self.lost = max(health.lost_count - health.out_of_order_count, 0)  # a late record was first counted lost
+        if health.out_of_order_count:
+            self.skipped[REORDERED] += health.out_of_order_count
+        configuration = health.sensor_configuration
+        if configuration is not None:
+            calibration = configuration.calibration
+            self.calibration = NetFtCalibration(
+                calibration.counts_per_force_unit,
+                calibration.counts_per_torque_unit,
+                calibration.force_unit.value,
+                calibration.torque_unit.value,
+            )

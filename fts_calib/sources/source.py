@@ -491,12 +491,12 @@ def _device_feed(
         device = SerialChannels(text, sync.n_channels)
     else:
         from .netft import TIMEOUT_S as NETFT_TIMEOUT_S
-        from .netft import NetFtChannels
+        from .netft import open_netft
 
         if sync.n_channels not in (None, 6):
             message = f"{text}: a Net F/T box gives 6 channels (its counts Fx..Tz), the sensor has {sync.n_channels}"
             raise ConfigError("source", text, "a 6-channel sensor file (e.g. factory_sensor)", message=message)
-        device = NetFtChannels(text, NETFT_TIMEOUT_S if device_timeout_s is None else device_timeout_s)
+        device = open_netft(text, NETFT_TIMEOUT_S if device_timeout_s is None else device_timeout_s)
     named = None if joints is None else _SCHEME.match(joints)
     joint_kind = "udp" if named is None else named.group(1).lower()
     if joints is not None and joint_kind not in ("udp", "ur"):
