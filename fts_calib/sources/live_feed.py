@@ -298,6 +298,10 @@ class LiveFeed:
         """End the stream where it is (signal handlers restored), stop the poller, close the socket."""
         if self._running is not None:
             self._running.close()
+        self._release()
+
+    def _release(self) -> None:
+        """Stop the RTDE poller and the channel device, close the socket (what it held stays readable)."""
         if self.rtde is not None:
             self.rtde.stop()
         if self.device is not None:
@@ -354,12 +358,7 @@ class LiveFeed:
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
-            if self.rtde is not None:
-                self.rtde.stop()
-            if self.device is not None:
-                self.device.stop()
-            if self.receiver is not None:
-                self.receiver.close()
+            self._release()
         arrival = time.monotonic()
         for data, sender in self.receiver.drain_from() if self.receiver is not None else ():  # whatever arrived with the end
             self._handle(data, sender, arrival)
