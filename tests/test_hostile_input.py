@@ -902,6 +902,9 @@ def test_monitor_names_the_line_a_recording_was_cut_at(tmp_path, ur5_recording, 
         (1000.0, False, r"10 s between samples \(0\.1 Hz\), longer than a sensor's sample period \(at most 0\.01 s, 100 Hz; .*\): "
          r"the time column looks like ms \(0\.01 s, 100 Hz when read as ms\); write the time in s \(divide it by 1000\)"),
         (1.0, True, r"all [\d,]+ time stamps of the first rows are equal \(5\): the column holds no clock; write the time in s"),
+        # a 10 Hz log is a clock in s, too slow for the monitor: told so, not "looks like ms"
+        (10.0, False, r"0\.1 s between samples \(10 Hz\), longer than a sensor's sample period \(at most 0\.01 s, 100 Hz; .*\): "
+         r"record at 100 Hz or more \(the time in s\)"),
     ],
 )  # fmt: skip
 def test_monitor_refuses_a_time_column_in_ms_or_without_a_clock(tmp_path, ur5_recording, calibration_file, capsys, scale, equal, expected):

@@ -250,7 +250,7 @@ def check_sample_clock(path: str | Path, time: np.ndarray, why: str) -> None:
     slowest = PLAUSIBLE_PERIOD_S[1]
     if period > slowest * (1 + 1e-9):
         beyond = f"longer than a sensor's sample period (at most {slowest:g} s, {1 / slowest:g} Hz; {why})"
-        raise RecordingError(path, None, "time", _slow_clock(period, beyond, "record the time in s at the sensor's rate"))
+        raise RecordingError(path, None, "time", _slow_clock(period, beyond, f"record at {1 / slowest:g} Hz or more (the time in s)"))
 
 
 def _no_clock(n: int, value: float) -> str:
@@ -258,10 +258,15 @@ def _no_clock(n: int, value: float) -> str:
 
 
 def _slow_clock(period: float, beyond: str, advice: str) -> str:
-    """The message of a period [s] ``beyond`` what the job takes: the time unit that would fit, or ``advice``."""
+    """The message of a period [s] ``beyond`` what the job takes: the time unit that would fit, or ``advice``.
+
+    A unit is suggested only for a period slower than :data:`SLOWEST_PERIOD_S`: a log at 10 Hz
+    or faster is a clock in s (monitor needs 100 Hz: a 10 Hz log is told that, not "ms").
+    """
     rate = f"{period:g} s between samples ({1 / period:.3g} Hz)"
     low, high = PLAUSIBLE_PERIOD_S
-    unit = next(((name, factor) for name, factor in TIME_UNITS if low <= period * factor <= high * (1 + 1e-9)), None)
+    units = TIME_UNITS if period > SLOWEST_PERIOD_S * (1 + 1e-9) else ()
+    unit = next(((name, factor) for name, factor in units if low <= period * factor <= high * (1 + 1e-9)), None)
     if unit is None:
         return f"{rate}, {beyond}: {advice}"
     name, factor = unit
